@@ -1,0 +1,1 @@
+"""What the systems are: parameters, transition and measurement functions. No inference here."""

@@ -1,0 +1,249 @@
+"""Shared value types: :class:`Recording` (sensor data) and :class:`Track` (an estimate).
+
+Canonical channel names and their units are fixed here (pyins-style column constants); readers
+map whatever a file calls its columns onto these names and convert to SI.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from vibrospeed.errors import InputError
+
+#: Canonical channels and their SI units. ``t`` (s) is the time line itself, not a channel.
+CHANNEL_UNITS: dict[str, str] = {
+    "ax": "m/s^2",  # longitudinal acceleration (forward +)
+    "ay": "m/s^2",  # lateral acceleration
+    "az": "m/s^2",  # vertical acceleration (up +, includes +g when at rest)
+    "gx": "rad/s",  # roll rate
+    "gy": "rad/s",  # pitch rate
+    "gz": "rad/s",  # yaw rate
+    "gps_speed": "m/s",  # ground speed from GNSS, NaN where no fix
+    "gps_sats": "1",  # satellites used in the fix
+    "wheel_omega_fl": "rad/s",
+    "wheel_omega_fr": "rad/s",
+    "wheel_omega_rl": "rad/s",
+    "wheel_omega_rr": "rad/s",
+    "omega_true": "rad/s",  # ground-truth wheel angular speed
+    "speed_true": "m/s",  # ground-truth vehicle speed
+    "vy_true": "m/s",  # ground-truth lateral velocity (vehicle simulator)
+}
+#: Irregular event streams (timestamps in s) kept beside the sampled channels.
+EVENT_UNITS: dict[str, str] = {"wss_ticks": "s"}
+
+ACCEL_CHANNELS = ("ax", "ay", "az")
+GYRO_CHANNELS = ("gx", "gy", "gz")
+WHEEL_CHANNELS = ("wheel_omega_fl", "wheel_omega_fr", "wheel_omega_rl", "wheel_omega_rr")
+TRUTH_CHANNELS = ("omega_true", "speed_true", "vy_true")
+
+
+@dataclass
+class Recording:
+    """Time-stamped sensor channels on one time line.
+
+    Attributes
+    ----------
+    t : (n,) float64, s, strictly increasing (not necessarily uniform).
+    channels : name -> (n,) float64 in SI units; NaN marks a missing sample.
+    units : name -> unit string (defaults from :data:`CHANNEL_UNITS`).
+    events : name -> (k,) float64 event times in s (e.g. ``wss_ticks`` cog timestamps).
+    source : file or scenario the data came from.
+    wheel_radius : m, if known.
+    axes : description of the axis convention (e.g. "x fwd, y left, z up").
+    notes : human-readable list of what readers / pre-processing did (resampling, gaps...).
+    meta : free-form extra metadata (simulator parameters, reader options...).
+    """
+
+    t: np.ndarray
+    channels: dict[str, np.ndarray]
+    units: dict[str, str] = field(default_factory=dict)
+    events: dict[str, np.ndarray] = field(default_factory=dict)
+    source: str = ""
+    wheel_radius: float | None = None
+    axes: str = "x longitudinal (forward +), y lateral, z vertical (up +)"
+    notes: list[str] = field(default_factory=list)
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.t = np.ascontiguousarray(self.t, dtype=np.float64)
+        if self.t.ndim != 1:
+            raise InputError(f"{self.source or 'recording'}: time must be 1-D")
+        n = self.t.size
+        chans = {}
+        for name, x in self.channels.items():
+            x = np.ascontiguousarray(x, dtype=np.float64)
+            if x.shape != (n,):
+                raise InputError(
+                    f"{self.source or 'recording'}: channel '{name}' has shape {x.shape}, "
+                    f"expected ({n},) like t"
+                )
+            chans[name] = x
+            self.units.setdefault(name, CHANNEL_UNITS.get(name, ""))
+        self.channels = chans
+        self.events = {k: np.sort(np.asarray(v, dtype=np.float64)) for k, v in self.events.items()}
+
+    # -- basic properties -------------------------------------------------------------------
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.channels
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.channel(name)
+
+    @property
+    def duration(self) -> float:
+        """Time span in s."""
+        return float(self.t[-1] - self.t[0]) if self.t.size > 1 else 0.0
+
+    @property
+    def dt(self) -> float:
+        """Median sample period in s (robust to jitter and gaps)."""
+        if self.t.size < 2:
+            raise InputError(f"{self.source or 'recording'}: fewer than 2 samples")
+        return float(np.median(np.diff(self.t)))
+
+    @property
+    def fs(self) -> float:
+        """Sample rate in Hz from the median period."""
+        return 1.0 / self.dt
+
+    def is_uniform(self, rtol: float = 1e-3) -> bool:
+        """True if every period is within ``rtol`` of the median period."""
+        d = np.diff(self.t)
+        return bool(d.size == 0 or np.all(np.abs(d - np.median(d)) <= rtol * np.median(d)))
+
+    def channel(self, name: str) -> np.ndarray:
+        """Channel by canonical name, with a clear error naming the file if it is missing."""
+        try:
+            return self.channels[name]
+        except KeyError:
+            have = ", ".join(sorted(self.channels)) or "none"
+            raise InputError(
+                f"{self.source or 'recording'}: channel '{name}' is missing (have: {have})"
+            ) from None
+
+    def require(self, *names: str, allow_nan: bool = True) -> None:
+        """Raise :class:`InputError` unless every named channel exists and is not all-NaN."""
+        for name in names:
+            x = self.channel(name)
+            if x.size and not np.any(np.isfinite(x)):
+                raise InputError(f"{self.source or 'recording'}: channel '{name}' is all NaN")
+            if not allow_nan and not np.all(np.isfinite(x)):
+                bad = int(np.flatnonzero(~np.isfinite(x))[0])
+                raise InputError(
+                    f"{self.source or 'recording'}: channel '{name}' has NaN at sample {bad}"
+                )
+
+    def with_channels(self, **channels: np.ndarray) -> Recording:
+        """Copy with channels added or replaced."""
+        new = dict(self.channels)
+        new.update(channels)
+        return replace(self, channels=new, units=dict(self.units), notes=list(self.notes))
+
+    def slice_time(self, t0: float | None = None, t1: float | None = None) -> Recording:
+        """Copy restricted to ``t0 <= t < t1``."""
+        lo = -np.inf if t0 is None else t0
+        hi = np.inf if t1 is None else t1
+        keep = (self.t >= lo) & (self.t < hi)
+        return replace(
+            self,
+            t=self.t[keep],
+            channels={k: v[keep] for k, v in self.channels.items()},
+            units=dict(self.units),
+            events={k: v[(v >= lo) & (v < hi)] for k, v in self.events.items()},
+            notes=list(self.notes),
+        )
+
+
+def _z_for_level(level: float) -> float:
+    return float(stats.norm.ppf(0.5 + level / 2.0))
+
+
+@dataclass
+class Track:
+    """An estimator's output over time.
+
+    Attributes
+    ----------
+    t : (n,) s
+    omega : (n,) rad/s point estimate (posterior mean unless the method says otherwise).
+    omega_std : (n,) rad/s standard deviation (NaN if the method has none).
+    omega_lo, omega_hi : (n,) rad/s credible band at probability ``level``.
+    speed, speed_lo, speed_hi, speed_std : (n,) m/s; NaN when the wheel radius is unknown and
+        the method estimates omega only.
+    method : estimator name; params : its parameters (JSON-serialisable).
+    extras : name -> (n,) diagnostics (amplitudes, NIS, mode flags...).
+    """
+
+    t: np.ndarray
+    omega: np.ndarray
+    omega_std: np.ndarray
+    omega_lo: np.ndarray
+    omega_hi: np.ndarray
+    speed: np.ndarray
+    speed_std: np.ndarray
+    speed_lo: np.ndarray
+    speed_hi: np.ndarray
+    method: str = ""
+    params: dict[str, Any] = field(default_factory=dict)
+    level: float = 0.98
+    wheel_radius: float | None = None
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    @classmethod
+    def from_omega(
+        cls,
+        t,
+        omega,
+        omega_std=None,
+        *,
+        lo=None,
+        hi=None,
+        level: float = 0.98,
+        wheel_radius: float | None = None,
+        **kw,
+    ) -> Track:
+        """Build from an omega estimate; the band defaults to a Gaussian ``mean +- z*std``."""
+        t = np.asarray(t, float)
+        omega = np.asarray(omega, float)
+        std = np.full_like(omega, np.nan) if omega_std is None else np.asarray(omega_std, float)
+        z = _z_for_level(level)
+        lo = omega - z * std if lo is None else np.asarray(lo, float)
+        hi = omega + z * std if hi is None else np.asarray(hi, float)
+        r = wheel_radius if wheel_radius else np.nan
+        return cls(t, omega, std, lo, hi, r * omega, r * std, r * lo, r * hi,
+                   level=level, wheel_radius=wheel_radius, **kw)
+
+    @classmethod
+    def from_speed(
+        cls,
+        t,
+        speed,
+        speed_std=None,
+        *,
+        lo=None,
+        hi=None,
+        level: float = 0.98,
+        wheel_radius: float | None = None,
+        **kw,
+    ) -> Track:
+        """Build from a speed estimate (m/s); omega = speed / r where the radius is known."""
+        t = np.asarray(t, float)
+        v = np.asarray(speed, float)
+        std = np.full_like(v, np.nan) if speed_std is None else np.asarray(speed_std, float)
+        z = _z_for_level(level)
+        lo = v - z * std if lo is None else np.asarray(lo, float)
+        hi = v + z * std if hi is None else np.asarray(hi, float)
+        r = wheel_radius if wheel_radius else np.nan
+        return cls(t, v / r, std / r, lo / r, hi / r, v, std, lo, hi,
+                   level=level, wheel_radius=wheel_radius, **kw)
+
+    def __len__(self) -> int:
+        return int(self.t.size)
