@@ -1,0 +1,287 @@
+"""The ``vibrospeed`` commands: simulate, estimate, evaluate, plot, methods."""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from vibrospeed.errors import VibrospeedError
+
+app = typer.Typer(
+    name="vibrospeed",
+    help=(
+        "Estimate vehicle speed from a chassis accelerometer (wheel harmonics), longitudinal "
+        "acceleration, GPS, yaw rate and wheel speeds.\n\n"
+        "Typical session:\n\n"
+        "  vibrospeed simulate --scenario cart -o drive.csv\n\n"
+        "  vibrospeed estimate drive.csv --method ekf -o est.csv --plot est.png\n\n"
+        "  vibrospeed evaluate est.csv --truth drive.csv\n\n"
+        "  vibrospeed estimate phone_drive/ --format phyphox --axis y --wheel-radius 0.31 "
+        "-o est.csv\n\n"
+        "Units are SI: omega in rad/s, speed in m/s, time in s."
+    ),
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+)
+err = Console(stderr=True)
+out = Console()
+
+
+def _friendly(fn):
+    """Turn library errors into one line on stderr and exit status 2."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except VibrospeedError as exc:
+            print(f"vibrospeed: error: {exc}", file=sys.stderr)
+            raise typer.Exit(2) from None
+        except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+            print(f"vibrospeed: error: {exc.filename or ''}: {exc.strerror}", file=sys.stderr)
+            raise typer.Exit(2) from None
+
+    return wrapper
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    if path.is_dir():
+        for p in sorted(path.rglob("*")):
+            if p.is_file():
+                h.update(p.name.encode())
+                h.update(p.read_bytes())
+    else:
+        with open(path, "rb") as fh:
+            for chunk in iter(lambda: fh.read(1 << 20), b""):
+                h.update(chunk)
+    return h.hexdigest()
+
+
+def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate: float | None,
+          sort: bool, uniform: bool = True):
+    from vibrospeed import io
+    from vibrospeed.io import timebase
+
+    rec = io.read(path, fmt, columns=columns, mapping_file=mapping, rate=rate, sort=sort)
+    if uniform and len(rec) > 2 and not rec.is_uniform(rtol=0.05):
+        rec = timebase.resample_uniform(rec)
+    return rec
+
+
+# ---- option types shared by commands ------------------------------------------------------
+FormatOpt = Annotated[str, typer.Option("--format", "-f", help="input format: auto, canonical, "
+                      "csv (generic, needs --columns or --mapping), phyphox, sensorfusion, "
+                      "parquet, comma2k19, f1tenth")]
+ColumnsOpt = Annotated[str | None, typer.Option(help="generic CSV column mapping, e.g. "
+                       "'t=time,ay=acc_y:g' (name=column[:unit])")]
+MappingOpt = Annotated[Path | None, typer.Option("--mapping", help="TOML file with the column "
+                       "mapping, units and scales")]
+RateOpt = Annotated[float | None, typer.Option(help="sample rate in Hz for files without a time "
+                    "column")]
+SortOpt = Annotated[bool, typer.Option("--sort", help="sort by time and drop duplicate time "
+                    "stamps instead of refusing time that goes backwards")]
+
+
+@app.command()
+@_friendly
+def simulate(
+    output: Annotated[Path, typer.Option("-o", "--output", help="output file (.csv or .parquet)")],
+    scenario: Annotated[str, typer.Option(help="scenario name (see --list)")] = "cart",
+    seed: Annotated[int, typer.Option(help="random seed (same seed, same drive)")] = 0,
+    duration: Annotated[float | None, typer.Option(help="length in s (scenario default)")] = None,
+    fs: Annotated[float, typer.Option(help="accelerometer sample rate in Hz")] = 100.0,
+    set_: Annotated[list[str] | None, typer.Option("--set", help="override a scenario knob, "
+                    "NAME=VALUE (repeatable)")] = None,
+    list_: Annotated[bool, typer.Option("--list", help="list scenarios and exit")] = False,
+) -> None:
+    """Simulate a drive with ground truth (omega_true, speed_true) and write it.
+
+    Examples:
+
+      vibrospeed simulate --scenario cart -o cart.csv
+
+      vibrospeed simulate --scenario car --seed 3 --duration 120 -o car.parquet
+
+      vibrospeed simulate --scenario car --set M=4 -o car.csv
+    """
+    from vibrospeed import io, sim
+    from vibrospeed.config import parse_params
+
+    if list_:
+        for name, desc in sim.describe().items():
+            out.print(f"{name:14s} {desc}")
+        return
+    rec = sim.simulate(scenario, seed=seed, duration=duration, fs=fs, **parse_params(set_))
+    io.write(rec, output)
+    err.print(f"wrote {output}: {len(rec)} samples, {rec.duration:.1f} s at {rec.fs:.4g} Hz, "
+              f"channels {', '.join(rec.channels)}")
+
+
+@app.command()
+@_friendly
+def estimate(
+    input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="estimate CSV (t, omega, "
+                      "omega_lo, omega_hi, speed, ...) + a .json sidecar")],
+    method: Annotated[str, typer.Option("--method", "-m", help="estimator (see `vibrospeed "
+                      "methods`)")] = "ekf",
+    axis: Annotated[str, typer.Option(help="vibration axis (x, y, z or a channel name); for "
+                    "gps-riss the longitudinal axis")] = "y",
+    wheel_radius: Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]
+    = None,
+    init_omega: Annotated[float | None, typer.Option(help="initial omega in rad/s (EKF)")] = None,
+    param: Annotated[list[str] | None, typer.Option("--param", "-p", help="estimator parameter "
+                     "NAME=VALUE (repeatable), e.g. -p M=2 -p q_omega=8")] = None,
+    plot: Annotated[Path | None, typer.Option(help="also write a spectrogram plot (PNG)")] = None,
+    fmt: FormatOpt = "auto",
+    columns: ColumnsOpt = None,
+    mapping: MappingOpt = None,
+    rate: RateOpt = None,
+    sort: SortOpt = False,
+) -> None:
+    """Estimate omega / speed over a whole recording.
+
+    Non-uniform (phone) time stamps are resampled to the median rate by linear interpolation;
+    NaN samples are bridged by prediction. The band columns are a 98 % credible interval.
+
+    Examples:
+
+      vibrospeed estimate drive.csv --method ekf -o est.csv --plot est.png
+
+      vibrospeed estimate rsq_q2_00/ --format phyphox --axis y -o est.csv
+
+      vibrospeed estimate kart.csv --columns c1=ax,c2=ay,c3=az --rate 198.4 -o est.csv
+    """
+    from vibrospeed import estimators, io
+    from vibrospeed.config import parse_params
+
+    params = parse_params(param)
+    if init_omega is not None:
+        params["omega0"] = str(init_omega)
+    mod = estimators.get(method)
+    rec = _load(input, fmt, columns, mapping, rate, sort)
+    with err.status(f"{method}: {len(rec)} samples..."):
+        track = mod.estimate(rec, axis=axis, wheel_radius=wheel_radius, params=params,
+                             progress=False)
+    from vibrospeed import __version__
+
+    meta = {"input": str(input), "input_sha256": _sha256(input), "version": __version__,
+            "recording_notes": rec.notes}
+    io.write_track(track, output, meta=meta)
+    for note in rec.notes + track.notes:
+        err.print(f"note: {note}")
+    err.print(f"wrote {output} ({len(track)} rows, method {method})")
+    if plot is not None:
+        from vibrospeed.estimators.common import axis_channel
+        from vibrospeed.eval.plot import plot_track
+
+        ch = axis_channel(axis) if axis_channel(axis) in rec.channels else next(iter(rec.channels))
+        plot_track(plot, rec, track, axis=ch)
+        err.print(f"wrote {plot}")
+
+
+@app.command()
+@_friendly
+def evaluate(
+    estimate_csv: Annotated[Path, typer.Argument(help="estimate written by `estimate`")],
+    truth: Annotated[Path, typer.Option(help="recording with omega_true or speed_true")],
+    truth_format: Annotated[str, typer.Option(help="format of the truth file")] = "auto",
+    min_omega: Annotated[float, typer.Option(help="truth below this (rad/s) = standing, "
+                         "excluded")] = 1.0,
+    warmup: Annotated[float, typer.Option(help="seconds at the start excluded")] = 0.0,
+    json_out: Annotated[Path | None, typer.Option("--json", help="also write metrics as JSON")]
+    = None,
+) -> None:
+    """Compare an estimate with ground truth: RMSE (thesis eq. 3.18, truth linearly
+    interpolated, moving samples only), bias, relative error, band coverage, harmonic errors.
+
+    Example:
+
+      vibrospeed evaluate est.csv --truth drive.csv
+    """
+    from vibrospeed import io
+    from vibrospeed.eval.metrics import evaluate as ev
+    from vibrospeed.io.atomic import atomic_write_text
+
+    track = io.read_track(estimate_csv)
+    ref = io.read(truth, truth_format)
+    m = ev(track, ref, min_omega=min_omega, warmup=warmup)
+    tab = Table(title=f"{estimate_csv} vs {truth}")
+    tab.add_column("metric")
+    tab.add_column("value", justify="right")
+    rows = [
+        ("samples (moving)", f"{m.n}"),
+        ("moving share", f"{m.moving_share:.1%}"),
+        ("RMSE [rad/s]", f"{m.rmse:.3f}"),
+        ("MAE [rad/s]", f"{m.mae:.3f}"),
+        ("bias [rad/s]", f"{m.bias:+.3f}"),
+        ("relative error", f"{m.rel_error:.1%}"),
+        (f"coverage of {m.level:.0%} band", f"{m.coverage:.1%}"),
+        ("share at omega/2", f"{m.half_share:.1%}"),
+        ("share at 2 omega", f"{m.double_share:.1%}"),
+    ]
+    if m.rmse_speed == m.rmse_speed:
+        rows.append(("RMSE speed [m/s]", f"{m.rmse_speed:.3f}"))
+    for k, v in rows:
+        tab.add_row(k, v)
+    out.print(tab)
+    if json_out is not None:
+        atomic_write_text(json_out, json.dumps(m.to_dict(), indent=2))
+
+
+@app.command()
+@_friendly
+def plot(
+    input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="PNG to write")],
+    estimate_csv: Annotated[Path | None, typer.Option("--estimate", help="estimate CSV to "
+                            "draw over the spectrogram")] = None,
+    truth: Annotated[Path | None, typer.Option(help="truth recording (default: the input's "
+                     "omega_true if any)")] = None,
+    axis: Annotated[str, typer.Option(help="channel or axis for the spectrogram")] = "y",
+    harmonics: Annotated[int, typer.Option(help="harmonics of the estimate to draw")] = 3,
+    window: Annotated[float, typer.Option(help="STFT window in s")] = 3.0,
+    fmt: FormatOpt = "auto",
+    columns: ColumnsOpt = None,
+    mapping: MappingOpt = None,
+    rate: RateOpt = None,
+    sort: SortOpt = False,
+) -> None:
+    """Spectrogram of a vibration axis with the estimate, its band, harmonics and truth.
+
+    Example:
+
+      vibrospeed plot drive.csv --estimate est.csv -o drive.png
+    """
+    from vibrospeed import io
+    from vibrospeed.estimators.common import axis_channel
+    from vibrospeed.eval.plot import plot_track
+
+    rec = _load(input, fmt, columns, mapping, rate, sort)
+    track = io.read_track(estimate_csv) if estimate_csv else None
+    ref = io.read(truth) if truth else None
+    plot_track(output, rec, track, axis=axis_channel(axis), truth=ref, harmonics=harmonics,
+               window_s=window)
+    err.print(f"wrote {output}")
+
+
+@app.command()
+def methods() -> None:
+    """List the estimators and what each needs."""
+    from vibrospeed.estimators import METHODS, available
+
+    have = set(available())
+    for name, (_, desc) in METHODS.items():
+        if name in have:
+            out.print(f"{name:10s} {desc}")

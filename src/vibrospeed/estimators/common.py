@@ -1,0 +1,88 @@
+"""Helpers shared by the ``estimate()`` entry points: axis selection, pre-filtering, checks."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.signal import prefilter as pf
+from vibrospeed.signal.normalize import running_rms_normalize
+from vibrospeed.types import Recording
+
+#: jitter tolerated as "uniform" by the vibration trackers (relative to the median period)
+UNIFORM_RTOL = 0.05
+
+
+def axis_channel(axis: str) -> str:
+    """'y' -> 'ay'; a full channel name passes through."""
+    axis = axis.strip()
+    if axis in ("x", "y", "z"):
+        return "a" + axis
+    return axis
+
+
+def split_params(model_cls, params: dict) -> tuple[dict, dict]:
+    """Split ``params`` into (fields of ``model_cls``, the rest)."""
+    names = {f.name for f in dataclasses.fields(model_cls)}
+    model_kw = {k: v for k, v in params.items() if k in names}
+    rest = {k: v for k, v in params.items() if k not in names}
+    return model_kw, rest
+
+
+def check_uniform(recording: Recording) -> float:
+    """Median sample period in s; :class:`InputError` if the time line is not uniform enough."""
+    if len(recording) < 2:
+        raise InputError(f"{recording.source or 'recording'}: fewer than 2 samples")
+    d = np.diff(recording.t)
+    dt = float(np.median(d))
+    bad = np.abs(d - dt) > UNIFORM_RTOL * dt
+    # gaps (several missing samples) are allowed: they become NaN runs after resampling
+    if np.mean(bad) > 0.01:
+        raise InputError(
+            f"{recording.source or 'recording'}: time line is not uniform "
+            f"({np.mean(bad):.0%} of periods differ from the median {dt * 1e3:.3g} ms by > 5 %); "
+            "resample it first (vibrospeed.io.timebase.resample_uniform; the CLI does this itself)"
+        )
+    return dt
+
+
+def check_nyquist(fs: float, M: int, omega_max: float, source: str = "recording") -> None:
+    """Require ``M * omega_max < pi * fs`` (harmonic M of the fastest wheel below Nyquist)."""
+    if M * omega_max >= np.pi * fs:
+        raise ParameterError(
+            f"{source}: sample rate {fs:.4g} Hz is too low for M = {M} harmonics up to "
+            f"omega = {omega_max:.4g} rad/s (needs fs > {M * omega_max / np.pi:.4g} Hz; "
+            f"at this rate omega must stay below {np.pi * fs / M:.4g} rad/s)"
+        )
+
+
+def prepare_axis(
+    recording: Recording,
+    axis: str,
+    *,
+    prefilter: str = "thesis-hp",
+    M: int = 3,
+    omega_max: float | None = None,
+    normalize_tau: float | None = 5.0,
+) -> tuple[np.ndarray, float, list[str]]:
+    """Pre-filtered vibration signal of ``axis``, its sample period and notes on what was done."""
+    name = axis_channel(axis)
+    recording.require(name)
+    dt = check_uniform(recording)
+    fs = 1.0 / dt
+    if omega_max is not None:
+        check_nyquist(fs, M, omega_max, recording.source or "recording")
+    x = recording.channel(name)
+    notes = []
+    n_nan = int(np.count_nonzero(~np.isfinite(x)))
+    if n_nan:
+        notes.append(f"{n_nan} NaN samples on '{name}': prediction only there")
+    sos = pf.design(prefilter, fs, M=M)
+    y = pf.apply(sos, x)
+    notes.append(f"pre-filter '{prefilter}' on '{name}' at fs = {fs:.4g} Hz")
+    if normalize_tau:
+        y = running_rms_normalize(y, dt, normalize_tau)
+        notes.append(f"normalised by a running RMS (tau = {normalize_tau:g} s)")
+    return y, dt, notes

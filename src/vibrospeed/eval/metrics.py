@@ -1,0 +1,126 @@
+"""Accuracy metrics of a :class:`~vibrospeed.types.Track` against ground truth.
+
+The truth is linearly interpolated onto the estimate's time stamps (thesis eq. 3.18) and the
+error statistics are taken over *moving* samples (truth omega above ``min_omega``), after an
+optional warm-up. Coverage is the share of moving samples whose truth lies inside the reported
+credible band: for an honest 98 % band it should be close to 0.98.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from vibrospeed.errors import InputError
+from vibrospeed.types import Recording, Track
+
+
+@dataclass(frozen=True)
+class Metrics:
+    """Error statistics in rad/s (``*_speed`` in m/s when both radii are known)."""
+
+    n: int  # samples evaluated
+    moving_share: float  # share of samples (after warm-up) where the truth is moving
+    rmse: float
+    mae: float
+    bias: float  # mean(estimate - truth)
+    rel_error: float  # mean(|error| / truth)
+    coverage: float  # share of truth inside [lo, hi]
+    level: float  # nominal band probability
+    half_share: float  # share of samples near truth/2 (locked on a subharmonic)
+    double_share: float  # share near 2 * truth
+    rmse_speed: float
+
+    def to_dict(self) -> dict:
+        """Plain dict (for JSON)."""
+        return asdict(self)
+
+
+def truth_omega(truth: Recording, wheel_radius: float | None = None) -> np.ndarray:
+    """Truth omega (rad/s) from ``omega_true``, or ``speed_true / r``."""
+    if "omega_true" in truth.channels:
+        return truth.channel("omega_true")
+    r = wheel_radius or truth.wheel_radius
+    if "speed_true" in truth.channels and r:
+        return truth.channel("speed_true") / r
+    raise InputError(
+        f"{truth.source or 'truth'}: no 'omega_true' channel (nor 'speed_true' with a known "
+        "wheel radius) to compare against"
+    )
+
+
+def interp_truth(t_truth: np.ndarray, x_truth: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Linear interpolation of the truth at ``t``; NaN outside its span or across NaN truth."""
+    ok = np.isfinite(x_truth)
+    if ok.sum() < 2:
+        return np.full(t.shape, np.nan)
+    out = np.interp(t, t_truth[ok], x_truth[ok], left=np.nan, right=np.nan)
+    return out
+
+
+def compare(
+    track: Track,
+    truth_t: np.ndarray,
+    truth_omega_values: np.ndarray,
+    *,
+    min_omega: float = 1.0,
+    warmup: float = 0.0,
+    tol: float = 0.15,
+) -> Metrics:
+    """Metrics of ``track`` against truth samples ``(truth_t, truth_omega_values)`` (rad/s).
+
+    ``min_omega``: truth below this (rad/s) counts as standing still and is excluded.
+    ``warmup``: seconds at the start of the track excluded. ``tol``: relative tolerance for the
+    half/double harmonic shares.
+    """
+    w = interp_truth(np.asarray(truth_t, float), np.asarray(truth_omega_values, float), track.t)
+    after = track.t >= track.t[0] + warmup
+    valid = after & np.isfinite(w)
+    moving = valid & (w > min_omega) & np.isfinite(track.omega)
+    n = int(moving.sum())
+    share = float(moving.sum() / max(valid.sum(), 1))
+    if n == 0:
+        nan = float("nan")
+        return Metrics(0, share, nan, nan, nan, nan, nan, track.level, nan, nan, nan)
+    e = track.omega[moving] - w[moving]
+    wt = w[moving]
+    lo, hi = track.omega_lo[moving], track.omega_hi[moving]
+    band_ok = np.isfinite(lo) & np.isfinite(hi)
+    cov = float(np.mean((wt >= lo) & (wt <= hi))) if band_ok.any() else float("nan")
+    est = track.omega[moving]
+    half = float(np.mean(np.abs(est - wt / 2) < tol * wt / 2))
+    double = float(np.mean(np.abs(est - 2 * wt) < tol * 2 * wt))
+    r = track.wheel_radius
+    rmse_v = float(np.sqrt(np.mean((r * e) ** 2))) if r else float("nan")
+    return Metrics(
+        n=n,
+        moving_share=share,
+        rmse=float(np.sqrt(np.mean(e**2))),
+        mae=float(np.mean(np.abs(e))),
+        bias=float(np.mean(e)),
+        rel_error=float(np.mean(np.abs(e) / wt)),
+        coverage=cov,
+        level=track.level,
+        half_share=half,
+        double_share=double,
+        rmse_speed=rmse_v,
+    )
+
+
+def evaluate(track: Track, truth: Recording, **kw) -> Metrics:
+    """:func:`compare` against a truth recording (``omega_true`` or ``speed_true``)."""
+    return compare(track, truth.t, truth_omega(truth, track.wheel_radius), **kw)
+
+
+def time_to_lock(
+    t: np.ndarray, est: np.ndarray, truth: np.ndarray, *, tol: float = 2.0
+) -> float:
+    """Seconds from ``t[0]`` until ``|est - truth| < tol`` holds for good (inf if never)."""
+    bad = ~(np.abs(est - truth) < tol)
+    if not bad.any():
+        return 0.0
+    last_bad = int(np.flatnonzero(bad)[-1])
+    if last_bad == t.size - 1:
+        return float("inf")
+    return float(t[last_bad + 1] - t[0])

@@ -1,0 +1,82 @@
+"""Plots: spectrogram of the vibration axis with the estimate, its band, harmonics and the truth.
+
+Uses matplotlib's Agg backend (no screen needed); figures are written atomically.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from vibrospeed.io.atomic import atomic_path  # noqa: E402
+from vibrospeed.signal.spectral import spectrogram  # noqa: E402
+from vibrospeed.types import Recording, Track  # noqa: E402
+
+
+def plot_track(
+    path: str | Path,
+    recording: Recording,
+    track: Track | None = None,
+    *,
+    axis: str = "ay",
+    truth: Recording | None = None,
+    harmonics: int = 3,
+    omega_max: float | None = None,
+    window_s: float = 3.0,
+    title: str | None = None,
+) -> Path:
+    """Spectrogram (dB) of channel ``axis`` with the track's omega, band and harmonics over it.
+
+    Lower panel: omega (and speed axis when the radius is known) against time with the band and
+    the truth (``omega_true`` of ``truth`` or of ``recording``).
+    """
+    path = Path(path)
+    fs = recording.fs
+    x = recording.channel(axis)
+    if omega_max is None:
+        top = np.nanmax(track.omega_hi) if track is not None and np.isfinite(track.omega_hi).any() else 60
+        omega_max = float(min(np.pi * fs, max(30.0, 1.2 * harmonics * top)))
+    sg = spectrogram(x, fs, window_s=window_s, t0=recording.t[0], omega_max=omega_max)
+    fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(11, 7), sharex=True,
+                                   gridspec_kw={"height_ratios": [3, 2]})
+    db = 10 * np.log10(sg.power + 1e-20)
+    vmax = np.percentile(db, 99.5)
+    ax0.pcolormesh(sg.t, sg.omega, db, shading="auto", cmap="magma", vmin=vmax - 45, vmax=vmax)
+    ax0.set_ylabel(f"{axis}: omega [rad/s]")
+    ax0.set_ylim(0, omega_max)
+    tr = truth if truth is not None else recording
+    t_truth = om_truth = None
+    if "omega_true" in tr.channels:
+        t_truth, om_truth = tr.t, tr.channel("omega_true")
+    elif "speed_true" in tr.channels and (track is not None and track.wheel_radius):
+        t_truth, om_truth = tr.t, tr.channel("speed_true") / track.wheel_radius
+    if track is not None:
+        for m in range(1, harmonics + 1):
+            ax0.plot(track.t, m * track.omega, color="cyan", lw=0.8, alpha=0.9,
+                     label="estimate x m" if m == 1 else None)
+        ax1.fill_between(track.t, track.omega_lo, track.omega_hi, color="tab:blue", alpha=0.25,
+                         lw=0, label=f"{track.level:.0%} band")
+        ax1.plot(track.t, track.omega, color="tab:blue", lw=1.0, label=f"estimate ({track.method})")
+    if om_truth is not None:
+        ax0.plot(t_truth, om_truth, color="lime", lw=0.8, ls="--", label="truth")
+        ax1.plot(t_truth, om_truth, color="k", lw=0.9, ls="--", label="truth")
+    ax0.legend(loc="upper right", fontsize=8)
+    ax1.set_ylabel("omega [rad/s]")
+    ax1.set_xlabel("t [s]")
+    ax1.legend(loc="upper right", fontsize=8)
+    ax1.grid(alpha=0.3)
+    if track is not None and track.wheel_radius:
+        r = track.wheel_radius
+        sec = ax1.secondary_yaxis("right", functions=(lambda w: w * r, lambda v: v / r))
+        sec.set_ylabel("speed [m/s]")
+    ax0.set_title(title or f"{recording.source or 'recording'}")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png")
+    plt.close(fig)
+    return path

@@ -1,0 +1,246 @@
+"""Streaming numeric CSV parsing with exact line numbers in every error (shared by the readers).
+
+Rows are read with the :mod:`csv` module (so quoted headers, CRLF / CR line endings and a UTF-8
+BOM are handled), buffered ``chunk_rows`` at a time and converted per column with NumPy; a chunk
+that does not convert is re-scanned cell by cell to report the first bad cell's line and column.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import os
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+
+from vibrospeed.errors import ReaderError
+
+#: Cells read as NaN besides the empty cell (case-insensitive; "nan"/"inf" are numbers anyway).
+NA_STRINGS = frozenset({"", "na", "n/a", "nan", "null", "none", "-"})
+CHUNK_ROWS = 65536
+
+
+def _short(s: str, n: int = 24) -> str:
+    s = s.replace("\n", " ").replace("\r", " ")
+    return s if len(s) <= n else s[: n - 3] + "..."
+
+
+def check_file(path: str | os.PathLike[str]) -> Path:
+    """``path`` as a Path; :class:`ReaderError` if it is missing, a folder or empty."""
+    p = Path(path)
+    if not p.exists():
+        raise ReaderError(p, "file not found")
+    if p.is_dir():
+        raise ReaderError(p, "is a folder, not a file")
+    if p.stat().st_size == 0:
+        raise ReaderError(p, "empty file")
+    return p
+
+
+@contextlib.contextmanager
+def open_text(path: str | os.PathLike[str]) -> Iterator[TextIO]:
+    """Open a text file for :class:`CsvTable` (UTF-8, newlines untranslated)."""
+    p = check_file(path)
+    try:
+        fh = open(p, encoding="utf-8", newline="")
+    except OSError as exc:
+        raise ReaderError(p, f"cannot open ({exc.strerror})") from None
+    with fh:
+        yield fh
+
+
+def text_stream(raw: io.BufferedIOBase) -> TextIO:
+    """Wrap a binary stream (e.g. a zip member) like :func:`open_text`."""
+    return io.TextIOWrapper(raw, encoding="utf-8", newline="")
+
+
+def sniff_delimiter(line: str) -> str:
+    """The most frequent of ``,`` ``;`` tab in a header line (``,`` on a tie or none)."""
+    counts = {d: line.count(d) for d in (",", ";", "\t")}
+    best = max(counts.values())
+    if best == 0:
+        return ","
+    return next(d for d in (",", ";", "\t") if counts[d] == best)
+
+
+class CsvTable:
+    """A numeric CSV file with a header row, read column-wise and chunk-wise.
+
+    Parameters
+    ----------
+    fh : text stream opened with ``newline=""``
+    source : name used in error messages
+    delimiter : field separator; ``None`` sniffs it from the header line
+    decimal : decimal mark of the numbers (``","`` for e.g. semicolon-separated European exports)
+
+    Attributes
+    ----------
+    header : stripped column names; header_line : 1-based line of the header;
+    notes : what was noticed (BOM, CRLF, blank lines, empty cells).
+    """
+
+    def __init__(
+        self,
+        fh: TextIO,
+        source: str,
+        *,
+        delimiter: str | None = None,
+        decimal: str = ".",
+    ) -> None:
+        self.source = source
+        self.decimal = decimal
+        self.notes: list[str] = []
+        self._fh = fh
+        line_no = 0
+        first = ""
+        try:
+            while True:
+                first = fh.readline()
+                line_no += 1
+                if line_no == 1 and first.startswith("\ufeff"):
+                    first = first[1:]
+                    self.notes.append("UTF-8 byte-order mark skipped")
+                if not first or first.strip():
+                    break
+        except UnicodeDecodeError as exc:
+            raise ReaderError(source, f"not UTF-8 text ({exc.reason})", row=line_no) from None
+        if not first.strip():
+            raise ReaderError(source, "empty file (no header row)")
+        if first.endswith("\r\n"):
+            self.notes.append("CRLF line endings")
+        self.delimiter = delimiter or sniff_delimiter(first)
+        try:
+            header = next(csv.reader([first], delimiter=self.delimiter))
+        except csv.Error as exc:
+            raise ReaderError(source, f"malformed header: {exc}", row=line_no) from None
+        self.header = [h.strip() for h in header]
+        self.header_line = line_no
+        while self.header and self.header[-1] == "":  # trailing delimiter
+            self.header.pop()
+        seen: set[str] = set()
+        for name in self.header:
+            if name and name in seen:
+                raise ReaderError(source, "duplicate column name", row=line_no, column=name)
+            seen.add(name)
+
+    def index(self, name: str) -> int:
+        """Column index of ``name``; :class:`ReaderError` listing the header if absent."""
+        try:
+            return self.header.index(name)
+        except ValueError:
+            have = ", ".join(repr(h) for h in self.header if h)
+            raise ReaderError(
+                self.source, f"column not found (header has: {have})", row=self.header_line,
+                column=name,
+            ) from None
+
+    def read(
+        self,
+        usecols: Sequence[str],
+        *,
+        allow_empty: bool = False,
+        chunk_rows: int = CHUNK_ROWS,
+    ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """Parse the named columns to float64 (empty / NA cells -> NaN).
+
+        Returns ``(columns, lines)`` with ``lines`` the 1-based file line of each row. Rows with
+        a wrong number of fields, cells that are not numbers, and malformed CSV raise
+        :class:`ReaderError` naming the line and column.
+        """
+        idx = [self.index(c) for c in usecols]
+        ncols = len(self.header)
+        bufs: list[list[str]] = [[] for _ in idx]
+        line_buf: list[int] = []
+        out: list[list[np.ndarray]] = [[] for _ in idx]
+        lines_out: list[np.ndarray] = []
+        blank = 0
+        reader = csv.reader(self._fh, delimiter=self.delimiter)
+        base = self.header_line
+        # csv counts lines from where it starts reading: add the header's line number
+        try:
+            for row in reader:
+                if not any(c.strip() for c in row):
+                    blank += 1
+                    continue
+                if len(row) != ncols and not (
+                    len(row) > ncols and not any(c.strip() for c in row[ncols:])
+                ):
+                    raise ReaderError(
+                        self.source,
+                        f"expected {ncols} fields, found {len(row)}",
+                        row=base + reader.line_num,
+                    )
+                line_buf.append(base + reader.line_num)
+                for b, j in zip(bufs, idx, strict=True):
+                    b.append(row[j])
+                if len(line_buf) >= chunk_rows:
+                    self._flush(bufs, line_buf, out, lines_out, usecols)
+        except csv.Error as exc:
+            raise ReaderError(
+                self.source, f"malformed CSV ({exc})", row=base + reader.line_num
+            ) from None
+        except UnicodeDecodeError as exc:
+            raise ReaderError(
+                self.source, f"not UTF-8 text ({exc.reason})", row=base + reader.line_num + 1
+            ) from None
+        self._flush(bufs, line_buf, out, lines_out, usecols)
+        lines = np.concatenate(lines_out) if lines_out else np.empty(0, dtype=np.int64)
+        if lines.size == 0 and not allow_empty:
+            raise ReaderError(self.source, "no data rows after the header", row=self.header_line)
+        if blank:
+            self.notes.append(f"skipped {blank} blank line(s)")
+        cols = {
+            name: (np.concatenate(parts) if parts else np.empty(0))
+            for name, parts in zip(usecols, out, strict=True)
+        }
+        return cols, lines
+
+    def _flush(self, bufs, line_buf, out, lines_out, names) -> None:
+        if not line_buf:
+            return
+        lines = np.asarray(line_buf, dtype=np.int64)
+        for k, (b, name) in enumerate(zip(bufs, names, strict=True)):
+            out[k].append(self._to_float(b, lines, name))
+            b.clear()
+        lines_out.append(lines)
+        line_buf.clear()
+
+    def _to_float(self, cells: list[str], lines: np.ndarray, name: str) -> np.ndarray:
+        if self.decimal != ".":
+            cells = [c.replace(self.decimal, ".") for c in cells]
+        try:
+            return np.array(cells, dtype=np.float64)
+        except (ValueError, OverflowError):
+            pass
+        vals = np.empty(len(cells))
+        for k, c in enumerate(cells):
+            try:
+                vals[k] = float(c)
+            except (ValueError, OverflowError):
+                if c.strip().lower() in NA_STRINGS:
+                    vals[k] = np.nan
+                else:
+                    raise ReaderError(
+                        self.source,
+                        f"'{_short(c.strip())}' is not a number",
+                        row=int(lines[k]),
+                        column=name,
+                    ) from None
+        return vals
+
+
+def nan_notes(columns: dict[str, np.ndarray], source: str) -> list[str]:
+    """Notes on empty / NaN cells; :class:`ReaderError` for a column with no number at all."""
+    notes = []
+    for name, x in columns.items():
+        nbad = int(np.count_nonzero(np.isnan(x)))
+        if x.size and nbad == x.size:
+            raise ReaderError(source, "channel has no numeric value (all empty or NaN)",
+                              column=name)
+        if nbad:
+            notes.append(f"channel '{name}': {nbad} empty or NaN cell(s) of {x.size}")
+    return notes

@@ -1,0 +1,198 @@
+"""Canonical CSV: vibrospeed's own recording format.
+
+Layout of a recording written to ``drive.csv``::
+
+    drive.csv               t,ax,ay,az,...        header row, ``t`` (s) first, canonical names
+                                                  (types.CHANNEL_UNITS) in SI; other columns kept
+                                                  as they are; empty cell = NaN
+    drive.wss_ticks.csv     t                     one sidecar per event stream, one time per row
+    drive.csv.json          {"kind": "recording"} units, wheel radius, axes, notes, metadata
+
+Floats are written with ``repr`` (shortest string that reads back to the same float64), so a
+write/read round trip is exact. Sidecars are optional when reading: a plain CSV with a ``t``
+column is a valid recording. Every file is written atomically.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vibrospeed.errors import InputError, ReaderError
+from vibrospeed.io._common import finish, jsonable
+from vibrospeed.io._csv import CsvTable, nan_notes, open_text
+from vibrospeed.io.atomic import atomic_path, atomic_write_text
+from vibrospeed.types import Recording
+
+__all__ = ["event_path", "is_canonical_header", "read_csv", "write_csv"]
+
+_EVENT_NAME = re.compile(r"^[A-Za-z0-9_\-]+$")
+_ROWS_PER_WRITE = 20000
+
+
+def event_path(path: str | os.PathLike[str], name: str) -> Path:
+    """Sidecar file of event stream ``name`` for recording ``path`` (``<stem>.<name>.csv``)."""
+    p = Path(path)
+    return p.with_name(f"{p.stem}.{name}.csv")
+
+
+def is_canonical_header(header: list[str]) -> bool:
+    """True for a header whose first column is ``t`` and whose other names are non-empty."""
+    return bool(header) and header[0] == "t" and all(h for h in header[1:])
+
+
+def _fmt(values: np.ndarray) -> list[str]:
+    # repr of a Python float is the shortest exact representation; NaN -> empty cell
+    return [repr(v) if v == v else "" for v in values.tolist()]
+
+
+def _write_columns(path: Path, names: list[str], cols: list[np.ndarray]) -> None:
+    n = cols[0].size if cols else 0
+    with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(names)
+        for a in range(0, n, _ROWS_PER_WRITE):
+            b = min(n, a + _ROWS_PER_WRITE)
+            w.writerows(zip(*(_fmt(c[a:b]) for c in cols), strict=True))
+
+
+def _event_sidecars(path: Path) -> dict[str, Path]:
+    """Existing ``<stem>.<name>.csv`` files next to ``path`` whose header is exactly ``t``."""
+    out = {}
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        return out
+    prefix = path.stem + "."
+    for q in folder.glob(f"{glob_escape(prefix)}*.csv"):
+        name = q.name[len(prefix) : -4]
+        if not _EVENT_NAME.match(name) or q == path:
+            continue
+        try:
+            with open(q, encoding="utf-8-sig", newline="") as fh:
+                first = fh.readline().strip()
+        except (OSError, UnicodeDecodeError):
+            continue
+        if first == "t":
+            out[name] = q
+    return out
+
+
+def glob_escape(s: str) -> str:
+    """Escape glob metacharacters in ``s``."""
+    return re.sub(r"([\[\]*?])", r"[\1]", s)
+
+
+def write_csv(rec: Recording, path: str | os.PathLike[str]) -> None:
+    """Write ``rec`` as canonical CSV plus event sidecars and ``<path>.json`` (all atomic).
+
+    Stale event sidecars of an earlier recording at the same path are removed. A channel named
+    ``t`` or an event name that is not ``[A-Za-z0-9_-]+`` raises :class:`InputError`.
+    """
+    p = Path(path)
+    names = list(rec.channels)
+    if "t" in names:
+        raise InputError(f"{p}: a channel may not be called 't'")
+    for ev in rec.events:
+        if not _EVENT_NAME.match(ev):
+            raise InputError(f"{p}: event name '{ev}' must match [A-Za-z0-9_-]+")
+    _write_columns(p, ["t", *names], [rec.t, *(rec.channels[k] for k in names)])
+    for ev, times in rec.events.items():
+        _write_columns(event_path(p, ev), ["t"], [times])
+    for ev, q in _event_sidecars(p).items():
+        if ev not in rec.events:
+            q.unlink(missing_ok=True)
+    side = {
+        "kind": "recording",
+        "format": "vibrospeed canonical csv 1",
+        "source": rec.source,
+        "wheel_radius": rec.wheel_radius,
+        "axes": rec.axes,
+        "units": {k: rec.units.get(k, "") for k in names},
+        "events": sorted(rec.events),
+        "notes": list(rec.notes),
+        "meta": jsonable(rec.meta),
+    }
+    atomic_write_text(Path(f"{p}.json"), json.dumps(side, indent=1, allow_nan=False) + "\n")
+
+
+def _read_sidecar_json(p: Path) -> dict[str, Any]:
+    q = Path(f"{p}.json")
+    if not q.is_file():
+        return {}
+    try:
+        side = json.loads(q.read_text(encoding="utf-8-sig"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ReaderError(q, f"unreadable metadata sidecar ({exc})") from None
+    if not isinstance(side, dict) or side.get("kind") != "recording":
+        return {}
+    return side
+
+
+def read_events(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    """Event streams from the ``<stem>.<name>.csv`` sidecars of ``path`` (empty if none)."""
+    events = {}
+    for name, q in sorted(_event_sidecars(Path(path)).items()):
+        with open_text(q) as fh:
+            tab = CsvTable(fh, str(q), delimiter=",")
+            cols, lines = tab.read(["t"], allow_empty=True)
+        t = cols["t"]
+        bad = np.flatnonzero(~np.isfinite(t))
+        if bad.size:
+            raise ReaderError(q, "event time is missing or not finite", row=int(lines[bad[0]]),
+                              column="t")
+        events[name] = t
+    return events
+
+
+def read_csv(path: str | os.PathLike[str], *, sort: bool = False) -> Recording:
+    """Read a canonical CSV recording (header ``t,<channels>``), its event sidecars and metadata.
+
+    Parameters
+    ----------
+    path : the ``.csv`` file
+    sort : sort rows by time and drop repeated timestamps instead of refusing them
+
+    Raises
+    ------
+    ReaderError : missing/empty file, header not starting with ``t``, wrong field count, text in
+        a numeric cell, a channel with no numeric value, time not increasing (unless ``sort``).
+    """
+    p = Path(path)
+    with open_text(p) as fh:
+        tab = CsvTable(fh, str(p))
+        if not is_canonical_header(tab.header):
+            raise ReaderError(
+                p,
+                "not a canonical recording: the header must start with 't' followed by "
+                "channel names (give a column mapping for other CSV files)",
+                row=tab.header_line,
+            )
+        names = [h for h in tab.header if h]
+        cols, lines = tab.read(names)
+    notes = list(tab.notes)
+    t = cols.pop("t")
+    notes.extend(nan_notes(cols, str(p)))
+    side = _read_sidecar_json(p)
+    units = {k: v for k, v in side.get("units", {}).items() if k in cols}
+    rec_notes = [*side.get("notes", []), *notes]
+    wr = side.get("wheel_radius")
+    return finish(
+        t,
+        cols,
+        source=str(p),
+        lines=lines,
+        sort=sort,
+        units=units,
+        events=read_events(p),
+        notes=rec_notes,
+        meta={**side.get("meta", {}), **({"origin": side["source"]} if side.get("source") else {})},
+        wheel_radius=float(wr) if isinstance(wr, (int, float)) else None,
+        axes=side.get("axes"),
+    )
+

@@ -1,0 +1,290 @@
+"""Time-base checks and repairs: monotonic time, sorting, uniform resampling, gaps, Nyquist.
+
+Phone sensors deliver jittered, occasionally repeated or out-of-order timestamps and gaps; the
+estimators assume a uniform period ``T``. The functions here make that explicit and record what
+they did in ``Recording.notes``.
+
+Resampling method (:func:`resample_uniform`)
+    Uniform grid ``t_k = t_0 + k / fs``. *Dense* channels are linearly interpolated between the two
+    neighbouring input samples, ``x(t_k) = (1 - w) x_i + w x_{i+1}``, ``w = (t_k - t_i) /
+    (t_{i+1} - t_i)``; the result is NaN where a neighbour is NaN or where the two neighbours are
+    more than ``max_gap`` apart (no invention of data inside gaps). *Sparse* channels (GPS fixes
+    placed at one sample each, see :mod:`vibrospeed.io.phyphox`) are moved to the nearest grid
+    point instead, so a fix is still seen exactly once. Event streams are left untouched.
+    Linear interpolation attenuates a tone of frequency f by ``sinc^2(f / fs_in)`` at most (about
+    -0.4 dB at f = fs/4 for 100 Hz data) and its error is bounded by ``h^2 max|x''| / 8``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from vibrospeed.errors import InputError, ParameterError, ReaderError
+from vibrospeed.types import Recording
+
+__all__ = [
+    "SPARSE_CHANNELS",
+    "check_increasing",
+    "check_nyquist",
+    "describe_timebase",
+    "find_gaps",
+    "resample_uniform",
+    "sort_dedup",
+    "split_at_gaps",
+]
+
+#: Channels that hold isolated samples (NaN elsewhere); resampling moves them to the nearest grid
+#: point instead of interpolating. Channels less than half finite are treated the same way.
+SPARSE_CHANNELS = frozenset({"gps_speed", "gps_sats", "gps_hacc", "gps_lat", "gps_lon", "gps_alt"})
+
+
+def check_increasing(t: np.ndarray, source: str = "", *, rows: np.ndarray | None = None) -> None:
+    """Raise unless ``t`` is finite and strictly increasing.
+
+    Parameters
+    ----------
+    t : (n,) s
+    source : file or recording name used in the message
+    rows : (n,) optional 1-based file line number of each sample; when given a
+        :class:`ReaderError` names the line, otherwise an :class:`InputError` names the sample.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    name = str(source) or "recording"
+    bad_fin = np.flatnonzero(~np.isfinite(t))
+    bad_inc = np.flatnonzero(~(np.diff(t) > 0)) + 1 if t.size > 1 else np.empty(0, int)
+    cands = [int(b[0]) for b in (bad_fin, bad_inc) if b.size]
+    if not cands:
+        return
+    i = min(cands)
+    if not np.isfinite(t[i]):
+        msg = f"time is {t[i]} (not a number)"
+    elif t[i] == t[i - 1]:
+        msg = f"time {t[i]!r} s repeats the previous sample (use sort=True to de-duplicate)"
+    else:
+        msg = (
+            f"time goes backwards ({t[i]!r} s after {t[i - 1]!r} s); "
+            "use sort=True to sort and de-duplicate"
+        )
+    if rows is not None:
+        raise ReaderError(name, msg, row=int(rows[i]), column="t")
+    raise InputError(f"{name}, sample {i}: {msg}")
+
+
+def sort_dedup(rec: Recording) -> Recording:
+    """Copy of ``rec`` sorted by time, rows with non-finite time dropped, repeated times dropped.
+
+    For repeated timestamps the first row (in file order) is kept. What was done is appended to
+    ``notes``; an already clean recording is returned as an unchanged copy.
+    """
+    t = rec.t
+    notes = list(rec.notes)
+    finite = np.isfinite(t)
+    idx = np.flatnonzero(finite)
+    if idx.size < t.size:
+        notes.append(f"dropped {t.size - idx.size} rows with missing time")
+    order = idx[np.argsort(t[idx], kind="stable")]
+    moved = int(np.count_nonzero(order != idx))
+    if moved:
+        notes.append(f"sorted by time ({moved} rows were out of order)")
+    ts = t[order]
+    keep = np.ones(ts.size, dtype=bool)
+    keep[1:] = np.diff(ts) > 0
+    ndup = int(ts.size - np.count_nonzero(keep))
+    if ndup:
+        notes.append(f"dropped {ndup} rows repeating an earlier timestamp (first kept)")
+    sel = order[keep]
+    return replace(
+        rec,
+        t=t[sel],
+        channels={k: v[sel] for k, v in rec.channels.items()},
+        units=dict(rec.units),
+        events=dict(rec.events),
+        notes=notes,
+        meta=dict(rec.meta),
+    )
+
+
+def _is_sparse(name: str, x: np.ndarray) -> bool:
+    return name in SPARSE_CHANNELS or (x.size > 0 and np.count_nonzero(np.isfinite(x)) < x.size / 2)
+
+
+def _interp_linear(t: np.ndarray, x: np.ndarray, grid: np.ndarray, max_gap: float) -> np.ndarray:
+    n = t.size
+    if n == 1:
+        return np.where(grid == t[0], x[0], np.nan)
+    i = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, n - 2)
+    t0, t1 = t[i], t[i + 1]
+    w = (grid - t0) / (t1 - t0)
+    x0, x1 = x[i], x[i + 1]
+    with np.errstate(invalid="ignore"):
+        y = (1.0 - w) * x0 + w * x1
+    y = np.where(w == 0.0, x0, np.where(w == 1.0, x1, y))
+    inside = (w == 0.0) | (w == 1.0) | ((t1 - t0) <= max_gap)
+    outside = (grid < t[0]) | (grid > t[-1])
+    return np.where(inside & ~outside, y, np.nan)
+
+
+def _place_nearest(t: np.ndarray, x: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    out = np.full(grid.size, np.nan)
+    fin = np.flatnonzero(np.isfinite(x))
+    if fin.size == 0 or grid.size == 0:
+        return out
+    tf = t[fin]
+    j = np.clip(np.searchsorted(grid, tf), 1, max(grid.size - 1, 1))
+    if grid.size > 1:
+        j = np.where(np.abs(grid[j - 1] - tf) <= np.abs(grid[j] - tf), j - 1, j)
+    else:
+        j = np.zeros_like(j)
+    out[j] = x[fin]  # later fixes overwrite earlier ones landing on the same grid point
+    return out
+
+
+def resample_uniform(
+    rec: Recording, fs: float | None = None, *, max_gap: float | None = None
+) -> Recording:
+    """Resample every channel of ``rec`` onto a uniform time grid by linear interpolation.
+
+    Parameters
+    ----------
+    rec : recording with strictly increasing ``t``
+    fs : Hz, output rate; default the median input rate ``1 / median(diff(t))``
+    max_gap : s, longest interval between two input samples that is bridged by interpolation;
+        grid points inside longer gaps are NaN. Default ``5 * median(diff(t))``.
+
+    Returns
+    -------
+    Recording on ``t_k = t_0 + k / fs``, ``k = 0 .. floor((t_end - t_0) fs)``, same channels
+    (dense ones interpolated, sparse ones moved to the nearest grid point, see module docstring),
+    events untouched, and a note describing the method.
+    """
+    name = rec.source or "recording"
+    if rec.t.size < 2:
+        raise InputError(f"{name}: need at least 2 samples to resample")
+    check_increasing(rec.t, name)
+    dt_med = float(np.median(np.diff(rec.t)))
+    fs = 1.0 / dt_med if fs is None else float(fs)
+    if not np.isfinite(fs) or fs <= 0:
+        raise ParameterError(f"{name}: resampling rate must be positive, got {fs}")
+    max_gap = 5.0 * dt_med if max_gap is None else float(max_gap)
+    t0 = float(rec.t[0])
+    n = int(np.floor((rec.t[-1] - t0) * fs * (1.0 + 1e-12))) + 1
+    grid = t0 + np.arange(n) / fs
+    gi = np.minimum(grid, rec.t[-1])  # the last grid point may overshoot t_end by rounding
+    chans = {}
+    sparse = []
+    for k, x in rec.channels.items():
+        if _is_sparse(k, x):
+            chans[k] = _place_nearest(rec.t, x, grid)
+            sparse.append(k)
+        else:
+            chans[k] = _interp_linear(rec.t, x, gi, max_gap)
+    note = (
+        f"resampled to a uniform {fs:.6g} Hz grid by linear interpolation between neighbouring "
+        f"samples (NaN across gaps > {max_gap:.3g} s)"
+    )
+    if sparse:
+        note += f"; sparse channels {', '.join(sparse)} moved to the nearest grid point"
+    meta = dict(rec.meta)
+    meta["resampled"] = {"fs": fs, "max_gap": max_gap, "method": "linear", "fs_in": 1.0 / dt_med}
+    return replace(
+        rec,
+        t=grid,
+        channels=chans,
+        units=dict(rec.units),
+        events=dict(rec.events),
+        notes=[*rec.notes, note],
+        meta=meta,
+    )
+
+
+def find_gaps(t: np.ndarray, factor: float = 3.0) -> list[tuple[float, float]]:
+    """Intervals ``(t_start, t_end)`` between consecutive samples longer than ``factor`` times the
+    median period (s). ``t_start`` is the last sample before the gap, ``t_end`` the first after."""
+    t = np.asarray(t, dtype=np.float64)
+    if t.size < 3:
+        return []
+    d = np.diff(t)
+    lim = factor * float(np.median(d))
+    idx = np.flatnonzero(d > lim)
+    return [(float(t[i]), float(t[i + 1])) for i in idx]
+
+
+def split_at_gaps(rec: Recording, min_gap: float) -> list[Recording]:
+    """Split ``rec`` into pieces wherever two consecutive samples are more than ``min_gap`` s apart.
+
+    Events go to the piece whose time span ``[t_first, t_first_of_next)`` contains them.
+    """
+    if min_gap <= 0:
+        raise ParameterError(f"min_gap must be positive, got {min_gap}")
+    if rec.t.size == 0:
+        return []
+    cut = np.flatnonzero(np.diff(rec.t) > min_gap) + 1
+    bounds = [0, *cut.tolist(), rec.t.size]
+    pieces = []
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        lo = rec.t[a]
+        hi = rec.t[b] if b < rec.t.size else np.inf
+        ev = {k: v[(v >= lo) & (v < hi)] for k, v in rec.events.items()}
+        if a == 0:
+            ev = {k: v[v < hi] for k, v in rec.events.items()}
+        note = f"piece {len(pieces) + 1} of {len(bounds) - 1} after splitting at gaps > {min_gap} s"
+        pieces.append(
+            replace(
+                rec,
+                t=rec.t[a:b],
+                channels={k: v[a:b] for k, v in rec.channels.items()},
+                units=dict(rec.units),
+                events=ev,
+                notes=[*rec.notes, note] if len(bounds) > 2 else list(rec.notes),
+                meta=dict(rec.meta),
+            )
+        )
+    return pieces
+
+
+def check_nyquist(fs: float, M: int, omega_max: float, source: str = "") -> None:
+    """Raise :class:`ParameterError` unless harmonic ``M`` of ``omega_max`` stays below Nyquist.
+
+    Harmonic m of a wheel turning at omega (rad/s) is a tone at ``m omega / (2 pi)`` Hz, so all
+    of 1..M are representable at sample rate ``fs`` only if ``M omega_max < pi fs``
+    (METHODS.md sec. 1; thesis sec. 2.1).
+    """
+    where = f"{source}: " if source else ""
+    if M < 1 or not np.isfinite(omega_max) or omega_max <= 0 or not fs > 0:
+        raise ParameterError(f"{where}need M >= 1, omega_max > 0 and fs > 0 (got {M}, "
+                             f"{omega_max}, {fs})")
+    limit = np.pi * fs / M
+    if omega_max >= limit:
+        raise ParameterError(
+            f"{where}sample rate {fs:.6g} Hz is too low for M = {M} harmonics up to omega_max = "
+            f"{omega_max:.6g} rad/s (M*omega_max must stay below pi*fs = {np.pi * fs:.6g} rad/s); "
+            f"the maximum omega allowed is {limit:.6g} rad/s, or raise fs above "
+            f"{M * omega_max / np.pi:.6g} Hz"
+        )
+
+
+def describe_timebase(rec: Recording, *, gap_factor: float = 3.0) -> list[str]:
+    """Notes on jitter and gaps of ``rec.t`` (empty if uniform and gap-free)."""
+    t = rec.t
+    if t.size < 3:
+        return []
+    d = np.diff(t)
+    med = float(np.median(d))
+    notes = []
+    gaps = find_gaps(t, gap_factor)
+    if not rec.is_uniform(1e-3):
+        dd = d[d <= gap_factor * med]
+        jit = float(np.std(dd)) if dd.size else 0.0
+        notes.append(
+            f"non-uniform time line: median period {med * 1e3:.4g} ms ({1.0 / med:.5g} Hz), "
+            f"jitter (std) {jit * 1e3:.3g} ms; resample for estimators that need a uniform rate"
+        )
+    if gaps:
+        longest = max(b - a for a, b in gaps)
+        notes.append(
+            f"{len(gaps)} time gap(s) longer than {gap_factor:g} periods, longest {longest:.4g} s "
+            f"(first at t = {gaps[0][0]:.6g} s)"
+        )
+    return notes

@@ -1,0 +1,1 @@
+"""Signal transforms with explicit state: pre-filters, spectra, differentiators, detectors."""
