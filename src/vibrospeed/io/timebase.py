@@ -30,6 +30,8 @@ __all__ = [
     "check_nyquist",
     "describe_timebase",
     "find_gaps",
+    "interp_onto",
+    "place_nearest",
     "resample_uniform",
     "sort_dedup",
     "split_at_gaps",
@@ -110,7 +112,12 @@ def _is_sparse(name: str, x: np.ndarray) -> bool:
     return name in SPARSE_CHANNELS or (x.size > 0 and np.count_nonzero(np.isfinite(x)) < x.size / 2)
 
 
-def _interp_linear(t: np.ndarray, x: np.ndarray, grid: np.ndarray, max_gap: float) -> np.ndarray:
+def interp_onto(t: np.ndarray, x: np.ndarray, grid: np.ndarray, max_gap: float) -> np.ndarray:
+    """Linear interpolation of samples ``(t, x)`` at times ``grid`` (no extrapolation).
+
+    NaN where ``grid`` is outside ``[t_0, t_end]``, where a neighbouring sample is NaN, or where
+    the neighbours are more than ``max_gap`` s apart (unless ``grid`` hits a sample exactly).
+    """
     n = t.size
     if n == 1:
         return np.where(grid == t[0], x[0], np.nan)
@@ -126,7 +133,12 @@ def _interp_linear(t: np.ndarray, x: np.ndarray, grid: np.ndarray, max_gap: floa
     return np.where(inside & ~outside, y, np.nan)
 
 
-def _place_nearest(t: np.ndarray, x: np.ndarray, grid: np.ndarray) -> np.ndarray:
+def place_nearest(t: np.ndarray, x: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """Put each finite sample ``x_i`` at the grid point nearest ``t_i``; NaN elsewhere.
+
+    A sample is seen exactly once on the grid; when two land on the same point the later wins.
+    Samples outside ``[grid_0, grid_end]`` land on the end points (callers trim them first).
+    """
     out = np.full(grid.size, np.nan)
     fin = np.flatnonzero(np.isfinite(x))
     if fin.size == 0 or grid.size == 0:
@@ -176,10 +188,10 @@ def resample_uniform(
     sparse = []
     for k, x in rec.channels.items():
         if _is_sparse(k, x):
-            chans[k] = _place_nearest(rec.t, x, grid)
+            chans[k] = place_nearest(rec.t, x, grid)
             sparse.append(k)
         else:
-            chans[k] = _interp_linear(rec.t, x, gi, max_gap)
+            chans[k] = interp_onto(rec.t, x, gi, max_gap)
     note = (
         f"resampled to a uniform {fs:.6g} Hz grid by linear interpolation between neighbouring "
         f"samples (NaN across gaps > {max_gap:.3g} s)"

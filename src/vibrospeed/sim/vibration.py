@@ -218,7 +218,7 @@ def _resonator_noise(n: int, fs: float, f0: float, q: float, rng: np.random.Gene
     imp = np.zeros(m)
     imp[0] = 1.0
     gain = np.sqrt(np.sum(sps.lfilter(b, a, imp) ** 2))
-    burn = min(m, 4 * n + 64)
+    burn = m
     x = rng.standard_normal((size, n + burn))
     return sps.lfilter(b, a, x, axis=-1)[:, burn:] / gain
 
@@ -241,8 +241,8 @@ def vibration(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, speed: np.nda
 
     # wheel harmonics -----------------------------------------------------------------------
     m = np.arange(1, M + 1, dtype=np.float64)
-    law = (np.maximum(omega, 0.0) / cfg.omega_ref) ** cfg.gamma if cfg.gamma != 0 else (
-        np.where(omega > 0, 1.0, 0.0))
+    # (omega / omega_ref)^gamma, and 0 at standstill whatever gamma (no rotation, no vibration)
+    law = np.where(omega > 0, (np.maximum(omega, 0.0) / cfg.omega_ref) ** cfg.gamma, 0.0)
     u = ou_process(n, dt, cfg.amp_tau, cfg.amp_log_std, streams[0], (M, 3))  # (M, 3, n)
     fades = []
     f = np.ones((M, n))

@@ -1,0 +1,245 @@
+"""Generic CSV with a column mapping: any delimited text file with a header row.
+
+A mapping names, for each wanted channel, the file's column and how to bring it to SI::
+
+    value_SI = (raw * scale + offset) * UNITS[unit].factor
+
+On the command line (:func:`parse_mapping`)::
+
+    t=time:ms,ay=acc_y:g,gz=yaw*0.01:deg/s      # NAME=COLUMN[*SCALE][:UNIT]
+
+or in a small TOML file (:func:`load_mapping`)::
+
+    rate = 198.4          # Hz; only for files without a time column: t = i / rate
+    delimiter = ","       # optional; sniffed from the header otherwise
+    decimal = "."         # optional decimal mark
+    [columns]
+    ay = "acc_y"                                        # plain column, already SI
+    t  = { column = "time", unit = "ms" }
+    ax = { column = "c1", scale = 0.00478 }             # raw counts -> m/s^2, explicit scale
+    gz = { column = "yaw", unit = "deg/s", offset = -0.3 }
+
+Only mapped columns are parsed; the rest of the file is ignored (text columns such as dates do no
+harm).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from vibrospeed.errors import ParameterError, ReaderError
+from vibrospeed.io._common import finish
+from vibrospeed.io._csv import CsvTable, nan_notes, open_text
+from vibrospeed.types import CHANNEL_UNITS, Recording
+
+__all__ = ["UNITS", "ColumnSpec", "load_mapping", "parse_mapping", "read_mapped"]
+
+#: unit name -> (factor to SI, SI unit)
+UNITS: dict[str, tuple[float, str]] = {
+    "m/s^2": (1.0, "m/s^2"),
+    "m/s2": (1.0, "m/s^2"),
+    "g": (9.80665, "m/s^2"),
+    "mg": (9.80665e-3, "m/s^2"),
+    "rad/s": (1.0, "rad/s"),
+    "deg/s": (math.pi / 180.0, "rad/s"),
+    "rpm": (2.0 * math.pi / 60.0, "rad/s"),
+    "m/s": (1.0, "m/s"),
+    "km/h": (1.0 / 3.6, "m/s"),
+    "kmh": (1.0 / 3.6, "m/s"),
+    "mph": (0.44704, "m/s"),
+    "kn": (1852.0 / 3600.0, "m/s"),
+    "s": (1.0, "s"),
+    "ms": (1e-3, "s"),
+    "us": (1e-6, "s"),
+    "ns": (1e-9, "s"),
+    "rad": (1.0, "rad"),
+    "deg": (math.pi / 180.0, "rad"),
+    "m": (1.0, "m"),
+    "1": (1.0, "1"),
+    "counts": (1.0, "1"),
+}
+
+
+class ColumnSpec(NamedTuple):
+    """Where a channel comes from: ``value_SI = (raw * scale + offset) * UNITS[unit][0]``."""
+
+    column: str
+    scale: float = 1.0
+    offset: float = 0.0
+    unit: str | None = None
+
+    def factor(self) -> float:
+        return 1.0 if self.unit is None else UNITS[self.unit][0]
+
+
+def _check_unit(unit: str, where: str) -> str:
+    if unit not in UNITS:
+        raise ParameterError(f"{where}: unknown unit '{unit}' (known: {', '.join(UNITS)})")
+    return unit
+
+
+def _finite(x: Any, what: str, where: str) -> float:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{where}: {what} '{x}' is not a number") from None
+    if not math.isfinite(v):
+        raise ParameterError(f"{where}: {what} must be finite, got {x}")
+    return v
+
+
+def parse_mapping(text: str) -> dict[str, ColumnSpec]:
+    """Parse ``"t=time,ay=acc_y"``-style mappings: ``NAME=COLUMN[*SCALE][:UNIT]`` items.
+
+    >>> parse_mapping("t=time:ms,ay=acc_y:g")["ay"]
+    ColumnSpec(column='acc_y', scale=1.0, offset=0.0, unit='g')
+    """
+    out: dict[str, ColumnSpec] = {}
+    for item in text.split(","):
+        item = item.strip()
+        if not item:
+            continue
+        name, eq, col = item.partition("=")
+        name, col = name.strip(), col.strip()
+        if not eq or not name or not col:
+            raise ParameterError(f"column mapping '{item}': expected NAME=COLUMN (e.g. ay=acc_y)")
+        if name in out:
+            raise ParameterError(f"column mapping: '{name}' is given twice")
+        unit = None
+        head, colon, tail = col.rpartition(":")
+        if colon and tail.strip() in UNITS:
+            col, unit = head.strip(), tail.strip()
+        scale = 1.0
+        head, star, tail = col.rpartition("*")
+        if star:
+            try:
+                scale = _finite(tail, "scale", f"column mapping '{item}'")
+                col = head.strip()
+            except ParameterError:
+                pass  # a '*' that belongs to the column name
+        out[name] = ColumnSpec(col, scale, 0.0, unit)
+    if not out:
+        raise ParameterError("column mapping is empty")
+    return out
+
+
+def load_mapping(path: str | os.PathLike[str]) -> tuple[dict[str, ColumnSpec], dict[str, Any]]:
+    """Read a TOML mapping file; returns ``(columns, options)`` with options among ``rate``,
+    ``delimiter``, ``decimal``."""
+    p = Path(path)
+    if not p.is_file():
+        raise ReaderError(p, "mapping file not found")
+    try:
+        doc = tomllib.loads(p.read_text(encoding="utf-8-sig"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ReaderError(p, f"not a valid TOML mapping ({exc})") from None
+    cols = doc.get("columns")
+    if not isinstance(cols, dict) or not cols:
+        raise ReaderError(p, "needs a [columns] table, e.g. ay = \"acc_y\"")
+    out: dict[str, ColumnSpec] = {}
+    for name, spec in cols.items():
+        where = f"{p}: columns.{name}"
+        if isinstance(spec, str):
+            out[name] = ColumnSpec(spec)
+            continue
+        if not isinstance(spec, dict) or not isinstance(spec.get("column"), str):
+            raise ParameterError(f"{where}: give a column name or {{ column = \"...\", ... }}")
+        unknown = set(spec) - {"column", "scale", "offset", "unit"}
+        if unknown:
+            raise ParameterError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+        unit = spec.get("unit")
+        out[name] = ColumnSpec(
+            spec["column"],
+            _finite(spec.get("scale", 1.0), "scale", where),
+            _finite(spec.get("offset", 0.0), "offset", where),
+            None if unit is None else _check_unit(str(unit), where),
+        )
+    opts = {}
+    unknown = set(doc) - {"columns", "rate", "delimiter", "decimal"}
+    if unknown:
+        raise ParameterError(f"{p}: unknown key(s) {', '.join(sorted(unknown))}")
+    if "rate" in doc:
+        opts["rate"] = _finite(doc["rate"], "rate", str(p))
+    for k in ("delimiter", "decimal"):
+        if k in doc:
+            if not isinstance(doc[k], str) or len(doc[k]) != 1:
+                raise ParameterError(f"{p}: {k} must be one character")
+            opts[k] = doc[k]
+    return out, opts
+
+
+def read_mapped(
+    path: str | os.PathLike[str],
+    *,
+    columns: str | dict[str, ColumnSpec] | None = None,
+    mapping_file: str | os.PathLike[str] | None = None,
+    rate: float | None = None,
+    sort: bool = False,
+) -> Recording:
+    """Read a delimited text file through a column mapping (see module docstring).
+
+    Parameters
+    ----------
+    columns : ``"t=time,ay=acc_y"`` string or a parsed mapping; overrides ``mapping_file`` items
+    mapping_file : TOML mapping file
+    rate : Hz; required when no ``t`` column is mapped, then ``t = i / rate`` (i = 0, 1, ...)
+    sort : sort by time and drop repeated timestamps instead of refusing them
+    """
+    p = Path(path)
+    spec: dict[str, ColumnSpec] = {}
+    opts: dict[str, Any] = {}
+    if mapping_file is not None:
+        spec, opts = load_mapping(mapping_file)
+    if columns is not None:
+        spec.update(parse_mapping(columns) if isinstance(columns, str) else dict(columns))
+    if not spec:
+        raise ParameterError(f"{p}: a column mapping is needed (e.g. --columns t=time,ay=acc_y)")
+    if rate is None:
+        rate = opts.get("rate")
+    if "t" in spec and rate is not None:
+        raise ParameterError(f"{p}: give either a time column 't' or a sample rate, not both")
+    if "t" not in spec:
+        if rate is None:
+            raise ParameterError(
+                f"{p}: no time column mapped; map one (t=COLUMN) or give the sample rate (rate=Hz)"
+            )
+        if not (math.isfinite(rate) and rate > 0):
+            raise ParameterError(f"{p}: sample rate must be positive, got {rate}")
+    for name, s in spec.items():
+        if s.unit is not None:
+            _check_unit(s.unit, f"column mapping '{name}'")
+    with open_text(p) as fh:
+        tab = CsvTable(fh, str(p), delimiter=opts.get("delimiter"), decimal=opts.get("decimal", "."))
+        srcs = list(dict.fromkeys(s.column for s in spec.values()))
+        raw, lines = tab.read(srcs)
+    notes = list(tab.notes)
+    tcol = spec["t"].column if "t" in spec else None
+    notes.extend(nan_notes({c: x for c, x in raw.items() if c != tcol}, str(p)))
+    chans: dict[str, np.ndarray] = {}
+    units: dict[str, str] = {}
+    for name, s in spec.items():
+        x = raw[s.column]
+        if s.scale != 1.0 or s.offset != 0.0 or s.unit is not None:
+            x = (x * s.scale + s.offset) * s.factor()
+        chans[name] = x
+        units[name] = UNITS[s.unit][1] if s.unit else CHANNEL_UNITS.get(name, "")
+    mapping_text = ", ".join(
+        f"{k}<-{s.column}" + (f"*{s.scale:g}" if s.scale != 1 else "")
+        + (f"+{s.offset:g}" if s.offset else "") + (f" [{s.unit}]" if s.unit else "")
+        for k, s in spec.items()
+    )
+    notes.append(f"columns mapped: {mapping_text}")
+    if "t" in chans:
+        t = chans.pop("t")
+        units.pop("t", None)
+    else:
+        t = np.arange(lines.size) / rate
+        notes.append(f"no time column: t = i / {rate:g} Hz")
+    return finish(t, chans, source=str(p), lines=lines, sort=sort, units=units, notes=notes,
+                  meta={"mapping": {k: s._asdict() for k, s in spec.items()}, "rate": rate})
