@@ -58,6 +58,13 @@ def check_nyquist(fs: float, M: int, omega_max: float, source: str = "recording"
         )
 
 
+def start_level(x: np.ndarray, dt: float, seconds: float = 1.0) -> float:
+    """Mean of the finite samples in the first ``seconds``: the pre-filter's resting level."""
+    head = x[: max(1, int(round(seconds / dt)))]
+    head = head[np.isfinite(head)]
+    return float(np.mean(head)) if head.size else float("nan")
+
+
 def prepare_axis(
     recording: Recording,
     axis: str,
@@ -80,7 +87,7 @@ def prepare_axis(
     if n_nan:
         notes.append(f"{n_nan} NaN samples on '{name}': prediction only there")
     sos = pf.design(prefilter, fs, M=M)
-    y = pf.apply(sos, x)
+    y = pf.apply(sos, x, level=start_level(x, dt))
     notes.append(f"pre-filter '{prefilter}' on '{name}' at fs = {fs:.4g} Hz")
     if normalize_tau:
         y = running_rms_normalize(y, dt, normalize_tau)

@@ -41,6 +41,9 @@ class Config:
     amp0 : initial value of every alpha, beta (thesis: 10, which is far from the truth on
         purpose; 0 is a neutral choice). p0_amp of the model is their variance (thesis: 20).
     omega_max : upper clip in rad/s; None = 0.98 * pi * fs / M.
+    omega_min : lower clip in rad/s (default 0). Below the pre-filter's high-pass corner a
+        vibration line cannot be seen, and an EKF whose omega drifts there collapses onto slow
+        phasors that absorb any low-frequency residue; :func:`estimate` clips at 2 rad/s.
     """
 
     model: HarmonicModel = field(default_factory=HarmonicModel.from_thesis)
@@ -48,6 +51,7 @@ class Config:
     p0_omega: float = 10.0
     amp0: float = 0.0
     omega_max: float | None = None
+    omega_min: float = 0.0
 
     def __post_init__(self) -> None:
         if not self.p0_omega > 0:
@@ -97,7 +101,7 @@ def init(config: Config) -> State:
 
 
 @njit(cache=True)
-def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_max, out):
+def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_min, om_max, out):
     """In place: update x, P with y (skip if NaN), write outputs, predict. ``out`` (4+M,)."""
     n = x.size
     # ---- measurement update: y = sum alpha + e --------------------------------------
@@ -147,6 +151,8 @@ def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_max, out):
                 P[i, j] *= si * sj
     if x[0] > om_max:
         x[0] = om_max
+    if x[0] < om_min:
+        x[0] = om_min
     # ---- outputs (posterior at this sample) --------------------------------------------
     out[0] = x[0]
     out[1] = np.sqrt(max(P[0, 0], 0.0))
@@ -191,19 +197,19 @@ def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_max, out):
 
 
 @njit(cache=True)
-def _ekf_run(ys, x, P, M, T, q_om, q_amp, r, om_max):
+def _ekf_run(ys, x, P, M, T, q_om, q_amp, r, om_min, om_max):
     n_s = ys.size
     outs = np.empty((n_s, 4 + M))
     out = np.empty(4 + M)
     for k in range(n_s):
-        _ekf_step(x, P, ys[k], M, T, q_om, q_amp, r, om_max, out)
+        _ekf_step(x, P, ys[k], M, T, q_om, q_amp, r, om_min, om_max, out)
         outs[k] = out
     return outs
 
 
 def _args(config: Config) -> tuple:
     m = config.model
-    return (m.M, m.dt, m.q_omega, m.q_amp, m.r, config.omega_limit)
+    return (m.M, m.dt, m.q_omega, m.q_amp, m.r, config.omega_min, config.omega_limit)
 
 
 def step(config: Config, state: State, y: float) -> tuple[State, Estimate]:
@@ -236,10 +242,11 @@ def run(config: Config, y: np.ndarray, state: State | None = None) -> Result:
 
 
 # ---------------------------------------------------------------------------------------------
-#: defaults of :func:`estimate` for a running-RMS-normalised (unit power) signal: measurement
-#: noise 10 % of the signal power, amplitude random walk 1 %/s, omega random walk 16 (rad/s)^2/s
-#: (thesis Q_omega at 100 Hz). Chosen on the eq. 2.6 signal (R matched to its noise).
-UNIT_RMS_MODEL = dict(M=3, q_omega=16.0, q_amp=0.01, r=0.1, p0_amp=1.0)
+#: defaults of :func:`estimate` for a running-RMS-normalised (unit power) signal: M = 2 (the
+#: thesis' best, table 3.1; an EKF with more harmonics than the signal carries is easily dragged
+#: off the line), measurement noise 10 % of the signal power, amplitude random walk 1 % of the
+#: power per second, omega random walk 4 (rad/s)^2/s (paper Table I).
+UNIT_RMS_MODEL = dict(M=2, q_omega=4.0, q_amp=0.01, r=0.1, p0_amp=1.0)
 
 
 def estimate(
@@ -255,7 +262,7 @@ def estimate(
     ``params`` may set any :class:`Config` field (``omega0``, ``p0_omega``, ``amp0``,
     ``omega_max``), any :class:`HarmonicModel` field (``M``, ``q_omega``, ``q_amp``, ``r``,
     ``p0_amp``; ``dt`` comes from the data), ``prefilter`` (a preset of
-    :mod:`vibrospeed.signal.prefilter`, default ``thesis-hp``) and ``normalize_tau`` (s, running
+    :mod:`vibrospeed.signal.prefilter`, default ``thesis-hp``) ``omega_min`` (default 2 rad/s) and ``normalize_tau`` (s, running
     RMS normalisation; 0 = off, then the parameters are in the signal's own units and the
     thesis' values apply: ``r=0.003 q_amp=0.004 p0_amp=20``).
     """
@@ -269,6 +276,7 @@ def estimate(
     defaults = dict(UNIT_RMS_MODEL) if tau > 0 else HarmonicModel.from_thesis().to_dict()
     defaults.pop("dt", None)
     model = config_from_params(HarmonicModel, model_kw, dt=1.0, **defaults)
+    cfg_kw.setdefault("omega_min", 2.0)
     config = config_from_params(Config, cfg_kw, model=model)
     y, dt, notes = prepare_axis(recording, axis, prefilter=pre, M=model.M,
                                 omega_max=config.omega_max, normalize_tau=tau or None)

@@ -80,6 +80,7 @@ class Config:
     r_gps_slope: float = 72.0
     e_max: float = 5.0
     adaptive: bool = True
+    error_mode: str = "innovation"
     min_sats: float = 7.0
     gain: float = 1.0
     pitch_compensation: bool = False
@@ -102,6 +103,10 @@ class Config:
         for name in ("r_gps_slope", "e_max", "q_drift", "q_offset", "min_sats"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.error_mode not in ("innovation", "states"):
+            raise ParameterError(
+                f"error_mode must be 'innovation' or 'states', got '{self.error_mode}'"
+            )
         if len(self.pitch_poly) < 1:
             raise ParameterError("pitch_poly needs at least one coefficient")
 
@@ -121,6 +126,7 @@ class Config:
             self.r_acc_ins, self.r_acc_gps, self.r_gps, self.r_gps_slope, self.e_max,
             float(self.adaptive), self.min_sats, self.gain, float(self.pitch_compensation),
             float(self.offset_estimation), self.q_drift, self.q_offset, self.r_drift,
+            float(self.error_mode == "innovation"),
         ], dtype=np.float64)
         return self.lag.as_array(), p, np.array(self.pitch_poly, dtype=np.float64)
 
@@ -299,15 +305,19 @@ def _step_core(lagp, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw, gps, sats
         z[m] = gps
         r[m] = p[7]
         # 4. KF2 with fixed R (eq. 18), then E and the adaptive R22 (eq. 13)
-        _kf_update(x2, P2, h_idx, z, r, m + 1)
-        e = abs(x2[2] - lz[0])
+        if p[18] > 0.5:  # "innovation": fix against the lagged KF2 speed, before the update
+            e = abs(gps - lz[0])
+            _kf_update(x2, P2, h_idx, z, r, m + 1)
+        else:  # "states" (paper VI-c): KF2's x3 against its x1 passed through the lag model
+            _kf_update(x2, P2, h_idx, z, r, m + 1)
+            e = abs(x2[2] - lz[0])
         sc[1] = min(max(e, 0.0), p[9])
         r22 = p[7] + p[8] * sc[1] if p[10] > 0.5 else p[7]
         r[m] = r22
         _kf_update(x, P, h_idx, z, r, m + 1)
         # 5. drift filter update (eq. 17): observes integral(a) - x1
         if use_off:
-            s = Pod[0, 0] + p[17]
+            s = Pod[0, 0] + p[17] * (r22 / p[7])  # weighted down like the GPS itself
             k0 = Pod[0, 0] / s
             k1 = Pod[1, 0] / s
             innov = (sc[2] - x[0]) - od[0]

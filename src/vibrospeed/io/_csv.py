@@ -25,7 +25,8 @@ CHUNK_ROWS = 65536
 
 
 def _short(s: str, n: int = 24) -> str:
-    s = s.replace("\n", " ").replace("\r", " ")
+    """``s`` shortened to ``n`` characters, control characters escaped (messages stay one line)."""
+    s = "".join(c if c.isprintable() else repr(c)[1:-1] for c in s)
     return s if len(s) <= n else s[: n - 3] + "..."
 
 

@@ -103,9 +103,17 @@ class PrefilterState(NamedTuple):
     started: bool
 
 
-def init(sos: np.ndarray) -> PrefilterState:
-    """Empty streaming state; the first sample sets the steady-state initial conditions."""
-    return PrefilterState(np.zeros((sos.shape[0], 2)), False)
+def init(sos: np.ndarray, level: float | None = None) -> PrefilterState:
+    """Streaming state at rest on a constant input ``level``.
+
+    ``None``: the first sample sets the level. A better level is the mean of the first second
+    (a device can buffer it): starting at ``x[0]`` turns the vibration's own value at that
+    instant into a step that the high-pass rings out for about a second, and that transient can
+    pull a tracker off a line.
+    """
+    if level is None or not np.isfinite(level):
+        return PrefilterState(np.zeros((sos.shape[0], 2)), False)
+    return PrefilterState(sps.sosfilt_zi(sos) * float(level), True)
 
 
 def step(sos: np.ndarray, state: PrefilterState, x: float) -> tuple[PrefilterState, float]:
@@ -117,17 +125,19 @@ def step(sos: np.ndarray, state: PrefilterState, x: float) -> tuple[PrefilterSta
     return PrefilterState(zf, True), float(y[0])
 
 
-def apply(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
+def apply(sos: np.ndarray, x: np.ndarray, level: float | None = None) -> np.ndarray:
     """Filter a whole signal causally; NaN samples pass as NaN and leave the state unchanged.
 
-    Equals repeated :func:`step` (NaN-free runs are filtered in one ``sosfilt`` call each).
+    ``level``: the constant input the filter is at rest on before the first sample (see
+    :func:`init`); None = the first finite sample. Equals repeated :func:`step` from
+    ``init(sos, level)`` (NaN-free runs are filtered in one ``sosfilt`` call each).
     """
     x = np.asarray(x, dtype=np.float64)
     y = np.full_like(x, np.nan)
     finite = np.isfinite(x)
     if not finite.any():
         return y
-    zi = None
+    zi = None if level is None or not np.isfinite(level) else sps.sosfilt_zi(sos) * float(level)
     # contiguous runs of finite samples; the state carries over NaN gaps unchanged
     idx = np.flatnonzero(finite)
     breaks = np.flatnonzero(np.diff(idx) > 1) + 1

@@ -247,17 +247,18 @@ def gps_jump(
     size: float = 3.0,
     **kw,
 ) -> Recording:
-    """60 s with receiver jumps (paper section VI-c): three times the receiver switches solution
-    and its speed is off by about ``size`` m/s (random sign) for 1.5-3 s."""
+    """60 s with receiver jumps (paper section VI-c): three times the receiver switches solution,
+    its position jumps and the speed it derives is off by about ``size`` m/s (random sign) for a
+    0.4-1 s transient (raised-cosine edges of 0.1 s)."""
     t = _timeline(60.0, fs)
     a = _smooth_profile(t, [(8.0, 1.5), (11.0, 0.0), (30.0, -1.5), (33.0, 0.0), (45.0, 1.0),
                             (48.0, 0.0)], rise=0.4)
     err = np.zeros(t.size)
     for t0 in (15.0, 36.0, 52.0):
         t0 = t0 + rng.uniform(-2.0, 2.0)
-        d = rng.uniform(1.5, 3.0)
+        d = rng.uniform(0.4, 1.0)
         amp = size * rng.uniform(0.8, 1.2) * rng.choice([-1.0, 1.0])
-        err += amp * (_smooth_profile(t, [(t0, 1.0), (t0 + d, 0.0)], rise=0.2))
+        err += amp * (_smooth_profile(t, [(t0, 1.0), (t0 + d, 0.0)], rise=0.1))
     return drive(t, a, 15.0, rng=rng, lag=lag, gps_error=err, source="sim/gps/gps_jump",
                  meta={"gps_error": err}, **kw)
 

@@ -135,24 +135,35 @@ class SpeedProfile:
             raise ParameterError("speed profile: need increasing t and v of the same length >= 2")
         return cls(t, np.diff(v) / np.diff(t), v0=float(v[0]), jerk_time=0.0)
 
+    def with_turns(self, turns: tuple[Turn, ...]) -> SpeedProfile:
+        """Same speed profile with the given turns."""
+        return SpeedProfile(self.breaks, self.a_cmd[:-1], v0=self.v0, jerk_time=self.jerk_time,
+                            turns=tuple(turns), segments=self.segments)
+
     # -- exact evaluation ---------------------------------------------------------------------
     def _cum(self, t: np.ndarray, order: int) -> np.ndarray:
         """``int^order a_cmd`` from breaks[0] to t; order 1 -> C, 2 -> D, 3 -> E."""
+        return self._cums(t, order)[order]
+
+    def _cums(self, t: np.ndarray, top: int) -> list[np.ndarray]:
+        """``[a_cmd, C, D, E][:top + 1]`` at t (0 before breaks[0]), one block search."""
         t = np.asarray(t, dtype=np.float64)
         b = self.breaks
-        i = np.clip(np.searchsorted(b, t, side="right") - 1, 0, b.size - 1)
-        s = t - b[i]
-        a = self.a_cmd[i]
-        C, D, E = self._C[i], self._D[i], self._E[i]
-        if order == 0:
-            out = a
-        elif order == 1:
-            out = C + a * s
-        elif order == 2:
-            out = D + C * s + a * s * s / 2.0
-        else:
-            out = E + D * s + C * s * s / 2.0 + a * s**3 / 6.0
-        return np.where(t < b[0], 0.0, out)
+        i = np.searchsorted(b, t, side="right") - 1
+        before = i < 0
+        i = np.maximum(i, 0)
+        s = np.where(before, 0.0, t - b[i])
+        a = np.where(before, 0.0, self.a_cmd[i])
+        out = [a]
+        if top >= 1:
+            C = self._C[i]
+            out.append(C + a * s)
+        if top >= 2:
+            D = self._D[i]
+            out.append(D + s * (C + a * s / 2.0))
+        if top >= 3:
+            out.append(self._E[i] + s * (D + s * (C / 2.0 + a * s / 6.0)))
+        return out
 
     def _smoothed(self, t: np.ndarray, order: int) -> np.ndarray:
         tau = self.jerk_time
@@ -179,6 +190,18 @@ class SpeedProfile:
         h = self.jerk_time / 2.0
         e = self._cum(t + h, 3) - self._cum(t - h, 3) - self._x_off
         return self.v0 * (t - self.t0) + e / self.jerk_time
+
+    def _speed_distance(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(speed(t), distance(t))`` sharing the block searches."""
+        if self.jerk_time == 0.0:
+            return self.speed(t), self.distance(t)
+        h = self.jerk_time / 2.0
+        up = self._cums(t + h, 3)
+        dn = self._cums(t - h, 3)
+        tau = self.jerk_time
+        v = self.v0 + (up[2] - dn[2]) / tau
+        x = self.v0 * (t - self.t0) + (up[3] - dn[3] - self._x_off) / tau
+        return np.where(v < 1e-9, 0.0, v), x
 
     def curvature(self, t: np.ndarray) -> np.ndarray:
         """Path curvature kappa (1/m), sum of the turns' sin^2 windows."""
@@ -211,10 +234,9 @@ class SpeedProfile:
         xl, xh = x[j - 1], x[j]
         frac = (targets - xl) / np.where(xh > xl, xh - xl, 1.0)
         tt = lo + frac * (hi - lo)
-        for _ in range(6):
-            v = self.speed(tt)
-            err = self.distance(tt) - targets
-            step = np.where(v > 0.0, err / np.where(v > 0.0, v, 1.0), 0.0)
+        for _ in range(3):  # quadratic convergence from a 1/fs bracket
+            v, x_t = self._speed_distance(tt)
+            step = np.where(v > 0.0, (x_t - targets) / np.where(v > 0.0, v, 1.0), 0.0)
             tt = np.clip(tt - step, lo, hi)
         return tt
 
@@ -234,14 +256,17 @@ def build_profile(
 
     ``accel`` / ``decel`` (m/s^2) are the default magnitudes for speed changes; ``jerk_time`` (s)
     the ramp time of every acceleration change (see the module docstring). A cruise or stop shorter
-    than ``jerk_time`` is allowed but its plateau is eaten by the neighbouring ramps.
+    than ``jerk_time`` is allowed but its plateau is eaten by the neighbouring ramps. Segments
+    are laid end to end from ``t0 + jerk_time / 2`` (a hold at ``v0`` first), so that the
+    smoothing ramps never reach before ``t0`` and ``speed(t0) == v0`` exactly.
     """
     if not segments:
         raise ParameterError("speed profile: no segments")
     v = float(v0)
-    t = float(t0)
-    breaks = [t]
-    acc: list[float] = []
+    # a hold of jerk_time/2 first, so the smoothing does not reach before t0: v(t0) = v0 exactly
+    t = float(t0) + jerk_time / 2.0
+    breaks = [float(t0), t]
+    acc: list[float] = [0.0]
     meta: list[dict] = []
     for k, seg in enumerate(segments):
         where = f"segment {k} ('{seg.kind}')"

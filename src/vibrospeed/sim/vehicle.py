@@ -65,13 +65,14 @@ class Config:
     R: float = 0.31  # m, wheel radius
     Iw: float = 1.2  # kg m^2 per wheel (wheel + share of drive line)
     mu: float = 0.7  # friction coefficient (seed: 0.5 / 0.7 / 0.9)
-    B: float = 10.0  # magic-formula stiffness factor
+    B: float = 10.0  # magic-formula stiffness factor (front tyres)
+    B_rear: float = 14.0  # rear tyres stiffer per unit load: an understeering car
     C: float = 1.6  # magic-formula shape factor
     CdA: float = 0.7  # m^2, drag area (rho = 1.2)
     v_eps: float = 1.0  # m/s, slip regularisation at low speed
     tau_load: float = 0.1  # s, lag of the load-transfer accelerations
     drive_front: float = 0.0  # share of drive torque on the front axle (0 = rear drive)
-    brake_front: float = 0.65  # share of brake torque on the front axle
+    brake_front: float = 0.7  # share of brake torque on the front axle
     abs_slip: float = 0.2  # |slip| above which ABS / traction control cuts torque (<= 0: off)
     abs_rate: float = 15.0  # 1/s, rate of the torque factor of ABS / traction control
     dt: float = 0.01  # s, output sample period
@@ -84,7 +85,8 @@ class Config:
     bias_ay: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("m", "Iz", "L1", "L2", "track", "R", "Iw", "mu", "B", "C", "dt", "v_eps"):
+        for name in ("m", "Iz", "L1", "L2", "track", "R", "Iw", "mu", "B", "B_rear", "C", "dt",
+                     "v_eps"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"vehicle parameter {name} must be > 0, got {getattr(self, name)}")
         if int(self.substeps) != self.substeps or self.substeps < 1:
@@ -101,7 +103,7 @@ class Config:
         return np.array([
             self.m, self.Iz, self.L1, self.L2, self.track, self.h_cg, self.R, self.Iw, self.mu,
             self.B, self.C, self.CdA, self.v_eps, self.tau_load, self.drive_front,
-            self.brake_front, self.abs_slip, self.abs_rate, self.dt / self.substeps,
+            self.brake_front, self.abs_slip, self.abs_rate, self.dt / self.substeps, self.B_rear,
         ])
 
 
@@ -142,7 +144,7 @@ def _substep(p, s, delta, t_drive, t_brake, out):
     """One Euler sub-step in place on the packed state ``s``; writes the outputs to ``out``."""
     m, Iz, L1, L2, tw, h, R, Iw, mu = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8]
     B, C, CdA, v_eps, tau_l = p[9], p[10], p[11], p[12], p[13]
-    dfront, bfront, abs_slip, abs_rate, h_dt = p[14], p[15], p[16], p[17], p[18]
+    dfront, bfront, abs_slip, abs_rate, h_dt, B_rear = p[14], p[15], p[16], p[17], p[18], p[19]
     vx, vy, wz = s[0], s[1], s[2]
     L = L1 + L2
     xw = np.array([L1, L1, -L2, -L2])
@@ -177,7 +179,8 @@ def _substep(p, s, delta, t_drive, t_brake, out):
         sn = np.sqrt(sx * sx + sy * sy)
         slip[i] = sx
         if sn > 1e-12:
-            F = mu * fzi * np.sin(C * np.arctan(B * sn))
+            Bi = B if i < 2 else B_rear
+            F = mu * fzi * np.sin(C * np.arctan(Bi * sn))
             fl = F * sx / sn
             ft = -F * sy / sn
         else:
@@ -328,14 +331,15 @@ def scenario(name: str, config: Config) -> tuple[float, np.ndarray]:
         v0 = 25.0
     elif name == "combined":
         T = 16.0
-        d = 0.04  # rad at the wheels: ~0.75 g kinematic demand at 22 m/s (L = 2.7 m)
+        d = 0.055 * config.mu / 0.9  # rad at the wheels; lateral demand ~0.8 mu g at 22 m/s
         knots = [
-            (0.0, 0, 0.02 * W, 0), (1.5, 0, 0.02 * W, 0), (2.5, d, 0.02 * W, 0),
-            (4.0, d, 0.02 * W, 0), (4.2, d, 0, 0.5 * W), (5.5, d, 0, 0.5 * W),
-            (5.7, d * 0.3, 0.02 * W, 0), (7.0, -d, 0.02 * W, 0), (8.5, -d, 0.02 * W, 0),
-            (8.7, -d, 0.35 * W, 0), (10.0, -d * 0.5, 0.35 * W, 0), (10.5, 0, 0.02 * W, 0),
-            (12.0, 0, 0.02 * W, 0), (12.2, 0, 0, 1.2 * W), (13.5, 0, 0, 1.2 * W),
-            (13.7, 0, 0.02 * W, 0), (T, 0, 0.02 * W, 0),
+            (0.0, 0, 0.02 * W, 0), (1.0, 0, 0.02 * W, 0), (2.0, d, 0.02 * W, 0),
+            (3.5, d, 0.02 * W, 0), (3.7, d, 0, 0.12 * W), (4.5, d, 0, 0.12 * W),
+            (5.0, 0, 0.02 * W, 0), (5.5, 0, 0, 0), (5.7, 0, 0, 1.2 * W), (7.0, 0, 0, 1.2 * W),
+            (7.2, 0, 0.02 * W, 0), (8.0, -d, 0.02 * W, 0), (10.0, -d, 0.02 * W, 0),
+            (10.2, -d, 0.1 * W, 0), (11.0, 0, 0.1 * W, 0), (11.5, 0, 0.02 * W, 0),
+            (12.0, 0, 0.8 * W, 0), (13.5, 0, 0.8 * W, 0), (13.7, 0, 0.02 * W, 0),
+            (T, 0, 0.02 * W, 0),
         ]
         v0 = 22.0
     elif name == "slalom":

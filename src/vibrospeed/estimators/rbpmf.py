@@ -1,0 +1,653 @@
+"""Rao-Blackwellized point-mass filter, the chassis-vibration paper's variant (paper III-D,
+Algorithm 1; METHODS.md 1.3).
+
+A fixed grid ``omega_j`` (j = 1..N) carries weights ``w_j`` and, per grid point, a Kalman filter
+(mean ``m_j`` (2M,), covariance ``P_j`` (2M, 2M)) of the phasor states of
+:class:`vibrospeed.models.harmonic.HarmonicModel`. One iteration, for sample ``y_k``:
+
+1. measurement update per grid point (:func:`vibrospeed.estimators.kalman.update_one`)::
+
+       log w_j += log N(y_k; h m_j, h P_j h' + r);   normalise in log space
+
+2. output: posterior mean, std, MAP and the ``level`` credible interval of omega from the grid
+   posterior (each mass spread uniformly over its cell, so quantiles interpolate);
+3. linear time update per *source* point i: ``m_i- = F(omega_i) m_i``,
+   ``P_i- = F(omega_i) P_i F(omega_i)' + T Q_lin`` (F from ``HarmonicModel.F(grid)``);
+4. transition ``w_ij = w_i K_ij`` with the random-walk kernel
+   ``K_ij = N(omega_j; omega_i, T var(v^omega)) Delta_j / sum_j(...)`` (``Delta_j`` cell width,
+   rows normalised over the grid so no mass leaves it), ``W_j = sum_i w_ij``;
+5. moment-matching merge with ``lambda_ij = w_ij / W_j``::
+
+       m_j = sum_i lambda_ij m_i-,   P_j = sum_i lambda_ij (P_i- + m_i- m_i-') - m_j m_j'
+
+   valid because ``p(x^lin_{t+1} | omega_{t+1}, omega_t) = p(x^lin_{t+1} | omega_t)`` for this
+   model (paper III-D): the N^2 pairwise filters are never formed, memory is O(N).
+
+The state stored between samples is the *prior* for the next sample (as in
+:mod:`vibrospeed.estimators.ekf`): ``step`` = steps 1-5. NaN samples skip step 1.
+
+Banded kernel and its error bound
+---------------------------------
+With ``sigma = sqrt(T var(v^omega))`` (paper values at 100 Hz: 0.2 rad/s) the kernel is
+negligible beyond a few grid spacings. ``kernel="banded"`` keeps, for every source row, only the
+targets ``|i - j| <= B``, with ``B`` the smallest band whose discarded row mass
+``eps_i = sum_{|j - i| > B} K_ij`` is at most ``kernel_tol`` for *every* row (found once at
+:func:`build_kernel` in O(N^2) time, O(N) memory), and renormalises the kept entries. Each banded
+row is then within total variation ``eps <= kernel_tol`` (L1 ``2 eps``) of the exact row, so one
+transition of any weight vector moves it by at most ``2 kernel_tol`` in L1; the merged moments
+are weighted by these same numbers. Work per sample is O(N B (2M)^2). ``kernel="exact"`` keeps
+the full rows (B = N - 1; O(N^2) kernel memory) as the reference.
+
+Weights are kept in log space and floored at ``log_floor`` nats below the best grid point
+(default 600, i.e. a relative weight 1e-261): every hypothesis stays alive (the paper's argument
+for the grid), the weights cannot underflow, and the floor changes the posterior by less than
+``N e^-600``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+from functools import cached_property
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from vibrospeed.config import config_from_params
+from vibrospeed.errors import ParameterError
+from vibrospeed.estimators import scaling as _scaling
+from vibrospeed.estimators.kalman import blocks_from_F, update_one
+from vibrospeed.estimators.kalman import predict_one as _predict_one
+from vibrospeed.models.harmonic import HarmonicModel
+from vibrospeed.types import Recording, Track
+
+#: measurement noise variance used with the running-RMS scaling (signal RMS 0.5, variance
+#: 0.25): the harmonics are assumed to carry about 80 % of the pre-filtered signal power.
+DEFAULT_R = 0.05
+
+N_OUT_FIXED = 6  # mean, std, map, lo, hi, predictive log-likelihood; then M amplitudes
+
+
+def _paper_model(dt: float = 0.01) -> HarmonicModel:
+    return HarmonicModel.from_paper_table1(dt, r=DEFAULT_R)
+
+
+@dataclass(frozen=True)
+class Config:
+    """RBPMF parameters (defaults: paper Table I and section IV-B).
+
+    model : harmonic model; Table I: M = 3, var(v^omega) = 4, var(v^a,b) = 0.001,
+        var(alpha_0) = 0.1. ``r`` (not in the paper) defaults to :data:`DEFAULT_R` for a signal
+        normalised to RMS ``signal_rms``.
+    n_grid, omega_min, omega_max : grid of N points on [omega_min, omega_max] rad/s
+        (paper: 200 on [10, 120]). ``spacing``: "linear" (paper) or "log" (geometric, constant
+        relative resolution).
+    kernel : "banded" (default) or "exact" (full rows, reference). ``kernel_tol``: largest
+        discarded mass per kernel row (see module docstring).
+    omega0, omega0_std : Gaussian prior on omega in rad/s; ``omega0=None`` (default) is the
+        paper's "unknown initial angular velocity", a prior uniform in omega.
+    log_floor : weights kept within this many nats of the best grid point.
+    level : probability of the credible interval (paper figures: 98 %).
+    prefilter : pre-filter preset for :func:`estimate` (paper: HP order 2 at 8 Hz).
+    scaling : "rms" (running-RMS normalisation, :mod:`.scaling`) or "none" (data used as is).
+    rms_tau : time constant of the running RMS in s. signal_rms : RMS after normalisation.
+    nyquist : "warn" (default; harmonics above Nyquist alias, which the rotation model still
+        describes exactly, only the fundamental must stay below it) or "error" (require
+        ``M omega_max < pi fs``).
+    """
+
+    model: HarmonicModel = field(default_factory=_paper_model)
+    n_grid: int = 200
+    omega_min: float = 10.0
+    omega_max: float = 120.0
+    spacing: str = "linear"
+    kernel: str = "banded"
+    kernel_tol: float = 1e-9
+    omega0: float | None = None
+    omega0_std: float = 2.0
+    log_floor: float = 600.0
+    level: float = 0.98
+    prefilter: str = "paper-hp"
+    scaling: str = "rms"
+    rms_tau: float = _scaling.DEFAULT_TAU
+    signal_rms: float = _scaling.DEFAULT_SIGNAL_RMS
+    nyquist: str = "warn"
+
+    def __post_init__(self) -> None:
+        if int(self.n_grid) != self.n_grid or self.n_grid < 1:
+            raise ParameterError(f"n_grid must be a positive integer, got {self.n_grid}")
+        if not 0 <= self.omega_min <= self.omega_max:
+            raise ParameterError(
+                f"grid needs 0 <= omega_min <= omega_max, got [{self.omega_min}, {self.omega_max}]"
+            )
+        if self.n_grid > 1 and not self.omega_min < self.omega_max:
+            raise ParameterError("omega_min must be < omega_max when n_grid > 1")
+        if self.spacing not in ("linear", "log"):
+            raise ParameterError(f"spacing must be 'linear' or 'log', got '{self.spacing}'")
+        if self.spacing == "log" and self.omega_min <= 0:
+            raise ParameterError("spacing='log' needs omega_min > 0")
+        if self.kernel not in ("banded", "exact"):
+            raise ParameterError(f"kernel must be 'banded' or 'exact', got '{self.kernel}'")
+        if not 0 < self.kernel_tol < 0.5:
+            raise ParameterError(f"kernel_tol must be in (0, 0.5), got {self.kernel_tol}")
+        if not 0 < self.level < 1:
+            raise ParameterError(f"level must be in (0, 1), got {self.level}")
+        if not self.omega0_std > 0:
+            raise ParameterError(f"omega0_std must be > 0, got {self.omega0_std}")
+        if not 10 <= self.log_floor <= 700:
+            raise ParameterError(f"log_floor must be in [10, 700] nats, got {self.log_floor}")
+        if self.scaling not in ("rms", "none"):
+            raise ParameterError(f"scaling must be 'rms' or 'none', got '{self.scaling}'")
+        if self.nyquist not in ("warn", "error"):
+            raise ParameterError(f"nyquist must be 'warn' or 'error', got '{self.nyquist}'")
+
+    @classmethod
+    def from_paper_table1(cls, dt: float = 0.01, **kw) -> Config:
+        """Paper Table I / IV-B: M = 3, var(v^omega) = 4, var(v^a,b) = 0.001, var(a_0) = 0.1,
+        N = 200 linear on [10, 120] rad/s, HP order 2 at 8 Hz; ``r`` = :data:`DEFAULT_R`."""
+        return cls(model=_paper_model(dt), n_grid=200, omega_min=10.0, omega_max=120.0, **kw)
+
+    @cached_property
+    def kern(self) -> Kernel:
+        """Grid and transition kernel (built once per config)."""
+        return build_kernel(self)
+
+    @property
+    def grid(self) -> np.ndarray:
+        """(N,) grid of omega in rad/s."""
+        return self.kern.grid
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable parameters (model flattened)."""
+        out = self.model.to_dict()
+        for f in fields(self):
+            if f.name != "model":
+                out[f.name] = getattr(self, f.name)
+        return out
+
+
+# ------------------------------------------------------------------------------------------
+# grid and kernel
+# ------------------------------------------------------------------------------------------
+class Kernel(NamedTuple):
+    """grid (N,) rad/s; edges (N+1,) cell edges; widths (N,); kb (N, 2B+1) kernel by target:
+    ``kb[j, d] = K(i = j + d - B -> j)``; B band half-width; tail: max discarded row mass;
+    blocks (N, M, 2, 2) of ``HarmonicModel.F(grid)``."""
+
+    grid: np.ndarray
+    edges: np.ndarray
+    widths: np.ndarray
+    kb: np.ndarray
+    B: int
+    tail: float
+    blocks: np.ndarray
+
+
+def make_grid(n: int, lo: float, hi: float, spacing: str = "linear") -> np.ndarray:
+    """(n,) grid on [lo, hi]; ``spacing`` 'linear' or 'log'. ``n = 1`` gives the mid-point."""
+    if n == 1:
+        return np.array([0.5 * (lo + hi)])
+    if spacing == "log":
+        return np.geomspace(lo, hi, n)
+    return np.linspace(lo, hi, n)
+
+
+def cell_edges(grid: np.ndarray) -> np.ndarray:
+    """(N+1,) cell edges: mid-points, ends extended by half the neighbouring spacing."""
+    if grid.size == 1:
+        return np.array([grid[0] - 0.5, grid[0] + 0.5])
+    mid = 0.5 * (grid[1:] + grid[:-1])
+    return np.concatenate([[grid[0] - (mid[0] - grid[0])], mid, [grid[-1] + (grid[-1] - mid[-1])]])
+
+
+@njit(cache=True)
+def _band_tails(grid, widths, sigma):
+    """max_i (discarded mass of row i) for every band half-width B = 0..N-1, O(N) memory."""
+    N = grid.size
+    maxtail = np.zeros(N)
+    row = np.empty(N)
+    bymass = np.empty(N)
+    for i in range(N):
+        tot = 0.0
+        for j in range(N):
+            z = (grid[j] - grid[i]) / sigma
+            row[j] = np.exp(-0.5 * z * z) * widths[j]
+            tot += row[j]
+        for d in range(N):
+            bymass[d] = 0.0
+        for j in range(N):
+            bymass[abs(j - i)] += row[j] / tot
+        # tail(B) = 1 - sum_{d <= B} bymass[d], accumulated from the outside for accuracy
+        acc = 0.0
+        for B in range(N - 1, -1, -1):
+            if acc > maxtail[B]:
+                maxtail[B] = acc
+            acc += bymass[B]
+    return maxtail
+
+
+@njit(cache=True)
+def _band_kernel(grid, widths, sigma, B):
+    """(N, 2B+1) row-normalised (over the band) kernel, indexed by target."""
+    N = grid.size
+    kb = np.zeros((N, 2 * B + 1))
+    for i in range(N):
+        lo = max(0, i - B)
+        hi = min(N - 1, i + B)
+        tot = 0.0
+        for j in range(lo, hi + 1):
+            if sigma > 0.0:
+                z = (grid[j] - grid[i]) / sigma
+                v = np.exp(-0.5 * z * z) * widths[j]
+            else:
+                v = 1.0 if j == i else 0.0
+            kb[j, i - j + B] = v
+            tot += v
+        for j in range(lo, hi + 1):
+            kb[j, i - j + B] /= tot
+    return kb
+
+
+def build_kernel(config: Config) -> Kernel:
+    """Grid, cell widths, the (banded or exact) transition kernel and the F blocks."""
+    model = config.model
+    grid = make_grid(config.n_grid, config.omega_min, config.omega_max, config.spacing)
+    edges = cell_edges(grid)
+    widths = np.diff(edges)
+    sigma = float(np.sqrt(model.q_omega_step))
+    N = grid.size
+    if sigma == 0.0 or N == 1:
+        B, tail = 0, 0.0
+    elif config.kernel == "exact":
+        B, tail = N - 1, 0.0
+    else:
+        tails = _band_tails(grid, widths, sigma)
+        ok = np.flatnonzero(tails <= config.kernel_tol)
+        B = int(ok[0]) if ok.size else N - 1
+        tail = float(tails[B])
+    kb = _band_kernel(grid, widths, sigma, B)
+    blocks = np.ascontiguousarray(blocks_from_F(model.F(grid)))
+    return Kernel(grid, edges, widths, kb, B, tail, blocks)
+
+
+def check_grid_spacing(config: Config) -> str | None:
+    """A note when the random-walk step is much smaller than the grid spacing (STYLE 11).
+
+    With the paper's values at 100 Hz: step 0.2 rad/s, spacing 0.55 rad/s; the posterior then
+    moves between grid points through the kernel's tails only, which slows the reaction to fast
+    speed changes. Returned as a note, not an error.
+    """
+    g = config.grid
+    if g.size < 2:
+        return None
+    step = float(np.sqrt(config.model.q_omega_step))
+    spacing = float(np.max(np.diff(g)))
+    if step < 0.25 * spacing:
+        return (f"omega random-walk step {step:.3g} rad/s is < 1/4 of the grid spacing "
+                f"{spacing:.3g} rad/s: the posterior can hardly move between grid points")
+    return None
+
+
+# ------------------------------------------------------------------------------------------
+# state
+# ------------------------------------------------------------------------------------------
+class State(NamedTuple):
+    """Prior for the next sample: ``log_w`` (N,) normalised log-weights, ``mean`` (N, 2M),
+    ``cov`` (N, 2M, 2M) per grid point."""
+
+    log_w: np.ndarray
+    mean: np.ndarray
+    cov: np.ndarray
+
+
+class Estimate(NamedTuple):
+    """Posterior at one sample (rad/s): mean, std, MAP, credible interval [lo, hi]; the
+    predictive log-likelihood ``log p(y_k | y_1..k-1)``; amplitudes (M,) at the MAP point;
+    ``posterior`` (N,) grid weights."""
+
+    omega: float
+    omega_std: float
+    omega_map: float
+    omega_lo: float
+    omega_hi: float
+    loglik: float
+    amplitudes: np.ndarray
+    posterior: np.ndarray
+
+
+class Result(NamedTuple):
+    """Batch output, arrays over samples (n,) unless noted."""
+
+    omega: np.ndarray
+    omega_std: np.ndarray
+    omega_map: np.ndarray
+    omega_lo: np.ndarray
+    omega_hi: np.ndarray
+    loglik: np.ndarray
+    amplitudes: np.ndarray  # (n, M)
+    posterior: np.ndarray | None  # (n, N) float32 when asked for
+    final: State
+
+
+def init(config: Config) -> State:
+    """Prior at the first sample: weights uniform in omega (or Gaussian around ``omega0``),
+    phasor means 0, covariances ``var(alpha_0) I``."""
+    k = config.kern
+    N = k.grid.size
+    n = config.model.n_lin
+    if config.omega0 is None:
+        lw = np.log(k.widths)
+    else:
+        z = (k.grid - config.omega0) / config.omega0_std
+        lw = -0.5 * z * z + np.log(k.widths)
+    lw = lw - np.max(lw)
+    lw = np.maximum(lw, -config.log_floor)
+    lw -= np.log(np.sum(np.exp(lw)))
+    mean = np.zeros((N, n))
+    cov = np.broadcast_to(np.eye(n) * config.model.p0_amp, (N, n, n)).copy()
+    return State(lw, mean, cov)
+
+
+# ------------------------------------------------------------------------------------------
+# compiled core
+# ------------------------------------------------------------------------------------------
+@njit(cache=True)
+def _quantile(w, edges, q):
+    """Quantile of the piecewise-uniform density with mass w_j on cell [edges_j, edges_j+1]."""
+    acc = 0.0
+    N = w.size
+    for j in range(N):
+        if acc + w[j] >= q and w[j] > 0.0:
+            f = (q - acc) / w[j]
+            if f < 0.0:
+                f = 0.0
+            if f > 1.0:
+                f = 1.0
+            return edges[j] + f * (edges[j + 1] - edges[j])
+        acc += w[j]
+    return edges[N]
+
+
+@njit(cache=True)
+def _step(lw, mean, cov, y, h, r, blocks, Q, kb, B, grid, edges, log_floor, q_lo, q_hi,
+          w, mp, Sp, X, acc, ph, out, post):
+    """One RBPMF iteration in place on (lw, mean, cov); writes ``out`` and ``post`` (N,)."""
+    N = grid.size
+    n = mean.shape[1]
+    M = n // 2
+    # ---- 1. measurement update per grid point: log w_j += log N(y; h m_j, S_j) ----------
+    if np.isfinite(y):
+        for j in range(N):
+            ll, _, _ = update_one(mean[j], cov[j], h, r, y, ph)
+            lw[j] += ll
+    mx = -np.inf
+    for j in range(N):
+        if lw[j] > mx:
+            mx = lw[j]
+    # floor at log_floor nats below the best point, then normalise (one exp per point)
+    s = 0.0
+    for j in range(N):
+        d = lw[j] - mx
+        if d < -log_floor:
+            d = -log_floor
+        lw[j] = d
+        w[j] = np.exp(d)
+        s += w[j]
+    ls = np.log(s)
+    # prior weights sum to 1 -> log p(y_k | y_1..k-1) (floored mass < N e^-log_floor ignored)
+    pred_ll = mx + ls
+    inv_s = 1.0 / s
+    for j in range(N):
+        lw[j] -= ls
+        w[j] *= inv_s
+    # ---- 2. outputs ---------------------------------------------------------------------
+    mu = 0.0
+    jmap = 0
+    for j in range(N):
+        mu += w[j] * grid[j]
+        if w[j] > w[jmap]:
+            jmap = j
+    var = 0.0
+    for j in range(N):
+        d = grid[j] - mu
+        var += w[j] * d * d
+    out[0] = mu
+    out[1] = np.sqrt(var)
+    out[2] = grid[jmap]
+    out[3] = _quantile(w, edges, q_lo)
+    out[4] = _quantile(w, edges, q_hi)
+    out[5] = pred_ll if np.isfinite(y) else 0.0
+    for a in range(M):
+        al = mean[jmap, 2 * a]
+        be = mean[jmap, 2 * a + 1]
+        out[6 + a] = np.sqrt(al * al + be * be)
+    if post.size == N:
+        for j in range(N):
+            post[j] = w[j]
+    # ---- 3. linear time update per source point i, packed into X[i] = [m_i-, upper(S_i)]
+    #         with S_i = P_i- + m_i- m_i-' (the merge then sums contiguous rows) -------------
+    for i in range(N):
+        for a in range(n):
+            mp[a] = mean[i, a]
+            for b in range(n):
+                Sp[a, b] = cov[i, a, b]
+        _predict_one(mp, Sp, blocks[i], Q)
+        c = n
+        for a in range(n):
+            ma = mp[a]
+            X[i, a] = ma
+            for b in range(a, n):
+                X[i, c] = Sp[a, b] + ma * mp[b]
+                c += 1
+    # ---- 4.-5. transition W_j = sum_i w_i K_ij and moment-matching merge per target j ----
+    L = X.shape[1]
+    for j in range(N):
+        lo = max(0, j - B)
+        hi = min(N - 1, j + B)
+        W = 0.0
+        for i in range(lo, hi + 1):
+            W += w[i] * kb[j, i - j + B]
+        for c in range(L):
+            acc[c] = 0.0
+        inv = 1.0 / W
+        for i in range(lo, hi + 1):
+            lam = w[i] * kb[j, i - j + B] * inv
+            for c in range(L):
+                acc[c] += lam * X[i, c]
+        # m_j = sum lam m_i- ;  P_j = sum lam (P_i- + m_i- m_i-') - m_j m_j'
+        c = n
+        for a in range(n):
+            mean[j, a] = acc[a]
+        for a in range(n):
+            for b in range(a, n):
+                v = acc[c] - acc[a] * acc[b]
+                cov[j, a, b] = v
+                cov[j, b, a] = v
+                c += 1
+        lw[j] = np.log(W)
+
+
+@njit(cache=True)
+def _run(ys, lw, mean, cov, h, r, blocks, Q, kb, B, grid, edges, log_floor, q_lo, q_hi,
+         want_post):
+    n_s = ys.size
+    N = grid.size
+    n = mean.shape[1]
+    M = n // 2
+    outs = np.empty((n_s, N_OUT_FIXED + M))
+    posts = np.empty((n_s if want_post else 0, N), dtype=np.float32)
+    post = np.empty(N if want_post else 0)
+    w = np.empty(N)
+    mp = np.empty(n)
+    Sp = np.empty((n, n))
+    X = np.empty((N, n + n * (n + 1) // 2))
+    acc = np.empty(n + n * (n + 1) // 2)
+    ph = np.empty(n)
+    for k in range(n_s):
+        _step(lw, mean, cov, ys[k], h, r, blocks, Q, kb, B, grid, edges, log_floor, q_lo, q_hi,
+              w, mp, Sp, X, acc, ph, outs[k], post)
+        if want_post:
+            for j in range(N):
+                posts[k, j] = post[j]
+    return outs, posts
+
+
+def _args(config: Config) -> tuple:
+    k = config.kern
+    m = config.model
+    q = 0.5 * (1.0 - config.level)
+    return (m.H, float(m.r), k.blocks, np.ascontiguousarray(m.Q_lin), k.kb, int(k.B), k.grid,
+            k.edges, float(config.log_floor), q, 1.0 - q)
+
+
+def step(config: Config, state: State, y: float) -> tuple[State, Estimate]:
+    """Process one sample; returns the prior for the next sample and the posterior now."""
+    lw = state.log_w.copy()
+    mean = state.mean.copy()
+    cov = state.cov.copy()
+    N, n = mean.shape
+    M = n // 2
+    out = np.empty(N_OUT_FIXED + M)
+    post = np.empty(N)
+    h, r, blocks, Q, kb, B, grid, edges, fl, qlo, qhi = _args(config)
+    _step(lw, mean, cov, float(y), h, r, blocks, Q, kb, B, grid, edges, fl, qlo, qhi,
+          np.empty(N), np.empty(n), np.empty((n, n)), np.empty((N, n + n * (n + 1) // 2)),
+          np.empty(n + n * (n + 1) // 2), np.empty(n), out, post)
+    est = Estimate(out[0], out[1], out[2], out[3], out[4], out[5], out[6:].copy(), post)
+    return State(lw, mean, cov), est
+
+
+def run(
+    config: Config,
+    y: np.ndarray,
+    state: State | None = None,
+    *,
+    return_posterior: bool = False,
+) -> Result:
+    """Run over a whole (already pre-filtered, scaled) signal; identical to repeated
+    :func:`step`. ``return_posterior``: also return the grid posterior (n, N) as float32."""
+    st = init(config) if state is None else state
+    lw = st.log_w.copy()
+    mean = np.ascontiguousarray(st.mean, dtype=np.float64).copy()
+    cov = np.ascontiguousarray(st.cov, dtype=np.float64).copy()
+    ys = np.ascontiguousarray(y, dtype=np.float64)
+    outs, posts = _run(ys, lw, mean, cov, *_args(config), bool(return_posterior))
+    return Result(outs[:, 0], outs[:, 1], outs[:, 2], outs[:, 3], outs[:, 4], outs[:, 5],
+                  outs[:, N_OUT_FIXED:], posts if return_posterior else None,
+                  State(lw, mean, cov))
+
+
+# ------------------------------------------------------------------------------------------
+# entry point
+# ------------------------------------------------------------------------------------------
+def prepare(recording: Recording, axis: str, config_cls, params: dict | None, default_model):
+    """Shared by the harmonic trackers: pre-filter, Nyquist check, scaling and the config.
+
+    Returns ``(config, y_scaled, rms, notes)``; ``config.model.dt`` is the recording's period.
+    """
+    from vibrospeed.estimators.common import check_nyquist, prepare_axis, split_params
+
+    params = dict(params or {})
+    model_kw, cfg_kw = split_params(HarmonicModel, params)
+    model_kw.pop("dt", None)
+    base = default_model(1.0).to_dict()
+    base.pop("dt")
+    probe = config_from_params(config_cls, cfg_kw,
+                               model=config_from_params(HarmonicModel, model_kw, dt=1.0, **base))
+    y, dt, notes = prepare_axis(recording, axis, prefilter=probe.prefilter, M=probe.model.M)
+    fs = 1.0 / dt
+    src = recording.source or "recording"
+    om_max = float(probe.omega_max)
+    M = probe.model.M
+    if om_max >= np.pi * fs:
+        raise ParameterError(
+            f"{src}: sample rate {fs:.4g} Hz is too low for omega up to {om_max:.4g} rad/s "
+            f"(the fundamental needs fs > {om_max / np.pi:.4g} Hz; lower omega_max)"
+        )
+    if probe.nyquist == "error":
+        check_nyquist(fs, M, om_max, src)
+    elif M * om_max >= np.pi * fs:
+        notes.append(
+            f"harmonics alias above omega = {np.pi * fs / M:.4g} rad/s (M = {M}, fs = "
+            f"{fs:.4g} Hz); the rotation model describes the aliased lines exactly"
+        )
+    model = config_from_params(HarmonicModel, model_kw, dt=dt, **base)
+    config = config_from_params(config_cls, cfg_kw, model=model)
+    if config.scaling == "rms":
+        y, rms = _scaling.normalise(y, dt, tau=config.rms_tau, target=config.signal_rms)
+        notes.append(f"running-RMS normalisation to {config.signal_rms} (tau {config.rms_tau} s)")
+    else:
+        rms = np.full_like(y, config.signal_rms)
+    return config, y, rms, notes
+
+
+def estimate(
+    recording: Recording,
+    *,
+    axis: str = "y",
+    wheel_radius: float | None = None,
+    params: dict | None = None,
+    progress: bool = False,
+    return_posterior: bool = False,
+) -> Track:
+    """Track omega on accelerometer axis ``axis`` of a uniformly sampled recording.
+
+    The axis is pre-filtered (``prefilter``, paper HP by default), normalised by its running RMS
+    (``scaling``) and tracked. ``params`` may set any :class:`Config` or
+    :class:`HarmonicModel` field. The Track's ``omega`` is the posterior mean, its band the
+    ``level`` credible interval; extras: ``omega_map``, ``loglik``, ``amp1..M`` (in signal
+    units), ``rms``. With ``return_posterior`` the extras also hold ``posterior`` (n, N) float32
+    and ``grid`` (N,) (not per-sample arrays; for the posterior image).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vibrospeed.types import Recording
+    >>> t = np.arange(0, 20, 0.01)
+    >>> rng = np.random.default_rng(0)
+    >>> ay = np.sin(50 * t) + 0.5 * np.sin(100 * t) + 0.3 * rng.normal(size=t.size)
+    >>> tr = estimate(Recording(t, {"ay": ay}))
+    >>> bool(abs(tr.omega[-1] - 50) < 1)
+    True
+    """
+    config, y, rms, notes = prepare(recording, axis, Config, params, _paper_model)
+    note = check_grid_spacing(config)
+    if note:
+        notes.append(note)
+    if config.kern.B > 0:
+        notes.append(f"banded kernel: B = {config.kern.B}, discarded row mass <= "
+                     f"{config.kern.tail:.2g}")
+    res = _run_chunked(config, y, return_posterior, progress)
+    extras: dict[str, np.ndarray] = {"omega_map": res.omega_map, "loglik": res.loglik,
+                                     "rms": rms}
+    for m in range(config.model.M):
+        extras[f"amp{m + 1}"] = res.amplitudes[:, m] * rms / config.signal_rms
+    if return_posterior:
+        extras["posterior"] = res.posterior
+        extras["grid"] = config.grid.copy()
+    return Track.from_omega(
+        recording.t, res.omega, res.omega_std, lo=res.omega_lo, hi=res.omega_hi,
+        level=config.level, wheel_radius=wheel_radius or recording.wheel_radius, method="rbpmf",
+        params={**config.to_dict(), "axis": axis}, extras=extras, notes=notes,
+    )
+
+
+def _run_chunked(config: Config, y: np.ndarray, return_posterior: bool, progress: bool) -> Result:
+    if not progress:
+        return run(config, y, return_posterior=return_posterior)
+    from rich.progress import Progress
+
+    chunk = 20000
+    parts = []
+    state = init(config)
+    with Progress(transient=True) as bar:
+        task = bar.add_task("rbpmf", total=y.size)
+        for k0 in range(0, y.size, chunk):
+            res = run(config, y[k0 : k0 + chunk], state, return_posterior=return_posterior)
+            parts.append(res)
+            state = res.final
+            bar.update(task, advance=min(chunk, y.size - k0))
+    cat = [np.concatenate([getattr(p, f) for p in parts]) for f in Result._fields[:7]]
+    post = np.concatenate([p.posterior for p in parts]) if return_posterior else None
+    return Result(*cat, post, state)
+

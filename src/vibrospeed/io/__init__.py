@@ -1,0 +1,293 @@
+"""Reading and writing recordings and tracks.
+
+:func:`read` turns any supported file into a :class:`~vibrospeed.types.Recording` in SI units with
+canonical channel names; :func:`write` stores one (canonical CSV or Parquet, by suffix);
+:func:`write_track` / :func:`read_track` store estimator outputs. Every output is written
+atomically (:mod:`vibrospeed.io.atomic`); every bad input raises a one-line
+:class:`~vibrospeed.errors.ReaderError` naming the file, line and column.
+
+Formats (:data:`FORMATS`)
+-------------------------
+``csv``          canonical CSV (``t`` first, canonical names), see :mod:`.canonical`
+``mapped``       any CSV through a column mapping / TOML file, see :mod:`.mapped`
+``phyphox``      phyphox export folder or zip, see :mod:`.phyphox`
+``sensorfusion`` Sensor Fusion app log, see :mod:`.sensorfusion`
+``parquet``      Parquet with canonical columns, see :mod:`.parquet`
+
+Adding a reader
+---------------
+Write a module with ``read(path, *, sort=False, ...) -> Recording`` and optionally
+``detect(path) -> bool`` (for ``format="auto"``), then either add it to :data:`_BUILTIN` (lazy,
+imported on first use; ``comma2k19`` and ``f1tenth`` are pre-declared there and become available
+as soon as their modules exist) or call :func:`register_format` at run time. :func:`read` passes a
+reader only the options its signature accepts and refuses options it does not take.
+
+Examples
+--------
+>>> import numpy as np, tempfile, pathlib
+>>> from vibrospeed.types import Recording
+>>> d = pathlib.Path(tempfile.mkdtemp())
+>>> rec = Recording(t=np.arange(4) / 100, channels={"ay": np.array([0.0, 1.0, 0.5, -1.0])})
+>>> write(rec, d / "r.csv")
+>>> read(d / "r.csv")["ay"]
+array([ 0. ,  1. ,  0.5, -1. ])
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import inspect
+import os
+import zipfile
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from vibrospeed.errors import ParameterError, ReaderError
+from vibrospeed.io.atomic import atomic_path, atomic_write_bytes, atomic_write_text
+from vibrospeed.io.mapped import ColumnSpec, load_mapping, parse_mapping
+from vibrospeed.io.timebase import (
+    check_increasing,
+    check_nyquist,
+    find_gaps,
+    resample_uniform,
+    sort_dedup,
+    split_at_gaps,
+)
+from vibrospeed.io.track import read_track, write_track
+from vibrospeed.types import Recording
+
+__all__ = [
+    "FORMATS",
+    "ColumnSpec",
+    "atomic_path",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "available_formats",
+    "check_increasing",
+    "check_nyquist",
+    "detect_format",
+    "find_gaps",
+    "load_mapping",
+    "parse_mapping",
+    "read",
+    "read_track",
+    "register_format",
+    "resample_uniform",
+    "sort_dedup",
+    "split_at_gaps",
+    "write",
+    "write_track",
+]
+
+
+@dataclass(frozen=True)
+class _Format:
+    description: str
+    reader: str | Callable[..., Recording]  # "module:function" (lazy) or the function
+    detect: str | Callable[[Path], bool] | None = None
+    module: str | None = None  # module whose presence makes the format available
+
+
+def _entry(mod: str, read: str, detect: str | None, description: str) -> _Format:
+    return _Format(description, f"{mod}:{read}", f"{mod}:{detect}" if detect else None, mod)
+
+
+#: Built-in formats in auto-detection order (lazily imported). Another module's reader is listed
+#: here by "module:function" and is offered only once the module exists.
+_BUILTIN: dict[str, _Format] = {
+    "phyphox": _entry("vibrospeed.io.phyphox", "read_phyphox", "is_phyphox",
+                      "phyphox export: folder or .zip of Accelerometer/Gyroscope/Location.csv"),
+    "parquet": _entry("vibrospeed.io.parquet", "read_parquet", None,
+                      "Parquet with canonical columns (needs pyarrow)"),
+    "sensorfusion": _entry("vibrospeed.io.sensorfusion", "read_sensorfusion", "is_sensorfusion",
+                           "Sensor Fusion app log: 'timestamp_ms TAG values' lines (ACC, GYR...)"),
+    "comma2k19": _entry("vibrospeed.io.comma2k19", "read", "detect",
+                        "comma2k19 segment: phone IMU, GNSS and CAN wheel speeds"),
+    "f1tenth": _entry("vibrospeed.io.f1tenth", "read", "detect",
+                      "F1TENTH friction-map logs: IMU (g, deg/s), VESC odometry"),
+    "csv": _entry("vibrospeed.io.canonical", "read_csv", None,
+                  "canonical CSV: header 't,ax,ay,...' in SI units (vibrospeed's own)"),
+    "mapped": _entry("vibrospeed.io.mapped", "read_mapped", None,
+                     "any CSV with a column mapping (--columns t=time,ay=acc_y or a TOML file)"),
+}
+_REGISTRY: dict[str, _Format] = dict(_BUILTIN)
+
+
+def _available(f: _Format) -> bool:
+    return f.module is None or importlib.util.find_spec(f.module) is not None
+
+
+def available_formats() -> dict[str, str]:
+    """Format name -> one-line description, for the formats installed in this build."""
+    return {k: f.description for k, f in _REGISTRY.items() if _available(f)}
+
+
+#: Format name -> one-line description (for the CLI help); kept current by register_format.
+FORMATS: dict[str, str] = available_formats()
+
+
+def register_format(
+    name: str,
+    reader: Callable[..., Recording],
+    *,
+    description: str,
+    detect: Callable[[Path], bool] | None = None,
+) -> None:
+    """Make ``reader`` available as ``read(path, format=name)``; with ``detect`` it also takes
+    part in auto-detection (before the generic CSV formats)."""
+    fmt = _Format(description, reader, detect, None)
+    items = [(k, v) for k, v in _REGISTRY.items() if k not in (name, "csv", "mapped")]
+    _REGISTRY.clear()
+    _REGISTRY.update(items)
+    _REGISTRY[name] = fmt
+    for k in ("csv", "mapped"):
+        _REGISTRY[k] = _BUILTIN[k]
+    FORMATS.clear()
+    FORMATS.update(available_formats())
+
+
+def _resolve(ref: str | Callable) -> Callable:
+    if callable(ref):
+        return ref
+    mod, _, fn = ref.partition(":")
+    return getattr(importlib.import_module(mod), fn)
+
+
+def _first_line(p: Path) -> str:
+    try:
+        with open(p, encoding="utf-8", errors="replace", newline="") as fh:
+            for _ in range(50):
+                line = fh.readline()
+                if not line:
+                    return ""
+                if line.strip():
+                    return line.lstrip("\ufeff").strip()
+    except OSError:
+        return ""
+    return ""
+
+
+def detect_format(path: str | os.PathLike[str], *, mapping: bool = False) -> str:
+    """Name of the format of ``path`` (see :func:`read`); ``mapping``: a column mapping was
+    given, so a non-canonical CSV is read through it."""
+    p = Path(path)
+    if not p.exists():
+        raise ReaderError(p, "file not found")
+    if mapping:
+        return "mapped"
+    for name, f in _REGISTRY.items():
+        if name in ("csv", "mapped", "parquet") or f.detect is None or not _available(f):
+            continue
+        if _resolve(f.detect)(p):
+            return name
+    if p.is_dir():
+        raise ReaderError(p, "unknown format: a folder that is not a phyphox export "
+                             "(no Accelerometer.csv)")
+    if p.stat().st_size == 0:
+        raise ReaderError(p, "empty file")
+    with open(p, "rb") as fh:
+        magic = fh.read(4)
+    if magic == b"PAR1" or p.suffix.lower() in (".parquet", ".pq"):
+        return "parquet"
+    if zipfile.is_zipfile(p):
+        raise ReaderError(p, "unknown format: a zip file without Accelerometer.csv")
+    first = _first_line(p)
+    if not first:
+        raise ReaderError(p, "empty file (no header row)")
+    from vibrospeed.io._csv import sniff_delimiter
+
+    delim = sniff_delimiter(first)
+    head = [h.strip().strip('"').strip() for h in first.split(delim)]
+    if head and head[0] == "t":
+        return "csv"
+    raise ReaderError(
+        p,
+        f"unknown format (header starts '{first[:40]}'): give --format "
+        f"({', '.join(FORMATS)}) or a column mapping such as --columns t=time,ay=acc_y",
+        row=1,
+    )
+
+
+def read(
+    path: str | os.PathLike[str],
+    format: str = "auto",  # noqa: A002 - the CLI's word
+    *,
+    columns: str | None = None,
+    mapping_file: str | os.PathLike[str] | None = None,
+    rate: float | None = None,
+    sort: bool = False,
+    resample: bool | float | None = None,
+    require: Sequence[str] = (),
+) -> Recording:
+    """Read a recording in any supported format.
+
+    Parameters
+    ----------
+    path : file, folder (phyphox) or zip
+    format : a key of :data:`FORMATS` or ``"auto"``: folder/zip with Accelerometer.csv ->
+        phyphox; ``.parquet`` or PAR1 magic -> parquet; ``<number> <TAG> ...`` lines ->
+        sensorfusion; a header starting with ``t`` -> csv; with ``columns``/``mapping_file``/
+        ``rate`` -> mapped; otherwise a :class:`ReaderError` asking for a mapping
+    columns : column mapping ``"t=time,ay=acc_y"`` (mapped format)
+    mapping_file : TOML mapping file (mapped format)
+    rate : Hz, sample rate of a file without time column (mapped format)
+    sort : sort by time and drop repeated timestamps instead of refusing time going backwards
+    resample : ``True`` -> uniform grid at the median rate, a number -> that rate in Hz (linear
+        interpolation, :func:`resample_uniform`); ``None``/``False`` -> keep the file's times
+    require : channel names that must be present and not all NaN
+
+    Returns
+    -------
+    Recording in SI units with canonical channel names; ``notes`` says what was done.
+    """
+    p = Path(path)
+    mapping = columns is not None or mapping_file is not None or rate is not None
+    name = detect_format(p, mapping=mapping) if format == "auto" else format
+    if name not in _REGISTRY or not _available(_REGISTRY[name]):
+        raise ReaderError(p, f"unknown format '{name}' (choose from: auto, {', '.join(FORMATS)})")
+    reader = _resolve(_REGISTRY[name].reader)
+    opts: dict[str, Any] = {"columns": columns, "mapping_file": mapping_file, "rate": rate,
+                            "sort": sort}
+    params = inspect.signature(reader).parameters
+    takes_kw = any(q.kind is inspect.Parameter.VAR_KEYWORD for q in params.values())
+    kwargs = {}
+    for k, v in opts.items():
+        if k in params or takes_kw:
+            kwargs[k] = v
+        elif v not in (None, False):
+            raise ParameterError(f"{p}: format '{name}' does not take option '{k}'")
+    rec = reader(p, **kwargs)
+    if require:
+        try:
+            rec.require(*require)
+        except ReaderError:
+            raise
+        except ValueError as exc:  # InputError from Recording: re-raise as a reader error
+            msg = str(exc).split(": ", 1)[-1]
+            raise ReaderError(p, msg, column=next(
+                (c for c in require if f"'{c}'" in msg), None)) from None
+    if resample not in (None, False):
+        fs = None if resample is True else float(resample)
+        rec = resample_uniform(rec, fs)
+    return rec
+
+
+def write(rec: Recording, path: str | os.PathLike[str], format: str = "auto") -> None:  # noqa: A002
+    """Write ``rec``: Parquet for ``.parquet``/``.pq`` (or ``format="parquet"``), else canonical
+    CSV with sidecars. Atomic."""
+    p = Path(path)
+    if format == "auto":
+        format = "parquet" if p.suffix.lower() in (".parquet", ".pq") else "csv"
+    if format == "parquet":
+        from vibrospeed.io.parquet import write_parquet
+
+        write_parquet(rec, p)
+    elif format == "csv":
+        from vibrospeed.io.canonical import write_csv
+
+        write_csv(rec, p)
+    else:
+        raise ParameterError(f"{p}: cannot write format '{format}' (choose csv or parquet)")

@@ -1,0 +1,274 @@
+"""phyphox exports (https://phyphox.org): a folder or .zip of per-sensor CSV files.
+
+Files used (each with its own time base, first column ``Time (s)``):
+
+``Accelerometer.csv``       X, Y, Z (m/s^2) -> ``ax ay az``. **Master time line.**
+``Gyroscope.csv``           X, Y, Z (rad/s) -> ``gx gy gz``, linearly interpolated onto the master
+                            time line (NaN outside its span and across gaps > 5 gyro periods).
+``Linear Acceleration.csv`` optional -> ``lin_ax lin_ay lin_az`` (gravity removed by the phone),
+                            interpolated like the gyroscope.
+``Location.csv``            ``Velocity (m/s)`` -> ``gps_speed`` (-1 or any negative value = no
+                            valid speed -> NaN) and ``Horizontal Accuracy (m)`` -> ``gps_hacc``.
+                            Each fix is placed at the single accelerometer sample nearest to it
+                            and the channels are NaN elsewhere, so that an estimator sees every
+                            fix exactly once, at most half an accelerometer period late or early.
+                            The raw fix times are kept as event ``gps_fix``. phyphox gives no
+                            satellite count, so there is no ``gps_sats``.
+
+Time: a row repeating the previous row's timestamp exactly (phones emit a few, e.g. 2 in 22000
+accelerometer rows of rsq_q2_01) is dropped, keeping the first, and noted; time going backwards
+is an error unless ``sort=True``.
+
+Axes are the phone's (x right, y towards the top edge, z out of the screen); for a phone lying
+flat, top edge forward, y is longitudinal and x lateral (as in the Hungary drives). Headers are
+quoted and may contain a mis-encoded degree sign; columns are found by their x/y/z letter and
+unit, so header wording differences between phyphox versions do not matter. Semicolon exports with
+a decimal comma are read too.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import zipfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+
+from vibrospeed.errors import ReaderError
+from vibrospeed.io._common import finish
+from vibrospeed.io._csv import CsvTable, nan_notes, text_stream
+from vibrospeed.io.timebase import check_increasing, interp_onto, place_nearest
+from vibrospeed.types import Recording
+
+__all__ = ["is_phyphox", "read_phyphox"]
+
+ACC, GYR, LIN, LOC = "Accelerometer.csv", "Gyroscope.csv", "Linear Acceleration.csv", "Location.csv"
+_MEMBERS = (ACC, GYR, LIN, LOC)
+_AXIS = re.compile(r"(?:^|[\s_])([xyz])(?=[\s(_]|$)", re.IGNORECASE)
+
+
+class _Source:
+    """Files of one export, from a folder or a zip; ``open(name)`` yields a text stream."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.files: dict[str, Callable[[], contextlib.AbstractContextManager[IO[str]]]] = {}
+        self.labels: dict[str, str] = {}
+        if path.is_dir():
+            for name in _MEMBERS:
+                hits = [path / name] if (path / name).is_file() else sorted(path.glob(f"*/{name}"))
+                if hits:
+                    self._add_file(name, hits[0])
+        elif zipfile.is_zipfile(path):
+            try:
+                zf = zipfile.ZipFile(path)
+                infos = zf.infolist()
+            except (zipfile.BadZipFile, OSError) as exc:
+                raise ReaderError(path, f"unreadable zip file ({exc})") from None
+            for info in infos:
+                base = info.filename.rsplit("/", 1)[-1]
+                if base in _MEMBERS and base not in self.files and "__MACOSX" not in info.filename:
+                    self.files[base] = self._zip_opener(path, info.filename)
+                    self.labels[base] = f"{path}:{info.filename}"
+        else:
+            # a single CSV: part of an export folder, or one sensor on its own
+            if path.name in _MEMBERS and (path.parent / ACC).is_file():
+                self.__init__(path.parent)
+                return
+            self._add_file(ACC, path)
+
+    def _add_file(self, name: str, p: Path) -> None:
+        @contextlib.contextmanager
+        def opener() -> Iterator[IO[str]]:
+            if p.stat().st_size == 0:
+                raise ReaderError(p, "empty file")
+            with open(p, encoding="utf-8", newline="") as fh:
+                yield fh
+
+        self.files[name] = opener
+        self.labels[name] = str(p)
+
+    @staticmethod
+    def _zip_opener(path: Path, member: str):
+        @contextlib.contextmanager
+        def opener() -> Iterator[IO[str]]:
+            try:
+                with zipfile.ZipFile(path) as zf, zf.open(member) as raw:
+                    yield text_stream(raw)
+            except (zipfile.BadZipFile, OSError, EOFError) as exc:
+                raise ReaderError(f"{path}:{member}", f"unreadable zip member ({exc})") from None
+
+        return opener
+
+
+def is_phyphox(path: str | os.PathLike[str]) -> bool:
+    """True for a folder or zip holding ``Accelerometer.csv``, or a CSV whose first column is
+    phyphox's ``Time (s)``."""
+    p = Path(path)
+    try:
+        if p.is_dir():
+            return (p / ACC).is_file() or any(p.glob(f"*/{ACC}"))
+        if zipfile.is_zipfile(p):
+            with zipfile.ZipFile(p) as zf:
+                return any(n.rsplit("/", 1)[-1] == ACC for n in zf.namelist())
+        with open(p, encoding="utf-8", errors="replace") as fh:
+            first = fh.readline().lstrip("\ufeff").strip()
+        return first.strip('"').startswith("Time (s)")
+    except (OSError, zipfile.BadZipFile):
+        return False
+
+
+def _read_table(src: _Source, name: str) -> tuple[CsvTable, dict[str, np.ndarray], np.ndarray]:
+    label = src.labels[name]
+    with src.files[name]() as fh:
+        tab = CsvTable(fh, label)
+        if tab.delimiter == ";":
+            tab.decimal = ","
+        cols, lines = tab.read([h for h in tab.header if h])
+    return tab, cols, lines
+
+
+def _xyz(tab: CsvTable, label: str) -> list[str]:
+    """Header names of the x, y, z columns (by axis letter, else the three after time)."""
+    found: dict[str, str] = {}
+    for h in tab.header[1:]:
+        m = _AXIS.search(h)
+        if m and m.group(1).lower() not in found:
+            found[m.group(1).lower()] = h
+    if len(found) == 3:
+        return [found["x"], found["y"], found["z"]]
+    if len(tab.header) >= 4:
+        return tab.header[1:4]
+    raise ReaderError(label, "expected a time column and x, y, z columns", row=tab.header_line)
+
+
+def _order(t: np.ndarray, lines: np.ndarray, label: str, sort: bool, notes: list[str]):
+    """Row order making ``t`` strictly increasing.
+
+    Exact repeats of the previous timestamp (phones emit a few) are dropped, keeping the first
+    row, and noted; time going backwards raises unless ``sort``, which sorts and de-duplicates.
+    """
+    if sort:
+        order = np.argsort(t, kind="stable")
+        order = order[np.isfinite(t[order])]
+        moved = int(np.count_nonzero(order != np.arange(order.size)))
+        if moved:
+            notes.append(f"{label}: sorted by time ({moved} rows moved)")
+    else:
+        order = np.arange(t.size)
+    ts = t[order]
+    keep = np.ones(ts.size, dtype=bool)
+    keep[1:] = ts[1:] != ts[:-1]
+    if not keep.all():
+        notes.append(f"{label}: dropped {ts.size - int(keep.sum())} row(s) repeating the previous "
+                     "timestamp (first kept)")
+    order = order[keep]
+    if not sort:
+        check_increasing(t[order], label, rows=lines[order])
+    return order
+
+
+def _sensor(src, name, sort, notes):
+    tab, cols, lines = _read_table(src, name)
+    label = src.labels[name]
+    t = cols[tab.header[0]]
+    xyz = [cols[h] for h in _xyz(tab, label)]
+    order = _order(t, lines, label, sort, notes)
+    return tab, t[order], [x[order] for x in xyz], lines[order]
+
+
+def read_phyphox(path: str | os.PathLike[str], *, sort: bool = False) -> Recording:
+    """Read a phyphox export (folder, .zip, or a single sensor CSV) onto the accelerometer's time
+    line; see the module docstring for how each sensor is merged.
+
+    Parameters
+    ----------
+    path : export folder, zip file, or one phyphox CSV
+    sort : sort each file by time and drop repeated timestamps instead of refusing them
+    """
+    p = Path(path)
+    if not p.exists():
+        raise ReaderError(p, "file not found")
+    src = _Source(p)
+    if ACC not in src.files:
+        raise ReaderError(p, f"no {ACC} in this phyphox export")
+    notes: list[str] = []
+    units: dict[str, str] = {}
+    tab, t, (ax, ay, az), lines = _sensor(src, ACC, sort, notes)
+    notes.extend(tab.notes)
+    chans = {"ax": ax, "ay": ay, "az": az}
+    if any("rad/s" in h for h in tab.header[1:]):  # a lone gyroscope file given as the source
+        chans = {"gx": ax, "gy": ay, "gz": az}
+    notes.extend(nan_notes(chans, src.labels[ACC]))
+    fs = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else float("nan")
+    notes.append(f"phyphox {src.labels[ACC]}: {t.size} samples, master time line (~{fs:.4g} Hz)")
+    for name, prefix in ((GYR, "g"), (LIN, "lin_a")):
+        if name not in src.files:
+            continue
+        tb, tg, xyz, _ = _sensor(src, name, sort, notes)
+        notes.extend(tb.notes)
+        if tg.size < 2:
+            raise ReaderError(src.labels[name], "fewer than 2 samples")
+        dtg = float(np.median(np.diff(tg)))
+        for ax_name, x in zip("xyz", xyz, strict=True):
+            chans[f"{prefix}{ax_name}"] = interp_onto(tg, x, t, 5.0 * dtg)
+            units[f"{prefix}{ax_name}"] = "rad/s" if prefix == "g" else "m/s^2"
+        notes.append(
+            f"{name} ({1 / dtg:.4g} Hz) linearly interpolated onto the accelerometer time line "
+            f"(NaN outside {tg[0]:.4g}..{tg[-1]:.4g} s and across gaps > {5 * dtg:.3g} s)"
+        )
+    events: dict[str, np.ndarray] = {}
+    if LOC in src.files:
+        chans_gps, ev, gnotes = _location(src, t, sort, notes)
+        chans.update(chans_gps)
+        events.update(ev)
+        notes.extend(gnotes)
+        units.update({"gps_speed": "m/s", "gps_hacc": "m"})
+    return finish(
+        t, chans, source=str(p), lines=lines, sort=False, units=units, events=events, notes=notes,
+        axes="phone axes: x right, y top edge, z out of screen (flat, top forward: x lateral, "
+        "y longitudinal, z up incl. +g)",
+        meta={"format": "phyphox"},
+    )
+
+
+def _location(src: _Source, t: np.ndarray, sort: bool, notes: list[str]):
+    tab, cols, lines = _read_table(src, LOC)
+    label = src.labels[LOC]
+    tl = cols[tab.header[0]]
+    vel = next((h for h in tab.header if h.lower().startswith("velocity")), None)
+    if vel is None:
+        raise ReaderError(label, "no 'Velocity (m/s)' column", row=tab.header_line,
+                          column="Velocity (m/s)")
+    hacc = next((h for h in tab.header if "horizontal accuracy" in h.lower()), None)
+    order = _order(tl, lines, label, sort, notes)
+    cols = {k: x[order] for k, x in cols.items()}
+    tl, v = tl[order], cols[vel].copy()
+    with np.errstate(invalid="ignore"):
+        v[v < 0] = np.nan  # phyphox writes -1 when the fix has no velocity
+    out = {}
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    inside = (tl >= t[0] - dt / 2) & (tl <= t[-1] + dt / 2)
+    out["gps_speed"] = place_nearest(tl[inside], v[inside], t)
+    nvalid = int(np.count_nonzero(np.isfinite(v[inside])))
+    nplaced = int(np.count_nonzero(np.isfinite(out["gps_speed"])))
+    if hacc is not None:
+        h = cols[hacc].copy()
+        with np.errstate(invalid="ignore"):
+            h[h < 0] = np.nan
+        out["gps_hacc"] = place_nearest(tl[inside], h[inside], t)
+    gnotes = [
+        *tab.notes,
+        f"{LOC}: {tl.size} fixes, {nvalid} with a valid velocity inside the accelerometer span; "
+        "gps_speed/gps_hacc placed at the accelerometer sample nearest each fix, NaN elsewhere; "
+        "raw fix times in event 'gps_fix'"
+    ]
+    if nplaced < nvalid:
+        gnotes.append(f"{nvalid - nplaced} GPS fixes fell on the same sample as a later fix")
+    if nvalid == 0:
+        gnotes.append("no GPS fix with a valid velocity: gps_speed is all NaN")
+    return out, {"gps_fix": tl[np.isfinite(tl)]}, gnotes

@@ -1,0 +1,63 @@
+"""Seeded, deterministic simulator of drives with ground truth (issue 2, part 4).
+
+Entry point::
+
+    from vibrospeed.sim import simulate, SCENARIOS
+    rec = simulate("car", seed=3, duration=120, **{"gps.rate_hz": 1})
+
+Every scenario returns a :class:`~vibrospeed.types.Recording` with IMU channels ``ax ay az gx gy
+gz``, truth ``omega_true`` (rad/s), ``speed_true`` (m/s) and the extra truth ``accel_true``
+(m/s^2), ``yaw_rate_true`` (rad/s); optionally ``gps_speed``/``gps_sats``, ``wheel_omega_*`` and
+the event stream ``wss_ticks``. ``wheel_radius`` is set and ``meta`` holds the scenario name,
+seed, full configuration and drawn quantities (segments, turns, biases, fades, gear changes,
+GPS outages).
+
+Modules: :mod:`.profile` (exact jerk-limited speed profiles and turns), :mod:`.vibration`
+(harmonics, resonances, engine order, road noise), :mod:`.sensors` (IMU, ticks, wheels, simple
+GPS and the :class:`GpsModel` hook), :mod:`.drive` (assembly), :mod:`.scenarios` (configs and
+registry; add scenarios with :func:`register`), :mod:`.validation` (thesis eq. 2.6).
+Randomness only through ``np.random.default_rng(seed)`` split into fixed per-component streams.
+"""
+
+from vibrospeed.sim.drive import EXTRA_TRUTH_UNITS, simulate_drive
+from vibrospeed.sim.profile import Segment, SpeedProfile, Turn, build_profile
+from vibrospeed.sim.scenarios import (
+    CONFIGS,
+    SCENARIOS,
+    CarConfig,
+    CartConfig,
+    ValidationConfig,
+    make_config,
+    register,
+    simulate,
+)
+from vibrospeed.sim.sensors import G0, GpsConfig, GpsModel, ImuConfig, TickConfig, WheelConfig
+from vibrospeed.sim.validation import ValidationSignal, validation_signal
+from vibrospeed.sim.vibration import EngineConfig, VibrationConfig
+
+__all__ = [
+    "CONFIGS",
+    "EXTRA_TRUTH_UNITS",
+    "G0",
+    "SCENARIOS",
+    "CarConfig",
+    "CartConfig",
+    "EngineConfig",
+    "GpsConfig",
+    "GpsModel",
+    "ImuConfig",
+    "Segment",
+    "SpeedProfile",
+    "TickConfig",
+    "Turn",
+    "ValidationConfig",
+    "ValidationSignal",
+    "VibrationConfig",
+    "WheelConfig",
+    "build_profile",
+    "make_config",
+    "register",
+    "simulate",
+    "simulate_drive",
+    "validation_signal",
+]

@@ -1,0 +1,88 @@
+"""Generic CSV through a column mapping: parsing, TOML, unit scaling, files without time."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vibrospeed.errors import ParameterError, ReaderError
+from vibrospeed.io import read
+from vibrospeed.io.mapped import ColumnSpec, load_mapping, parse_mapping
+
+KART = Path(__file__).resolve().parents[2] / "shared/datasets/gopro_kart/GX030410_accl_raw.csv"
+
+
+def test_parse_mapping():
+    m = parse_mapping(" t=time:ms , ay=acc_y:g,gz=Yaw rate (x)*0.5:deg/s, a*b=col*x")
+    assert m["t"] == ColumnSpec("time", 1.0, 0.0, "ms")
+    assert m["ay"] == ColumnSpec("acc_y", 1.0, 0.0, "g")
+    assert m["gz"] == ColumnSpec("Yaw rate (x)", 0.5, 0.0, "deg/s")
+    assert m["a*b"] == ColumnSpec("col*x")  # '*x' is not a number: part of the name
+    for bad in ("", "ay", "ay=", "=c", "ay=a,ay=b"):
+        with pytest.raises(ParameterError):
+            parse_mapping(bad)
+
+
+def test_units_and_scaling(tmp_path):
+    p = tmp_path / "log.csv"
+    p.write_text("date;time_ms;acc_y;yaw;v\n"
+                 "x;1000;1;180;36\nx;1010;0.5;-90;72\nx;1020;;0;0\n")
+    r = read(p, columns="t=time_ms:ms,ay=acc_y:g,gz=yaw:deg/s,gps_speed=v:km/h")
+    np.testing.assert_allclose(r.t, [1.0, 1.01, 1.02])
+    np.testing.assert_allclose(r["ay"], [9.80665, 4.903325, np.nan])
+    np.testing.assert_allclose(r["gz"], [math.pi, -math.pi / 2, 0.0])
+    np.testing.assert_allclose(r["gps_speed"], [10.0, 20.0, 0.0])
+    assert r.units["gz"] == "rad/s" and r.units["ay"] == "m/s^2"
+    assert any("'acc_y': 1 empty" in n for n in r.notes)
+
+
+def test_toml_mapping_with_offset_and_rate(tmp_path):
+    p = tmp_path / "raw.csv"
+    p.write_text("c1,c2\n100,1\n200,2\n300,3\n")
+    m = tmp_path / "map.toml"
+    m.write_text('rate = 50.0\n[columns]\nax = { column = "c1", scale = 0.01, offset = -1.0 }\n'
+                 'gz = { column = "c2", unit = "deg/s" }\n')
+    spec, opts = load_mapping(m)
+    assert opts == {"rate": 50.0} and spec["ax"].scale == 0.01
+    r = read(p, mapping_file=m)
+    np.testing.assert_allclose(r.t, [0.0, 0.02, 0.04])
+    np.testing.assert_allclose(r["ax"], [0.0, 1.0, 2.0])
+    np.testing.assert_allclose(r["gz"], np.deg2rad([1, 2, 3]))
+    m.write_text('[columns]\nax = { column = "c1", unit = "furlong" }\n')
+    with pytest.raises(ParameterError, match="unknown unit 'furlong'"):
+        read(p, mapping_file=m, rate=10)
+    m.write_text("[columns\n")
+    with pytest.raises(ReaderError, match="not a valid TOML"):
+        load_mapping(m)
+
+
+def test_mapping_errors(tmp_path):
+    p = tmp_path / "d.csv"
+    p.write_text("time,acc_y\n0,1\n0.1,oops\n")
+    with pytest.raises(ReaderError, match=r"d\.csv, line 1, column 'acc_z': column not found"):
+        read(p, columns="t=time,az=acc_z")
+    with pytest.raises(ReaderError, match=r"d\.csv, line 3, column 'acc_y': 'oops' is not a num"):
+        read(p, columns="t=time,ay=acc_y")
+    with pytest.raises(ParameterError, match="no time column mapped"):
+        read(p, format="mapped", columns="ay=acc_y")
+    with pytest.raises(ParameterError, match="not both"):
+        read(p, columns="t=time,ay=acc_y", rate=100)
+    with pytest.raises(ParameterError, match="does not take option 'rate'"):
+        read(p, format="phyphox", rate=100)
+
+
+def test_gopro_kart_raw_counts_with_rate():
+    if not KART.exists():
+        pytest.skip("shared dataset not present")
+    r = read(KART, columns="ax=c1,ay=c2,az=c3", rate=198.4)
+    assert len(r) == 90670
+    assert r.fs == pytest.approx(198.4, rel=1e-9)
+    assert r.duration == pytest.approx(457.0, abs=0.1)  # the video length
+    assert r.is_uniform(1e-9)
+    # raw int16 counts, kept as given (no scale requested)
+    for k in ("ax", "ay", "az"):
+        x = r[k]
+        assert np.all(np.isfinite(x)) and np.all(x == np.round(x))
+        assert np.all(np.abs(x) <= 32768)
+    assert r["ax"][:2].tolist() == [10698.0, 10358.0]

@@ -1,0 +1,114 @@
+"""phyphox exports: the real Hungary drive, and synthetic folders/zips with known answers."""
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vibrospeed.errors import ReaderError
+from vibrospeed.io import detect_format, read
+from vibrospeed.io.phyphox import is_phyphox, read_phyphox
+
+DRIVE = Path(__file__).resolve().parents[2] / "shared/datasets/hungary_car_phyphox/rsq_q2_00"
+
+_ACC_H = '"Time (s)","X (m/s^2)","Y (m/s^2)","Z (m/s^2)"\n'
+_GYR_H = '"Time (s)","X (rad/s)","Y (rad/s)","Z (rad/s)"\n'
+_LOC_H = ('"Time (s)","Latitude (\u00b0)","Longitude (\u00b0)","Height (m)","Velocity (m/s)",'
+          '"Direction (\u00b0)","Horizontal Accuracy (m)","Vertical Accuracy (\u00b0)"\n')
+
+
+def _export(folder: Path, *, repeat=False) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    ta = np.arange(200) * 0.01
+    acc = [f"{t!r},{np.sin(t)!r},{2 * t!r},9.81\n" for t in ta]
+    if repeat:
+        acc.insert(51, acc[50].replace(",9.81", ",0.0"))  # repeated timestamp, other value
+    (folder / "Accelerometer.csv").write_text(_ACC_H + "".join(acc))
+    tg = 0.005 + np.arange(198) * 0.01
+    (folder / "Gyroscope.csv").write_text(
+        _GYR_H + "".join(f"{t!r},{3 * t!r},0,{-t!r}\n" for t in tg))
+    loc = [(0.0, -1.0, 65.0), (0.5, 4.0, 10.0), (1.003, 5.5, 8.0), (1.004, 6.0, -1.0),
+           (1.5, -1.0, 9.0), (3.0, 7.0, 5.0)]
+    (folder / "Location.csv").write_text(
+        _LOC_H + "".join(f"{t},47.6,17.6,110,{v},-1,{h},{h}\n" for t, v, h in loc))
+
+
+def test_synthetic_folder_and_zip(tmp_path):
+    _export(tmp_path / "exp")
+    with zipfile.ZipFile(tmp_path / "exp.zip", "w") as zf:
+        for f in (tmp_path / "exp").iterdir():
+            zf.write(f, f"My Experiment/{f.name}")
+    for src in (tmp_path / "exp", tmp_path / "exp.zip", tmp_path / "exp" / "Gyroscope.csv"):
+        assert detect_format(src) == "phyphox"
+        r = read(src)
+        assert len(r) == 200
+        np.testing.assert_allclose(r["ay"], 2 * r.t)
+        # gyro linearly interpolated: exact for a linear signal, NaN outside its span
+        inside = (r.t >= 0.005) & (r.t <= 0.005 + 197 * 0.01)
+        np.testing.assert_allclose(r["gx"][inside], 3 * r.t[inside], atol=1e-12)
+        assert np.all(np.isnan(r["gx"][~inside]))
+        # GPS: -1 -> no fix; each valid fix once at the nearest sample; 1.003/1.004 -> sample 100
+        g = r["gps_speed"]
+        assert np.flatnonzero(np.isfinite(g)).tolist() == [50, 100]
+        assert g[50] == 4.0 and g[100] == 5.5  # 1.004 has a valid speed too: "later fix wins"
+        np.testing.assert_array_equal(r.events["gps_fix"], [0.0, 0.5, 1.003, 1.004, 1.5, 3.0])
+        assert r["gps_hacc"][0] == 65.0 and np.isnan(r["gps_hacc"][100])
+
+
+def test_later_fix_wins_on_same_sample(tmp_path):
+    _export(tmp_path / "e")
+    r = read_phyphox(tmp_path / "e")
+    # fixes at 1.003 (5.5 m/s) and 1.004 (6.0 m/s) both nearest to sample 100 (t = 1.00)
+    assert r["gps_speed"][100] == 6.0 or r["gps_speed"][100] == 5.5
+    assert r["gps_speed"][100] == 6.0
+    assert any("same sample" in n for n in r.notes)
+
+
+def test_repeated_timestamp_dropped_and_noted(tmp_path):
+    _export(tmp_path / "e", repeat=True)
+    r = read_phyphox(tmp_path / "e")
+    assert len(r) == 200 and r["az"][50] == 9.81
+    assert any("repeating the previous timestamp" in n for n in r.notes)
+
+
+def test_backwards_time_is_an_error(tmp_path):
+    _export(tmp_path / "e")
+    acc = (tmp_path / "e" / "Accelerometer.csv").read_text().splitlines(keepends=True)
+    acc[10], acc[11] = acc[11], acc[10]
+    (tmp_path / "e" / "Accelerometer.csv").write_text("".join(acc))
+    with pytest.raises(ReaderError, match=r"Accelerometer\.csv, line 11, column 't'"):
+        read_phyphox(tmp_path / "e")
+    assert len(read_phyphox(tmp_path / "e", sort=True)) == 200
+
+
+def test_missing_accelerometer(tmp_path):
+    (tmp_path / "e").mkdir()
+    (tmp_path / "e" / "Gyroscope.csv").write_text(_GYR_H + "0,1,2,3\n")
+    assert not is_phyphox(tmp_path / "e")
+    with pytest.raises(ReaderError, match="no Accelerometer.csv"):
+        read(tmp_path / "e", format="phyphox")
+
+
+def test_real_drive_rsq_q2_00():
+    if not DRIVE.exists():
+        pytest.skip("shared dataset not present")
+    r = read(DRIVE)
+    assert r.fs == pytest.approx(99.6, abs=0.1)
+    assert r.duration == pytest.approx(188.3, abs=0.5)
+    assert {"ax", "ay", "az", "gx", "gy", "gz", "gps_speed", "gps_hacc"} <= set(r.channels)
+    assert np.nanmean(r["az"]) == pytest.approx(9.81, abs=0.2)  # z up, includes +g
+    # y forward: integrating a_y over the start-up matches the first valid GPS speed sign (> 0)
+    g = r["gps_speed"]
+    fixes = np.flatnonzero(np.isfinite(g))
+    assert 150 <= fixes.size <= 190
+    assert np.nanmin(g) >= 0 and 10 < np.nanmax(g) < 20
+    # longitudinal acceleration from GPS speed correlates with a_y, not with a_x
+    tf, vf = r.t[fixes], g[fixes]
+    dv = np.diff(vf) / np.diff(tf)
+    mids = (tf[1:] + tf[:-1]) / 2
+    ok = np.diff(tf) < 1.5
+    sm = {k: np.convolve(r[k] - np.nanmean(r[k]), np.ones(100) / 100, "same") for k in ("ax", "ay")}
+    c = {k: np.corrcoef(dv[ok], np.interp(mids[ok], r.t, sm[k]))[0, 1] for k in sm}
+    assert c["ay"] > 0.5 > abs(c["ax"])
+    assert r.events["gps_fix"].size == 187

@@ -1,0 +1,97 @@
+"""Time base: monotonic checks, sort/dedup, resampling against analytic signals, gaps, Nyquist."""
+
+import numpy as np
+import pytest
+
+from vibrospeed.errors import InputError, ParameterError, ReaderError
+from vibrospeed.io.timebase import (
+    check_increasing,
+    check_nyquist,
+    find_gaps,
+    resample_uniform,
+    sort_dedup,
+    split_at_gaps,
+)
+from vibrospeed.types import Recording
+
+
+def test_check_increasing_names_first_bad_row():
+    t = np.array([0.0, 0.1, 0.2, 0.15, 0.3, 0.3])
+    with pytest.raises(InputError, match=r"sample 3: time goes backwards"):
+        check_increasing(t, "drive.csv")
+    rows = np.arange(t.size) + 2  # header on line 1
+    with pytest.raises(ReaderError, match=r"drive.csv, line 5, column 't'"):
+        check_increasing(t, "drive.csv", rows=rows)
+    with pytest.raises(InputError, match="sample 2: time is nan"):
+        check_increasing(np.array([0.0, 1.0, np.nan]), "x")
+    check_increasing(np.array([0.0, 1e-9, 5.0]), "ok")
+
+
+def test_sort_dedup_keeps_first_of_repeats_and_notes():
+    t = np.array([0.2, 0.0, 0.1, 0.1, np.nan, 0.3])
+    x = np.array([2.0, 0.0, 1.0, 9.0, 7.0, 3.0])
+    r = sort_dedup(Recording(t=t, channels={"ay": x}))
+    np.testing.assert_array_equal(r.t, [0.0, 0.1, 0.2, 0.3])
+    np.testing.assert_array_equal(r["ay"], [0.0, 1.0, 2.0, 3.0])
+    text = " ".join(r.notes)
+    assert "missing time" in text and "sorted" in text and "1 rows repeating" in text
+
+
+def test_resample_jittered_sine_matches_analytic():
+    rng = np.random.default_rng(3)
+    fs, f = 100.0, 3.0
+    t = np.arange(2000) / fs + rng.uniform(-0.3, 0.3, 2000) / fs  # +-30 % jitter
+    t.sort()
+    x = np.sin(2 * np.pi * f * t)
+    r = resample_uniform(Recording(t=t, channels={"ay": x}), fs)
+    assert r.is_uniform(1e-9)
+    np.testing.assert_allclose(np.diff(r.t), 1 / fs, rtol=1e-9)
+    # linear interpolation error bound h^2/8 * max|x''|, h = longest input interval
+    h = np.diff(t).max()
+    bound = h**2 / 8 * (2 * np.pi * f) ** 2
+    err = np.abs(r["ay"] - np.sin(2 * np.pi * f * r.t))
+    assert np.nanmax(err) <= bound * 1.0001
+    assert np.nanmax(err) > bound / 20  # the bound is not vacuous
+    assert "linear interpolation" in r.notes[-1]
+    assert r.meta["resampled"]["fs"] == fs
+
+
+def test_resample_linear_signal_exact_and_gap_is_nan():
+    t = np.concatenate([np.arange(0, 1, 0.01), np.arange(2, 3, 0.01)])
+    x = 2.0 * t + 1.0
+    r = resample_uniform(Recording(t=t, channels={"ax": x}, events={"wss_ticks": [0.5, 2.5]}),
+                         200.0, max_gap=0.05)
+    inside = (r.t > 0.99 + 1e-9) & (r.t < 2.0 - 1e-9)
+    assert np.all(np.isnan(r["ax"][inside]))
+    np.testing.assert_allclose(r["ax"][~inside], 2.0 * r.t[~inside] + 1.0, atol=1e-12)
+    np.testing.assert_array_equal(r.events["wss_ticks"], [0.5, 2.5])
+
+
+def test_resample_nan_neighbour_and_sparse_channel():
+    t = np.array([0.0, 0.1, 0.2, 0.3, 0.4])
+    x = np.array([0.0, 1.0, np.nan, 3.0, 4.0])
+    gps = np.array([np.nan, np.nan, 7.0, np.nan, np.nan])
+    r = resample_uniform(Recording(t=t, channels={"ax": x, "gps_speed": gps}), 20.0)
+    np.testing.assert_allclose(r["ax"], [0, 0.5, 1, np.nan, np.nan, np.nan, 3, 3.5, 4])
+    # a GPS fix is seen exactly once, at the nearest grid point
+    assert np.count_nonzero(np.isfinite(r["gps_speed"])) == 1
+    assert r["gps_speed"][4] == 7.0
+
+
+def test_find_and_split_gaps():
+    t = np.concatenate([np.arange(100) * 0.01, 5 + np.arange(50) * 0.01, 10 + np.arange(10) * 0.01])
+    gaps = find_gaps(t)
+    assert gaps == [(pytest.approx(0.99), 5.0), (pytest.approx(5.49), 10.0)]
+    rec = Recording(t=t, channels={"az": np.ones_like(t)}, events={"gps_fix": [0.5, 5.1, 7.0, 11]})
+    parts = split_at_gaps(rec, 1.0)
+    assert [len(p) for p in parts] == [100, 50, 10]
+    assert [p.events["gps_fix"].tolist() for p in parts] == [[0.5], [5.1, 7.0], [11.0]]
+    assert find_gaps(np.arange(10.0)) == []
+
+
+def test_nyquist():
+    check_nyquist(100.0, 3, 100.0)  # 300 < 314.16
+    with pytest.raises(ParameterError, match=r"maximum omega allowed is 104\.7"):
+        check_nyquist(100.0, 3, 105.0, "drive.csv")
+    with pytest.raises(ParameterError):
+        check_nyquist(100.0, 1, np.pi * 100.0)  # equality is not allowed

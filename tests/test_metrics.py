@@ -1,0 +1,53 @@
+"""Evaluation metrics against hand-computed values."""
+
+import numpy as np
+import pytest
+
+from vibrospeed.eval.metrics import compare, interp_truth, time_to_lock
+from vibrospeed.types import Track
+
+
+def _track(t, om, std=None, r=None):
+    return Track.from_omega(t, om, std, wheel_radius=r, method="x")
+
+
+def test_rmse_bias_against_linear_interpolated_truth():
+    t_truth = np.array([0.0, 10.0])
+    w_truth = np.array([10.0, 20.0])  # linear ramp: truth(t) = 10 + t
+    t = np.arange(0.0, 10.0, 0.5)
+    est = 10 + t + np.where(np.arange(t.size) % 2 == 0, 1.0, -3.0)  # errors +1, -3
+    m = compare(_track(t, est, np.full(t.size, 1.0), r=0.5), t_truth, w_truth)
+    assert m.n == t.size
+    assert m.bias == pytest.approx(-1.0)
+    assert m.rmse == pytest.approx(np.sqrt((1 + 9) / 2))
+    assert m.mae == pytest.approx(2.0)
+    assert m.rmse_speed == pytest.approx(0.5 * np.sqrt(5))
+    # band +-2.326 std: the +1 errors are covered, the -3 are not
+    assert m.coverage == pytest.approx(0.5)
+
+
+def test_standstill_and_warmup_excluded():
+    t = np.arange(0, 10, 0.1)
+    truth = np.where(t < 5, 0.0, 10.0)
+    est = np.where(t < 5, 7.0, 10.0)  # wrong while standing: must not count
+    m = compare(_track(t, est), t, truth, warmup=1.0)
+    assert m.rmse == 0.0
+    assert m.moving_share == pytest.approx(50 / 90)
+
+
+def test_harmonic_shares():
+    t = np.arange(100.0)
+    truth = np.full(100, 20.0)
+    est = np.r_[np.full(30, 10.0), np.full(20, 40.0), np.full(50, 20.0)]
+    m = compare(_track(t, est), t, truth)
+    assert m.half_share == pytest.approx(0.3)
+    assert m.double_share == pytest.approx(0.2)
+
+
+def test_interp_outside_span_is_nan_and_time_to_lock():
+    out = interp_truth(np.array([1.0, 2.0]), np.array([1.0, 3.0]), np.array([0.0, 1.5, 3.0]))
+    assert np.isnan(out[0]) and out[1] == 2.0 and np.isnan(out[2])
+    t = np.arange(10.0)
+    est = np.array([0, 0, 5, 5, 9, 10, 10, 10, 10, 10.0])
+    assert time_to_lock(t, est, np.full(10, 10.0)) == 4.0
+    assert time_to_lock(t, np.zeros(10), np.full(10, 10.0)) == np.inf
