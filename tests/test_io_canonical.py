@@ -141,7 +141,8 @@ def test_not_utf8(tmp_path):
         read(p)
 
 
-_GOOD = "t,ax,ay\n" + "".join(f"{i * 0.01!r},{np.sin(i)!r},{np.cos(i)!r}\n" for i in range(20))
+_GOOD = "t,ax,ay\n" + "".join(f"{i * 0.01!r},{float(np.sin(i))!r},{float(np.cos(i))!r}\n"
+                               for i in range(20))
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -1,5 +1,6 @@
 """phyphox exports: the real Hungary drive, and synthetic folders/zips with known answers."""
 
+import math
 import zipfile
 from pathlib import Path
 
@@ -21,13 +22,13 @@ _LOC_H = ('"Time (s)","Latitude (\u00b0)","Longitude (\u00b0)","Height (m)","Vel
 def _export(folder: Path, *, repeat=False) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     ta = np.arange(200) * 0.01
-    acc = [f"{t!r},{np.sin(t)!r},{2 * t!r},9.81\n" for t in ta]
+    acc = [f"{t!r},{math.sin(t)!r},{2 * t!r},9.81\n" for t in ta.tolist()]
     if repeat:
         acc.insert(51, acc[50].replace(",9.81", ",0.0"))  # repeated timestamp, other value
     (folder / "Accelerometer.csv").write_text(_ACC_H + "".join(acc))
     tg = 0.005 + np.arange(198) * 0.01
     (folder / "Gyroscope.csv").write_text(
-        _GYR_H + "".join(f"{t!r},{3 * t!r},0,{-t!r}\n" for t in tg))
+        _GYR_H + "".join(f"{t!r},{3 * t!r},0,{-t!r}\n" for t in tg.tolist()))
     loc = [(0.0, -1.0, 65.0), (0.5, 4.0, 10.0), (1.003, 5.5, 8.0), (1.004, 6.0, -1.0),
            (1.5, -1.0, 9.0), (3.0, 7.0, 5.0)]
     (folder / "Location.csv").write_text(
@@ -48,19 +49,20 @@ def test_synthetic_folder_and_zip(tmp_path):
         inside = (r.t >= 0.005) & (r.t <= 0.005 + 197 * 0.01)
         np.testing.assert_allclose(r["gx"][inside], 3 * r.t[inside], atol=1e-12)
         assert np.all(np.isnan(r["gx"][~inside]))
-        # GPS: -1 -> no fix; each valid fix once at the nearest sample; 1.003/1.004 -> sample 100
+        # GPS: -1 -> no fix; each valid fix once at the nearest sample; 3.0 s is after the end
         g = r["gps_speed"]
         assert np.flatnonzero(np.isfinite(g)).tolist() == [50, 100]
-        assert g[50] == 4.0 and g[100] == 5.5  # 1.004 has a valid speed too: "later fix wins"
+        assert g[50] == 4.0 and g[100] == 6.0  # 1.003 and 1.004 share sample 100: later wins
         np.testing.assert_array_equal(r.events["gps_fix"], [0.0, 0.5, 1.003, 1.004, 1.5, 3.0])
+        # both GPS channels come from the same fix (1.004 s: hacc -1 -> NaN)
         assert r["gps_hacc"][0] == 65.0 and np.isnan(r["gps_hacc"][100])
+        assert r["gps_hacc"][50] == 10.0
 
 
 def test_later_fix_wins_on_same_sample(tmp_path):
     _export(tmp_path / "e")
     r = read_phyphox(tmp_path / "e")
     # fixes at 1.003 (5.5 m/s) and 1.004 (6.0 m/s) both nearest to sample 100 (t = 1.00)
-    assert r["gps_speed"][100] == 6.0 or r["gps_speed"][100] == 5.5
     assert r["gps_speed"][100] == 6.0
     assert any("same sample" in n for n in r.notes)
 
@@ -77,7 +79,7 @@ def test_backwards_time_is_an_error(tmp_path):
     acc = (tmp_path / "e" / "Accelerometer.csv").read_text().splitlines(keepends=True)
     acc[10], acc[11] = acc[11], acc[10]
     (tmp_path / "e" / "Accelerometer.csv").write_text("".join(acc))
-    with pytest.raises(ReaderError, match=r"Accelerometer\.csv, line 11, column 't'"):
+    with pytest.raises(ReaderError, match=r"Accelerometer\.csv, line 12, column 't'"):
         read_phyphox(tmp_path / "e")
     assert len(read_phyphox(tmp_path / "e", sort=True)) == 200
 

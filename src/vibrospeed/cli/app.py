@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import functools
-import hashlib
 import json
 import sys
 from pathlib import Path
@@ -54,20 +53,6 @@ def _friendly(fn):
     return wrapper
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    if path.is_dir():
-        for p in sorted(path.rglob("*")):
-            if p.is_file():
-                h.update(p.name.encode())
-                h.update(p.read_bytes())
-    else:
-        with open(path, "rb") as fh:
-            for chunk in iter(lambda: fh.read(1 << 20), b""):
-                h.update(chunk)
-    return h.hexdigest()
-
-
 def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate: float | None,
           sort: bool, uniform: bool = True):
     from vibrospeed import io
@@ -80,9 +65,10 @@ def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate:
 
 
 # ---- option types shared by commands ------------------------------------------------------
-FormatOpt = Annotated[str, typer.Option("--format", "-f", help="input format: auto, canonical, "
-                      "csv (generic, needs --columns or --mapping), phyphox, sensorfusion, "
-                      "parquet, comma2k19, f1tenth")]
+FormatOpt = Annotated[str, typer.Option("--format", "-f", help="input format: auto (detect), "
+                      "csv (canonical: header t,ax,ay,...), mapped (any CSV with --columns or "
+                      "--mapping), phyphox (folder or zip), sensorfusion (app log), parquet, "
+                      "comma2k19, f1tenth")]
 ColumnsOpt = Annotated[str | None, typer.Option(help="generic CSV column mapping, e.g. "
                        "'t=time,ay=acc_y:g' (name=column[:unit])")]
 MappingOpt = Annotated[Path | None, typer.Option("--mapping", help="TOML file with the column "
@@ -176,9 +162,8 @@ def estimate(
                              progress=False)
     from vibrospeed import __version__
 
-    meta = {"input": str(input), "input_sha256": _sha256(input), "version": __version__,
-            "recording_notes": rec.notes}
-    io.write_track(track, output, meta=meta)
+    meta = {"version": __version__, "axis": axis, "recording_notes": rec.notes}
+    io.write_track(track, output, meta=meta, input_path=input)
     for note in rec.notes + track.notes:
         err.print(f"note: {note}")
     err.print(f"wrote {output} ({len(track)} rows, method {method})")
@@ -217,24 +202,25 @@ def evaluate(
     track = io.read_track(estimate_csv)
     ref = io.read(truth, truth_format)
     m = ev(track, ref, min_omega=min_omega, warmup=warmup)
-    tab = Table(title=f"{estimate_csv} vs {truth}")
+    tab = Table(title=f"{estimate_csv.name} vs truth {truth.name}", title_justify="left")
     tab.add_column("metric")
     tab.add_column("value", justify="right")
+    tab.add_column("unit")
     rows = [
-        ("samples (moving)", f"{m.n}"),
-        ("moving share", f"{m.moving_share:.1%}"),
-        ("RMSE [rad/s]", f"{m.rmse:.3f}"),
-        ("MAE [rad/s]", f"{m.mae:.3f}"),
-        ("bias [rad/s]", f"{m.bias:+.3f}"),
-        ("relative error", f"{m.rel_error:.1%}"),
-        (f"coverage of {m.level:.0%} band", f"{m.coverage:.1%}"),
-        ("share at omega/2", f"{m.half_share:.1%}"),
-        ("share at 2 omega", f"{m.double_share:.1%}"),
+        ("samples evaluated (moving)", f"{m.n}", ""),
+        ("moving share", f"{m.moving_share:.1%}", ""),
+        ("RMSE", f"{m.rmse:.3f}", "rad/s"),
+        ("MAE", f"{m.mae:.3f}", "rad/s"),
+        ("bias", f"{m.bias:+.3f}", "rad/s"),
+        ("relative error", f"{m.rel_error:.1%}", ""),
+        (f"coverage of the {m.level:.0%} band", f"{m.coverage:.1%}", ""),
+        ("share at omega/2", f"{m.half_share:.1%}", ""),
+        ("share at 2 omega", f"{m.double_share:.1%}", ""),
     ]
     if m.rmse_speed == m.rmse_speed:
-        rows.append(("RMSE speed [m/s]", f"{m.rmse_speed:.3f}"))
-    for k, v in rows:
-        tab.add_row(k, v)
+        rows.append(("RMSE speed", f"{m.rmse_speed:.3f}", "m/s"))
+    for row in rows:
+        tab.add_row(*row)
     out.print(tab)
     if json_out is not None:
         atomic_write_text(json_out, json.dumps(m.to_dict(), indent=2))

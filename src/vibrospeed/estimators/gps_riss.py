@@ -73,7 +73,7 @@ class Config:
     gps_a: tuple[float, ...] = (0.0, 1.0, -1427.2, -114.2)
     gps_b: tuple[float, ...] = (0.0, 1427.2)
     q: tuple[float, ...] = (5.0, 4.0, 1.0, 1.0)
-    q_rate: float = 400.0
+    q_rate: float = 1.0
     r_acc_ins: float = 0.4
     r_acc_gps: float = 3.5
     r_gps: float = 40.0
@@ -87,8 +87,8 @@ class Config:
     pitch_poly: tuple[float, ...] = (-0.0183, 0.2822, 0.0207)
     offset_estimation: bool = True
     q_drift: float = 1e-3
-    q_offset: float = 1e-4
-    r_drift: float = 1.0
+    q_offset: float = 1e-2
+    r_drift: float = 0.1
     p0_offset: float = 0.25
     p0_speed: float = 100.0
 

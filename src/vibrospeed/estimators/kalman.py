@@ -170,17 +170,19 @@ def update_one(m, P, h, r, y, ph):
     if not np.isfinite(y):
         return 0.0, np.nan, np.nan
     n = m.size
-    # ph = P h' ; S = h P h' + r ; nu = y - h m
+    # ph = P h' ; S = h P h' + r ; nu = y - h m   (zero entries of h skipped)
     S = r
     yhat = 0.0
     for i in range(n):
-        acc = 0.0
-        for j in range(n):
-            acc += P[i, j] * h[j]
-        ph[i] = acc
+        ph[i] = 0.0
+    for j in range(n):
+        hj = h[j]
+        if hj != 0.0:
+            for i in range(n):
+                ph[i] += P[i, j] * hj
+            yhat += hj * m[j]
     for i in range(n):
         S += h[i] * ph[i]
-        yhat += h[i] * m[i]
     nu = y - yhat
     # m += K nu,  K = ph / S ;  P -= ph ph' / S
     g = nu / S

@@ -16,10 +16,10 @@ Formats (:data:`FORMATS`)
 
 Adding a reader
 ---------------
-Write a module with ``read(path, *, sort=False, ...) -> Recording`` and optionally
-``detect(path) -> bool`` (for ``format="auto"``), then either add it to :data:`_BUILTIN` (lazy,
-imported on first use; ``comma2k19`` and ``f1tenth`` are pre-declared there and become available
-as soon as their modules exist) or call :func:`register_format` at run time. :func:`read` passes a
+Write a module with a reader ``read_x(path, *, sort=False, ...) -> Recording`` and optionally
+``detect(path) -> bool`` (for ``format="auto"``), then either add one line to :data:`_BUILTIN`
+(lazy, imported on first use; ``comma2k19`` and ``f1tenth`` are declared there and are offered as
+soon as their modules exist) or call :func:`register_format` at run time. :func:`read` passes a
 reader only the options its signature accepts and refuses options it does not take.
 
 Examples
@@ -104,9 +104,9 @@ _BUILTIN: dict[str, _Format] = {
                       "Parquet with canonical columns (needs pyarrow)"),
     "sensorfusion": _entry("vibrospeed.io.sensorfusion", "read_sensorfusion", "is_sensorfusion",
                            "Sensor Fusion app log: 'timestamp_ms TAG values' lines (ACC, GYR...)"),
-    "comma2k19": _entry("vibrospeed.io.comma2k19", "read", "detect",
+    "comma2k19": _entry("vibrospeed.io.comma2k19", "read_comma2k19", "detect",
                         "comma2k19 segment: phone IMU, GNSS and CAN wheel speeds"),
-    "f1tenth": _entry("vibrospeed.io.f1tenth", "read", "detect",
+    "f1tenth": _entry("vibrospeed.io.f1tenth", "read_f1tenth", "detect",
                       "F1TENTH friction-map logs: IMU (g, deg/s), VESC odometry"),
     "csv": _entry("vibrospeed.io.canonical", "read_csv", None,
                   "canonical CSV: header 't,ax,ay,...' in SI units (vibrospeed's own)"),
@@ -149,11 +149,14 @@ def register_format(
     FORMATS.update(available_formats())
 
 
-def _resolve(ref: str | Callable) -> Callable:
+def _resolve(ref: str | Callable, *, optional: bool = False) -> Callable | None:
     if callable(ref):
         return ref
     mod, _, fn = ref.partition(":")
-    return getattr(importlib.import_module(mod), fn)
+    found = getattr(importlib.import_module(mod), fn, None)
+    if found is None and not optional:
+        raise ParameterError(f"reader {ref} is declared but its module has no '{fn}'")
+    return found
 
 
 def _first_line(p: Path) -> str:
@@ -181,7 +184,8 @@ def detect_format(path: str | os.PathLike[str], *, mapping: bool = False) -> str
     for name, f in _REGISTRY.items():
         if name in ("csv", "mapped", "parquet") or f.detect is None or not _available(f):
             continue
-        if _resolve(f.detect)(p):
+        detect = _resolve(f.detect, optional=True)  # a module may offer no detector
+        if detect is not None and detect(p):
             return name
     if p.is_dir():
         raise ReaderError(p, "unknown format: a folder that is not a phyphox export "

@@ -11,7 +11,9 @@ Files used (each with its own time base, first column ``Time (s)``):
                             valid speed -> NaN) and ``Horizontal Accuracy (m)`` -> ``gps_hacc``.
                             Each fix is placed at the single accelerometer sample nearest to it
                             and the channels are NaN elsewhere, so that an estimator sees every
-                            fix exactly once, at most half an accelerometer period late or early.
+                            fix exactly once, at most half an accelerometer period late or early
+                            (if several fixes share a sample, the last one with a valid velocity
+                            is kept, both channels from the same fix).
                             The raw fix times are kept as event ``gps_fix``. phyphox gives no
                             satellite count, so there is no ``gps_sats``.
 
@@ -41,7 +43,7 @@ import numpy as np
 from vibrospeed.errors import ReaderError
 from vibrospeed.io._common import finish
 from vibrospeed.io._csv import CsvTable, nan_notes, text_stream
-from vibrospeed.io.timebase import check_increasing, interp_onto, place_nearest
+from vibrospeed.io.timebase import check_increasing, interp_onto, nearest_index
 from vibrospeed.types import Recording
 
 __all__ = ["is_phyphox", "read_phyphox"]
@@ -250,17 +252,25 @@ def _location(src: _Source, t: np.ndarray, sort: bool, notes: list[str]):
     tl, v = tl[order], cols[vel].copy()
     with np.errstate(invalid="ignore"):
         v[v < 0] = np.nan  # phyphox writes -1 when the fix has no velocity
-    out = {}
+    h = cols[hacc].copy() if hacc is not None else np.full(tl.size, np.nan)
+    with np.errstate(invalid="ignore"):
+        h[h < 0] = np.nan
     dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
-    inside = (tl >= t[0] - dt / 2) & (tl <= t[-1] + dt / 2)
-    out["gps_speed"] = place_nearest(tl[inside], v[inside], t)
-    nvalid = int(np.count_nonzero(np.isfinite(v[inside])))
+    inside = np.flatnonzero((tl >= t[0] - dt / 2) & (tl <= t[-1] + dt / 2))
+    j = nearest_index(tl[inside], t)
+    valid = np.isfinite(v[inside])
+    # one fix per sample: the last one with a valid velocity, else the last one
+    order = np.lexsort((inside, valid, j))
+    last = np.ones(order.size, dtype=bool)
+    last[:-1] = j[order][1:] != j[order][:-1]
+    win = order[last]
+    out = {"gps_speed": np.full(t.size, np.nan), "gps_hacc": np.full(t.size, np.nan)}
+    out["gps_speed"][j[win]] = v[inside][win]
+    out["gps_hacc"][j[win]] = h[inside][win]
+    if hacc is None:
+        del out["gps_hacc"]
+    nvalid = int(np.count_nonzero(valid))
     nplaced = int(np.count_nonzero(np.isfinite(out["gps_speed"])))
-    if hacc is not None:
-        h = cols[hacc].copy()
-        with np.errstate(invalid="ignore"):
-            h[h < 0] = np.nan
-        out["gps_hacc"] = place_nearest(tl[inside], h[inside], t)
     gnotes = [
         *tab.notes,
         f"{LOC}: {tl.size} fixes, {nvalid} with a valid velocity inside the accelerometer span; "
@@ -268,7 +278,8 @@ def _location(src: _Source, t: np.ndarray, sort: bool, notes: list[str]):
         "raw fix times in event 'gps_fix'"
     ]
     if nplaced < nvalid:
-        gnotes.append(f"{nvalid - nplaced} GPS fixes fell on the same sample as a later fix")
+        gnotes.append(f"{nvalid - nplaced} valid GPS fix(es) fell on the same sample as a later "
+                      "one (the later is kept)")
     if nvalid == 0:
         gnotes.append("no GPS fix with a valid velocity: gps_speed is all NaN")
     return out, {"gps_fix": tl[np.isfinite(tl)]}, gnotes

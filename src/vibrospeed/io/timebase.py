@@ -31,6 +31,7 @@ __all__ = [
     "describe_timebase",
     "find_gaps",
     "interp_onto",
+    "nearest_index",
     "place_nearest",
     "resample_uniform",
     "sort_dedup",
@@ -60,13 +61,14 @@ def check_increasing(t: np.ndarray, source: str = "", *, rows: np.ndarray | None
     if not cands:
         return
     i = min(cands)
-    if not np.isfinite(t[i]):
-        msg = f"time is {t[i]} (not a number)"
-    elif t[i] == t[i - 1]:
-        msg = f"time {t[i]!r} s repeats the previous sample (use sort=True to de-duplicate)"
+    now, prev = float(t[i]), float(t[i - 1]) if i else float("nan")
+    if not np.isfinite(now):
+        msg = f"time is {now} (not a number)"
+    elif now == prev:
+        msg = f"time {now!r} s repeats the previous sample (use sort=True to de-duplicate)"
     else:
         msg = (
-            f"time goes backwards ({t[i]!r} s after {t[i - 1]!r} s); "
+            f"time goes backwards ({now!r} s after {prev!r} s); "
             "use sort=True to sort and de-duplicate"
         )
     if rows is not None:
@@ -133,6 +135,16 @@ def interp_onto(t: np.ndarray, x: np.ndarray, grid: np.ndarray, max_gap: float) 
     return np.where(inside & ~outside, y, np.nan)
 
 
+def nearest_index(tq: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """Index of the ``grid`` point nearest each time in ``tq`` (``grid`` increasing, non-empty;
+    ties go to the earlier point)."""
+    tq = np.asarray(tq, dtype=np.float64)
+    if grid.size == 1:
+        return np.zeros(tq.size, dtype=np.intp)
+    j = np.clip(np.searchsorted(grid, tq), 1, grid.size - 1)
+    return np.where(np.abs(grid[j - 1] - tq) <= np.abs(grid[j] - tq), j - 1, j)
+
+
 def place_nearest(t: np.ndarray, x: np.ndarray, grid: np.ndarray) -> np.ndarray:
     """Put each finite sample ``x_i`` at the grid point nearest ``t_i``; NaN elsewhere.
 
@@ -143,13 +155,7 @@ def place_nearest(t: np.ndarray, x: np.ndarray, grid: np.ndarray) -> np.ndarray:
     fin = np.flatnonzero(np.isfinite(x))
     if fin.size == 0 or grid.size == 0:
         return out
-    tf = t[fin]
-    j = np.clip(np.searchsorted(grid, tf), 1, max(grid.size - 1, 1))
-    if grid.size > 1:
-        j = np.where(np.abs(grid[j - 1] - tf) <= np.abs(grid[j] - tf), j - 1, j)
-    else:
-        j = np.zeros_like(j)
-    out[j] = x[fin]  # later fixes overwrite earlier ones landing on the same grid point
+    out[nearest_index(t[fin], grid)] = x[fin]  # later samples overwrite earlier ones
     return out
 
 

@@ -73,7 +73,7 @@ class SpeedProfile:
     breaks : (K+1,) s, block boundaries, increasing.
     a_cmd : (K,) m/s^2, commanded acceleration in each block (0 after the last break).
     v0 : m/s, speed before the first break.
-    jerk_time : s, width ``tau`` of the moving-average smoothing (0: none).
+    jerk_time : s, width ``tau`` of the moving-average smoothing (0: none; below 1 ms treated as 0).
     turns : curvature events, see :class:`Turn`.
     segments : descriptive list kept for metadata.
     """
@@ -99,7 +99,8 @@ class SpeedProfile:
         self.breaks = b
         self.a_cmd = np.append(a, 0.0)  # block K: after the last break, a = 0
         self.v0 = float(v0)
-        self.jerk_time = float(jerk_time)
+        # below 1 ms the moving average would only cost precision ((D(t+h) - D(t-h)) / tau)
+        self.jerk_time = float(jerk_time) if jerk_time >= 1e-3 else 0.0
         self.turns = tuple(turns)
         self.segments = list(segments or [])
         # cumulative integrals at the breaks: C = int a, D = int C, E = int D (from breaks[0])

@@ -197,8 +197,14 @@ def random_turns(profile: SpeedProfile, rng: np.random.Generator, *, duration: f
 def random_segments(rng: np.random.Generator, *, duration: float, speed_range: tuple[float, float],
                     cruise_time: tuple[float, float], stop_time: tuple[float, float],
                     p_stop: float, initial_stop: float, accel: tuple[float, float],
-                    decel: tuple[float, float]) -> list[Segment]:
-    """Random stop / start / cruise / accelerate / brake sequence covering ``duration`` s."""
+                    decel: tuple[float, float], wander: float = 0.0,
+                    wander_accel: float = 0.2) -> list[Segment]:
+    """Random stop / start / cruise / accelerate / brake sequence covering ``duration`` s.
+
+    With ``wander`` > 0 (m/s) a cruise is split into holds of 2..5 s joined by small speed
+    changes (target = cruise speed + N(0, wander^2), at ``wander_accel`` m/s^2), as a driver
+    never holds a speed exactly.
+    """
     segs: list[Segment] = []
     t = 0.0
     if initial_stop > 0:
@@ -210,7 +216,21 @@ def random_segments(rng: np.random.Generator, *, duration: float, speed_range: t
     t += v / a
     while t < duration:
         c = rng.uniform(*cruise_time)
-        segs.append(Segment("cruise", duration=c))
+        if wander > 0:
+            base, left = v, c
+            while left > 0:
+                hold = min(left, rng.uniform(2.0, 5.0))
+                segs.append(Segment("cruise", duration=hold))
+                left -= hold
+                if left <= 0:
+                    break
+                target = max(base + rng.normal(0.0, wander), 0.5 * base)
+                kind = "accelerate" if target >= v else "brake"
+                segs.append(Segment(kind, speed=target, accel=wander_accel))
+                left -= abs(target - v) / wander_accel
+                v = target
+        else:
+            segs.append(Segment("cruise", duration=c))
         t += c
         if t >= duration:
             break
@@ -277,6 +297,10 @@ class CartConfig:
     """m/s^2, range of the magnitude of braking decelerations."""
     jerk_time: float = 0.4
     """s, ramp time of every acceleration change (jerk = delta a / jerk_time)."""
+    speed_wander: float = 0.02
+    """m/s, std of the small speed changes within a cruise (0: constant cruise speed)."""
+    wander_accel: float = 0.05
+    """m/s^2, acceleration of those small changes."""
     turn_rate: float = 0.0
     """Turns per minute (0: straight corridor)."""
     turn_duration: tuple[float, float] = (2.0, 5.0)
@@ -322,7 +346,8 @@ def _cart(cfg: CartConfig, rng: np.random.Generator, *, gps_model=None) -> Recor
     segs = random_segments(seg_rng, duration=cfg.duration, speed_range=(lo * r, hi * r),
                            cruise_time=cfg.cruise_time, stop_time=cfg.stop_time,
                            p_stop=cfg.p_stop, initial_stop=cfg.initial_stop, accel=cfg.accel,
-                           decel=cfg.decel)
+                           decel=cfg.decel, wander=cfg.speed_wander,
+                           wander_accel=cfg.wander_accel)
     return _drive(cfg, drive_rng, gps_model, segs, "cart")
 
 
@@ -368,6 +393,10 @@ class CarConfig:
     """m/s^2, range of braking magnitudes."""
     jerk_time: float = 0.6
     """s, ramp time of every acceleration change."""
+    speed_wander: float = 0.3
+    """m/s, std of the small speed changes within a cruise (0: constant cruise speed)."""
+    wander_accel: float = 0.2
+    """m/s^2, acceleration of those small changes."""
     turn_rate: float = 1.5
     """Turns per minute of recording."""
     turn_duration: tuple[float, float] = (3.0, 8.0)
@@ -398,7 +427,8 @@ def _car(cfg: CarConfig, rng: np.random.Generator, *, gps_model=None) -> Recordi
     segs = random_segments(seg_rng, duration=cfg.duration, speed_range=(lo * r, hi * r),
                            cruise_time=cfg.cruise_time, stop_time=cfg.stop_time,
                            p_stop=cfg.p_stop, initial_stop=cfg.initial_stop, accel=cfg.accel,
-                           decel=cfg.decel)
+                           decel=cfg.decel, wander=cfg.speed_wander,
+                           wander_accel=cfg.wander_accel)
     return _drive(cfg, drive_rng, gps_model, segs, "car")
 
 

@@ -1,0 +1,592 @@
+"""Inertial-aided vibration tracker (thesis ch. 3 and 4.2; METHODS.md section 2).
+
+The harmonic EKF of :mod:`vibrospeed.estimators.ekf` extended with
+
+* an accelerometer-bias state and the longitudinal acceleration ``u = a_x`` as control input
+  (thesis 3.2, eq. 3.10-3.13). State ``x = [omega, alpha_1, beta_1, ..., alpha_M, beta_M, b]``::
+
+      omega_{k+1} = omega_k + (T / r) b_k + (T / r) u_k + v^omega_k
+      b_{k+1}     = b_k + v^b_k
+
+  The thesis writes ``omega + b / r + (T / r) u`` with ``b`` a velocity increment per sample
+  (eq. 3.8, 3.10); here ``b`` is an acceleration (m/s^2) so that its noise does not depend on
+  the sample rate: ``b_thesis = T b``, otherwise identical. The thesis' Jacobian (eq. 3.13)
+  appends a 1 on the diagonal with zeros elsewhere; that drops ``d omega_{k+1} / d b = T / r``,
+  which would leave ``b`` unobservable (its cross-covariance with omega would stay 0). The exact
+  derivative is used here.
+* the mode / change detector (thesis 3.3, eq. 3.14): ``ubar`` = mean of the last 20 ``u``;
+  if ``|ubar| < mu_vib = 0.20 m/s^2`` the vibration measurement update is made and ``u = 0``
+  in the time update (thesis), otherwise the time update integrates ``u`` and the vibration
+  update is skipped. On the sample where acceleration mode switches on, the boost of eq. 3.15,
+  ``omega += 20 T ubar / r``, adds the speed gained while the window filled.
+  ``aid_always=True`` is a variant (not the thesis'): ``u`` is integrated in both modes, so the
+  vibration updates make ``b`` the real accelerometer bias; the boost is then off (nothing was
+  missed).
+* standstill (thesis 3.1, eq. 3.4-3.6): when the window test (N = 20, mu = 0.019 m/s^2 on the
+  pre-filtered vibration signal, :func:`vibrospeed.signal.detectors.window_test`) or the CUSUM
+  test on the EKF residual (4.2.3, :func:`vibrospeed.signal.detectors.standstill_eps`) says the
+  vehicle stands still, a virtual measurement ``omega = 0`` with variance ``R_ss = 1`` is made
+  (not in acceleration mode: there the integration is trusted).
+* optional reference-speed fixes (thesis 4.2.4; :mod:`vibrospeed.eval.reference`): a measurement
+  ``omega = v_ref / r`` with variance ``(sigma_v / r)^2`` on the samples where one exists.
+
+Conventions as in :mod:`vibrospeed.estimators.ekf`: the stored state is the prior for the next
+sample; ``step`` updates with sample k, returns the posterior at ``t_k`` and predicts to
+``t_{k+1}``; NaN inputs skip what needs them. ``run`` equals repeated ``step`` exactly.
+
+Wrapping other trackers: the aiding acts through three hooks, all on omega only -- the time
+update's shift ``(T / r)(u + b)``, the boost, and scalar omega measurements (standstill,
+reference fixes). A grid tracker (the RBPMF of :mod:`vibrospeed.estimators.rbpmf`) gains the
+same aiding by shifting its grid posterior by ``(T / r)(u + b)`` per sample and multiplying the
+grid weights by the omega likelihoods; :func:`omega_shift` computes the shift such a wrapper
+applies (see docs/aided.md).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from vibrospeed.config import config_from_params
+from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.models.harmonic import HarmonicModel
+from vibrospeed.signal import detectors as det
+from vibrospeed.signal.detectors import _cusum_core, _mode_core, _window_core
+from vibrospeed.types import Recording, Track
+
+STANDSTILL_KINDS = {"none": 0, "window": 1, "cusum": 2}
+
+
+def _thesis_model() -> HarmonicModel:
+    # thesis 3.5: M = 2 best; R = 0.0022 (table 3.1; the text says 0.0008); Q as in ch. 2
+    return HarmonicModel(M=2, dt=0.01, q_omega=16.0, q_amp=0.004, r=0.0022, p0_amp=0.1)
+
+
+@dataclass(frozen=True)
+class Config:
+    """Parameters of the aided tracker (SI units).
+
+    model : harmonic model (M, dt, q_omega, q_amp, r, p0_amp); default the thesis' ch. 3 choice
+        M = 2, R = 0.0022, q_omega = 16 (rad/s)^2/s, q_amp = 0.004, in m/s^2 units.
+    wheel_radius : r in m (required for the aiding).
+    omega0, p0_omega : initial omega (rad/s) and its variance (start from rest: 0, 1).
+    amp0 : initial alpha, beta.
+    q_bias : random-walk intensity of b, (m/s^2)^2/s. p0_bias : initial variance of b.
+    q_omega_accel : omega random-walk intensity (rad/s)^2/s in acceleration mode, when the
+        integrated acceleration drives omega (None: the model's q_omega).
+    standstill : 'window' (thesis 3.1), 'cusum' (thesis 4.2.3) or 'none'.
+    ss_n, ss_mu : window length and threshold (m/s^2) of the window test (20, 0.019).
+    r_ss : variance of the virtual standstill measurement omega = 0 (thesis: 1).
+    cusum_sigma : residual level (m/s^2) separating quiet from moving; cusum_nu, cusum_h :
+        drift and threshold of the CUSUM on ``eps = 1 - (e / sigma)^2``; the standstill flag is
+        held for :func:`vibrospeed.signal.detectors.cusum_hold` samples after an alarm.
+    mode_n, mode_mu : window length and threshold (m/s^2) of the mode detector (20, 0.20).
+    boost : apply the boost of eq. 3.15 (``mode_n`` T ubar / r) when acceleration mode starts.
+    aid_always : integrate u in vibration mode too (variant, see the module docstring).
+    omega_max : upper clip (rad/s); None: 0.98 pi fs / M.
+    """
+
+    model: HarmonicModel = field(default_factory=_thesis_model)
+    wheel_radius: float = 0.08
+    omega0: float = 0.0
+    p0_omega: float = 1.0
+    amp0: float = 0.0
+    q_bias: float = 1e-4
+    p0_bias: float = 0.01
+    q_omega_accel: float | None = 1.0
+    standstill: str = "window"
+    ss_n: int = det.WINDOW_N
+    ss_mu: float = det.WINDOW_MU
+    r_ss: float = 1.0
+    cusum_sigma: float = 0.03
+    cusum_nu: float = 0.5
+    cusum_h: float = 10.0
+    mode_n: int = det.MODE_N
+    mode_mu: float = det.MODE_MU
+    boost: bool = True
+    aid_always: bool = False
+    omega_max: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (self.wheel_radius and self.wheel_radius > 0):
+            raise ParameterError(f"wheel_radius must be > 0 m, got {self.wheel_radius}")
+        if self.standstill not in STANDSTILL_KINDS:
+            raise ParameterError(f"standstill must be one of {', '.join(STANDSTILL_KINDS)}, "
+                                 f"got '{self.standstill}'")
+        for name in ("p0_omega", "p0_bias", "r_ss", "ss_mu", "mode_mu", "cusum_sigma",
+                     "cusum_h"):
+            if not getattr(self, name) > 0:
+                raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
+        for name in ("q_bias", "omega0"):
+            if not getattr(self, name) >= 0:
+                raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.q_omega_accel is not None and not self.q_omega_accel >= 0:
+            raise ParameterError(f"q_omega_accel must be >= 0, got {self.q_omega_accel}")
+        for name in ("ss_n", "mode_n"):
+            v = getattr(self, name)
+            if int(v) != v or v < 1:
+                raise ParameterError(f"{name} must be a positive integer, got {v}")
+
+    @property
+    def omega_limit(self) -> float:
+        """Upper clip for omega in rad/s."""
+        nyq = 0.98 * np.pi / (self.model.M * self.model.dt)
+        return nyq if self.omega_max is None else min(self.omega_max, nyq)
+
+    @property
+    def n_state(self) -> int:
+        """Length of the state vector, 2 + 2M."""
+        return 2 + self.model.n_lin
+
+
+class State(NamedTuple):
+    """Prior for the next sample plus the detectors' states.
+
+    x (2+2M,) ``[omega, alpha_1, beta_1, ..., b]``, P (2+2M, 2+2M), window / cusum / mode:
+    detector states (:mod:`vibrospeed.signal.detectors`).
+    """
+
+    x: np.ndarray
+    P: np.ndarray
+    window: det.WindowState
+    cusum: det.CusumState
+    mode: det.ModeState
+
+
+class Estimate(NamedTuple):
+    """Posterior at one sample."""
+
+    omega: float  # rad/s
+    omega_std: float  # rad/s
+    bias: float  # m/s^2, estimated b (added to a_x)
+    standstill: bool
+    accelerating: bool
+    boost: bool
+    ubar: float  # m/s^2, mean of the last mode_n a_x
+    innovation: float  # vibration innovation (EKF units), NaN if no vibration update
+    innovation_var: float
+    amplitudes: np.ndarray  # (M,)
+
+
+N_OUT = 9  # omega, std, bias, ss, acc, boost, ubar, innov, innov var; then M amplitudes
+
+
+def init(config: Config) -> State:
+    """Prior at the first sample and empty detectors."""
+    m = config.model
+    n = config.n_state
+    x = np.full(n, float(config.amp0))
+    x[0] = config.omega0
+    x[-1] = 0.0
+    P = np.eye(n) * m.p0_amp
+    P[0, 0] = config.p0_omega
+    P[-1, -1] = config.p0_bias
+    return State(x, P, det.window_init(config.ss_n), det.cusum_init(), det.mode_init(config.mode_n))
+
+
+# ---------------------------------------------------------------------------------------------
+@njit(cache=True)
+def _scalar_update(x, P, j, z, r):
+    """Update with the scalar measurement ``z = x[j] + e``, var(e) = r (Joseph form)."""
+    n = x.size
+    s = P[j, j] + r
+    k = P[:, j] / s
+    innov = z - x[j]
+    for i in range(n):
+        x[i] += k[i] * innov
+    A = np.eye(n)
+    for i in range(n):
+        A[i, j] -= k[i]
+    Pn = A @ P @ A.T
+    for i in range(n):
+        for jj in range(i, n):
+            v = 0.5 * (Pn[i, jj] + Pn[jj, i]) + r * k[i] * k[jj]
+            P[i, jj] = v
+            P[jj, i] = v
+
+
+@njit(cache=True)
+def _vib_update(x, P, y, M, r):
+    """Vibration update ``y = sum_m alpha_m + e`` (thesis eq. 2.23, 2.26); -> (innov, S)."""
+    n = x.size
+    pht = np.zeros(n)
+    for i in range(n):
+        acc = 0.0
+        for m in range(M):
+            acc += P[i, 1 + 2 * m]
+        pht[i] = acc
+    s_var = r
+    yhat = 0.0
+    for m in range(M):
+        s_var += pht[1 + 2 * m]
+        yhat += x[1 + 2 * m]
+    innov = y - yhat
+    k = pht / s_var
+    for i in range(n):
+        x[i] += k[i] * innov
+    A = np.eye(n)
+    for i in range(n):
+        for m in range(M):
+            A[i, 1 + 2 * m] -= k[i]
+    Pn = A @ P @ A.T
+    for i in range(n):
+        for j in range(i, n):
+            v = 0.5 * (Pn[i, j] + Pn[j, i]) + r * k[i] * k[j]
+            P[i, j] = v
+            P[j, i] = v
+    return innov, s_var
+
+
+@njit(cache=True)
+def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc, mflag,
+                M, ss_kind, boost_n, flags, fp, out):
+    """One sample in place. ``flags`` int: [boost_on, aid_always, cusum_hold];
+    ``fp``: [T, q_om, q_om_acc, q_amp, r, r_wheel, q_b, om_max, ss_mu, r_ss, c_sigma, c_nu,
+    c_h, mode_mu]."""
+    T = fp[0]
+    q_om = fp[1]
+    q_om_acc = fp[2]
+    q_amp = fp[3]
+    r = fp[4]
+    rw = fp[5]
+    q_b = fp[6]
+    om_max = fp[7]
+    n = x.size
+    nb = n - 1
+    # ---- detectors -----------------------------------------------------------------------
+    acc, boost, ubar = _mode_core(mbuf, mpc, mflag, u, fp[13])
+    ss = False
+    if ss_kind == 1:
+        ss = _window_core(wbuf, wpc, wflag, y, fp[8])
+    # ---- boost (thesis eq. 3.15) -------------------------------------------------------------
+    if boost and flags[0] == 1:
+        x[0] += boost_n * T * ubar / rw
+    # ---- vibration measurement update (only in vibration mode) -----------------------------
+    innov = np.nan
+    s_var = np.nan
+    if not acc and np.isfinite(y) and np.isfinite(gain):
+        innov, s_var = _vib_update(x, P, y * gain, M, r)
+    if ss_kind == 2:
+        eps = np.nan
+        if np.isfinite(innov) and gain > 0.0:
+            e = innov / gain / fp[10]
+            eps = 1.0 - e * e
+        _cusum_core(cgs, eps, fp[11], fp[12])
+        ss = cgs[1] <= flags[2]
+    # ---- virtual standstill measurement omega = 0 (thesis eq. 3.4-3.6) ----------------------
+    if ss and not acc:
+        _scalar_update(x, P, 0, 0.0, fp[9])
+    # ---- reference-speed fix (thesis 4.2.4) ------------------------------------------------
+    if np.isfinite(ref) and np.isfinite(ref_var) and ref_var > 0.0:
+        _scalar_update(x, P, 0, ref, ref_var)
+    # omega >= 0: clipped at 0 (with a_x aiding the direction is known; the EKF's mirror
+    # symmetry (omega, beta) -> (-omega, -beta) would turn an overshoot below 0 into a speed)
+    if x[0] < 0.0:
+        x[0] = 0.0
+    if x[0] > om_max:
+        x[0] = om_max
+    # ---- outputs -----------------------------------------------------------------------------
+    out[0] = x[0]
+    out[1] = np.sqrt(max(P[0, 0], 0.0))
+    out[2] = x[nb]
+    out[3] = 1.0 if ss else 0.0
+    out[4] = 1.0 if acc else 0.0
+    out[5] = 1.0 if (boost and flags[0] == 1) else 0.0
+    out[6] = ubar
+    out[7] = innov
+    out[8] = s_var
+    for m in range(M):
+        a = x[1 + 2 * m]
+        b = x[2 + 2 * m]
+        out[9 + m] = np.sqrt(a * a + b * b)
+    # ---- time update (thesis eq. 3.10-3.12) --------------------------------------------------
+    ue = 0.0
+    if (acc or flags[1] == 1) and np.isfinite(u):
+        ue = u
+    om = x[0]
+    F = np.eye(n)
+    xn = x.copy()
+    for m in range(M):
+        h = m + 1.0
+        psi = h * om * T
+        c = np.cos(psi)
+        s = np.sin(psi)
+        ia = 1 + 2 * m
+        ib = 2 + 2 * m
+        a = x[ia]
+        b = x[ib]
+        xn[ia] = c * a + s * b
+        xn[ib] = -s * a + c * b
+        F[ia, ia] = c
+        F[ia, ib] = s
+        F[ib, ia] = -s
+        F[ib, ib] = c
+        F[ia, 0] = h * T * (-s * a + c * b)
+        F[ib, 0] = h * T * (-c * a - s * b)
+    xn[0] = om + T * (x[nb] + ue) / rw
+    F[0, nb] = T / rw
+    for i in range(n):
+        x[i] = xn[i]
+    Pn = F @ P @ F.T
+    Pn[0, 0] += T * (q_om_acc if acc else q_om)
+    for i in range(1, nb):
+        Pn[i, i] += T * q_amp
+    Pn[nb, nb] += T * q_b
+    for i in range(n):
+        for j in range(i, n):
+            v = 0.5 * (Pn[i, j] + Pn[j, i])
+            P[i, j] = v
+            P[j, i] = v
+
+
+@njit(cache=True)
+def _aided_run(ys, us, gains, refs, ref_vars, x, P, wbuf, wpc, wflag, cgs, mbuf, mpc, mflag,
+               M, ss_kind, boost_n, flags, fp):
+    n_s = ys.size
+    outs = np.empty((n_s, N_OUT + M))
+    out = np.empty(N_OUT + M)
+    for k in range(n_s):
+        _aided_step(x, P, ys[k], us[k], gains[k], refs[k], ref_vars[k], wbuf, wpc, wflag, cgs,
+                    mbuf, mpc, mflag, M, ss_kind, boost_n, flags, fp, out)
+        outs[k] = out
+    return outs
+
+
+def _args(config: Config) -> tuple:
+    m = config.model
+    q_acc = m.q_omega if config.q_omega_accel is None else config.q_omega_accel
+    fp = np.array([m.dt, m.q_omega, q_acc, m.q_amp, m.r, config.wheel_radius, config.q_bias,
+                   config.omega_limit, config.ss_mu, config.r_ss, config.cusum_sigma,
+                   config.cusum_nu, config.cusum_h, config.mode_mu])
+    boost_on = 1 if (config.boost and not config.aid_always) else 0
+    flags = np.array([boost_on, 1 if config.aid_always else 0,
+                      det.cusum_hold(config.cusum_h, config.cusum_nu)], dtype=np.int64)
+    return (m.M, STANDSTILL_KINDS[config.standstill], float(config.mode_n), flags, fp)
+
+
+def _unpack(state: State) -> list:
+    return [state.x.copy(), state.P.copy(), state.window.buf.copy(),
+            state.window.pos_count.copy(), state.window.flag.copy(),
+            np.array([state.cusum.g, state.cusum.since]), state.mode.buf.copy(),
+            state.mode.pos_count.copy(), state.mode.flag.copy()]
+
+
+def _pack(a: list) -> State:
+    return State(a[0], a[1], det.WindowState(a[2], a[3], a[4]),
+                 det.CusumState(float(a[5][0]), float(a[5][1])), det.ModeState(a[6], a[7], a[8]))
+
+
+def step(
+    config: Config,
+    state: State,
+    y: float,
+    u: float,
+    *,
+    gain: float = 1.0,
+    ref: float = np.nan,
+    ref_var: float = np.nan,
+) -> tuple[State, Estimate]:
+    """Process one sample.
+
+    y : pre-filtered vibration sample in m/s^2 (the standstill tests read it in these units).
+    u : longitudinal acceleration a_x in m/s^2 (NaN: no aiding on this sample).
+    gain : factor applied to ``y`` before the EKF update (running-RMS normalisation; 1 = off).
+    ref, ref_var : an omega fix (rad/s) and its variance ((rad/s)^2); NaN: none.
+    """
+    a = _unpack(state)
+    out = np.empty(N_OUT + config.model.M)
+    _aided_step(a[0], a[1], float(y), float(u), float(gain), float(ref), float(ref_var), *a[2:],
+                *_args(config), out)
+    return _pack(a), _estimate(out)
+
+
+def _estimate(o: np.ndarray) -> Estimate:
+    return Estimate(float(o[0]), float(o[1]), float(o[2]), bool(o[3]), bool(o[4]), bool(o[5]),
+                    float(o[6]), float(o[7]), float(o[8]), o[N_OUT:].copy())
+
+
+class Result(NamedTuple):
+    """Batch output over samples."""
+
+    omega: np.ndarray  # (n,) rad/s
+    omega_std: np.ndarray  # (n,) rad/s
+    bias: np.ndarray  # (n,) m/s^2
+    standstill: np.ndarray  # (n,) bool
+    accelerating: np.ndarray  # (n,) bool
+    boost: np.ndarray  # (n,) bool
+    ubar: np.ndarray  # (n,) m/s^2
+    innovation: np.ndarray  # (n,)
+    innovation_var: np.ndarray  # (n,)
+    amplitudes: np.ndarray  # (n, M)
+    final: State
+
+
+def _as_input(v, n: int, fill: float, name: str) -> np.ndarray:
+    if v is None:
+        return np.full(n, fill)
+    a = np.ascontiguousarray(v, dtype=np.float64)
+    if a.shape != (n,):
+        raise InputError(f"aided.run: '{name}' has shape {a.shape}, expected ({n},) like y")
+    return a
+
+
+def run(
+    config: Config,
+    y: np.ndarray,
+    u: np.ndarray,
+    *,
+    gain: np.ndarray | None = None,
+    ref: np.ndarray | None = None,
+    ref_var: np.ndarray | None = None,
+    state: State | None = None,
+) -> Result:
+    """Run over whole signals (see :func:`step` for the inputs); identical to repeated step."""
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    n = y.size
+    u = _as_input(u, n, np.nan, "u")
+    gain = _as_input(gain, n, 1.0, "gain")
+    ref = _as_input(ref, n, np.nan, "ref")
+    ref_var = _as_input(ref_var, n, np.nan, "ref_var")
+    a = _unpack(init(config) if state is None else state)
+    o = _aided_run(y, u, gain, ref, ref_var, *a, *_args(config))
+    return Result(o[:, 0], o[:, 1], o[:, 2], o[:, 3] > 0.5, o[:, 4] > 0.5, o[:, 5] > 0.5,
+                  o[:, 6], o[:, 7], o[:, 8], o[:, N_OUT:], _pack(a))
+
+
+def omega_shift(config: Config, u: float, bias: float, accelerating: bool) -> float:
+    """Omega increment (rad/s) the aiding adds in one time update: ``(T / r)(u_eff + b)``.
+
+    ``u_eff`` is ``u`` in acceleration mode (or always with ``aid_always``), else 0. A grid
+    tracker wrapped by the aiding shifts its posterior over omega by this amount per sample.
+    """
+    ue = u if (accelerating or config.aid_always) and np.isfinite(u) else 0.0
+    return config.model.dt * (ue + bias) / config.wheel_radius
+
+
+# ---------------------------------------------------------------------------------------------
+def _channel(recording: Recording, spec: str) -> np.ndarray:
+    """'ax', 'x', '-ay' (negated)... -> channel values."""
+    from vibrospeed.estimators.common import axis_channel
+
+    spec = spec.strip()
+    sign = -1.0 if spec.startswith("-") else 1.0
+    name = axis_channel(spec.lstrip("+-"))
+    recording.require(name)
+    return sign * recording.channel(name)
+
+
+def running_gain(y: np.ndarray, dt: float, tau: float) -> np.ndarray:
+    """Factor ``g_k`` with ``g_k y_k`` = running-RMS-normalised y (:mod:`signal.normalize`)."""
+    from vibrospeed.signal.normalize import running_rms_normalize
+
+    yn = running_rms_normalize(y, dt, tau)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g = np.where(np.abs(y) > 0, yn / y, np.nan)
+    # forward fill where y = 0 exactly (the gain only scales the CUSUM residual there)
+    ok = np.isfinite(g)
+    if not ok.any():
+        return np.ones_like(y)
+    idx = np.where(ok, np.arange(g.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    g = g[idx]
+    first = int(np.flatnonzero(ok)[0])
+    g[:first] = g[first]
+    return g
+
+
+def estimate(
+    recording: Recording,
+    *,
+    axis: str = "y",
+    wheel_radius: float | None = None,
+    params: dict | None = None,
+    progress: bool = False,
+) -> Track:
+    """Aided tracking of omega from vibration axis ``axis`` and longitudinal acceleration.
+
+    ``params``: any :class:`Config` field; any :class:`HarmonicModel` field (``dt`` comes from
+    the data); ``accel_axis`` (default ``ax``; ``y``/``ay``, a leading ``-`` negates, e.g.
+    ``-ay``); ``prefilter`` (default ``thesis-hplp``, low-pass cut-off per M) and ``lp_cutoff``
+    (rad/s); ``normalize_tau`` (s, running-RMS normalisation of the EKF input; default 0 = off,
+    then the model is in m/s^2 units as in the thesis); ``reference`` ('none', 'bump', 'turn',
+    'both': speed fixes from :mod:`vibrospeed.eval.reference` fed as measurements) and
+    ``wheelbase`` (m, for bump fixes).
+
+    The wheel radius comes from ``wheel_radius`` or ``recording.wheel_radius``.
+    """
+    from vibrospeed.estimators.common import check_nyquist, check_uniform, split_params
+    from vibrospeed.signal import prefilter as pf
+
+    del progress  # one compiled pass; nothing to report
+    r = wheel_radius or recording.wheel_radius
+    if not r:
+        raise ParameterError(
+            f"{recording.source or 'recording'}: the aided tracker needs the wheel radius "
+            "(pass wheel_radius=... / --wheel-radius, or use a recording that knows it)"
+        )
+    params = dict(params or {})
+    model_kw, cfg_kw = split_params(HarmonicModel, params)
+    model_kw.pop("dt", None)
+    accel_axis = str(cfg_kw.pop("accel_axis", "ax"))
+    pre = str(cfg_kw.pop("prefilter", "thesis-hplp"))
+    lp = cfg_kw.pop("lp_cutoff", None)
+    lp = None if lp in (None, "", "none") else float(lp)
+    tau = float(cfg_kw.pop("normalize_tau", 0.0))
+    reference = str(cfg_kw.pop("reference", "none"))
+    wheelbase = cfg_kw.pop("wheelbase", None)
+    dt = check_uniform(recording)
+    defaults = _thesis_model().to_dict()
+    if tau > 0:  # unit-power signal: the EKF's defaults for normalised input
+        from vibrospeed.estimators.ekf import UNIT_RMS_MODEL
+
+        defaults.update(UNIT_RMS_MODEL)
+        defaults["M"] = 2
+    defaults["dt"] = dt
+    model = config_from_params(HarmonicModel, model_kw, **defaults)
+    config = config_from_params(Config, cfg_kw, model=model, wheel_radius=float(r))
+    src = recording.source or "recording"
+    if config.omega_max is not None:
+        check_nyquist(1.0 / dt, model.M, config.omega_max, src)
+    from vibrospeed.estimators.common import axis_channel
+
+    vib_name = axis_channel(axis)
+    recording.require(vib_name)
+    x = recording.channel(vib_name)
+    u = _channel(recording, accel_axis)
+    sos = pf.design(pre, 1.0 / dt, M=model.M, lp_cutoff=lp)
+    y = pf.apply(sos, x)
+    notes = [f"pre-filter '{pre}' on '{vib_name}' at fs = {1 / dt:.4g} Hz",
+             f"aided by '{accel_axis}' (wheel radius {r:g} m), standstill test "
+             f"'{config.standstill}'"]
+    gain = None
+    if tau > 0:
+        gain = running_gain(y, dt, tau)
+        notes.append(f"EKF input normalised by a running RMS (tau = {tau:g} s)")
+    ref = ref_var = None
+    if reference != "none":
+        from vibrospeed.eval import reference as refmod
+
+        fixes = refmod.detect(recording, kinds=reference, wheelbase=wheelbase)
+        ref, ref_var = refmod.fixes_to_omega(fixes, recording.t, r)
+        notes.append(f"{len(fixes)} reference-speed fixes ({reference}) fed as measurements")
+    res = run(config, y, u, gain=gain, ref=ref, ref_var=ref_var)
+    extras = {f"amp{m + 1}": res.amplitudes[:, m] for m in range(model.M)}
+    extras.update(
+        standstill=res.standstill.astype(np.float64),
+        accelerating=res.accelerating.astype(np.float64),
+        boost=res.boost.astype(np.float64),
+        bias=res.bias,
+        ubar=res.ubar,
+        nis=res.innovation**2 / res.innovation_var,
+    )
+    out_params = {**model.to_dict(), **{k: getattr(config, k) for k in (
+        "omega0", "p0_omega", "amp0", "q_bias", "p0_bias", "q_omega_accel", "standstill",
+        "ss_n", "ss_mu", "r_ss", "cusum_sigma", "cusum_nu", "cusum_h", "mode_n", "mode_mu",
+        "boost", "aid_always")}, "omega_max": config.omega_limit, "wheel_radius": float(r),
+        "prefilter": pre, "lp_cutoff": lp, "normalize_tau": tau, "axis": axis,
+        "accel_axis": accel_axis, "reference": reference}
+    return Track.from_omega(recording.t, res.omega, res.omega_std, wheel_radius=float(r),
+                            method="aided", params=out_params, extras=extras, notes=notes)

@@ -1,0 +1,71 @@
+"""Sensor Fusion app logs: a synthetic log with known signals, and malformed lines."""
+
+import numpy as np
+import pytest
+
+from vibrospeed.errors import ReaderError
+from vibrospeed.io import detect_format, read
+from vibrospeed.io.sensorfusion import read_sensorfusion
+
+
+def _log(n=100, t0=1_446_211_006_000):
+    lines = []
+    for i in range(n):
+        ts = t0 + 10 * i + (i % 3)  # 100 Hz with +-2 ms jitter
+        lines.append(f"{ts}\tACC\t{0.1 * i}\t{-0.2 * i}\t9.81")
+        if i % 2 == 0:
+            lines.append(f"{ts + 5}\tGYR\t{0.001 * (ts + 5 - t0)}\t0.0\t-1.5")
+        if i % 4 == 1:
+            lines.append(f"{ts + 1}\tMAG\t10\t20\t30")
+            lines.append(f"{ts + 2}\tORI\t1\t0\t0\t0")
+        if i in (20, 70):
+            lines.append(f"{ts + 3}\tGPS\t58.39\t15.57\t{100 + i}")
+    lines.append(f"{t0 + 5000}\tFOO\t1")
+    return lines
+
+
+def test_synthetic_log(tmp_path):
+    p = tmp_path / "sensorLog.txt"
+    p.write_text("\r\n".join(_log()) + "\r\n")
+    assert detect_format(p) == "sensorfusion"
+    r = read(p)
+    assert len(r) == 100 and r.meta["t0_ms"] == 1_446_211_006_000
+    ts = (10 * np.arange(100) + np.arange(100) % 3) / 1000
+    np.testing.assert_allclose(r.t, ts)
+    np.testing.assert_allclose(r["ax"], 0.1 * np.arange(100))
+    # GYR x is linear in its own time (0.001 * ms), so interpolation is exact: gx = t in s
+    ok = np.isfinite(r["gx"])
+    np.testing.assert_allclose(r["gx"][ok], r.t[ok], atol=1e-12)
+    assert ok.sum() >= 97 and np.isnan(r["gx"][0])  # before the first GYR line
+    np.testing.assert_allclose(r["gz"][ok], -1.5)
+    assert np.flatnonzero(np.isfinite(r["gps_alt"])).tolist() == [20, 70]
+    assert r["gps_alt"][70] == 170 and r.events["gps_fix"].size == 2
+    notes = " ".join(r.notes)
+    assert "ORI" in notes and "unknown tag FOO" in notes and "non-uniform" in notes
+
+
+@pytest.mark.parametrize(
+    ("lines", "pattern"),
+    [
+        (["100\tACC\t1\t2"], r"line 1: ACC line needs 3 values, found 2"),
+        (["100\tACC\t1\t2\t3", "110\tACC\t1\tx\t3"], r"line 2, column 'ACC value 2': 'x' is not"),
+        (["100\tGYR\t1\t2\t3"], r"no ACC lines"),
+        (["100\tACC\t1\t2\t3", "90\tACC\t1\t2\t3"], r"line 2, column 't': time goes backwards"),
+        (["100"], r"line 1: expected 'timestamp TAG values...'"),
+    ],
+)
+def test_malformed(tmp_path, lines, pattern):
+    p = tmp_path / "log.txt"
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ReaderError, match=pattern):
+        read_sensorfusion(p)
+
+
+def test_repeat_dropped_and_sort(tmp_path):
+    p = tmp_path / "log.txt"
+    p.write_text("100\tACC\t1\t2\t3\n100\tACC\t9\t9\t9\n120\tACC\t1\t2\t3\n110\tACC\t4\t5\t6\n")
+    with pytest.raises(ReaderError, match="line 4"):
+        read_sensorfusion(p)
+    r = read_sensorfusion(p, sort=True)
+    np.testing.assert_allclose(r.t, [0.0, 0.01, 0.02])
+    np.testing.assert_allclose(r["ax"], [1, 4, 1])
