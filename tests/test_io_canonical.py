@@ -13,6 +13,7 @@ from vibrospeed.io.canonical import event_path, read_csv, write_csv
 from vibrospeed.types import Recording
 
 _FINITE = st.floats(allow_nan=False, allow_infinity=False, width=64)
+_FAST = {"deadline": None, "suppress_health_check": [HealthCheck.function_scoped_fixture]}
 
 
 @st.composite
@@ -37,7 +38,7 @@ def _recordings(draw):
                      wheel_radius=draw(st.one_of(st.none(), st.floats(0.01, 1.0))))
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=40, **_FAST)
 @given(rec=_recordings())
 def test_round_trip_exact(tmp_path, rec):
     p = tmp_path / "rec.csv"
@@ -145,7 +146,7 @@ _GOOD = "t,ax,ay\n" + "".join(f"{i * 0.01!r},{float(np.sin(i))!r},{float(np.cos(
                                for i in range(20))
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=150, **_FAST)
 @given(data=st.one_of(st.binary(max_size=300), st.text(max_size=300)))
 def test_garbage_raises_reader_error_only(tmp_path, data):
     p = tmp_path / "g.csv"
@@ -158,7 +159,7 @@ def test_garbage_raises_reader_error_only(tmp_path, data):
         assert isinstance(rec, Recording) and np.all(np.diff(rec.t) > 0)
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=100, **_FAST)
 @given(cut=st.integers(0, len(_GOOD)), junk=st.text(max_size=8), where=st.integers(0, len(_GOOD)))
 def test_truncated_or_corrupted_rows(tmp_path, cut, junk, where):
     p = tmp_path / "t.csv"
@@ -176,12 +177,12 @@ def test_truncated_or_corrupted_rows(tmp_path, cut, junk, where):
         rec = read(p)
     except ReaderError:
         return
-    full = read_csv_text(tmp_path, _GOOD)
+    full = _read_text(tmp_path, _GOOD)
     n = len(rec)
     np.testing.assert_array_equal(rec.t[: n - 1], full.t[: n - 1])
 
 
-def read_csv_text(folder, text):
+def _read_text(folder, text):
     q = folder / "full.csv"
     q.write_text(text)
     return read(q)

@@ -31,6 +31,8 @@ def _export(folder: Path, *, repeat=False) -> None:
         _GYR_H + "".join(f"{t!r},{3 * t!r},0,{-t!r}\n" for t in tg.tolist()))
     loc = [(0.0, -1.0, 65.0), (0.5, 4.0, 10.0), (1.003, 5.5, 8.0), (1.004, 6.0, -1.0),
            (1.5, -1.0, 9.0), (3.0, 7.0, 5.0)]
+    (folder / "Linear Acceleration.csv").write_text(
+        _ACC_H + "".join(f"{t!r},0,{t!r},0\n" for t in (ta[::2] + 0.001).tolist()))
     (folder / "Location.csv").write_text(
         _LOC_H + "".join(f"{t},47.6,17.6,110,{v},-1,{h},{h}\n" for t, v, h in loc))
 
@@ -45,6 +47,10 @@ def test_synthetic_folder_and_zip(tmp_path):
         r = read(src)
         assert len(r) == 200
         np.testing.assert_allclose(r["ay"], 2 * r.t)
+        if src.name != "Gyroscope.csv":  # a single file given: the whole export is read
+            ok = np.isfinite(r["lin_ay"])
+            np.testing.assert_allclose(r["lin_ay"][ok], r.t[ok], atol=1e-12)  # value = own time
+            assert ok.sum() == 198 and r.units["lin_ay"] == "m/s^2"
         # gyro linearly interpolated: exact for a linear signal, NaN outside its span
         inside = (r.t >= 0.005) & (r.t <= 0.005 + 197 * 0.01)
         np.testing.assert_allclose(r["gx"][inside], 3 * r.t[inside], atol=1e-12)

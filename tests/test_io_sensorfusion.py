@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from vibrospeed.errors import ReaderError
 from vibrospeed.io import detect_format, read
@@ -69,3 +71,28 @@ def test_repeat_dropped_and_sort(tmp_path):
     r = read_sensorfusion(p, sort=True)
     np.testing.assert_allclose(r.t, [0.0, 0.01, 0.02])
     np.testing.assert_allclose(r["ax"], [1, 4, 1])
+
+
+_LINES = _log(12)
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    drop=st.sets(st.integers(0, len(_LINES) - 1), max_size=4),
+    junk=st.lists(st.tuples(st.integers(0, len(_LINES)), st.text(max_size=12)), max_size=3),
+    cut=st.integers(0, 400),
+)
+def test_corrupted_logs_raise_reader_error_only(tmp_path, drop, junk, cut):
+    lines = [ln for i, ln in enumerate(_LINES) if i not in drop]
+    for pos, text in junk:
+        lines.insert(min(pos, len(lines)), text)
+    body = "\n".join(lines)
+    body = body[: len(body) - cut] if cut < len(body) else body
+    p = tmp_path / "log.txt"
+    p.write_text(body, encoding="utf-8", errors="surrogatepass")
+    try:
+        r = read_sensorfusion(p)
+    except ReaderError as exc:
+        assert "\n" not in str(exc)
+    else:
+        assert np.all(np.diff(r.t) > 0) and r.t[0] == 0.0

@@ -13,8 +13,8 @@ from vibrospeed.sim import (
     G0,
     SCENARIOS,
     ImuConfig,
-    TickConfig,
     Segment,
+    TickConfig,
     VibrationConfig,
     build_profile,
     simulate,
@@ -321,6 +321,26 @@ def test_gps_model_hook():
     assert rec.meta["gps_model"] == "my_gps" and _same(rec, rec2)
     with pytest.raises(ParameterError, match="gps_model must return"):
         simulate("car", duration=5.0, gps_model=lambda t, v, rng: (v[:10], v[:10]))
+
+
+def test_gps_with_custom_lag_and_paper_receiver():
+    """gps_with_lag keeps fixes/outages and uses the given lag (identity: truth at the fixes)."""
+    from vibrospeed.sim import GpsConfig, gps_with_lag
+
+    model = gps_with_lag(lambda t, v: v, GpsConfig(noise=0.0, rate_hz=2.0))
+    rec = simulate("car", seed=5, duration=60.0, gps_model=model)
+    fix = np.isfinite(rec["gps_speed"])
+    assert fix.sum() == pytest.approx(120, abs=1)
+    np.testing.assert_array_equal(rec["gps_speed"][fix], rec["speed_true"][fix])
+    try:
+        from vibrospeed.models.gps_riss import GpsLagModel, simulate_receiver
+    except ImportError:  # pragma: no cover - other issue's module not present
+        return
+    paper = gps_with_lag(lambda t, v: simulate_receiver(t, v, GpsLagModel.paper()),
+                         GpsConfig(noise=0.0))
+    rec = simulate("car", seed=5, duration=120.0, gps_model=paper)
+    # paper receiver: ramp delay = -a22 / (-a21) = 114.2 / 1427.2 s = 0.08 s
+    assert _gps_delay(rec) == pytest.approx(114.2 / 1427.2, abs=0.02)
 
 
 def test_car_300s_is_fast():

@@ -31,6 +31,9 @@ CHANNEL_UNITS: dict[str, str] = {
     "omega_true": "rad/s",  # ground-truth wheel angular speed
     "speed_true": "m/s",  # ground-truth vehicle speed
     "vy_true": "m/s",  # ground-truth lateral velocity (vehicle simulator)
+    "accel_true": "m/s^2",  # ground-truth longitudinal acceleration (simulator)
+    "yaw_rate_true": "rad/s",  # ground-truth yaw rate (simulator)
+    "grade_true": "rad",  # ground-truth road grade (simulator)
 }
 #: Irregular event streams (timestamps in s) kept beside the sampled channels.
 EVENT_UNITS: dict[str, str] = {"wss_ticks": "s"}
@@ -38,7 +41,7 @@ EVENT_UNITS: dict[str, str] = {"wss_ticks": "s"}
 ACCEL_CHANNELS = ("ax", "ay", "az")
 GYRO_CHANNELS = ("gx", "gy", "gz")
 WHEEL_CHANNELS = ("wheel_omega_fl", "wheel_omega_fr", "wheel_omega_rl", "wheel_omega_rr")
-TRUTH_CHANNELS = ("omega_true", "speed_true", "vy_true")
+TRUTH_CHANNELS = ("omega_true", "speed_true", "vy_true", "accel_true", "yaw_rate_true", "grade_true")
 
 
 @dataclass

@@ -277,7 +277,8 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
         _cusum_core(cgs, eps, fp[11], fp[12])
         ss = cgs[1] <= flags[2]
     # ---- virtual standstill measurement omega = 0 (thesis eq. 3.4-3.6) ----------------------
-    if ss and not acc:
+    ss = ss and not acc  # a vehicle in acceleration mode is not standing still
+    if ss:
         _scalar_update(x, P, 0, 0.0, fp[9])
     # ---- reference-speed fix (thesis 4.2.4) ------------------------------------------------
     if np.isfinite(ref) and np.isfinite(ref_var) and ref_var > 0.0:
@@ -517,7 +518,8 @@ def estimate(
 
     The wheel radius comes from ``wheel_radius`` or ``recording.wheel_radius``.
     """
-    from vibrospeed.estimators.common import check_nyquist, check_uniform, split_params
+    from vibrospeed.estimators.common import axis_channel, check_uniform, split_params, start_level
+    from vibrospeed.io.timebase import check_nyquist
     from vibrospeed.signal import prefilter as pf
 
     del progress  # one compiled pass; nothing to report
@@ -550,14 +552,12 @@ def estimate(
     src = recording.source or "recording"
     if config.omega_max is not None:
         check_nyquist(1.0 / dt, model.M, config.omega_max, src)
-    from vibrospeed.estimators.common import axis_channel
-
     vib_name = axis_channel(axis)
     recording.require(vib_name)
     x = recording.channel(vib_name)
     u = _channel(recording, accel_axis)
     sos = pf.design(pre, 1.0 / dt, M=model.M, lp_cutoff=lp)
-    y = pf.apply(sos, x)
+    y = pf.apply(sos, x, level=start_level(x, dt))
     notes = [f"pre-filter '{pre}' on '{vib_name}' at fs = {1 / dt:.4g} Hz",
              f"aided by '{accel_axis}' (wheel radius {r:g} m), standstill test "
              f"'{config.standstill}'"]

@@ -271,15 +271,16 @@ def _uniform_grid(recording: Recording) -> tuple[np.ndarray, bool]:
     if recording.is_uniform(0.05):
         return t, False
     dt = recording.dt
-    n = int(np.floor((t[-1] - t[0]) / dt)) + 1
+    n = int(np.ceil((t[-1] - t[0]) / dt - 1e-9)) + 1  # the grid covers the last time stamp
     return t[0] + dt * np.arange(n), True
 
 
 def _interp_finite(tq: np.ndarray, t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Linear interpolation over the finite samples, edge values held outside them."""
     ok = np.isfinite(x)
     if ok.sum() < 2:
         return np.full(tq.shape, np.nan)
-    return np.interp(tq, t[ok], x[ok], left=np.nan, right=np.nan)
+    return np.interp(tq, t[ok], x[ok])
 
 
 def estimate(

@@ -7,6 +7,7 @@ import dataclasses
 import numpy as np
 
 from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.io.timebase import check_nyquist
 from vibrospeed.signal import prefilter as pf
 from vibrospeed.signal.normalize import running_rms_normalize
 from vibrospeed.types import Recording
@@ -48,16 +49,6 @@ def check_uniform(recording: Recording) -> float:
     return dt
 
 
-def check_nyquist(fs: float, M: int, omega_max: float, source: str = "recording") -> None:
-    """Require ``M * omega_max < pi * fs`` (harmonic M of the fastest wheel below Nyquist)."""
-    if M * omega_max >= np.pi * fs:
-        raise ParameterError(
-            f"{source}: sample rate {fs:.4g} Hz is too low for M = {M} harmonics up to "
-            f"omega = {omega_max:.4g} rad/s (needs fs > {M * omega_max / np.pi:.4g} Hz; "
-            f"at this rate omega must stay below {np.pi * fs / M:.4g} rad/s)"
-        )
-
-
 def start_level(x: np.ndarray, dt: float, seconds: float = 1.0) -> float:
     """Mean of the finite samples in the first ``seconds``: the pre-filter's resting level."""
     head = x[: max(1, int(round(seconds / dt)))]
@@ -80,7 +71,10 @@ def prepare_axis(
     dt = check_uniform(recording)
     fs = 1.0 / dt
     if omega_max is not None:
-        check_nyquist(fs, M, omega_max, recording.source or "recording")
+        try:
+            check_nyquist(fs, M, omega_max, recording.source or "recording")
+        except ParameterError as exc:
+            raise ParameterError(f"{exc} (or set a lower range, e.g. -p omega_max=...)") from None
     x = recording.channel(name)
     notes = []
     n_nan = int(np.count_nonzero(~np.isfinite(x)))

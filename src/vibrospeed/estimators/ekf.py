@@ -263,7 +263,8 @@ def estimate(
     ``params`` may set any :class:`Config` field (``omega0``, ``p0_omega``, ``amp0``,
     ``omega_max``), any :class:`HarmonicModel` field (``M``, ``q_omega``, ``q_amp``, ``r``,
     ``p0_amp``; ``dt`` comes from the data), ``prefilter`` (a preset of
-    :mod:`vibrospeed.signal.prefilter`, default ``thesis-hp``) ``omega_min`` (default 2 rad/s) and ``normalize_tau`` (s, running
+    :mod:`vibrospeed.signal.prefilter`, default ``thesis-hp``) ``omega_min`` (default 2 rad/s), ``omega_max`` (default 120 rad/s, checked against
+    the Nyquist limit ``M omega_max < pi fs``) and ``normalize_tau`` (s, running
     RMS normalisation; 0 = off, then the parameters are in the signal's own units and the
     thesis' values apply: ``r=0.003 q_amp=0.004 p0_amp=20``).
     """
@@ -278,6 +279,7 @@ def estimate(
     defaults.pop("dt", None)
     model = config_from_params(HarmonicModel, model_kw, dt=1.0, **defaults)
     cfg_kw.setdefault("omega_min", 2.0)
+    cfg_kw.setdefault("omega_max", 120.0)
     config = config_from_params(Config, cfg_kw, model=model)
     y, dt, notes = prepare_axis(recording, axis, prefilter=pre, M=model.M,
                                 omega_max=config.omega_max, normalize_tau=tau or None)

@@ -554,7 +554,8 @@ def prepare(recording: Recording, axis: str, config_cls, params: dict | None, de
     base.pop("dt")
     probe = config_from_params(config_cls, cfg_kw,
                                model=config_from_params(HarmonicModel, model_kw, dt=1.0, **base))
-    y, dt, notes = prepare_axis(recording, axis, prefilter=probe.prefilter, M=probe.model.M)
+    y, dt, notes = prepare_axis(recording, axis, prefilter=probe.prefilter, M=probe.model.M,
+                                normalize_tau=None)
     fs = 1.0 / dt
     src = recording.source or "recording"
     om_max = float(probe.omega_max)

@@ -69,7 +69,7 @@ def _event_sidecars(path: Path) -> dict[str, Path]:
     if not folder.is_dir():
         return out
     prefix = path.stem + "."
-    for q in folder.glob(f"{glob_escape(prefix)}*.csv"):
+    for q in folder.glob(f"{_glob_escape(prefix)}*.csv"):
         name = q.name[len(prefix) : -4]
         if not _EVENT_NAME.match(name) or q == path:
             continue
@@ -83,8 +83,8 @@ def _event_sidecars(path: Path) -> dict[str, Path]:
     return out
 
 
-def glob_escape(s: str) -> str:
-    """Escape glob metacharacters in ``s``."""
+def _glob_escape(s: str) -> str:
+    # Escape glob metacharacters in ``s``.
     return re.sub(r"([\[\]*?])", r"[\1]", s)
 
 
@@ -98,6 +98,9 @@ def write_csv(rec: Recording, path: str | os.PathLike[str]) -> None:
     names = list(rec.channels)
     if "t" in names:
         raise InputError(f"{p}: a channel may not be called 't'")
+    for k in names:
+        if not k or k != k.strip() or "\n" in k or "\r" in k:
+            raise InputError(f"{p}: channel name {k!r} is empty, padded or contains a newline")
     for ev in rec.events:
         if not _EVENT_NAME.match(ev):
             raise InputError(f"{p}: event name '{ev}' must match [A-Za-z0-9_-]+")
@@ -179,9 +182,15 @@ def read_csv(path: str | os.PathLike[str], *, sort: bool = False) -> Recording:
     t = cols.pop("t")
     notes.extend(nan_notes(cols, str(p)))
     side = _read_sidecar_json(p)
-    units = {k: v for k, v in side.get("units", {}).items() if k in cols}
-    rec_notes = [*side.get("notes", []), *notes]
+    units_side = side.get("units") if isinstance(side.get("units"), dict) else {}
+    units = {k: str(v) for k, v in units_side.items() if k in cols}
+    side_notes = side.get("notes") if isinstance(side.get("notes"), list) else []
+    rec_notes = [*map(str, side_notes), *notes]
+    meta = dict(side["meta"]) if isinstance(side.get("meta"), dict) else {}
+    if isinstance(side.get("source"), str) and side["source"]:
+        meta.setdefault("origin", side["source"])
     wr = side.get("wheel_radius")
+    axes = side.get("axes") if isinstance(side.get("axes"), str) else None
     return finish(
         t,
         cols,
@@ -191,8 +200,8 @@ def read_csv(path: str | os.PathLike[str], *, sort: bool = False) -> Recording:
         units=units,
         events=read_events(p),
         notes=rec_notes,
-        meta={**side.get("meta", {}), **({"origin": side["source"]} if side.get("source") else {})},
+        meta=meta,
         wheel_radius=float(wr) if isinstance(wr, (int, float)) else None,
-        axes=side.get("axes"),
+        axes=axes,
     )
 

@@ -69,7 +69,7 @@ def _interp(tq, t, x):
 
 
 def read_f1tenth(
-    path, *, wheel_radius: float = F1TENTH_WHEEL_RADIUS, pf_half: int = 3, max_gap: float = 0.5
+    path, *, wheel_radius: float = F1TENTH_WHEEL_RADIUS, pf_half: int = 6, max_gap: float = 0.5
 ) -> Recording:
     """Read one FrictionMaps data set folder (or a csv inside it) into a :class:`Recording`."""
     root = Path(path)

@@ -215,7 +215,9 @@ def read_mapped(
         if s.unit is not None:
             _check_unit(s.unit, f"column mapping '{name}'")
     with open_text(p) as fh:
-        tab = CsvTable(fh, str(p), delimiter=opts.get("delimiter"), decimal=opts.get("decimal", "."))
+        tab = CsvTable(
+            fh, str(p), delimiter=opts.get("delimiter"), decimal=opts.get("decimal", ".")
+        )
         srcs = list(dict.fromkeys(s.column for s in spec.values()))
         raw, lines = tab.read(srcs)
     notes = list(tab.notes)

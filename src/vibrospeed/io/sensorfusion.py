@@ -19,7 +19,8 @@ ORI    orientation (quaternion)    not used (counted in the notes)
 Time ``t = (timestamp - first ACC timestamp) / 1000`` s; the offset is kept in
 ``meta["t0_ms"]``. Interpolated channels are NaN outside their sensor's span and across gaps
 longer than 5 of its periods. A line repeating the previous timestamp of its sensor exactly is
-dropped (first kept) and noted; time going backwards is an error unless ``sort=True``. Unknown tags are skipped and counted in the notes.
+dropped (first kept) and noted; time going backwards is an error unless ``sort=True``. Unknown
+tags are skipped and counted in the notes.
 """
 
 from __future__ import annotations

@@ -31,7 +31,15 @@ from vibrospeed.sim.scenarios import (
     register,
     simulate,
 )
-from vibrospeed.sim.sensors import G0, GpsConfig, GpsModel, ImuConfig, TickConfig, WheelConfig
+from vibrospeed.sim.sensors import (
+    G0,
+    GpsConfig,
+    GpsModel,
+    ImuConfig,
+    TickConfig,
+    WheelConfig,
+    gps_with_lag,
+)
 from vibrospeed.sim.validation import ValidationSignal, validation_signal
 from vibrospeed.sim.vibration import EngineConfig, VibrationConfig
 
@@ -55,6 +63,7 @@ __all__ = [
     "VibrationConfig",
     "WheelConfig",
     "build_profile",
+    "gps_with_lag",
     "make_config",
     "register",
     "simulate",

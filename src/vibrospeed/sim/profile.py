@@ -39,7 +39,8 @@ class Segment:
     """One piece of a drive.
 
     kind : ``cruise`` (hold speed), ``accelerate`` / ``brake`` (change speed to ``speed``),
-        ``stop`` (stand still; the vehicle must already be at 0), ``start`` (from rest to ``speed``).
+        ``stop`` (stand still; the vehicle must already be at 0), ``start`` (from rest to
+        ``speed``).
     duration : s. Required for ``cruise`` and ``stop``; for speed changes optional, in which case
         the acceleration is ``|dv| / duration`` instead of ``accel``.
     speed : m/s at the end of a speed change (``brake`` defaults to 0).

@@ -14,6 +14,7 @@ GPS; both outputs (n,) float64, NaN on samples without a fix.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -206,16 +207,19 @@ def outage_mask(t: np.ndarray, cfg: GpsConfig, rng: np.random.Generator) -> tupl
 
 
 def simple_gps(cfg: GpsConfig, t: np.ndarray, speed: np.ndarray,
-               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, list]:
+               rng: np.random.Generator,
+               lag: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+               ) -> tuple[np.ndarray, np.ndarray, list]:
     """Built-in GPS: ``(gps_speed, gps_sats, outages)``; NaN where there is no fix.
 
     Fix times ``t0 + (k + u) / rate_hz`` (random phase ``u``) go to the nearest samples; the
     reported speed is the lagged true speed plus N(0, noise^2) noise, clipped at 0 (a receiver
-    reports a magnitude). Satellites: a rounded AR(1) walk around ``sats_mean`` (4..20); inside
-    outages 0..3 satellites and no speed.
+    reports a magnitude); ``lag(t, speed) -> lagged speed`` replaces the built-in lag.
+    Satellites: a rounded AR(1) walk around ``sats_mean`` (4..20); inside outages 0..3
+    satellites and no speed.
     """
     n = t.size
-    lagged = _lag(t, speed, cfg)
+    lagged = _lag(t, speed, cfg) if lag is None else np.asarray(lag(t, speed), dtype=np.float64)
     u = rng.uniform()
     t_fix = t[0] + (np.arange(int(np.floor((t[-1] - t[0]) * cfg.rate_hz)) + 1) + u) / cfg.rate_hz
     t_fix = t_fix[t_fix <= t[-1]]
@@ -234,3 +238,23 @@ def simple_gps(cfg: GpsConfig, t: np.ndarray, speed: np.ndarray,
     gps_speed[idx] = np.where(out_fix, np.nan, np.maximum(lagged[idx] + noise, 0.0))
     gps_sats[idx] = np.where(out_fix, low, sats)
     return gps_speed, gps_sats, spans
+
+
+def gps_with_lag(lag: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                 cfg: GpsConfig | None = None) -> GpsModel:
+    """A :class:`GpsModel`: the built-in fixes/noise/outages/satellites around your own lag.
+
+    Example (the paper's second-order receiver model)::
+
+        from vibrospeed.models.gps_riss import GpsLagModel, simulate_receiver
+        model = gps_with_lag(lambda t, v: simulate_receiver(t, v, GpsLagModel.paper()))
+        rec = simulate("car", seed=1, gps_model=model)
+    """
+    cfg = GpsConfig() if cfg is None else cfg
+
+    def gps_model(t: np.ndarray, speed: np.ndarray, rng: np.random.Generator):
+        gs, sats, _ = simple_gps(cfg, t, speed, rng, lag=lag)
+        return gs, sats
+
+    gps_model.__name__ = f"gps_with_lag({getattr(lag, '__name__', 'lag')})"
+    return gps_model

@@ -122,6 +122,9 @@ class VibrationConfig:
         for name in ("omega_ref", "amp_tau", "v_ref", "resonance_q", "fade_ramp"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"vibration.{name} must be > 0, got {getattr(self, name)}")
+        for name in ("gamma", "road_gamma", "amp_log_std", "resonance_amp", "road_noise"):
+            if not getattr(self, name) >= 0:
+                raise ParameterError(f"vibration.{name} must be >= 0, got {getattr(self, name)}")
         lo, hi = self.fade_duration
         if not 0 < lo <= hi:
             raise ParameterError("vibration.fade_duration: need 0 < min <= max (s)")
@@ -155,7 +158,8 @@ def ou_process(n: int, dt: float, tau: float, std: float, rng: np.random.Generat
                size: tuple[int, ...] = ()) -> np.ndarray:
     """Stationary Ornstein-Uhlenbeck samples, shape ``size + (n,)``, exact discretisation.
 
-    ``u_{k+1} = phi u_k + std sqrt(1 - phi^2) xi_k``, ``phi = exp(-dt / tau)``, ``u_0 ~ N(0, std^2)``.
+    ``u_{k+1} = phi u_k + std sqrt(1 - phi^2) xi_k``, ``phi = exp(-dt / tau)``,
+    ``u_0 ~ N(0, std^2)``.
     """
     phi = np.exp(-dt / tau)
     xi = rng.standard_normal(size + (n,))

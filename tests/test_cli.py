@@ -1,0 +1,102 @@
+"""The ``vibrospeed`` command end to end, and its one-line errors (exit status 2)."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from vibrospeed import io
+from vibrospeed.cli.app import app
+
+runner = CliRunner()
+
+
+def _run(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def drive(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cli")
+    path = d / "cart.csv"
+    res = _run("simulate", "--scenario", "cart", "--seed", 2, "--duration", 30, "-o", path)
+    assert res.exit_code == 0, res.output
+    return path
+
+
+def test_simulate_estimate_evaluate_plot(drive, tmp_path):
+    est = tmp_path / "est.csv"
+    png = tmp_path / "est.png"
+    res = _run("estimate", drive, "--method", "ekf", "--init-omega", 10, "-o", est,
+               "--plot", png)
+    assert res.exit_code == 0, res.output
+    header = est.read_text().splitlines()[0].split(",")
+    assert header[:5] == ["t", "omega", "omega_lo", "omega_hi", "speed"]
+    side = json.loads(est.with_name(est.name + ".json").read_text())
+    assert side["method"] == "ekf" and len(side["input_sha256"]) == 64
+    assert png.stat().st_size > 10_000
+    track = io.read_track(est)
+    rec = io.read(drive)
+    np.testing.assert_allclose(track.speed, 0.08 * track.omega)  # cart radius carried over
+    assert np.array_equal(track.t, rec.t)
+    res = _run("evaluate", est, "--truth", drive, "--json", tmp_path / "m.json")
+    assert res.exit_code == 0, res.output
+    assert "RMSE" in res.output
+    m = json.loads((tmp_path / "m.json").read_text())
+    assert m["n"] > 0 and np.isfinite(m["rmse"])
+    res = _run("plot", drive, "--estimate", est, "-o", tmp_path / "p.png")
+    assert res.exit_code == 0, res.output
+
+
+def test_params_reach_the_estimator(drive, tmp_path):
+    est = tmp_path / "e.csv"
+    # M = 3 up to 120 rad/s needs fs > 115 Hz: refused at 100 Hz, fine with a lower range
+    assert "too low" in _err(_run("estimate", drive, "-o", est, "-p", "M=3"))
+    res = _run("estimate", drive, "-o", est, "-p", "M=3", "-p", "q_omega=2,omega_max=100")
+    assert res.exit_code == 0, res.output
+    side = json.loads(est.with_name("e.csv.json").read_text())
+    assert side["params"]["M"] == 3 and side["params"]["q_omega"] == 2.0
+
+
+def _err(res):
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, res.stderr
+    assert "Traceback" not in res.output
+    return lines[0]
+
+
+def test_errors_are_one_line(tmp_path, drive):
+    out = tmp_path / "o.csv"
+    assert "nope.csv" in _err(_run("estimate", tmp_path / "nope.csv", "-o", out))
+    empty = tmp_path / "empty.csv"
+    empty.write_text("")
+    assert "empty.csv" in _err(_run("estimate", empty, "-o", out))
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,ay\n0,1\n0.01,abc\n0.02,3\n")
+    msg = _err(_run("estimate", bad, "-o", out))
+    assert "bad.csv" in msg and "3" in msg
+    back = tmp_path / "back.csv"
+    back.write_text("t,ay\n0,1\n0.02,2\n0.01,3\n")
+    assert "back.csv" in _err(_run("estimate", back, "-o", out))
+    slow = tmp_path / "slow.csv"
+    slow.write_text("t,ay\n" + "".join(f"{k / 10},{np.sin(k)}\n" for k in range(300)))
+    nanc = tmp_path / "nan.csv"
+    nanc.write_text("t,ay\n" + "".join(f"{k / 100},\n" for k in range(50)))
+    assert "ay" in _err(_run("estimate", nanc, "-o", out))
+    assert "'az'" in _err(_run("estimate", bad.with_name("slow.csv"), "--axis", "z", "-o", out))
+    assert "too low" in _err(_run("estimate", slow, "-o", out))
+    assert "unknown format" in _err(_run("estimate", drive, "--format", "xyz", "-o", out))
+    assert "unknown method" in _err(_run("estimate", drive, "--method", "xyz", "-o", out))
+    assert not out.exists()  # nothing half-written
+
+
+def test_module_entry_point_and_help():
+    res = subprocess.run([sys.executable, "-m", "vibrospeed", "--help"], capture_output=True,
+                         text=True, check=True)
+    assert "simulate" in res.stdout and "estimate" in res.stdout
+    res = _run("estimate", "--help")
+    assert "Examples" in res.output

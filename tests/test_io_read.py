@@ -1,0 +1,49 @@
+"""read(): format dispatch, registration of more readers, resampling on read."""
+
+import numpy as np
+import pytest
+
+import vibrospeed.io as vio
+from vibrospeed.errors import ParameterError, ReaderError
+from vibrospeed.types import Recording
+
+
+def test_formats_listed_and_dispatch(tmp_path):
+    for name in ("csv", "mapped", "phyphox", "sensorfusion", "parquet"):
+        assert name in vio.FORMATS and vio.FORMATS[name]
+    (tmp_path / "x.bin").write_bytes(b"\x01\x02")
+    with pytest.raises(ReaderError, match=r"x\.bin, line 1: unknown format"):
+        vio.read(tmp_path / "x.bin")
+    (tmp_path / "d").mkdir()
+    with pytest.raises(ReaderError, match="not a phyphox export"):
+        vio.read(tmp_path / "d")
+
+
+def test_register_format(tmp_path):
+    p = tmp_path / "a.mine"
+    p.write_text("MINE 3\n")
+
+    def reader(path, *, sort=False):
+        n = int(path.read_text().split()[1])
+        return Recording(t=np.arange(n, dtype=float), channels={"ay": np.ones(n)}, source=str(path))
+
+    vio.register_format("mine", reader, description="test format",
+                        detect=lambda q: q.suffix == ".mine")
+    try:
+        assert vio.FORMATS["mine"] == "test format"
+        assert list(vio.FORMATS)[-2:] == ["csv", "mapped"]  # generic formats stay last
+        assert len(vio.read(p)) == 3
+        with pytest.raises(ParameterError, match="does not take option 'rate'"):
+            vio.read(p, format="mine", rate=5.0)
+    finally:
+        vio._REGISTRY.pop("mine")
+        vio.FORMATS.pop("mine")
+
+
+def test_read_with_resample(tmp_path):
+    t = np.array([0.0, 0.011, 0.019, 0.030, 0.041, 0.050])
+    vio.write(Recording(t=t, channels={"ax": 3 * t}), tmp_path / "j.csv")
+    r = vio.read(tmp_path / "j.csv", resample=100.0)
+    np.testing.assert_allclose(r.t, np.arange(6) / 100, atol=1e-15)
+    np.testing.assert_allclose(r["ax"], 3 * r.t, atol=1e-12)
+    assert "linear interpolation" in r.notes[-1]

@@ -1,0 +1,78 @@
+"""Simulated GPS/accelerometer scenarios (sim/gps.py): channels, reproducibility, and that each
+scenario contains what it claims (lag model, tunnel, slope offset, jumps, pitch)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vibrospeed import ParameterError
+from vibrospeed.models.gps_riss import GpsLagModel, simulate_receiver
+from vibrospeed.sim import gps as sg
+
+
+@pytest.mark.parametrize("name", list(sg.SCENARIOS))
+def test_scenario_channels_and_seeding(name):
+    rec = sg.scenario(name, np.random.default_rng(0), fs=100.0)
+    assert set(rec.channels) == {"ax", "gps_speed", "gps_sats", "speed_true"}
+    assert rec.units["gps_speed"] == "m/s" and rec.units["ax"] == "m/s^2"
+    assert rec.is_uniform() and rec.fs == pytest.approx(100.0)
+    assert np.all(np.isfinite(rec["ax"])) and np.all(rec["speed_true"] >= 0)
+    fix = np.isfinite(rec["gps_speed"])
+    assert fix.sum() / rec.duration == pytest.approx(12.5, rel=0.03)
+    again = sg.scenario(name, np.random.default_rng(0), fs=100.0)
+    other = sg.scenario(name, np.random.default_rng(1), fs=100.0)
+    np.testing.assert_array_equal(rec["ax"], again["ax"])
+    assert not np.array_equal(rec["ax"], other["ax"])
+
+
+def test_accelerometer_model():
+    rec = sg.hilly(np.random.default_rng(4), fs=200.0)
+    resid = rec["ax"] - rec.meta["accel_true"] - rec.meta["offset_true"]
+    assert abs(resid.mean()) < 0.01
+    assert resid.std() == pytest.approx(rec.meta["acc_noise"], rel=0.03)
+    off = 0.5 + 9.80665 * np.sin(rec.meta["slope_rad"])
+    np.testing.assert_allclose(rec.meta["offset_true"], off)
+    assert np.ptp(rec.meta["slope_rad"]) > 0.01
+    # speed is the integral of the acceleration
+    v = rec["speed_true"]
+    dv = np.diff(v) * rec.fs
+    np.testing.assert_allclose(dv, 0.5 * (rec.meta["accel_true"][1:] + rec.meta["accel_true"][:-1]))
+
+
+def test_gps_is_the_lag_model_plus_noise():
+    lag = GpsLagModel.from_wn_zeta(6.0, 0.5)
+    rec = sg.braking(np.random.default_rng(2), fs=100.0, lag=lag)
+    fix = np.isfinite(rec["gps_speed"])
+    rx = simulate_receiver(rec.t, rec["speed_true"], lag)
+    d = rec["gps_speed"][fix] - rx[fix]
+    assert abs(d.mean()) < 0.03 and d.std() == pytest.approx(0.1, rel=0.15)
+    # the raw GPS overshoots after braking: rx exceeds the true speed somewhere by > 0.3 m/s
+    assert np.max(rx - rec["speed_true"]) > 0.3
+
+
+def test_tunnel_drops_satellites_and_reports_zero():
+    rec = sg.tunnel(np.random.default_rng(0), fs=100.0)
+    t0, t1 = rec.meta["tunnel"]
+    assert t1 - t0 == pytest.approx(5.0)
+    inside = (rec.t >= t0) & (rec.t < t1)
+    assert np.all(rec["gps_sats"][inside] == 0) and np.all(rec["gps_sats"][~inside] == 9)
+    g = rec["gps_speed"][inside]
+    assert np.all(g[np.isfinite(g)] == 0.0) and np.isfinite(g).sum() >= 60
+
+
+def test_jumps_and_pitch():
+    rec = sg.gps_jump(np.random.default_rng(0), fs=100.0)
+    err = rec.meta["gps_error"]
+    assert 2.0 < np.max(np.abs(err)) < 4.0
+    assert 0.01 < np.mean(err != 0) < 0.1
+    moto = sg.motorcycle(np.random.default_rng(0), fs=100.0)
+    a = moto.meta["accel_true"]
+    assert a.max() > 3.0 and a.min() < -4.0
+    p = np.polyval(sg.PAPER_PITCH_POLY, a)
+    assert np.std(moto.meta["pitch_deg"] - p) == pytest.approx(0.1, rel=0.05)
+
+
+def test_unknown_scenario():
+    with pytest.raises(ParameterError, match="unknown GPS scenario 'x'"):
+        sg.scenario("x", np.random.default_rng(0))
