@@ -18,7 +18,8 @@ def _poly_derivative(coef, n, t):
 
 @pytest.mark.parametrize(
     "n,N,kappa,mu,xi,L",
-    [(0, 1, 0, 0, 0.0, 21), (1, 1, 0, 0, 0.0, 21), (1, 2, 1, 1, 0.3, 31), (2, 3, 0.5, -0.5, 0.0, 41),
+    [(0, 1, 0, 0, 0.0, 21), (1, 1, 0, 0, 0.0, 21), (1, 2, 1, 1, 0.3, 31),
+     (2, 3, 0.5, -0.5, 0.0, 41),
      (0, 4, 2, 0, 0.5, 51), (3, 4, 0, 0, 0.2, 61), (1, 3, 0, 0, 0.5, 25)],
 )
 def test_exact_for_polynomials_up_to_degree_N(n, N, kappa, mu, xi, L):
@@ -45,7 +46,8 @@ def test_not_exact_beyond_degree_N():
 
 
 def test_paper_closed_form_kernels():
-    """Seed section III, N = 1, nu = 2 on [0, T]: a0 = 2/T^2 (2T - 3 tau), a1 = -6/T^3 (T - 2 tau)."""
+    """Seed section III, N = 1, nu = 2 on [0, T]:
+    a0 = 2/T^2 (2T - 3 tau), a1 = -6/T^3 (T - 2 tau)."""
     assert d.paper_kappa_mu(1, 2) == (0.0, 0.0)
     kappa, mu = d.paper_kappa_mu(1, 2)
     T = 0.37
@@ -85,7 +87,8 @@ def test_kernel_reproduces_monomials(n, extra, kappa, mu, xi, L):
 def test_exact_point_minimal_estimator_and_delay():
     # minimal estimator N = n: xi* = (mu + n + 1) / (kappa + mu + 2n + 2)
     for n, kappa, mu in [(0, 0, 0), (1, 0, 0), (1, 2, 1), (2, 0.5, 3)]:
-        assert d.exact_point(n, n, kappa, mu) == pytest.approx((mu + n + 1) / (kappa + mu + 2 * n + 2))
+        ref = (mu + n + 1) / (kappa + mu + 2 * n + 2)
+        assert d.exact_point(n, n, kappa, mu) == pytest.approx(ref)
     # at xi*, the causal estimate is also exact for degree N + 1, delayed by xi* T_w
     xi = d.exact_point(1, 1)
     assert xi == pytest.approx(0.5)

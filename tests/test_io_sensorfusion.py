@@ -76,7 +76,8 @@ def test_repeat_dropped_and_sort(tmp_path):
 _LINES = _log(12)
 
 
-@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=80, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(
     drop=st.sets(st.integers(0, len(_LINES) - 1), max_size=4),
     junk=st.lists(st.tuples(st.integers(0, len(_LINES)), st.text(max_size=12)), max_size=3),

@@ -34,6 +34,8 @@ CHANNEL_UNITS: dict[str, str] = {
     "accel_true": "m/s^2",  # ground-truth longitudinal acceleration (simulator)
     "yaw_rate_true": "rad/s",  # ground-truth yaw rate (simulator)
     "grade_true": "rad",  # ground-truth road grade (simulator)
+    "speed_pose": "m/s",  # speed from a localisation pose (reference, not truth-grade)
+    "speed_odom": "m/s",  # odometry speed reported by the vehicle
 }
 #: Irregular event streams (timestamps in s) kept beside the sampled channels.
 EVENT_UNITS: dict[str, str] = {"wss_ticks": "s"}

@@ -95,7 +95,8 @@ class Config:
             if int(v) != v or v < 0:
                 raise ParameterError(f"algebraic: {name} must be an integer >= 0, got {v}")
         if self.N < 1:
-            raise ParameterError(f"algebraic: N must be >= 1 (derivatives are needed), got {self.N}")
+            raise ParameterError(
+                f"algebraic: N must be >= 1 (derivatives are needed), got {self.N}")
         self.filters()  # validates the windows against N
 
     def filters(self) -> tuple[dif.Config, dif.Config]:

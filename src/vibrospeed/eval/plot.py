@@ -33,9 +33,12 @@ def plot_track(
     """Spectrogram (dB) of channel ``axis`` with the track's omega, band and harmonics over it.
 
     Lower panel: omega (and speed axis when the radius is known) against time with the band and
-    the truth (``omega_true`` of ``truth`` or of ``recording``).
+    the truth (``omega_true`` of ``truth`` or of ``recording``; GPS speed / r when the radius is
+    known). ``harmonics`` defaults to the track's M.
     """
     path = Path(path)
+    if track is not None and isinstance(track.params.get("M"), int):
+        harmonics = track.params["M"]
     fs = recording.fs
     x = recording.channel(axis)
     if omega_max is None:
@@ -65,6 +68,12 @@ def plot_track(
     if om_truth is not None:
         ax0.plot(t_truth, om_truth, color="lime", lw=0.8, ls="--", label="truth")
         ax1.plot(t_truth, om_truth, color="k", lw=0.9, ls="--", label="truth")
+    if "gps_speed" in recording.channels and track is not None and track.wheel_radius:
+        g = recording.channel("gps_speed")
+        ok = np.isfinite(g)
+        if ok.any():
+            ax1.plot(recording.t[ok], g[ok] / track.wheel_radius, ".", ms=3, color="tab:orange",
+                     label="GPS speed / r")
     ax0.legend(loc="upper right", fontsize=8)
     ax1.set_ylabel("omega [rad/s]")
     ax1.set_xlabel("t [s]")

@@ -189,7 +189,7 @@ def detect_format(path: str | os.PathLike[str], *, mapping: bool = False) -> str
             return name
     if p.is_dir():
         raise ReaderError(p, "unknown format: a folder that is not a phyphox export "
-                             "(no Accelerometer.csv)")
+                             f"(no Accelerometer.csv); give --format ({', '.join(FORMATS)})")
     if p.stat().st_size == 0:
         raise ReaderError(p, "empty file")
     with open(p, "rb") as fh:

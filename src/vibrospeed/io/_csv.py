@@ -154,32 +154,33 @@ class CsvTable:
         """
         idx = [self.index(c) for c in usecols]
         ncols = len(self.header)
-        bufs: list[list[str]] = [[] for _ in idx]
+        rows: list[list[str]] = []
         line_buf: list[int] = []
         out: list[list[np.ndarray]] = [[] for _ in idx]
         lines_out: list[np.ndarray] = []
         blank = 0
         reader = csv.reader(self._fh, delimiter=self.delimiter)
-        base = self.header_line
-        # csv counts lines from where it starts reading: add the header's line number
+        base = self.header_line  # csv counts lines from where it starts reading
         try:
             for row in reader:
-                if not any(c.strip() for c in row):
+                if len(row) != ncols:
+                    if not any(c.strip() for c in row):
+                        blank += 1
+                        continue
+                    if len(row) < ncols or any(c.strip() for c in row[ncols:]):
+                        raise ReaderError(
+                            self.source,
+                            f"expected {ncols} fields, found {len(row)}",
+                            row=base + reader.line_num,
+                        )
+                    row = row[:ncols]  # trailing empty fields
+                elif not row[0].strip() and not any(c.strip() for c in row):
                     blank += 1
                     continue
-                if len(row) != ncols and not (
-                    len(row) > ncols and not any(c.strip() for c in row[ncols:])
-                ):
-                    raise ReaderError(
-                        self.source,
-                        f"expected {ncols} fields, found {len(row)}",
-                        row=base + reader.line_num,
-                    )
+                rows.append(row)
                 line_buf.append(base + reader.line_num)
-                for b, j in zip(bufs, idx, strict=True):
-                    b.append(row[j])
-                if len(line_buf) >= chunk_rows:
-                    self._flush(bufs, line_buf, out, lines_out, usecols)
+                if len(rows) >= chunk_rows:
+                    self._flush(rows, idx, line_buf, out, lines_out, usecols)
         except csv.Error as exc:
             raise ReaderError(
                 self.source, f"malformed CSV ({exc})", row=base + reader.line_num
@@ -188,7 +189,7 @@ class CsvTable:
             raise ReaderError(
                 self.source, f"not UTF-8 text ({exc.reason})", row=base + reader.line_num + 1
             ) from None
-        self._flush(bufs, line_buf, out, lines_out, usecols)
+        self._flush(rows, idx, line_buf, out, lines_out, usecols)
         lines = np.concatenate(lines_out) if lines_out else np.empty(0, dtype=np.int64)
         if lines.size == 0 and not allow_empty:
             raise ReaderError(self.source, "no data rows after the header", row=self.header_line)
@@ -200,17 +201,18 @@ class CsvTable:
         }
         return cols, lines
 
-    def _flush(self, bufs, line_buf, out, lines_out, names) -> None:
-        if not line_buf:
+    def _flush(self, rows, idx, line_buf, out, lines_out, names) -> None:
+        if not rows:
             return
         lines = np.asarray(line_buf, dtype=np.int64)
-        for k, (b, name) in enumerate(zip(bufs, names, strict=True)):
-            out[k].append(self._to_float(b, lines, name))
-            b.clear()
+        cols = list(zip(*rows, strict=True))
+        for k, (j, name) in enumerate(zip(idx, names, strict=True)):
+            out[k].append(self._to_float(cols[j], lines, name))
         lines_out.append(lines)
+        rows.clear()
         line_buf.clear()
 
-    def _to_float(self, cells: list[str], lines: np.ndarray, name: str) -> np.ndarray:
+    def _to_float(self, cells: Sequence[str], lines: np.ndarray, name: str) -> np.ndarray:
         if self.decimal != ".":
             cells = [c.replace(self.decimal, ".") for c in cells]
         try:

@@ -88,7 +88,8 @@ class Config:
         for name in ("m", "Iz", "L1", "L2", "track", "R", "Iw", "mu", "B", "B_rear", "C", "dt",
                      "v_eps"):
             if not getattr(self, name) > 0:
-                raise ParameterError(f"vehicle parameter {name} must be > 0, got {getattr(self, name)}")
+                raise ParameterError(
+                    f"vehicle parameter {name} must be > 0, got {getattr(self, name)}")
         if int(self.substeps) != self.substeps or self.substeps < 1:
             raise ParameterError(f"substeps must be a positive integer, got {self.substeps}")
         for name in ("drive_front", "brake_front"):
@@ -272,7 +273,8 @@ def init(config: Config, v0: float, *, vy0: float = 0.0, yaw_rate0: float = 0.0)
 def _check_u(u) -> np.ndarray:
     u = np.ascontiguousarray(u, dtype=np.float64)
     if u.shape[-1] != 3:
-        raise ParameterError(f"controls must be (delta rad, T_drive N m, T_brake N m), got shape {u.shape}")
+        raise ParameterError(
+            f"controls must be (delta rad, T_drive N m, T_brake N m), got shape {u.shape}")
     if not np.all(np.isfinite(u)):
         raise ParameterError("controls contain NaN or inf")
     return u

@@ -1,0 +1,161 @@
+"""Inertial-aided tracker (thesis ch. 3): step == run, special cases, behaviour on simulated drives."""
+
+import numpy as np
+import pytest
+
+from vibrospeed.errors import ParameterError
+from vibrospeed.estimators import aided, ekf
+from vibrospeed.models.harmonic import HarmonicModel
+from vibrospeed.sim.aided import SCENARIOS
+from vibrospeed.types import Recording
+
+
+def _signals(n=600, seed=0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.01
+    w = np.where(t < 2, 0.0, np.minimum((t - 2) * 5, 10.0))
+    th = np.cumsum(w) * 0.01
+    y = 0.2 * np.cos(th) + 0.15 * np.cos(2 * th) + rng.normal(0, 0.005, n)
+    u = np.gradient(w * 0.08, 0.01) + rng.normal(0, 0.01, n)
+    y[100] = np.nan
+    u[300] = np.nan
+    return y, u
+
+
+@pytest.mark.parametrize("standstill", ["window", "cusum"])
+def test_step_equals_run(standstill):
+    cfg = aided.Config(standstill=standstill)
+    y, u = _signals()
+    ref = np.full(y.size, np.nan)
+    ref_var = np.full(y.size, np.nan)
+    ref[450], ref_var[450] = 10.0, 0.01
+    res = aided.run(cfg, y, u, ref=ref, ref_var=ref_var)
+    st = aided.init(cfg)
+    for k in range(y.size):
+        st, est = aided.step(cfg, st, y[k], u[k], ref=ref[k], ref_var=ref_var[k])
+        assert est.omega == res.omega[k]
+        assert est.omega_std == res.omega_std[k]
+        assert est.standstill == res.standstill[k] and est.accelerating == res.accelerating[k]
+        assert est.bias == res.bias[k]
+    np.testing.assert_array_equal(st.x, res.final.x)
+    np.testing.assert_array_equal(st.P, res.final.P)
+    # chunked run equals whole
+    a = aided.run(cfg, y[:250], u[:250], ref=ref[:250], ref_var=ref_var[:250])
+    b = aided.run(cfg, y[250:], u[250:], ref=ref[250:], ref_var=ref_var[250:], state=a.final)
+    np.testing.assert_array_equal(np.concatenate([a.omega, b.omega]), res.omega)
+
+
+def test_reduces_to_harmonic_ekf():
+    """No aiding, no standstill, no bias: the kernel is the harmonic EKF of ekf.py."""
+    model = HarmonicModel(M=2, dt=0.01, q_omega=2.0, q_amp=0.004, r=0.002, p0_amp=0.1)
+    rng = np.random.default_rng(4)
+    t = np.arange(400) * 0.01
+    y = 0.2 * np.cos(9 * t) + 0.15 * np.cos(18 * t + 1) + rng.normal(0, 0.01, t.size)
+    y[50] = np.nan
+    cfg = aided.Config(model=model, omega0=8.0, p0_omega=2.0, standstill="none",
+                       mode_mu=1e9, boost=False, q_bias=0.0, p0_bias=1e-300, omega_max=1e9)
+    e_cfg = ekf.Config(model=model, omega0=8.0, p0_omega=2.0, amp0=0.0)
+    res = aided.run(cfg, y, np.zeros(400))
+    ref = ekf.run(e_cfg, y)
+    assert np.abs(ref.omega[-100:] - 9).max() < 0.5
+    np.testing.assert_allclose(res.omega, ref.omega, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(res.amplitudes, ref.amplitudes, rtol=1e-9, atol=1e-9)
+
+
+def test_pure_integration_and_boost():
+    """In acceleration mode omega integrates a_x: omega_k = omega_0 + (T/r) sum u (+ boost)."""
+    r = 0.08
+    cfg = aided.Config(wheel_radius=r, standstill="none", q_bias=0.0, p0_bias=1e-300,
+                       boost=True)
+    n = 200
+    u = np.full(n, 0.5)
+    y = np.zeros(n)
+    res = aided.run(cfg, y, u)
+    acc = res.accelerating
+    assert not acc[:19].any() and acc[19:].all()
+    assert res.boost[19] and res.boost.sum() == 1
+    # before the window fills: vibration mode, u = 0, omega stays 0 (y = 0 gives no evidence)
+    np.testing.assert_allclose(res.omega[:19], 0.0, atol=1e-12)
+    # boost 20 T ubar / r at sample 19, then T u / r per sample
+    expect = 20 * 0.01 * 0.5 / r + 0.01 * 0.5 / r * np.arange(n - 19)
+    np.testing.assert_allclose(res.omega[19:], expect, rtol=1e-9)
+
+
+def test_bias_is_learned_with_aid_always():
+    """With u integrated in every mode, vibration updates make b the accelerometer bias."""
+    rng = np.random.default_rng(5)
+    n = 6000
+    t = np.arange(n) * 0.01
+    w = 10.0
+    y = 0.2 * np.cos(w * t) + 0.1 * np.cos(2 * w * t) + rng.normal(0, 0.01, n)
+    u = -0.05 + rng.normal(0, 0.01, n)  # true acceleration 0, sensor bias -0.05
+    cfg = aided.Config(omega0=10.0, aid_always=True, standstill="none", q_bias=1e-3)
+    res = aided.run(cfg, y, u)
+    assert res.bias[-1000:].mean() == pytest.approx(0.05, abs=0.015)
+    assert np.abs(res.omega[-1000:] - w).mean() < 0.3
+
+
+def test_standstill_virtual_measurement_pulls_to_zero():
+    rng = np.random.default_rng(2)
+    y = rng.normal(0, 0.003, 300)  # quiet: window test fires
+    cfg = aided.Config(omega0=5.0, p0_omega=1.0)
+    res = aided.run(cfg, y, np.zeros(300))
+    assert res.standstill[25:].all()
+    assert res.omega[-1] < 0.05
+
+
+def _stop_latency(rec, track, tol=0.1):
+    worst = 0.0
+    for a, b in rec.meta["stops"]:
+        if b - a < 1.0:
+            continue
+        i = (rec.t >= a) & (rec.t <= b)
+        bad = np.flatnonzero(track.omega[i] > tol)
+        lat = 0.0 if bad.size == 0 else rec.t[i][bad[-1]] - a
+        worst = max(worst, lat)
+    return worst
+
+
+@pytest.mark.parametrize("name", ["stop_and_go", "sudden_change"])
+def test_issue4_done_when_one_seed(name):
+    rec = SCENARIOS[name](seed=11)
+    w = rec["omega_true"]
+    tr = aided.estimate(rec)
+    unaided = ekf.estimate(rec, params={"omega0": 0.0})
+    rmse = np.sqrt(np.mean((tr.omega - w) ** 2))
+    rmse_ekf = np.sqrt(np.mean((unaided.omega - w) ** 2))
+    assert rmse * 3 < rmse_ekf
+    assert rmse < 0.8
+    assert _stop_latency(rec, tr) < 1.0  # omega (< 0.1 rad/s) within 1 s of every stop
+    moving = w > 0.5
+    assert np.mean(tr.extras["standstill"][moving] > 0) < 0.01
+    assert tr.speed.shape == w.shape and tr.wheel_radius == rec.wheel_radius
+
+
+def test_cusum_standstill_on_drive():
+    rec = SCENARIOS["stop_and_go"](seed=3, duration=45)
+    tr = aided.estimate(rec, params={"standstill": "cusum"})
+    w = rec["omega_true"]
+    assert _stop_latency(rec, tr) < 1.0
+    assert np.mean(tr.extras["standstill"][w > 0.5] > 0) < 0.01
+
+
+def test_reference_fixes_fed():
+    rec = SCENARIOS["bumpy_floor"](seed=2, duration=40)
+    tr = aided.estimate(rec, params={"reference": "bump"})
+    assert any("reference-speed fixes" in n for n in tr.notes)
+    w = rec["omega_true"]
+    assert np.sqrt(np.mean((tr.omega - w) ** 2)) < 1.0
+
+
+def test_errors():
+    rec = SCENARIOS["start_from_rest"](seed=0, duration=10)
+    bare = Recording(t=rec.t, channels={"ax": rec["ax"], "ay": rec["ay"]})
+    with pytest.raises(ParameterError, match="wheel radius"):
+        aided.estimate(bare)
+    with pytest.raises(ParameterError, match="unknown parameter"):
+        aided.estimate(rec, params={"bogus": 1})
+    with pytest.raises(ParameterError):
+        aided.Config(standstill="maybe")
+    tr = aided.estimate(bare, wheel_radius=0.08, params={"accel_axis": "-ax"})
+    assert tr.params["accel_axis"] == "-ax"
