@@ -213,7 +213,8 @@ def evaluate(
         ("MAE", f"{m.mae:.3f}", "rad/s"),
         ("bias", f"{m.bias:+.3f}", "rad/s"),
         ("relative error", f"{m.rel_error:.1%}", ""),
-        (f"coverage of the {m.level:.0%} band", f"{m.coverage:.1%}", ""),
+        (f"coverage of the {m.level:.0%} band",
+         f"{m.coverage:.1%}" if m.coverage == m.coverage else "n/a (no band)", ""),
         ("share at omega/2", f"{m.half_share:.1%}", ""),
         ("share at 2 omega", f"{m.double_share:.1%}", ""),
     ]
