@@ -102,7 +102,7 @@ def accuracy(seeds: int, rbpf_seeds: int, n_particles: int, scenarios: list[str]
                     time.perf_counter() - t0)
             sp = {k: v for k, v in p.items() if k in ("prefilter", "omega_min", "omega_max")}
             if scen == "cart":
-                sp["batch"] = 200
+                sp["omega_min"] = 4.0  # SHS needs one period of omega_min per 2 s batch
             t0 = time.perf_counter()
             tr = shs.estimate(rec, params=sp)
             add("SHS", tr.omega, dt_run=time.perf_counter() - t0)

@@ -1,4 +1,4 @@
-"""Inertial-aided tracker (thesis ch. 3): step == run, special cases, behaviour on simulated drives."""
+"""Inertial-aided tracker (thesis ch. 3): step == run, special cases, simulated drives."""
 
 import numpy as np
 import pytest

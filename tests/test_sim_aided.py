@@ -83,4 +83,4 @@ def test_overrides_and_errors():
     with pytest.raises(ParameterError):
         SCENARIOS["stop_and_go"](seed=0, bogus=1)
     with pytest.raises(ParameterError):
-        SCENARIOS["sudden_change"](seed=0, duration=20)
+        SCENARIOS["sudden_change"](seed=0, duration=12)

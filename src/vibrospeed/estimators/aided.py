@@ -105,7 +105,7 @@ class Config:
     ss_n: int = det.WINDOW_N
     ss_mu: float = det.WINDOW_MU
     r_ss: float = 1.0
-    cusum_sigma: float = 0.03
+    cusum_sigma: float = 0.015
     cusum_nu: float = 0.5
     cusum_h: float = 10.0
     mode_n: int = det.MODE_N
@@ -483,6 +483,21 @@ def _channel(recording: Recording, spec: str) -> np.ndarray:
     return sign * recording.channel(name)
 
 
+def running_mean(u: np.ndarray, dt: float, tau: float) -> np.ndarray:
+    """Causal exponential running mean (time constant ``tau`` s, plain mean while ``t < tau``);
+    NaN samples keep the previous value."""
+    out = np.empty_like(u, dtype=np.float64)
+    m = 0.0
+    cnt = 0.0
+    a = min(1.0, dt / tau)
+    for k, v in enumerate(np.asarray(u, dtype=np.float64)):
+        if np.isfinite(v):
+            cnt += 1.0
+            m += (v - m) * max(a, 1.0 / cnt)
+        out[k] = m if cnt else np.nan
+    return out
+
+
 def running_gain(y: np.ndarray, dt: float, tau: float) -> np.ndarray:
     """Factor ``g_k`` with ``g_k y_k`` = running-RMS-normalised y (:mod:`signal.normalize`)."""
     from vibrospeed.signal.normalize import running_rms_normalize
@@ -518,7 +533,9 @@ def estimate(
     (rad/s); ``normalize_tau`` (s, running-RMS normalisation of the EKF input; default 0 = off,
     then the model is in m/s^2 units as in the thesis); ``reference`` ('none', 'bump', 'turn',
     'both': speed fixes from :mod:`vibrospeed.eval.reference` fed as measurements) and
-    ``wheelbase`` (m, for bump fixes).
+    ``wheelbase`` (m, for bump fixes); ``accel_detrend`` (s; subtract a causal running mean of
+    a_x with this time constant, for a tilted phone whose a_x carries a large gravity offset that
+    would hold the mode detector in acceleration mode; default 0 = off, as in the thesis).
 
     The wheel radius comes from ``wheel_radius`` or ``recording.wheel_radius``.
     """
@@ -543,6 +560,7 @@ def estimate(
     tau = float(cfg_kw.pop("normalize_tau", 0.0))
     reference = str(cfg_kw.pop("reference", "none"))
     wheelbase = cfg_kw.pop("wheelbase", None)
+    detrend = float(cfg_kw.pop("accel_detrend", 0.0))
     dt = check_uniform(recording)
     defaults = _thesis_model().to_dict()
     if tau > 0:  # unit-power signal: the EKF's defaults for normalised input
@@ -560,6 +578,8 @@ def estimate(
     recording.require(vib_name)
     x = recording.channel(vib_name)
     u = _channel(recording, accel_axis)
+    if detrend > 0:
+        u = u - running_mean(u, dt, detrend)
     sos = pf.design(pre, 1.0 / dt, M=model.M, lp_cutoff=lp)
     y = pf.apply(sos, x, level=start_level(x, dt))
     notes = [f"pre-filter '{pre}' on '{vib_name}' at fs = {1 / dt:.4g} Hz",
@@ -590,7 +610,8 @@ def estimate(
         "omega0", "p0_omega", "amp0", "q_bias", "p0_bias", "q_omega_accel", "standstill",
         "ss_n", "ss_mu", "r_ss", "cusum_sigma", "cusum_nu", "cusum_h", "mode_n", "mode_mu",
         "boost", "aid_always")}, "omega_max": config.omega_limit, "wheel_radius": float(r),
-        "prefilter": pre, "lp_cutoff": lp, "normalize_tau": tau, "axis": axis,
+        "prefilter": pre, "lp_cutoff": lp, "normalize_tau": tau, "accel_detrend": detrend,
+        "axis": axis,
         "accel_axis": accel_axis, "reference": reference}
     return Track.from_omega(recording.t, res.omega, res.omega_std, wheel_radius=float(r),
                             method="aided", params=out_params, extras=extras, notes=notes)

@@ -7,7 +7,8 @@ Per accelerometer sample, with ``dt`` the time since the previous sample:
    ``p = poly(a)`` in degrees (eq. 14), ``a <- (a - g sin p) / cos p``; then the offset estimate
    ``b`` of the drift filter is subtracted (section VI-b).
 2. predict the 4-state model ``X = [speed, accel, GPS speed, its derivative]`` with the exact
-   transition ``F = expm(A_c dt)`` (:mod:`vibrospeed.models.gps_riss`) and ``Q = diag(q) * dt/T_q``.
+   transition ``F = expm(A_c dt)`` (:mod:`vibrospeed.models.gps_riss`) and
+   ``Q = diag(q) * dt * q_rate``.
 3. update: on a sample with a *new valid* GPS fix (``gps_speed`` finite and ``gps_sats >=
    min_sats``; a missing or NaN satellite count counts as valid) "KF1 INS/GPS",
    ``H = [[0,1,0,0],[0,0,1,0]]``, ``R = diag(r_acc_gps, R22)`` (eq. 9, 12); otherwise "KF INS",
@@ -19,9 +20,11 @@ Per accelerometer sample, with ``dt`` the time since the previous sample:
    observes ``integral(a) - x1`` on samples with a valid fix; its offset is subtracted in step 1.
 
 Noise units. The paper gives ``Q = diag(5, 4, 1, 1)`` (its eq. 11, called "P") and the R values
-without units or sample rate; its gains were computed off-line at 400 Hz. We read Q as per-step
-variances at the paper's rate ``T_q = 1/400 s`` and scale by ``dt / T_q`` (constant white-noise
-intensity, so the filter behaves the same at any rate) and keep R per sample. Both are overridable.
+without units or sample rate; its gains were computed off-line at 400 Hz. Read literally as
+per-step variances at 400 Hz the speed state is almost free and the accelerometer is nearly
+ignored (followed every simulated GPS jump), so by default we read q as white-noise intensities
+per second, ``Q = diag(q) dt`` (``q_rate = 1``), and keep R per sample; ``q_rate = 400`` gives the
+literal reading. Step 2 above writes this as ``Q = diag(q) * dt * q_rate``.
 """
 
 from __future__ import annotations
@@ -53,13 +56,17 @@ class Config:
     Parameters
     ----------
     gps_a, gps_b : GPS lag model A_gps (row-major) and B_gps, paper eq. 3-4.
-    q : process noise diag of ``[speed, accel, GPS speed, GPS accel]`` per step at rate
-        ``q_rate`` Hz (paper eq. 11 "P": 5, 4, 1, 1 at 400 Hz); per-step ``Q = q * dt * q_rate``.
+    q : process noise diag of ``[speed, accel, GPS speed, GPS accel]`` (paper eq. 11 "P":
+        5, 4, 1, 1); per-step ``Q = q * dt * q_rate``, so with the default ``q_rate = 1`` q is an
+        intensity per second; ``q_rate = 400`` reads q literally as per-step at the paper's 400 Hz.
     r_acc_ins : accelerometer variance in "KF INS" (paper: 0.4).
     r_acc_gps : accelerometer variance in "KF1/KF2 INS/GPS" (paper eq. 12: 3.5).
     r_gps : GPS speed variance R22 at zero error and in KF2 (paper eq. 13, 18: 40).
     r_gps_slope : R22 growth per m/s of GPS error E (paper eq. 13: 72).
-    e_max : clip of E in m/s (paper: 0..5).  adaptive : use R22 = r_gps_slope E + r_gps (else r_gps).
+    e_max : clip of E in m/s (paper: 0..5).
+    adaptive : use R22 = r_gps_slope E + r_gps (else r_gps).
+    error_mode : "innovation" (default: new fix vs KF2's lagged speed before KF2's update) or
+        "states" (paper VI-c: KF2's x3 vs KF2's x1 through the lag model; reacts weakly).
     min_sats : satellite-count gate (paper: 7).
     gain : accelerometer calibration gain.
     pitch_compensation : apply ``pitch_poly`` (deg, highest power first; paper eq. 14, fitted for
@@ -93,7 +100,7 @@ class Config:
     p0_speed: float = 100.0
 
     def __post_init__(self) -> None:
-        self.lag  # validates the lag model
+        _ = self.lag  # validates the lag model
         if len(self.q) != 4 or min(self.q) < 0:
             raise ParameterError(f"q must be 4 values >= 0, got {self.q}")
         for name in ("q_rate", "r_acc_ins", "r_acc_gps", "r_gps", "r_drift", "p0_offset",

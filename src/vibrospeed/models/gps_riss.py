@@ -34,7 +34,7 @@ from scipy.linalg import expm
 
 from vibrospeed.errors import InputError, ParameterError
 
-#: Paper eq. 3-4 (identified for their 12.5 Hz receiver with Matlab's System Identification Toolbox).
+#: Paper eq. 3-4 (their 12.5 Hz receiver, identified with Matlab's System Identification Toolbox).
 PAPER_A_GPS = ((0.0, 1.0), (-1427.2, -114.2))
 PAPER_B_GPS = (0.0, 1427.2)
 
@@ -165,7 +165,7 @@ def _expm_small(M):
 
 @njit(cache=True)
 def transition(lagp, dt):
-    """(4, 4) ``expm(A_c dt)`` for ``lagp = [a11, a12, a21, a22, b1, b2]`` (compiled, any dt >= 0)."""
+    """(4, 4) ``expm(A_c dt)``, ``lagp = [a11, a12, a21, a22, b1, b2]`` (compiled, dt >= 0)."""
     Ac = np.zeros((4, 4))
     Ac[0, 1] = 1.0
     Ac[2, 2] = lagp[0]

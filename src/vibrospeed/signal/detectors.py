@@ -156,7 +156,7 @@ def _window_run(y, buf, pc, flag, mu):
 def window_test(
     y: np.ndarray, n: int = WINDOW_N, mu: float = WINDOW_MU, state: WindowState | None = None
 ) -> np.ndarray:
-    """Standstill decisions (bool (len(y),)) of the window test; equals repeated :func:`window_step`.
+    """Standstill decisions (bool (n,)) of the window test; equals repeated :func:`window_step`.
 
     Parameters
     ----------

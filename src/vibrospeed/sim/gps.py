@@ -5,7 +5,7 @@ receiver, a tunnel, a hilly course, a receiver jump, a motorcycle with accelerat
 Every function takes an explicit ``np.random.Generator`` and returns a
 :class:`~vibrospeed.types.Recording` on a uniform accelerometer time line with channels
 
-``ax``          (m/s^2) longitudinal specific force: ``gain (A cos p + g sin(p + theta)) + b + noise``
+``ax``          (m/s^2) longitudinal specific force ``gain (A cos p + g sin(p + theta)) + b + e``
                 with vehicle acceleration A, pitch p, road slope theta (paper eq. 15), bias b;
 ``gps_speed``   (m/s) receiver speed at fix samples, NaN between fixes; the receiver output is the
                 lag model (:class:`~vibrospeed.models.gps_riss.GpsLagModel`) driven by the true

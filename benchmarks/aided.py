@@ -1,0 +1,187 @@
+"""Benchmark of the inertial-aided tracker (issue 4; thesis ch. 3). Run by hand:
+
+    PYTHONPATH=src .venv/bin/python benchmarks/aided.py [sim] [sweep] [hungary]
+
+* sim: stop_and_go and sudden_change, 15 seeds each: RMSE over the whole drive (starts and stops
+  included) of the aided tracker (window and CUSUM standstill tests, the thesis' scheme and the
+  aid_always variant) against the unaided EKF (``ekf.estimate`` defaults started at 0, and the
+  same kernel with the aiding switched off); latency to omega < 0.1 rad/s after each stop;
+  standstill flags while moving (truth > 0.5 rad/s).
+* sweep: R x low-pass cut-off per M on the simulated ``cart`` scenario (15 seeds), next to
+  thesis table 3.1.
+* hungary: the phyphox car drives (x lateral, y forward, gyro z): speed vs GPS with the wheel
+  radius fitted once per drive, aided (with and without steady-turn fixes) next to the
+  unaided EKF and RBPMF.
+Results are printed as markdown (pasted into docs/aided.md).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from vibrospeed.estimators import aided, ekf
+from vibrospeed.sim.aided import SCENARIOS
+
+SEEDS = range(15)
+DATA = Path(__file__).resolve().parents[1] / "../shared/datasets/hungary_car_phyphox"
+
+
+def _rmse(a, b):
+    ok = np.isfinite(a) & np.isfinite(b)
+    return float(np.sqrt(np.mean((a[ok] - b[ok]) ** 2)))
+
+
+def _stop_latency(rec, omega, tol=0.1):
+    out = []
+    for a, b in rec.meta["stops"]:
+        if b - a < 1.0 or a == rec.t[0]:
+            continue  # the initial standstill is no stop
+        i = (rec.t >= a) & (rec.t <= b)
+        bad = np.flatnonzero(omega[i] > tol)
+        n = int(i.sum())
+        out.append(0.0 if bad.size == 0 else
+                   (rec.t[i][bad[-1]] - a if bad[-1] < n - 1 else np.inf))
+    return out
+
+
+NO_AID = {"standstill": "none", "mode_mu": 1e9, "boost": False, "q_bias": 0.0,
+          "p0_bias": 1e-300}
+VARIANTS = {
+    "aided (window, thesis)": {},
+    "aided (CUSUM)": {"standstill": "cusum"},
+    "aided (window, aid_always)": {"aid_always": True},
+    "same kernel, no aiding": NO_AID,
+}
+
+
+def bench_sim() -> None:
+    for name in ("stop_and_go", "sudden_change"):
+        rows = {k: {"rmse": [], "lat": [], "fa": []} for k in VARIANTS}
+        rows["EKF (ekf.estimate, omega0 = 0)"] = {"rmse": [], "lat": [], "fa": []}
+        t0 = time.time()
+        for seed in SEEDS:
+            rec = SCENARIOS[name](seed=seed)
+            w = rec["omega_true"]
+            moving = w > 0.5
+            for k, p in VARIANTS.items():
+                tr = aided.estimate(rec, params=p)
+                rows[k]["rmse"].append(_rmse(tr.omega, w))
+                rows[k]["lat"] += _stop_latency(rec, tr.omega)
+                rows[k]["fa"].append(float(np.mean(tr.extras["standstill"][moving] > 0)))
+            e = ekf.estimate(rec, params={"omega0": 0.0})
+            r = rows["EKF (ekf.estimate, omega0 = 0)"]
+            r["rmse"].append(_rmse(e.omega, w))
+            r["lat"] += _stop_latency(rec, e.omega)
+            r["fa"].append(np.nan)
+        base = np.array(rows["EKF (ekf.estimate, omega0 = 0)"]["rmse"])
+        print(f"\n### {name}, {len(SEEDS)} seeds ({time.time() - t0:.0f} s)\n")
+        print("| tracker | RMSE mean | RMSE max | worst ratio EKF/this | stops with omega < 0.1 "
+              "within 1 s | max stop latency (s) | standstill flags while moving (mean / max) |")
+        print("|---|---|---|---|---|---|---|")
+        for k, r in rows.items():
+            rm = np.array(r["rmse"])
+            lat = np.array(r["lat"])
+            fa = np.array(r["fa"])
+            ratio = np.min(base / rm)
+            fa_s = ("-" if np.all(np.isnan(fa))
+                    else f"{100 * fa.mean():.2f} % / {100 * fa.max():.2f} %")
+            print(f"| {k} | {rm.mean():.3f} | {rm.max():.3f} | {ratio:.1f} | "
+                  f"{int(np.sum(lat <= 1.0))}/{lat.size} | {np.max(lat):.2f} | {fa_s} |")
+
+
+def bench_sweep() -> None:
+    from vibrospeed.eval.sweep import format_table, sweep
+    from vibrospeed.sim import simulate
+
+    recs = [simulate("cart", seed=s) for s in SEEDS]
+    t0 = time.time()
+    res = sweep(recs, M_values=(1, 2, 3, 4), r_values=(0.0004, 0.0008, 0.0012, 0.0016, 0.0022,
+                                                      0.003),
+                lp_values=(6.0, 8.0, 10.0, 12.0, 15.0, 19.0, 25.0, 30.0))
+    print(f"\n### sweep on the simulated cart, {len(recs)} seeds x 120 s "
+          f"({time.time() - t0:.0f} s)\n")
+    print(format_table(res))
+    i2 = list(res.M_values).index(2)
+    j = list(res.r_values).index(0.0022)
+    k = list(res.lp_values).index(19.0)
+    print(f"\nAt the thesis' M = 2 setting (R = 0.0022, omega_lp = 19): summed "
+          f"{res.summed[i2, j, k]:.3f}, median {res.median[i2, j, k]:.3f}, mean "
+          f"{res.summed[i2, j, k] / len(recs):.3f} rad/s.")
+
+
+def _fit_radius(speed_gps, omega):
+    ok = np.isfinite(speed_gps) & np.isfinite(omega) & (speed_gps > 1.0)
+    return float(np.sum(speed_gps[ok] * omega[ok]) / np.sum(omega[ok] ** 2))
+
+
+def _gps_stats(t, v, gps):
+    ok = np.isfinite(gps) & np.isfinite(v)
+    e = v[ok] - gps[ok]
+    c = np.corrcoef(v[ok], gps[ok])[0, 1]
+    return float(np.sqrt(np.mean(e**2))), float(np.median(np.abs(e))), float(c)
+
+
+def bench_hungary() -> None:
+    from vibrospeed.io import read
+    from vibrospeed.io.timebase import resample_uniform
+
+    drives = sorted(p for p in DATA.iterdir() if p.is_dir())
+    print("\n### Hungary phyphox drives: speed vs GPS (m/s), radius fitted once per drive\n")
+    print("| drive | min | tracker | r fitted (m) | RMSE | median abs err | corr | "
+          "standstill share GPS < 0.3 / GPS > 2 m/s |")
+    print("|---|---|---|---|---|---|---|---|")
+    methods = {
+        "aided (thesis scheme)": {"normalize_tau": 5.0, "prefilter": "thesis-hp"},
+        "aided, a_x detrended 60 s": {"normalize_tau": 5.0, "prefilter": "thesis-hp",
+                                     "accel_detrend": 60.0},
+        "aided, detrended + turn fixes": {"normalize_tau": 5.0, "prefilter": "thesis-hp",
+                                          "accel_detrend": 60.0, "reference": "turn"},
+        "aided, detrended, aid_always + turn fixes": {
+            "normalize_tau": 5.0, "prefilter": "thesis-hp", "accel_detrend": 60.0,
+            "reference": "turn", "aid_always": True},
+    }
+    for d in drives:
+        rec = read(d)
+        rec = resample_uniform(rec) if not rec.is_uniform(0.01) else rec
+        # canonical body axes: x forward = phone y; y left = -(phone x, which points right)
+        body = rec.with_channels(ax=rec["ay"], ay=-rec["ax"])
+        gps = rec["gps_speed"]
+        for k, p in methods.items():
+            tr = aided.estimate(body, axis="y", wheel_radius=0.3, params=p)
+            r1 = _fit_radius(gps, tr.omega)
+            tr = aided.estimate(body, axis="y", wheel_radius=r1, params=p)
+            v = tr.speed
+            rm, mae, c = _gps_stats(rec.t, v, gps)
+            ss = tr.extras["standstill"] > 0
+            still = np.isfinite(gps) & (gps < 0.3)
+            mov = np.isfinite(gps) & (gps > 2.0)
+            sss = f"{ss[still].mean():.2f}" if still.any() else "-"
+            print(f"| {d.name} | {rec.duration / 60:.1f} | {k} | {r1:.3f} | {rm:.2f} | "
+                  f"{mae:.2f} | {c:.2f} | {sss} / {ss[mov].mean():.2f} |")
+        for name in ("ekf", "rbpmf"):
+            try:
+                from vibrospeed.estimators import get
+
+                mod = get(name)
+                tr = mod.estimate(body, axis="y", wheel_radius=None)
+            except Exception as exc:  # noqa: BLE001 - report and go on
+                print(f"| {d.name} | | {name} | failed: {type(exc).__name__}: {exc} | | | | |")
+                continue
+            r1 = _fit_radius(gps, tr.omega)
+            rm, mae, c = _gps_stats(rec.t, r1 * tr.omega, gps)
+            print(f"| {d.name} | | {name} (unaided) | {r1:.3f} | {rm:.2f} | {mae:.2f} | "
+                  f"{c:.2f} | - |")
+
+
+if __name__ == "__main__":
+    parts = sys.argv[1:] or ["sim", "sweep", "hungary"]
+    if "sim" in parts:
+        bench_sim()
+    if "sweep" in parts:
+        bench_sweep()
+    if "hungary" in parts:
+        bench_hungary()
