@@ -23,6 +23,7 @@ from vibrospeed.sim.drive import EXTRA_TRUTH_UNITS, simulate_drive
 from vibrospeed.sim.profile import Segment, SpeedProfile, Turn, build_profile
 from vibrospeed.sim.scenarios import (
     CONFIGS,
+    DESCRIPTIONS,
     SCENARIOS,
     CarConfig,
     CartConfig,
@@ -45,6 +46,8 @@ from vibrospeed.sim.vibration import EngineConfig, VibrationConfig
 
 __all__ = [
     "CONFIGS",
+    "DESCRIPTIONS",
+    "describe",
     "EXTRA_TRUTH_UNITS",
     "G0",
     "SCENARIOS",
@@ -70,3 +73,12 @@ __all__ = [
     "simulate_drive",
     "validation_signal",
 ]
+
+
+def describe() -> dict[str, str]:
+    """Scenario name -> one-line description, for ``vibrospeed simulate --list``."""
+    return {name: DESCRIPTIONS.get(name, "") for name in sorted(SCENARIOS)}
+
+
+# scenarios of other modules register themselves on import
+from vibrospeed.sim import aided as _aided  # noqa: E402,F401

@@ -38,7 +38,8 @@ import numpy as np
 from vibrospeed.errors import ParameterError
 from vibrospeed.sim.drive import simulate_drive
 from vibrospeed.sim.profile import Segment, SpeedProfile, Turn, build_profile
-from vibrospeed.sim.scenarios import make_config
+from vibrospeed.sim.scenarios import SCENARIOS as SIM_SCENARIOS
+from vibrospeed.sim.scenarios import make_config, register
 from vibrospeed.sim.sensors import ImuConfig, TickConfig
 from vibrospeed.sim.vibration import VibrationConfig
 from vibrospeed.types import Recording
@@ -270,25 +271,19 @@ _BUILDERS: dict[str, Callable[[AidedConfig, np.random.Generator], Recording]] = 
 }
 
 
-def _wrap(name: str) -> Callable[..., Recording]:
-    build = _BUILDERS[name]
+def _register_all() -> dict[str, Callable[..., Recording]]:
+    """Register every builder in the simulator's registry (``vibrospeed.sim.simulate``)."""
+    out = {}
+    for name, build in _BUILDERS.items():
 
-    def scenario(seed: int = 0, duration: float | None = None, fs: float = 100.0,
-                 **overrides: Any) -> Recording:
-        params = dict(overrides)
-        params["fs"] = fs
-        if duration is not None:
-            params["duration"] = duration
-        cfg = make_config(AidedConfig, params)
-        rec = build(cfg, np.random.default_rng(seed))
-        rec.meta.update(scenario=name, seed=seed, config=asdict(cfg))
-        rec.source = f"sim:{name}(seed={seed})"
-        return rec
+        def builder(cfg, rng, *, gps_model=None, _build=build):
+            return _build(cfg, rng)
 
-    scenario.__name__ = name
-    scenario.__doc__ = build.__doc__
-    return scenario
+        builder.__doc__ = build.__doc__
+        out[name] = register(name, AidedConfig)(builder)
+        out[name] = SIM_SCENARIOS[name]
+    return out
 
 
 #: scenario name -> ``f(seed=0, duration=None, fs=100.0, **overrides) -> Recording``
-SCENARIOS: dict[str, Callable[..., Recording]] = {name: _wrap(name) for name in _BUILDERS}
+SCENARIOS: dict[str, Callable[..., Recording]] = _register_all()

@@ -39,6 +39,8 @@ Builder = Callable[..., Recording]
 SCENARIOS: dict[str, Callable[..., Recording]] = {}
 #: scenario name -> its Config dataclass
 CONFIGS: dict[str, type] = {}
+#: scenario name -> one-line description (first line of the builder's docstring)
+DESCRIPTIONS: dict[str, str] = {}
 
 _OFF = ("none", "off", "false", "no", "0", "")
 _ON = ("on", "true", "yes", "1", "default")
@@ -134,6 +136,8 @@ def register(name: str, config_cls: type) -> Callable[[Builder], Builder]:
             rec.source = f"sim:{name}(seed={seed})"
             return rec
 
+        DESCRIPTIONS[name] = ((build.__doc__ or config_cls.__doc__ or "").strip().splitlines()
+                              or [""])[0]
         scenario.__name__ = f"scenario_{name}"
         scenario.__doc__ = f"Simulate scenario '{name}'; knobs: :class:`{config_cls.__name__}`."
         SCENARIOS[name] = scenario
