@@ -18,10 +18,20 @@ venv: $(VENV)/.installed
 
 demo: venv
 	@mkdir -p $(OUT)
-	$(BIN)/vibrospeed simulate --scenario cart --seed 1 -o $(OUT)/cart.csv
+	$(BIN)/vibrospeed simulate --scenario cart --seed 1 --set ticks=on -o $(OUT)/cart.csv
+	$(BIN)/vibrospeed truth $(OUT)/cart.csv --from-recording -o $(OUT)/cart_truth.csv
+	$(BIN)/vibrospeed estimate $(OUT)/cart.csv --method aided -o $(OUT)/cart_aided.csv --plot $(OUT)/cart_aided.png
+	$(BIN)/vibrospeed evaluate $(OUT)/cart_aided.csv --truth $(OUT)/cart_truth.csv
 	$(BIN)/vibrospeed estimate $(OUT)/cart.csv --method ekf --init-omega 10 -o $(OUT)/cart_ekf.csv --plot $(OUT)/cart_ekf.png
-	$(BIN)/vibrospeed evaluate $(OUT)/cart_ekf.csv --truth $(OUT)/cart.csv
-	@echo "demo outputs in $(OUT)/"
+	$(BIN)/vibrospeed evaluate $(OUT)/cart_ekf.csv --truth $(OUT)/cart_truth.csv
+	$(BIN)/vibrospeed simulate --scenario car --seed 1 -o $(OUT)/car.csv
+	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method rbpmf -o $(OUT)/car_rbpmf.csv --plot $(OUT)/car_rbpmf.png
+	$(BIN)/vibrospeed evaluate $(OUT)/car_rbpmf.csv --truth $(OUT)/car.csv
+	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method gps-riss --axis x -o $(OUT)/car_gps.csv
+	$(BIN)/vibrospeed evaluate $(OUT)/car_gps.csv --truth $(OUT)/car.csv
+	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method algebraic -p L1=1.2 -o $(OUT)/car_algebraic.csv
+	$(BIN)/vibrospeed evaluate $(OUT)/car_algebraic.csv --truth $(OUT)/car.csv
+	@echo "demo outputs in $(OUT)/: simulated drives, estimates (.csv + .json), plots (.png)"
 
 test: venv
 	$(BIN)/python -m pytest -q

@@ -100,3 +100,39 @@ def test_module_entry_point_and_help():
     assert "simulate" in res.stdout and "estimate" in res.stdout
     res = _run("estimate", "--help")
     assert "Examples" in res.output
+
+
+def test_truth_from_ticks_and_scenario_list(tmp_path):
+    rec_path = tmp_path / "cart.csv"
+    res = _run("simulate", "--scenario", "cart", "--duration", 20, "--set", "ticks=on",
+               "-o", rec_path)
+    assert res.exit_code == 0, res.output
+    ticks = io.read(rec_path).events["wss_ticks"]
+    tick_csv = tmp_path / "ticks.csv"
+    tick_csv.write_text("t\n" + "".join(f"{float(v)!r}\n" for v in ticks))
+    for args in ([rec_path, "--from-recording"], [tick_csv]):
+        truth = tmp_path / "truth.csv"
+        res = _run("truth", *args, "-o", truth)
+        assert res.exit_code == 0, res.output
+        tr = io.read(truth)
+        rec = io.read(rec_path)
+        w = np.interp(tr.t, rec.t, rec["omega_true"])
+        moving = tr["omega_true"] > 1
+        # the simulator's cog wheel has the thesis' 0.0625 m radius, as the CLI default
+        assert np.median(np.abs(tr["omega_true"][moving] - w[moving])) < 0.05
+    res = _run("simulate", "--list", "-o", tmp_path / "x.csv")
+    assert res.exit_code == 0 and "stop_and_go" in res.output and "gps_tunnel" in res.output
+
+
+def test_gps_riss_speed_only_evaluation(tmp_path):
+    rec_path = tmp_path / "tunnel.csv"
+    assert "duration" in _err(_run("simulate", "--scenario", "gps_tunnel", "--duration", 30,
+                                   "-o", rec_path))
+    assert _run("simulate", "--scenario", "gps_tunnel", "-o", rec_path).exit_code == 0
+    est = tmp_path / "gps.csv"
+    res = _run("estimate", rec_path, "--method", "gps-riss", "--axis", "x", "-o", est)
+    assert res.exit_code == 0, res.output
+    res = _run("evaluate", est, "--truth", rec_path, "--json", tmp_path / "m.json")
+    assert res.exit_code == 0, res.output
+    m = json.loads((tmp_path / "m.json").read_text())
+    assert m["unit"] == "m/s" and m["rmse"] < 0.3

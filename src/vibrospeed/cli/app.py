@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import functools
+import inspect
 import json
 import sys
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table
@@ -86,7 +88,8 @@ def simulate(
     scenario: Annotated[str, typer.Option(help="scenario name (see --list)")] = "cart",
     seed: Annotated[int, typer.Option(help="random seed (same seed, same drive)")] = 0,
     duration: Annotated[float | None, typer.Option(help="length in s (scenario default)")] = None,
-    fs: Annotated[float, typer.Option(help="accelerometer sample rate in Hz")] = 100.0,
+    fs: Annotated[float | None, typer.Option(help="accelerometer sample rate in Hz (scenario "
+                  "default: 100, GPS scenarios 400)")] = None,
     set_: Annotated[list[str] | None, typer.Option("--set", help="override a scenario knob, "
                     "NAME=VALUE (repeatable)")] = None,
     list_: Annotated[bool, typer.Option("--list", help="list scenarios and exit")] = False,
@@ -108,7 +111,8 @@ def simulate(
         for name, desc in sim.describe().items():
             out.print(f"{name:14s} {desc}")
         return
-    rec = sim.simulate(scenario, seed=seed, duration=duration, fs=fs, **parse_params(set_))
+    kw = {} if fs is None else {"fs": fs}
+    rec = sim.simulate(scenario, seed=seed, duration=duration, **kw, **parse_params(set_))
     io.write(rec, output)
     err.print(f"wrote {output}: {len(rec)} samples, {rec.duration:.1f} s at {rec.fs:.4g} Hz, "
               f"channels {', '.join(rec.channels)}")
@@ -157,9 +161,16 @@ def estimate(
         params["omega0"] = str(init_omega)
     mod = estimators.get(method)
     rec = _load(input, fmt, columns, mapping, rate, sort)
+    extra_kw = {}
+    if plot is not None and "return_posterior" in inspect.signature(mod.estimate).parameters:
+        extra_kw["return_posterior"] = True
     with err.status(f"{method}: {len(rec)} samples..."):
         track = mod.estimate(rec, axis=axis, wheel_radius=wheel_radius, params=params,
-                             progress=False)
+                             progress=False, **extra_kw)
+    # per-sample columns go to the CSV; a grid posterior (n, N) only to the plot
+    grids = {k: v for k, v in track.extras.items() if np.shape(v) != (len(track),)}
+    for k in grids:
+        del track.extras[k]
     from vibrospeed import __version__
 
     meta = {"version": __version__, "axis": axis, "recording_notes": rec.notes}
@@ -172,7 +183,8 @@ def estimate(
         from vibrospeed.eval.plot import plot_track
 
         ch = axis_channel(axis) if axis_channel(axis) in rec.channels else next(iter(rec.channels))
-        plot_track(plot, rec, track, axis=ch)
+        plot_track(plot, rec, track, axis=ch, posterior=grids.get("posterior"),
+                   grid=grids.get("grid"))
         err.print(f"wrote {plot}")
 
 
@@ -209,16 +221,17 @@ def evaluate(
     rows = [
         ("samples evaluated (moving)", f"{m.n}", ""),
         ("moving share", f"{m.moving_share:.1%}", ""),
-        ("RMSE", f"{m.rmse:.3f}", "rad/s"),
-        ("MAE", f"{m.mae:.3f}", "rad/s"),
-        ("bias", f"{m.bias:+.3f}", "rad/s"),
+        ("RMSE", f"{m.rmse:.3f}", m.unit),
+        ("MAE", f"{m.mae:.3f}", m.unit),
+        ("bias", f"{m.bias:+.3f}", m.unit),
         ("relative error", f"{m.rel_error:.1%}", ""),
         (f"coverage of the {m.level:.0%} band",
          f"{m.coverage:.1%}" if m.coverage == m.coverage else "n/a (no band)", ""),
-        ("share at omega/2", f"{m.half_share:.1%}", ""),
-        ("share at 2 omega", f"{m.double_share:.1%}", ""),
     ]
-    if m.rmse_speed == m.rmse_speed:
+    if m.unit != "m/s":
+        rows += [("share at omega/2", f"{m.half_share:.1%}", ""),
+                 ("share at 2 omega", f"{m.double_share:.1%}", "")]
+    if m.rmse_speed == m.rmse_speed and m.unit != "m/s":
         rows.append(("RMSE speed", f"{m.rmse_speed:.3f}", "m/s"))
     for row in rows:
         tab.add_row(*row)
@@ -261,6 +274,50 @@ def plot(
     plot_track(output, rec, track, axis=axis_channel(axis), truth=ref, harmonics=harmonics,
                window_s=window)
     err.print(f"wrote {output}")
+
+
+@app.command()
+@_friendly
+def truth(
+    ticks: Annotated[Path, typer.Argument(help="cog-wheel tick times: a one-column CSV (s), or "
+                     "a recording with a wss_ticks event stream (--from-recording)")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="truth recording to write "
+                      "(t, omega_true, speed_true)")],
+    cogs: Annotated[int, typer.Option(help="cogs per revolution of the sensor wheel")] = 12,
+    r_sensor: Annotated[float, typer.Option(help="radius of the cog wheel in m")] = 0.0625,
+    r_wheel: Annotated[float, typer.Option(help="radius of the vehicle wheel in m")] = 0.08,
+    scale: Annotated[float, typer.Option(help="multiply tick values (1e-3 for ms)")] = 1.0,
+    spike_rel: Annotated[float, typer.Option(help="relative size of a single-sample spike "
+                         "replaced by its neighbours' mean (0 = off)")] = 0.3,
+    max_gap: Annotated[float, typer.Option(help="a longer tick interval (s) means standstill")]
+    = 0.5,
+    from_recording: Annotated[bool, typer.Option("--from-recording", help="read the ticks from "
+                              "the wss_ticks events of a recording")] = False,
+) -> None:
+    """Ground truth omega from a cog-wheel speed sensor (thesis appendix B.4).
+
+    Tick intervals give omega = 2 pi / (cogs dt) * r_sensor / r_wheel; single-sample spikes
+    (missed or doubled cogs) are replaced by the mean of their neighbours.
+
+    Examples:
+
+      vibrospeed truth ticks.csv --cogs 12 --r-sensor 0.0625 --r-wheel 0.08 -o truth.csv
+
+      vibrospeed evaluate est.csv --truth truth.csv
+    """
+    from vibrospeed import io
+    from vibrospeed.eval import truth as tr
+
+    kw = dict(n_cogs=cogs, r_sensor=r_sensor, r_wheel=r_wheel, spike_rel=spike_rel,
+              max_gap=max_gap)
+    if from_recording:
+        rec = tr.truth_from_recording(io.read(ticks), **kw)
+    else:
+        rec = tr.ticks_to_truth(tr.read_ticks(ticks, scale=scale), source=str(ticks), **kw)
+    io.write(rec, output)
+    for note in rec.notes:
+        err.print(f"note: {note}")
+    err.print(f"wrote {output}: {len(rec)} truth samples over {rec.duration:.1f} s")
 
 
 @app.command()

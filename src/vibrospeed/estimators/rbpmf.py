@@ -56,8 +56,7 @@ from numba import njit
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import scaling as _scaling
-from vibrospeed.estimators.kalman import blocks_from_F, update_one
-from vibrospeed.estimators.kalman import predict_one as _predict_one
+from vibrospeed.estimators.kalman import blocks_from_F
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Recording, Track
 
@@ -94,6 +93,24 @@ class Config:
     nyquist : "warn" (default; harmonics above Nyquist alias, which the rotation model still
         describes exactly, only the fundamental must stay below it) or "error" (require
         ``M omega_max < pi fs``).
+
+    Beyond the paper (issue 7; all off by default = the paper's filter, see :func:`improved`):
+
+    jump_rate : 1/s, rate of a jump of omega to anywhere on the grid (re-acquisition). Per step
+        ``eps = 1 - exp(-jump_rate T)`` of every grid point's mass moves to the grid with
+        weights proportional to the cell widths (uniform in omega), and the jumped mass gets the
+        linear-state prior ``N(0, var(alpha_0) I)``.
+    off_rate, on_rate : 1/s, switching rates of a "no line" state (``off_rate = 0``: no such
+        state). In it the sample is broadband, ``y ~ N(0, null_var)`` with ``null_var``
+        defaulting to ``signal_rms^2`` (the running-RMS scaled signal's power). Its mass is
+        reported as ``p_null``; the band spreads it uniformly over the grid (honest "no signal").
+    amb_rel, amb_abs : half-width ``max(amb_abs, amb_rel * x)`` of the window around ``x =
+        MAP/2`` and ``2 MAP`` in which the posterior mass ``p_half``, ``p_double`` is reported.
+    smooth : "none" (causal filter), "fb" (forward-backward smoother over the whole log, with
+        the Viterbi MAP path) or "lag" (fixed-lag smoother, ``lag`` s); see
+        :mod:`vibrospeed.estimators.grid_smoother`.
+    fit : comma-separated model parameters to fit by marginal likelihood before tracking
+        (e.g. ``"q_omega,q_amp,r"``; :mod:`vibrospeed.estimators.fit`); empty: none.
     """
 
     model: HarmonicModel = field(default_factory=_paper_model)
@@ -112,6 +129,15 @@ class Config:
     rms_tau: float = _scaling.DEFAULT_TAU
     signal_rms: float = _scaling.DEFAULT_SIGNAL_RMS
     nyquist: str = "warn"
+    jump_rate: float = 0.0
+    off_rate: float = 0.0
+    on_rate: float = 1.0
+    null_var: float | None = None
+    amb_rel: float = 0.05
+    amb_abs: float = 1.5
+    smooth: str = "none"
+    lag: float = 2.0
+    fit: str = ""
 
     def __post_init__(self) -> None:
         if int(self.n_grid) != self.n_grid or self.n_grid < 1:
@@ -140,6 +166,40 @@ class Config:
             raise ParameterError(f"scaling must be 'rms' or 'none', got '{self.scaling}'")
         if self.nyquist not in ("warn", "error"):
             raise ParameterError(f"nyquist must be 'warn' or 'error', got '{self.nyquist}'")
+        for name in ("jump_rate", "off_rate", "on_rate", "amb_rel", "amb_abs"):
+            if not getattr(self, name) >= 0:
+                raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.off_rate > 0 and not self.on_rate > 0:
+            raise ParameterError("on_rate must be > 0 when off_rate > 0")
+        if self.null_var is not None and not self.null_var > 0:
+            raise ParameterError(f"null_var must be > 0, got {self.null_var}")
+        if self.smooth not in ("none", "fb", "lag"):
+            raise ParameterError(f"smooth must be 'none', 'fb' or 'lag', got '{self.smooth}'")
+        if not self.lag > 0:
+            raise ParameterError(f"lag must be > 0 s, got {self.lag}")
+        bad = [p for p in self.fit_names if p not in ("q_omega", "q_amp", "r")]
+        if bad:
+            raise ParameterError(f"fit: unknown parameter(s) {', '.join(bad)} "
+                                 "(choose from q_omega, q_amp, r)")
+
+    @property
+    def fit_names(self) -> list[str]:
+        """Parameters named in ``fit``."""
+        return [p.strip() for p in str(self.fit).split(",") if p.strip()]
+
+    @property
+    def has_null(self) -> bool:
+        """Whether the "no line" state is part of the model."""
+        return self.off_rate > 0
+
+    def rates(self) -> tuple[float, float, float, float]:
+        """Per-step probabilities ``(eps_jump, p_off, p_on, null_var)``."""
+        T = self.model.dt
+        eps = -np.expm1(-self.jump_rate * T)
+        p_off = -np.expm1(-self.off_rate * T) if self.has_null else 0.0
+        p_on = -np.expm1(-self.on_rate * T) if self.has_null else 0.0
+        nv = self.null_var if self.null_var is not None else self.signal_rms**2
+        return float(eps), float(p_off), float(p_on), float(nv)
 
     @classmethod
     def from_paper_table1(cls, dt: float = 0.01, **kw) -> Config:
@@ -292,18 +352,21 @@ def check_grid_spacing(config: Config) -> str | None:
 # state
 # ------------------------------------------------------------------------------------------
 class State(NamedTuple):
-    """Prior for the next sample: ``log_w`` (N,) normalised log-weights, ``mean`` (N, 2M),
-    ``cov`` (N, 2M, 2M) per grid point."""
+    """Prior for the next sample: ``log_w`` (N,) log-weights of the grid points, ``mean``
+    (N, 2M), ``cov`` (N, 2M, 2M) per grid point, ``log_w_null`` log-weight of the "no line"
+    state (-inf when the model has none). The weights sum to 1 over grid and null."""
 
     log_w: np.ndarray
     mean: np.ndarray
     cov: np.ndarray
+    log_w_null: float = -np.inf
 
 
 class Estimate(NamedTuple):
     """Posterior at one sample (rad/s): mean, std, MAP, credible interval [lo, hi]; the
-    predictive log-likelihood ``log p(y_k | y_1..k-1)``; amplitudes (M,) at the MAP point;
-    ``posterior`` (N,) grid weights."""
+    predictive log-likelihood ``log p(y_k | y_1..k-1)``; ``p_null`` (mass of "no line"),
+    ``p_half``, ``p_double`` (mass near MAP/2 and 2 MAP); amplitudes (M,) at the MAP point;
+    ``posterior`` (N,) grid weights (signal part)."""
 
     omega: float
     omega_std: float
@@ -311,6 +374,9 @@ class Estimate(NamedTuple):
     omega_lo: float
     omega_hi: float
     loglik: float
+    p_null: float
+    p_half: float
+    p_double: float
     amplitudes: np.ndarray
     posterior: np.ndarray
 
@@ -324,14 +390,22 @@ class Result(NamedTuple):
     omega_lo: np.ndarray
     omega_hi: np.ndarray
     loglik: np.ndarray
+    p_null: np.ndarray
+    p_half: np.ndarray
+    p_double: np.ndarray
     amplitudes: np.ndarray  # (n, M)
     posterior: np.ndarray | None  # (n, N) float32 when asked for
+    grid_loglik: np.ndarray | None  # (n, N + 1) float32 when asked for (last column: null)
     final: State
+
+
+N_OUT_FIXED = 9  # mean, std, map, lo, hi, pred loglik, p_null, p_half, p_double; then M amps
 
 
 def init(config: Config) -> State:
     """Prior at the first sample: weights uniform in omega (or Gaussian around ``omega0``),
-    phasor means 0, covariances ``var(alpha_0) I``."""
+    phasor means 0, covariances ``var(alpha_0) I``; with a "no line" state, its stationary
+    probability ``off / (off + on)``."""
     k = config.kern
     N = k.grid.size
     n = config.model.n_lin
@@ -343,14 +417,22 @@ def init(config: Config) -> State:
     lw = lw - np.max(lw)
     lw = np.maximum(lw, -config.log_floor)
     lw -= np.log(np.sum(np.exp(lw)))
+    lw0 = -np.inf
+    if config.has_null:
+        p0 = config.off_rate / (config.off_rate + config.on_rate)
+        lw = lw + np.log1p(-p0)
+        lw0 = float(np.log(p0))
     mean = np.zeros((N, n))
     cov = np.broadcast_to(np.eye(n) * config.model.p0_amp, (N, n, n)).copy()
-    return State(lw, mean, cov)
+    return State(lw, mean, cov, lw0)
 
 
 # ------------------------------------------------------------------------------------------
 # compiled core
 # ------------------------------------------------------------------------------------------
+LOG_2PI = float(np.log(2.0 * np.pi))
+
+
 @njit(cache=True)
 def _quantile(w, edges, q):
     """Quantile of the piecewise-uniform density with mass w_j on cell [edges_j, edges_j+1]."""
@@ -369,152 +451,299 @@ def _quantile(w, edges, q):
 
 
 @njit(cache=True)
-def _step(lw, mean, cov, y, h, r, blocks, Q, kb, B, grid, edges, log_floor, q_lo, q_hi,
-          w, mp, Sp, X, acc, ph, out, post):
-    """One RBPMF iteration in place on (lw, mean, cov); writes ``out`` and ``post`` (N,)."""
-    N = grid.size
-    n = mean.shape[1]
-    M = n // 2
-    # ---- 1. measurement update per grid point: log w_j += log N(y; h m_j, S_j) ----------
-    if np.isfinite(y):
-        for j in range(N):
-            ll, _, _ = update_one(mean[j], cov[j], h, r, y, ph)
-            lw[j] += ll
-    mx = -np.inf
-    for j in range(N):
-        if lw[j] > mx:
-            mx = lw[j]
-    # floor at log_floor nats below the best point, then normalise (one exp per point)
+def _mass_near(w, grid, x, rel, ab):
+    """Mass of ``w`` on grid points within max(ab, rel x) of x."""
+    hw = max(ab, rel * x)
     s = 0.0
-    for j in range(N):
-        d = lw[j] - mx
-        if d < -log_floor:
-            d = -log_floor
-        lw[j] = d
-        w[j] = np.exp(d)
-        s += w[j]
-    ls = np.log(s)
-    # prior weights sum to 1 -> log p(y_k | y_1..k-1) (floored mass < N e^-log_floor ignored)
-    pred_ll = mx + ls
-    inv_s = 1.0 / s
-    for j in range(N):
-        lw[j] -= ls
-        w[j] *= inv_s
-    # ---- 2. outputs ---------------------------------------------------------------------
+    for j in range(grid.size):
+        if abs(grid[j] - x) <= hw:
+            s += w[j]
+    return s
+
+
+@njit(cache=True)
+def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out):
+    """Outputs 0-4, 6-8 from grid weights ``w`` (signal, sum 1 - w0) and null mass ``w0``:
+    the mean, std and band are of the mixture ``v_j = w_j + w0 u_j`` (the null's omega is
+    unknown: uniform on the grid); MAP and ambiguity masses are of the signal part."""
+    N = grid.size
     mu = 0.0
     jmap = 0
     for j in range(N):
-        mu += w[j] * grid[j]
+        v[j] = w[j] + w0 * u[j]
+        mu += v[j] * grid[j]
         if w[j] > w[jmap]:
             jmap = j
     var = 0.0
     for j in range(N):
         d = grid[j] - mu
-        var += w[j] * d * d
+        var += v[j] * d * d
     out[0] = mu
     out[1] = np.sqrt(var)
     out[2] = grid[jmap]
-    out[3] = _quantile(w, edges, q_lo)
-    out[4] = _quantile(w, edges, q_hi)
-    out[5] = pred_ll if np.isfinite(y) else 0.0
-    for a in range(M):
-        al = mean[jmap, 2 * a]
-        be = mean[jmap, 2 * a + 1]
-        out[6 + a] = np.sqrt(al * al + be * be)
-    if post.size == N:
-        for j in range(N):
-            post[j] = w[j]
-    # ---- 3. linear time update per source point i, packed into X[i] = [m_i-, upper(S_i)]
-    #         with S_i = P_i- + m_i- m_i-' (the merge then sums contiguous rows) -------------
-    for i in range(N):
-        for a in range(n):
-            mp[a] = mean[i, a]
-            for b in range(n):
-                Sp[a, b] = cov[i, a, b]
-        _predict_one(mp, Sp, blocks[i], Q)
-        c = n
-        for a in range(n):
-            ma = mp[a]
-            X[i, a] = ma
-            for b in range(a, n):
-                X[i, c] = Sp[a, b] + ma * mp[b]
-                c += 1
-    # ---- 4.-5. transition W_j = sum_i w_i K_ij and moment-matching merge per target j ----
-    L = X.shape[1]
-    for j in range(N):
-        lo = max(0, j - B)
-        hi = min(N - 1, j + B)
-        W = 0.0
-        for i in range(lo, hi + 1):
-            W += w[i] * kb[j, i - j + B]
-        for c in range(L):
-            acc[c] = 0.0
-        inv = 1.0 / W
-        for i in range(lo, hi + 1):
-            lam = w[i] * kb[j, i - j + B] * inv
-            for c in range(L):
-                acc[c] += lam * X[i, c]
-        # m_j = sum lam m_i- ;  P_j = sum lam (P_i- + m_i- m_i-') - m_j m_j'
-        c = n
-        for a in range(n):
-            mean[j, a] = acc[a]
-        for a in range(n):
-            for b in range(a, n):
-                v = acc[c] - acc[a] * acc[b]
-                cov[j, a, b] = v
-                cov[j, b, a] = v
-                c += 1
-        lw[j] = np.log(W)
+    out[3] = _quantile(v, edges, q_lo)
+    out[4] = _quantile(v, edges, q_hi)
+    out[6] = w0
+    sig = 1.0 - w0
+    if sig > 1e-300:
+        out[7] = _mass_near(w, grid, 0.5 * grid[jmap], amb_rel, amb_abs) / sig
+        out[8] = _mass_near(w, grid, 2.0 * grid[jmap], amb_rel, amb_abs) / sig
+    else:
+        out[7] = 0.0
+        out[8] = 0.0
+    return jmap
 
 
 @njit(cache=True)
-def _run(ys, lw, mean, cov, h, r, blocks, Q, kb, B, grid, edges, log_floor, q_lo, q_hi,
-         want_post):
+def _step(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo, q_hi,
+          eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, w, v, X, acc, out, post, gll):
+    """One RBPMF iteration in place on (lw, lw0[0], mean, cov); writes ``out``, ``post`` (N,)
+    and ``gll`` (N + 1,) per-point predictive log-likelihoods (if sized).
+
+    Specialised to the harmonic model: ``h = [1, 0, 1, 0, ...]`` (rank-1 update with
+    ``P h' = sum of the even columns``), ``F`` block diagonal with rotations ``cs[i, m] =
+    (cos, sin)(m omega_i T)`` precomputed per grid point, ``Q = qd I``.
+    """
+    N = grid.size
+    n = mean.shape[1]
+    M = n // 2
+    has_null = p_off > 0.0
+    finite = np.isfinite(y)
+    ph = acc[:n]
+    # ---- 1. measurement update per grid point: log w_j += log N(y; h m_j, S_j) ----------
+    if finite:
+        for j in range(N):
+            mj = mean[j]
+            Pj = cov[j]
+            yhat = 0.0
+            for a in range(M):
+                yhat += mj[2 * a]
+            for i in range(n):
+                s_ = 0.0
+                for a in range(M):
+                    s_ += Pj[i, 2 * a]
+                ph[i] = s_
+            S = r
+            for a in range(M):
+                S += ph[2 * a]
+            nu = y - yhat
+            inv = 1.0 / S
+            g = nu * inv
+            for i in range(n):
+                mj[i] += ph[i] * g
+            for i in range(n):
+                pi = ph[i] * inv
+                for k in range(i, n):
+                    val = Pj[i, k] - pi * ph[k]
+                    Pj[i, k] = val
+                    Pj[k, i] = val
+            ll = -0.5 * (LOG_2PI + np.log(S) + nu * nu * inv)
+            lw[j] += ll
+            if gll.size > 0:
+                gll[j] = ll
+        if has_null:
+            ll0 = -0.5 * (LOG_2PI + np.log(null_var) + y * y / null_var)
+            lw0[0] += ll0
+            if gll.size > 0:
+                gll[N] = ll0
+    elif gll.size > 0:
+        for j in range(N + 1):
+            gll[j] = 0.0
+    mx = lw0[0] if has_null else -np.inf
+    for j in range(N):
+        if lw[j] > mx:
+            mx = lw[j]
+    # floor at log_floor nats below the best state, then normalise (one exp per point)
+    s = 0.0
+    for j in range(N):
+        d = lw[j] - mx
+        if d < -log_floor:
+            d = -log_floor
+        w[j] = np.exp(d)
+        s += w[j]
+    w0 = 0.0
+    if has_null:
+        d = lw0[0] - mx
+        if d < -log_floor:
+            d = -log_floor
+        w0 = np.exp(d)
+        s += w0
+    pred_ll = mx + np.log(s)
+    inv_s = 1.0 / s
+    for j in range(N):
+        w[j] *= inv_s
+    w0 *= inv_s
+    # ---- 2. outputs ---------------------------------------------------------------------
+    jmap = _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out)
+    out[5] = pred_ll if finite else 0.0
+    for a in range(M):
+        al = mean[jmap, 2 * a]
+        be = mean[jmap, 2 * a + 1]
+        out[N_OUT_FIXED + a] = np.sqrt(al * al + be * be)
+    if post.size == N:
+        for j in range(N):
+            post[j] = w[j]
+    # ---- 3. linear time update per source point i (in place: m = F m, P = F P F' + Q),
+    #         packed into X[i] = [m_i-, upper(P_i- + m_i- m_i-')] -------------------------
+    for i in range(N):
+        m = mean[i]
+        P = cov[i]
+        for a in range(M):
+            c = cs[i, a, 0]
+            sn = cs[i, a, 1]
+            x0 = m[2 * a]
+            x1 = m[2 * a + 1]
+            m[2 * a] = c * x0 + sn * x1
+            m[2 * a + 1] = -sn * x0 + c * x1
+        for a in range(M):
+            a0 = 2 * a
+            ca = cs[i, a, 0]
+            sa = cs[i, a, 1]
+            for b in range(a, M):
+                c0 = 2 * b
+                cb = cs[i, b, 0]
+                sb = cs[i, b, 1]
+                p00 = P[a0, c0]
+                p01 = P[a0, c0 + 1]
+                p10 = P[a0 + 1, c0]
+                p11 = P[a0 + 1, c0 + 1]
+                # R_a P_ab, R = [[c, s], [-s, c]]
+                t00 = ca * p00 + sa * p10
+                t01 = ca * p01 + sa * p11
+                t10 = -sa * p00 + ca * p10
+                t11 = -sa * p01 + ca * p11
+                # (R_a P_ab) R_b'
+                r00 = t00 * cb + t01 * sb
+                r01 = -t00 * sb + t01 * cb
+                r10 = t10 * cb + t11 * sb
+                r11 = -t10 * sb + t11 * cb
+                if b == a:
+                    r01 = 0.5 * (r01 + r10)
+                    r10 = r01
+                    r00 += qd
+                    r11 += qd
+                P[a0, c0] = r00
+                P[a0, c0 + 1] = r01
+                P[a0 + 1, c0] = r10
+                P[a0 + 1, c0 + 1] = r11
+        Xi = X[i]
+        c = n
+        for a in range(n):
+            ma = m[a]
+            Xi[a] = ma
+            for b in range(a, n):
+                Xi[c] = P[a, b] + ma * m[b]
+                c += 1
+    # ---- 4.-5. transition (random walk, jumps, null) and moment-matching merge ----------
+    L = X.shape[1]
+    rw = 1.0 - eps - p_off
+    J = eps * (1.0 - w0) + p_on * w0  # mass redistributed uniformly with the prior
+    for j in range(N):
+        lo = max(0, j - B)
+        hi = min(N - 1, j + B)
+        for c in range(L):
+            acc[c] = 0.0
+        W = 0.0
+        for i in range(lo, hi + 1):
+            lam = w[i] * kb[j, i - j + B]
+            W += lam
+            Xi = X[i]
+            for c in range(L):
+                acc[c] += lam * Xi[c]
+        if rw != 1.0:
+            W *= rw
+            for c in range(L):
+                acc[c] *= rw
+        Ju = J * u[j]
+        if Ju > 0.0:
+            W += Ju
+            # prior: mean 0, second moment p0 I
+            c = n
+            for a in range(n):
+                acc[c] += Ju * p0
+                c += n - a
+        inv = 1.0 / W
+        # m_j = sum lam m_i- / W ;  P_j = sum lam (P_i- + m_i- m_i-') / W - m_j m_j'
+        mj = mean[j]
+        Pj = cov[j]
+        for a in range(n):
+            mj[a] = acc[a] * inv
+        c = n
+        for a in range(n):
+            for b in range(a, n):
+                val = acc[c] * inv - mj[a] * mj[b]
+                Pj[a, b] = val
+                Pj[b, a] = val
+                c += 1
+        lw[j] = np.log(W)
+    if has_null:
+        lw0[0] = np.log(p_off * (1.0 - w0) + (1.0 - p_on) * w0)
+
+
+@njit(cache=True)
+def _run(ys, lw, lw0, mean, cov, r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo, q_hi,
+         eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, want_post, want_gll):
     n_s = ys.size
     N = grid.size
     n = mean.shape[1]
     M = n // 2
     outs = np.empty((n_s, N_OUT_FIXED + M))
     posts = np.empty((n_s if want_post else 0, N), dtype=np.float32)
+    glls = np.empty((n_s if want_gll else 0, N + 1), dtype=np.float32)
     post = np.empty(N if want_post else 0)
+    gll = np.empty(N + 1 if want_gll else 0)
     w = np.empty(N)
-    mp = np.empty(n)
-    Sp = np.empty((n, n))
-    X = np.empty((N, n + n * (n + 1) // 2))
-    acc = np.empty(n + n * (n + 1) // 2)
-    ph = np.empty(n)
+    v = np.empty(N)
+    L = n + n * (n + 1) // 2
+    X = np.empty((N, L))
+    acc = np.empty(L)
     for k in range(n_s):
-        _step(lw, mean, cov, ys[k], h, r, blocks, Q, kb, B, grid, edges, log_floor, q_lo, q_hi,
-              w, mp, Sp, X, acc, ph, outs[k], post)
+        _step(lw, lw0, mean, cov, ys[k], r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo,
+              q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, w, v, X, acc, outs[k],
+              post, gll)
         if want_post:
             for j in range(N):
                 posts[k, j] = post[j]
-    return outs, posts
+        if want_gll:
+            for j in range(N + 1):
+                glls[k, j] = gll[j]
+    return outs, posts, glls
+
+
+def _check_h(model: HarmonicModel) -> None:
+    h = model.H
+    if not (np.all(h[0::2] == 1.0) and np.all(h[1::2] == 0.0)):  # pragma: no cover - invariant
+        raise ParameterError("rbpmf needs the harmonic model's h = [1, 0, 1, 0, ...]")
 
 
 def _args(config: Config) -> tuple:
     k = config.kern
     m = config.model
+    _check_h(m)
     q = 0.5 * (1.0 - config.level)
-    return (m.H, float(m.r), k.blocks, np.ascontiguousarray(m.Q_lin), k.kb, int(k.B), k.grid,
-            k.edges, float(config.log_floor), q, 1.0 - q)
+    cs = np.ascontiguousarray(np.stack([k.blocks[:, :, 0, 0], k.blocks[:, :, 0, 1]], axis=-1))
+    u = k.widths / np.sum(k.widths)
+    eps, p_off, p_on, nv = config.rates()
+    return (float(m.r), cs, float(m.dt * m.q_amp), k.kb, int(k.B), k.grid, k.edges, u,
+            float(config.log_floor), q, 1.0 - q, eps, p_off, p_on, nv, float(m.p0_amp),
+            float(config.amb_rel), float(config.amb_abs))
 
 
 def step(config: Config, state: State, y: float) -> tuple[State, Estimate]:
     """Process one sample; returns the prior for the next sample and the posterior now."""
     lw = state.log_w.copy()
+    lw0 = np.array([state.log_w_null])
     mean = state.mean.copy()
     cov = state.cov.copy()
     N, n = mean.shape
     M = n // 2
     out = np.empty(N_OUT_FIXED + M)
     post = np.empty(N)
-    h, r, blocks, Q, kb, B, grid, edges, fl, qlo, qhi = _args(config)
-    _step(lw, mean, cov, float(y), h, r, blocks, Q, kb, B, grid, edges, fl, qlo, qhi,
-          np.empty(N), np.empty(n), np.empty((n, n)), np.empty((N, n + n * (n + 1) // 2)),
-          np.empty(n + n * (n + 1) // 2), np.empty(n), out, post)
-    est = Estimate(out[0], out[1], out[2], out[3], out[4], out[5], out[6:].copy(), post)
-    return State(lw, mean, cov), est
+    L = n + n * (n + 1) // 2
+    _step(lw, lw0, mean, cov, float(y), *_args(config), np.empty(N), np.empty(N),
+          np.empty((N, L)), np.empty(L), out, post, np.empty(0))
+    est = Estimate(*out[:5], out[5], out[6], out[7], out[8], out[N_OUT_FIXED:].copy(), post)
+    return State(lw, mean, cov, float(lw0[0])), est
 
 
 def run(
@@ -523,18 +752,36 @@ def run(
     state: State | None = None,
     *,
     return_posterior: bool = False,
+    return_grid_loglik: bool = False,
 ) -> Result:
     """Run over a whole (already pre-filtered, scaled) signal; identical to repeated
-    :func:`step`. ``return_posterior``: also return the grid posterior (n, N) as float32."""
+    :func:`step`. ``return_posterior``: also return the grid posterior (n, N) as float32;
+    ``return_grid_loglik``: the per-state predictive log-likelihoods (n, N + 1) float32 that
+    :mod:`vibrospeed.estimators.grid_smoother` needs (last column: the "no line" state)."""
     st = init(config) if state is None else state
-    lw = st.log_w.copy()
+    lw = np.array(st.log_w, dtype=np.float64)
+    lw0 = np.array([st.log_w_null], dtype=np.float64)
     mean = np.ascontiguousarray(st.mean, dtype=np.float64).copy()
     cov = np.ascontiguousarray(st.cov, dtype=np.float64).copy()
     ys = np.ascontiguousarray(y, dtype=np.float64)
-    outs, posts = _run(ys, lw, mean, cov, *_args(config), bool(return_posterior))
-    return Result(outs[:, 0], outs[:, 1], outs[:, 2], outs[:, 3], outs[:, 4], outs[:, 5],
-                  outs[:, N_OUT_FIXED:], posts if return_posterior else None,
-                  State(lw, mean, cov))
+    outs, posts, glls = _run(ys, lw, lw0, mean, cov, *_args(config), bool(return_posterior),
+                             bool(return_grid_loglik))
+    return Result(*(outs[:, c] for c in range(N_OUT_FIXED)), outs[:, N_OUT_FIXED:],
+                  posts if return_posterior else None, glls if return_grid_loglik else None,
+                  State(lw, mean, cov, float(lw0[0])))
+
+
+def improved(config: Config | None = None, **kw) -> Config:
+    """``config`` (default: the paper's) with the issue-7 settings :data:`IMPROVED` switched on;
+    ``kw`` overrides any Config field."""
+    import dataclasses
+
+    base = Config() if config is None else config
+    return dataclasses.replace(base, **{**IMPROVED, **kw})
+
+
+#: issue-7 settings used by :func:`improved` and ``params={"improved": True}``
+IMPROVED = {"jump_rate": 0.05, "off_rate": 0.05, "on_rate": 0.5}
 
 
 # ------------------------------------------------------------------------------------------
@@ -582,6 +829,12 @@ def prepare(recording: Recording, axis: str, config_cls, params: dict | None, de
     return config, y, rms, notes
 
 
+def _truthy(v) -> bool:
+    if isinstance(v, str):
+        return v.strip().lower() in ("1", "true", "yes", "on")
+    return bool(v)
+
+
 def estimate(
     recording: Recording,
     *,
@@ -595,10 +848,17 @@ def estimate(
 
     The axis is pre-filtered (``prefilter``, paper HP by default), normalised by its running RMS
     (``scaling``) and tracked. ``params`` may set any :class:`Config` or
-    :class:`HarmonicModel` field. The Track's ``omega`` is the posterior mean, its band the
-    ``level`` credible interval; extras: ``omega_map``, ``loglik``, ``amp1..M`` (in signal
-    units), ``rms``. With ``return_posterior`` the extras also hold ``posterior`` (n, N) float32
-    and ``grid`` (N,) (not per-sample arrays; for the posterior image).
+    :class:`HarmonicModel` field, plus ``improved=true`` (the issue-7 settings of
+    :data:`IMPROVED` under any explicit params). ``smooth="fb"`` / ``"lag"`` smooths
+    (:mod:`.grid_smoother`), ``fit="q_omega,q_amp,r"`` fits those by marginal likelihood first
+    (:mod:`.fit`; values in the Track's params and notes).
+
+    The Track's ``omega`` is the posterior mean, its band the ``level`` credible interval;
+    extras (per sample): ``omega_map`` (filter: MAP; smoother: Viterbi path, NaN in "no line"),
+    ``loglik``, ``p_null``, ``p_half``, ``p_double``, ``confidence`` (= 1 - p_null),
+    ``has_signal`` (1.0 where confidence >= 0.5), ``ambiguous`` (1.0 where p_half or p_double
+    >= 0.05), ``amp1..M`` (in signal units), ``rms``. With ``return_posterior`` the extras also
+    hold ``posterior`` (n, N) float32 and ``grid`` (N,) (for the posterior image).
 
     Examples
     --------
@@ -611,23 +871,59 @@ def estimate(
     >>> bool(abs(tr.omega[-1] - 50) < 1)
     True
     """
+    params = dict(params or {})
+    if _truthy(params.pop("improved", False)):
+        params = {**IMPROVED, **params}
     config, y, rms, notes = prepare(recording, axis, Config, params, _paper_model)
+    if config.fit_names:
+        from vibrospeed.estimators import fit as _fit
+
+        fr = _fit.fit(config, y, names=config.fit_names)
+        config = fr.config
+        notes.append("fitted by marginal likelihood: " + ", ".join(
+            f"{k} = {v:.4g}" for k, v in fr.values.items()) + f" (log p(y) {fr.loglik:.6g})")
     note = check_grid_spacing(config)
     if note:
         notes.append(note)
     if config.kern.B > 0:
         notes.append(f"banded kernel: B = {config.kern.B}, discarded row mass <= "
                      f"{config.kern.tail:.2g}")
-    res = _run_chunked(config, y, return_posterior, progress)
-    extras: dict[str, np.ndarray] = {"omega_map": res.omega_map, "loglik": res.loglik,
-                                     "rms": rms}
-    for m in range(config.model.M):
+    M = config.model.M
+    if config.smooth == "none":
+        res = _run_chunked(config, y, return_posterior, progress)
+        omega, std, lo, hi = res.omega, res.omega_std, res.omega_lo, res.omega_hi
+        omap, p_null, p_half, p_double = res.omega_map, res.p_null, res.p_half, res.p_double
+        post = res.posterior
+    else:
+        from vibrospeed.estimators import grid_smoother
+
+        res = run(config, y, return_grid_loglik=True)
+        if config.smooth == "fb":
+            sm = grid_smoother.smooth(config, res.grid_loglik, return_posterior=return_posterior)
+            vit = grid_smoother.viterbi(config, res.grid_loglik)
+            omap = vit.omega
+            notes.append("forward-backward smoother on the grid; omega_map = Viterbi path")
+        else:
+            sm = grid_smoother.fixed_lag(config, res.grid_loglik, lag=config.lag,
+                                         return_posterior=return_posterior)
+            omap = sm.omega_map
+            notes.append(f"fixed-lag smoother, lag {config.lag:g} s (delay <= 2 lag)")
+        omega, std, lo, hi = sm.omega, sm.omega_std, sm.omega_lo, sm.omega_hi
+        p_null, p_half, p_double, post = sm.p_null, sm.p_half, sm.p_double, sm.posterior
+    conf = 1.0 - p_null
+    extras: dict[str, np.ndarray] = {
+        "omega_map": omap, "loglik": res.loglik, "p_null": p_null, "p_half": p_half,
+        "p_double": p_double, "confidence": conf,
+        "has_signal": (conf >= 0.5).astype(np.float64),
+        "ambiguous": (np.maximum(p_half, p_double) >= 0.05).astype(np.float64), "rms": rms,
+    }
+    for m in range(M):
         extras[f"amp{m + 1}"] = res.amplitudes[:, m] * rms / config.signal_rms
     if return_posterior:
-        extras["posterior"] = res.posterior
+        extras["posterior"] = post
         extras["grid"] = config.grid.copy()
     return Track.from_omega(
-        recording.t, res.omega, res.omega_std, lo=res.omega_lo, hi=res.omega_hi,
+        recording.t, omega, std, lo=lo, hi=hi,
         level=config.level, wheel_radius=wheel_radius or recording.wheel_radius, method="rbpmf",
         params={**config.to_dict(), "axis": axis}, extras=extras, notes=notes,
     )
@@ -648,7 +944,6 @@ def _run_chunked(config: Config, y: np.ndarray, return_posterior: bool, progress
             parts.append(res)
             state = res.final
             bar.update(task, advance=min(chunk, y.size - k0))
-    cat = [np.concatenate([getattr(p, f) for p in parts]) for f in Result._fields[:7]]
+    cat = [np.concatenate([getattr(p, f) for p in parts]) for f in Result._fields[:10]]
     post = np.concatenate([p.posterior for p in parts]) if return_posterior else None
-    return Result(*cat, post, state)
-
+    return Result(*cat, post, None, state)

@@ -1,103 +1,73 @@
-"""Scale invariance for the harmonic trackers: causal running-RMS normalisation.
+"""Scale invariance for the harmonic trackers: the lead's causal running-RMS normaliser
+(:mod:`vibrospeed.signal.normalize`) times a target RMS.
 
 The paper's Table I noise intensities (``var(v^alpha) = 0.001``, ``var(alpha_0) = 0.1``) and any
 measurement variance ``r`` only mean something relative to the amplitude of the pre-filtered
 signal, which differs by orders of magnitude between a car's sensor cluster (m/s^2), a phone and
-an int16 GoPro stream (raw counts). The trackers therefore see
+an int16 GoPro stream (raw counts). The trackers therefore see::
 
-    y_k' = s * y_k / rms_k,     rms_k^2 = sum_j a^(k-j) y_j^2 / sum_j a^(k-j),   a = exp(-T / tau)
+    y_k' = s * y_k / rms_k
 
-an exponentially weighted RMS over the last ``tau`` seconds (bias-corrected, so it is the plain
-RMS of the samples seen while ``k * T << tau``), with ``s`` the signal RMS the parameters are
-tuned for (:data:`DEFAULT_SIGNAL_RMS`). Equivalently: the model's ``r`` and ``q_amp`` are read as
-fractions of the running signal power (a data-driven ``R``). The normalisation is causal and
-streaming (:class:`RmsState`), NaN samples pass as NaN and leave the state unchanged, and the
-scale is recorded so that amplitudes can be mapped back (multiply by ``rms_k / s``).
+with ``rms_k`` the running RMS of :func:`vibrospeed.signal.normalize.running_rms_normalize`
+(exponential mean square, time constant ``tau``, a plain running mean during the first ``tau``
+seconds) and ``s`` the signal RMS the parameters are tuned for (:data:`DEFAULT_SIGNAL_RMS`).
+Equivalently: the model's ``r`` and ``q_amp`` are fractions of the running signal power.
+Causal and streaming (:func:`step` with :class:`vibrospeed.signal.normalize.NormalizerState`);
+NaN samples pass as NaN and leave the state unchanged; the scale ``rms_k`` is returned so that
+amplitudes can be mapped back (multiply by ``rms_k / s``). There is no second implementation of
+the running mean square here: this module only multiplies by ``s`` and recovers ``rms_k``.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
-from numba import njit
 
 from vibrospeed.errors import ParameterError
+from vibrospeed.signal import normalize as _norm
+from vibrospeed.signal.normalize import NormalizerState
 
 #: RMS (in the filters' units) that the Table I parameters are applied to. Table I's
 #: var(alpha_0) = var(beta_0) = 0.1 means a harmonic of variance 0.1, i.e. RMS ~0.55 for
 #: three harmonics; 0.5 keeps that scale.
 DEFAULT_SIGNAL_RMS = 0.5
-#: time constant of the running RMS in s: long against a harmonic period (> 0.05 s at
-#: omega >= 10 rad/s... 0.6 s), short against changes of road surface.
+#: time constant of the running RMS in s: long against a harmonic period, short against changes
+#: of road surface.
 DEFAULT_TAU = 5.0
-#: absolute floor on the RMS (signal units), so a zero signal does not divide by zero
-RMS_FLOOR = 1e-12
+
+RmsState = NormalizerState
+init = _norm.init
 
 
-class RmsState(NamedTuple):
-    """Running sums: ``s`` = EMA of y^2, ``w`` = EMA of 1 (bias correction); both 0 at start."""
-
-    s: float
-    w: float
-
-
-def init() -> RmsState:
-    """Empty state (no sample seen)."""
-    return RmsState(0.0, 0.0)
-
-
-def decay(dt: float, tau: float) -> float:
-    """Per-sample forgetting factor ``a = exp(-dt / tau)``."""
+def _check(dt: float, tau: float) -> None:
     if not tau > 0 or not dt > 0:
         raise ParameterError(f"running RMS needs tau > 0 and dt > 0, got tau={tau}, dt={dt}")
-    return float(np.exp(-dt / tau))
 
 
-@njit(cache=True)
-def _rms_run(y, a, s, w, target, out_y, out_rms):
-    for k in range(y.size):
-        v = y[k]
-        if np.isfinite(v):
-            s = a * s + (1.0 - a) * v * v
-            w = a * w + (1.0 - a)
-            rms = np.sqrt(s / w)
-            if rms < 1e-12:
-                rms = 1e-12
-            out_rms[k] = rms
-            out_y[k] = target * v / rms
-        else:
-            out_rms[k] = np.sqrt(s / w) if w > 0.0 else np.nan
-            out_y[k] = np.nan
-    return s, w
+def _rms_from(y: np.ndarray, yn: np.ndarray, rms0: float = np.nan) -> np.ndarray:
+    """rms_k = |y_k / yn_k| where defined; held from the previous sample at zeros and NaNs."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rms = np.abs(y / yn)
+    ok = np.isfinite(rms) & (yn != 0)
+    idx = np.where(ok, np.arange(y.size), -1)
+    np.maximum.accumulate(idx, out=idx)
+    out = np.where(idx >= 0, rms[np.maximum(idx, 0)], rms0)
+    return out
 
 
-def step(state: RmsState, y: float, a: float, target: float = DEFAULT_SIGNAL_RMS):
-    """One sample: returns ``(state, y_scaled, rms)``; identical to :func:`run`."""
-    oy = np.empty(1)
-    orms = np.empty(1)
-    s, w = _rms_run(np.array([float(y)]), a, state.s, state.w, target, oy, orms)
-    return RmsState(s, w), float(oy[0]), float(orms[0])
-
-
-def run(
-    y: np.ndarray,
-    a: float,
-    target: float = DEFAULT_SIGNAL_RMS,
-    state: RmsState | None = None,
-) -> tuple[np.ndarray, np.ndarray, RmsState]:
-    """Normalise a whole signal: ``(y_scaled (n,), rms (n,), final state)``."""
-    st = init() if state is None else state
-    y = np.ascontiguousarray(y, dtype=np.float64)
-    oy = np.empty_like(y)
-    orms = np.empty_like(y)
-    s, w = _rms_run(y, a, st.s, st.w, target, oy, orms)
-    return oy, orms, RmsState(s, w)
+def step(state: NormalizerState, y: float, dt: float, tau: float = DEFAULT_TAU,
+         target: float = DEFAULT_SIGNAL_RMS) -> tuple[NormalizerState, float, float]:
+    """One sample: ``(state, y_scaled, rms)``; the same numbers as :func:`normalise`."""
+    _check(dt, tau)
+    st, yn = _norm.step(state, float(y), dt, tau)
+    rms = float(np.sqrt(max(st.s, 1e-300))) if st.count > 0 else np.nan
+    return st, target * yn, rms
 
 
 def normalise(
     y: np.ndarray, dt: float, *, tau: float = DEFAULT_TAU, target: float = DEFAULT_SIGNAL_RMS
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``(y_scaled, rms)`` with the causal running RMS of time constant ``tau`` s."""
-    oy, orms, _ = run(y, decay(dt, tau), target)
-    return oy, orms
+    """``(y_scaled, rms)``: ``target * running_rms_normalize(y, dt, tau)`` and the RMS used."""
+    _check(dt, tau)
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    yn = _norm.running_rms_normalize(y, dt, tau)
+    return target * yn, _rms_from(y, yn)

@@ -8,7 +8,7 @@ credible band: for an honest 98 % band it should be close to 0.98.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -31,6 +31,7 @@ class Metrics:
     half_share: float  # share of samples near truth/2 (locked on a subharmonic)
     double_share: float  # share near 2 * truth
     rmse_speed: float
+    unit: str = "rad/s"  # unit of rmse, mae, bias: "rad/s", or "m/s" when compared as speeds
 
     def to_dict(self) -> dict:
         """Plain dict (for JSON)."""
@@ -108,8 +109,24 @@ def compare(
     )
 
 
-def evaluate(track: Track, truth: Recording, **kw) -> Metrics:
-    """:func:`compare` against a truth recording (``omega_true`` or ``speed_true``)."""
+def evaluate(track: Track, truth: Recording, *, min_speed: float = 0.3, **kw) -> Metrics:
+    """:func:`compare` against a truth recording (``omega_true`` or ``speed_true``).
+
+    A speed estimate without a wheel radius (GPS fusion, algebraic Vx) against ``speed_true`` is
+    compared as speeds (m/s; ``min_speed`` m/s marks standstill), reported with ``unit="m/s"``.
+    """
+    r = track.wheel_radius or truth.wheel_radius
+    has_omega_truth = "omega_true" in truth.channels or ("speed_true" in truth.channels and r)
+    speed_est = np.isfinite(track.speed).any()
+    if (not has_omega_truth or not np.isfinite(track.omega).any()) and speed_est and (
+        "speed_true" in truth.channels
+    ):
+        as_speed = Track(track.t, track.speed, track.speed_std, track.speed_lo, track.speed_hi,
+                         track.speed, track.speed_std, track.speed_lo, track.speed_hi,
+                         level=track.level, wheel_radius=1.0)
+        kw.pop("min_omega", None)
+        m = compare(as_speed, truth.t, truth.channel("speed_true"), min_omega=min_speed, **kw)
+        return replace(m, unit="m/s")
     return compare(track, truth.t, truth_omega(truth, track.wheel_radius), **kw)
 
 

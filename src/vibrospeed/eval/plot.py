@@ -29,12 +29,15 @@ def plot_track(
     omega_max: float | None = None,
     window_s: float = 3.0,
     title: str | None = None,
+    posterior: np.ndarray | None = None,
+    grid: np.ndarray | None = None,
 ) -> Path:
     """Spectrogram (dB) of channel ``axis`` with the track's omega, band and harmonics over it.
 
     Lower panel: omega (and speed axis when the radius is known) against time with the band and
     the truth (``omega_true`` of ``truth`` or of ``recording``; GPS speed / r when the radius is
-    known). ``harmonics`` defaults to the track's M.
+    known). ``harmonics`` defaults to the track's M. ``posterior`` (n, N) over ``grid`` (N,)
+    rad/s, from a grid tracker, is drawn as an image under the estimate (paper Fig. 3).
     """
     path = Path(path)
     if track is not None and isinstance(track.params.get("M"), int):
@@ -58,6 +61,13 @@ def plot_track(
         t_truth, om_truth = tr.t, tr.channel("omega_true")
     elif "speed_true" in tr.channels and (track is not None and track.wheel_radius):
         t_truth, om_truth = tr.t, tr.channel("speed_true") / track.wheel_radius
+    if track is not None and posterior is not None and grid is not None:
+        post = np.asarray(posterior, dtype=np.float64)
+        step = max(1, post.shape[0] // 1500)  # at most ~1500 image columns
+        cols = post[: post.shape[0] // step * step].reshape(-1, step, post.shape[1]).mean(axis=1)
+        tc = track.t[: cols.shape[0] * step : step]
+        ax1.pcolormesh(tc, np.asarray(grid), np.log10(cols.T + 1e-12), shading="auto",
+                       cmap="Greys", vmin=-6, vmax=0, alpha=0.8)
     if track is not None:
         for m in range(1, harmonics + 1):
             ax0.plot(track.t, m * track.omega, color="cyan", lw=0.8, alpha=0.9,

@@ -19,6 +19,12 @@ registry; add scenarios with :func:`register`), :mod:`.validation` (thesis eq. 2
 Randomness only through ``np.random.default_rng(seed)`` split into fixed per-component streams.
 """
 
+import inspect
+
+import numpy as np
+
+from vibrospeed.errors import ParameterError
+
 from vibrospeed.sim.drive import EXTRA_TRUTH_UNITS, simulate_drive
 from vibrospeed.sim.profile import Segment, SpeedProfile, Turn, build_profile
 from vibrospeed.sim.scenarios import (
@@ -82,3 +88,46 @@ def describe() -> dict[str, str]:
 
 # scenarios of other modules register themselves on import
 from vibrospeed.sim import aided as _aided  # noqa: E402,F401
+
+
+def _gps_scenario(name: str, build):
+    """Adapt a :mod:`vibrospeed.sim.gps` builder ``f(rng, **kw)`` to the registry's signature."""
+
+    def scenario(*, seed: int = 0, duration: float | None = None, fs: float | None = None,
+                 gps_model=None, **overrides):
+        kw = {}
+        for k, v in overrides.items():
+            if isinstance(v, str):
+                try:
+                    v = float(v)
+                except ValueError:
+                    pass
+            kw[k] = v
+        if duration is not None:
+            kw["duration"] = duration
+        if fs is not None:
+            kw["fs"] = fs
+        accepted = inspect.signature(build).parameters
+        takes_any = any(p.kind is p.VAR_KEYWORD for p in accepted.values())
+        for k in kw:
+            if k not in accepted and not (takes_any and k not in ("duration",)):
+                raise ParameterError(f"scenario '{name}' has no knob '{k}' "
+                                     f"(it has: {', '.join(a for a in accepted if a != 'rng')})")
+        rec = build(np.random.default_rng(seed), **kw)
+        rec.meta.update(scenario=name, seed=seed)
+        rec.source = f"sim:{name}(seed={seed})"
+        return rec
+
+    scenario.__doc__ = build.__doc__
+    return scenario
+
+
+def _register_gps() -> None:
+    from vibrospeed.sim import gps as _gps
+
+    for name, build in _gps.SCENARIOS.items():
+        SCENARIOS[name] = _gps_scenario(name, build)
+        DESCRIPTIONS[name] = ((build.__doc__ or "").strip().splitlines() or [""])[0]
+
+
+_register_gps()

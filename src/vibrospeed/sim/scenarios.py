@@ -152,14 +152,14 @@ def simulate(
     *,
     seed: int = 0,
     duration: float | None = None,
-    fs: float = 100.0,
+    fs: float | None = None,
     gps_model: GpsModel | None = None,
     **overrides: Any,
 ) -> Recording:
     """Simulate the registered scenario ``name`` -> :class:`~vibrospeed.types.Recording`.
 
     ``seed`` fixes every random draw (same seed, same recording); ``duration`` (s) defaults to
-    the scenario's; ``fs`` Hz; ``gps_model`` replaces the built-in GPS; ``overrides`` set fields
+    the scenario's; ``fs`` Hz (None: the scenario's, 100 Hz for most); ``gps_model`` replaces the built-in GPS; ``overrides`` set fields
     of the scenario's Config (see :data:`CONFIGS`), dotted for nested ones.
 
     Examples
@@ -174,7 +174,8 @@ def simulate(
         raise ParameterError(
             f"unknown scenario '{name}' (choose from: {', '.join(sorted(SCENARIOS))})"
         ) from None
-    return fn(seed=seed, duration=duration, fs=fs, gps_model=gps_model, **overrides)
+    kw = {} if fs is None else {"fs": fs}
+    return fn(seed=seed, duration=duration, gps_model=gps_model, **kw, **overrides)
 
 
 # -- random drive helpers -------------------------------------------------------------------
