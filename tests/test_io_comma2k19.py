@@ -11,8 +11,6 @@ from vibrospeed.io.comma2k19 import read_comma2k19
 from vibrospeed.types import WHEEL_CHANNELS
 
 SEG = Path(__file__).resolve().parents[2] / "shared/datasets/comma2k19_example/segment_40"
-if not SEG.exists():
-    SEG = Path("/work/shared/datasets/comma2k19_example/segment_40")
 pytestmark = pytest.mark.skipif(not SEG.exists(), reason="comma2k19 example not available")
 
 

@@ -10,7 +10,7 @@ from vibrospeed.errors import ReaderError
 from vibrospeed.io.f1tenth import read_f1tenth
 from vibrospeed.types import WHEEL_CHANNELS
 
-ROOT = Path("/work/shared/datasets/f1tenth_frictionmaps")
+ROOT = Path(__file__).resolve().parents[2] / "shared/datasets/f1tenth_frictionmaps"
 pytestmark = pytest.mark.skipif(not ROOT.exists(), reason="F1/10 data not available")
 
 

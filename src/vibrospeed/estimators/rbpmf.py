@@ -464,21 +464,24 @@ def _mass_near(w, grid, x, rel, ab):
 @njit(cache=True)
 def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out):
     """Outputs 0-4, 6-8 from grid weights ``w`` (signal, sum 1 - w0) and null mass ``w0``:
-    the mean, std and band are of the mixture ``v_j = w_j + w0 u_j`` (the null's omega is
+    omega is the mean given a line (grid part renormalised); std and band are of the mixture ``v_j = w_j + w0 u_j`` (the null's omega is
     unknown: uniform on the grid); MAP and ambiguity masses are of the signal part."""
     N = grid.size
     mu = 0.0
+    mc = 0.0
     jmap = 0
     for j in range(N):
         v[j] = w[j] + w0 * u[j]
         mu += v[j] * grid[j]
+        mc += w[j] * grid[j]
         if w[j] > w[jmap]:
             jmap = j
     var = 0.0
     for j in range(N):
         d = grid[j] - mu
         var += v[j] * d * d
-    out[0] = mu
+    # reported omega: the mean given that a line is present (= mu without a null state)
+    out[0] = mc / (1.0 - w0) if w0 > 0.0 and w0 < 1.0 else mu
     out[1] = np.sqrt(var)
     out[2] = grid[jmap]
     out[3] = _quantile(v, edges, q_lo)

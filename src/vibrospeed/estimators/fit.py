@@ -1,0 +1,109 @@
+"""Noise parameters of the RBPMF by maximum marginal likelihood (issue 7, part 3).
+
+The filter's normaliser gives ``log p(y_1..T) = sum_k log p(y_k | y_1..k-1)`` (the predictive
+log-likelihood column of :func:`vibrospeed.estimators.rbpmf.run`) for free, as a function of
+``theta = (var(v^omega), var(v^alpha), r)``. :func:`fit` maximises it by coordinate search on a
+log scale: each parameter in turn is multiplied by ``factor^k``, k in {-2, -1, 1, 2}, the best
+kept, the factor square-rooted after a round without improvement, until ``rounds`` rounds or
+the factor falls below ``min_factor``. Deterministic, derivative-free, ~4 runs of the filter
+per parameter and round (each O(n N B)); a coarse search is all the likelihood surface needs
+(it is flat to a few percent in the values: :func:`profile` shows it).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import NamedTuple
+
+import numpy as np
+
+from vibrospeed.errors import ParameterError
+from vibrospeed.estimators import rbpmf as _rb
+
+FIT_NAMES = ("q_omega", "q_amp", "r")
+
+
+class FitResult(NamedTuple):
+    """``config`` with the fitted model; ``values`` name -> fitted value; ``loglik``
+    log p(y_1..T) at the optimum (nats); ``start_loglik`` at the start; ``evals`` filter runs;
+    ``history`` list of (values dict, loglik) for every evaluation."""
+
+    config: _rb.Config
+    values: dict
+    loglik: float
+    start_loglik: float
+    evals: int
+    history: list
+
+
+def loglik(config: _rb.Config, y: np.ndarray) -> float:
+    """``log p(y_1..T)`` under ``config`` (sum of the filter's predictive log-likelihoods)."""
+    return float(np.sum(_rb.run(config, y).loglik))
+
+
+def _with(config: _rb.Config, values: dict) -> _rb.Config:
+    return dataclasses.replace(config, model=dataclasses.replace(config.model, **values))
+
+
+def fit(
+    config: _rb.Config,
+    y: np.ndarray,
+    *,
+    names: list[str] | tuple[str, ...] = FIT_NAMES,
+    factor: float = 4.0,
+    min_factor: float = 1.4,
+    rounds: int = 4,
+    max_seconds: float | None = None,
+) -> FitResult:
+    """Maximise ``log p(y_1..T)`` over the model parameters ``names`` (coordinate search).
+
+    ``y`` : the pre-filtered, scaled signal the filter sees. ``max_seconds``: use only the
+    first that many seconds of ``y`` (faster fits on long logs).
+    """
+    names = list(names)
+    bad = [n for n in names if n not in FIT_NAMES]
+    if bad:
+        raise ParameterError(f"fit: unknown parameter(s) {', '.join(bad)} "
+                             f"(choose from {', '.join(FIT_NAMES)})")
+    y = np.asarray(y, dtype=np.float64)
+    if max_seconds is not None:
+        y = y[: max(1, int(round(max_seconds / config.model.dt)))]
+    vals = {n: float(getattr(config.model, n)) for n in names}
+    cache: dict[tuple, float] = {}
+    history: list = []
+
+    def ev(v: dict) -> float:
+        key = tuple(round(np.log(v[n]), 9) for n in names)
+        if key not in cache:
+            ll = loglik(_with(config, v), y)
+            cache[key] = ll if np.isfinite(ll) else -np.inf
+            history.append((dict(v), cache[key]))
+        return cache[key]
+
+    best = ev(vals)
+    start = best
+    f = factor
+    for _ in range(rounds):
+        improved = False
+        for n in names:
+            for k in (-2, -1, 1, 2):
+                if n == "q_omega" and vals[n] == 0.0:
+                    continue
+                trial = dict(vals)
+                trial[n] = vals[n] * f**k
+                ll = ev(trial)
+                if ll > best + 1e-6:
+                    best, cand = ll, trial
+                    improved = True
+                    vals = cand
+        if not improved:
+            f = np.sqrt(f)
+            if f < min_factor:
+                break
+    return FitResult(_with(config, vals), vals, best, start, len(cache), history)
+
+
+def profile(config: _rb.Config, y: np.ndarray, name: str,
+            values: np.ndarray) -> np.ndarray:
+    """``log p(y_1..T)`` for each value of one parameter (others as in ``config``)."""
+    return np.array([loglik(_with(config, {name: float(v)}), y) for v in values])
