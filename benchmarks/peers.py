@@ -135,14 +135,14 @@ def peer_pyin(av: AudioView):
                                  sr=AUDIO_SR, frame_length=frame, hop_length=av.hop,
                                  max_transition_rate=4.0 * av.S, fill_na=None, center=True)
     tf = librosa.times_like(f0, sr=AUDIO_SR, hop_length=av.hop)
-    return av.t_real(tf), av.omega(f0), float(np.mean(voiced)), f"frame {frame / (av.fs * av.U):.2f} s"
+    return av.t_real(tf), av.omega(f0), voiced, f"frame {frame / (av.fs * av.U):.2f} s"
 
 
 def _praat_frames(pitch, av: AudioView):
     f = pitch.selected_array["frequency"].astype(float)
     voiced = f > 0
     f[~voiced] = np.nan  # unvoiced: interpolated between the voiced neighbours (to_samples)
-    return av.t_real(pitch.xs()), av.omega(f), float(np.mean(voiced))
+    return av.t_real(pitch.xs()), av.omega(f), voiced
 
 
 def peer_praat_shs(av: AudioView):
@@ -195,17 +195,22 @@ def spectrogram_peak(y: np.ndarray, fs: float, omega_min: float, omega_max: floa
     return (starts + (n - 1) / 2) / fs, est
 
 
-PEERS = {  # name -> (import needed, function of AudioView)
+#: name -> (package needed, function of an AudioView returning (t_real (k,), omega (k,),
+#: voiced (k,) bool, a note on the window)); frame times start at the first sample (t = 0)
+PEERS = {
     "librosa pyin": ("librosa", peer_pyin),
     "Praat To Pitch (shs)": ("parselmouth", peer_praat_shs),
     "Praat To Pitch (ac)": ("parselmouth", peer_praat_ac),
 }
 
 
-def available_peers() -> dict:
+def available_peers(quiet: bool = False) -> dict:
+    """Installed peers; a printed note for each missing one (unless ``quiet``)."""
     out = {}
     for name, (mod, fn) in PEERS.items():
         if importlib.util.find_spec(mod) is None:
+            if quiet:
+                continue
             print(f"note: peer '{name}' skipped: python package '{mod}' is not installed "
                   f"(pip install librosa praat-parselmouth, the 'bench' extra)")
         else:
@@ -268,7 +273,7 @@ def run_scenario(scen: str, seeds: int, rbpf_seeds: int, particles: int, peers: 
                 tf, wf, voiced, what = fn(av)
                 el = time.process_time() - t0
                 info[name] = what
-                add(name, to_samples(rec.t, tf, wf), truth, el, voiced)
+                add(name, to_samples(rec.t, tf, wf), truth, el, float(np.mean(voiced)))
             except Exception as exc:  # noqa: BLE001
                 print(f"  {scen} seed {seed}: {name} failed: {type(exc).__name__}: {exc}")
         print(f"  {scen} seed {seed} done", flush=True)

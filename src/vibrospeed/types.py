@@ -166,8 +166,14 @@ class Recording:
         )
 
 
-def _z_for_level(level: float) -> float:
-    return float(stats.norm.ppf(0.5 + level / 2.0))
+def _with_band(x, std, lo, hi, level: float):
+    """Arrays ``(x, std, lo, hi)``; a missing band is ``x -+ z std`` for the level's quantile."""
+    x = np.asarray(x, float)
+    std = np.full_like(x, np.nan) if std is None else np.asarray(std, float)
+    z = float(stats.norm.ppf(0.5 + level / 2.0))
+    lo = x - z * std if lo is None else np.asarray(lo, float)
+    hi = x + z * std if hi is None else np.asarray(hi, float)
+    return x, std, lo, hi
 
 
 @dataclass
@@ -203,51 +209,22 @@ class Track:
     notes: list[str] = field(default_factory=list)
 
     @classmethod
-    def from_omega(
-        cls,
-        t,
-        omega,
-        omega_std=None,
-        *,
-        lo=None,
-        hi=None,
-        level: float = 0.98,
-        wheel_radius: float | None = None,
-        **kw,
-    ) -> Track:
-        """Build from an omega estimate; the band defaults to a Gaussian ``mean +- z*std``."""
-        t = np.asarray(t, float)
-        omega = np.asarray(omega, float)
-        std = np.full_like(omega, np.nan) if omega_std is None else np.asarray(omega_std, float)
-        z = _z_for_level(level)
-        lo = omega - z * std if lo is None else np.asarray(lo, float)
-        hi = omega + z * std if hi is None else np.asarray(hi, float)
+    def from_omega(cls, t, omega, omega_std=None, *, lo=None, hi=None, level: float = 0.98,
+                   wheel_radius: float | None = None, **kw) -> Track:
+        """Build from an omega estimate (rad/s); the band defaults to ``mean +- z std`` (Gaussian
+        quantile for ``level``); speed = r omega where the radius is known."""
+        x, std, lo, hi = _with_band(omega, omega_std, lo, hi, level)
         r = wheel_radius if wheel_radius else np.nan
-        return cls(t, omega, std, lo, hi, r * omega, r * std, r * lo, r * hi,
+        return cls(np.asarray(t, float), x, std, lo, hi, r * x, r * std, r * lo, r * hi,
                    level=level, wheel_radius=wheel_radius, **kw)
 
     @classmethod
-    def from_speed(
-        cls,
-        t,
-        speed,
-        speed_std=None,
-        *,
-        lo=None,
-        hi=None,
-        level: float = 0.98,
-        wheel_radius: float | None = None,
-        **kw,
-    ) -> Track:
+    def from_speed(cls, t, speed, speed_std=None, *, lo=None, hi=None, level: float = 0.98,
+                   wheel_radius: float | None = None, **kw) -> Track:
         """Build from a speed estimate (m/s); omega = speed / r where the radius is known."""
-        t = np.asarray(t, float)
-        v = np.asarray(speed, float)
-        std = np.full_like(v, np.nan) if speed_std is None else np.asarray(speed_std, float)
-        z = _z_for_level(level)
-        lo = v - z * std if lo is None else np.asarray(lo, float)
-        hi = v + z * std if hi is None else np.asarray(hi, float)
+        v, std, lo, hi = _with_band(speed, speed_std, lo, hi, level)
         r = wheel_radius if wheel_radius else np.nan
-        return cls(t, v / r, std / r, lo / r, hi / r, v, std, lo, hi,
+        return cls(np.asarray(t, float), v / r, std / r, lo / r, hi / r, v, std, lo, hi,
                    level=level, wheel_radius=wheel_radius, **kw)
 
     def __len__(self) -> int:
