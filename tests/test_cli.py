@@ -136,3 +136,9 @@ def test_gps_riss_speed_only_evaluation(tmp_path):
     assert res.exit_code == 0, res.output
     m = json.loads((tmp_path / "m.json").read_text())
     assert m["unit"] == "m/s" and m["rmse"] < 0.3
+
+
+def test_info_describes_channels(drive):
+    res = _run("info", drive)
+    assert res.exit_code == 0, res.output
+    assert "omega_true" in res.output and "rad/s" in res.output and "can feed" in res.output

@@ -38,3 +38,28 @@ def test_normalizer_step_equals_batch():
         s, o = nz.step(s, v, 0.01, 1.0)
         out.append(o)
     np.testing.assert_array_equal(np.array(out), running_rms_normalize(x, 0.01, 1.0))
+
+
+def test_chunked_estimate_with_progress_equals_whole():
+    from vibrospeed.estimators import common
+
+    rng = np.random.default_rng(0)
+    n = 2500
+    t = np.arange(n) / 100.0
+    rec = Recording(t, {"ay": np.cos(11.0 * t) + 0.1 * rng.normal(size=n)})
+    whole = ekf.estimate(rec)
+    calls = []
+    orig = common.run_in_chunks
+
+    def small_chunks(fn, n, **kw):
+        calls.append(n)
+        return orig(fn, n, **{**kw, "chunk": 700})
+
+    common.run_in_chunks = small_chunks
+    try:
+        chunked = ekf.estimate(rec, progress=True)
+    finally:
+        common.run_in_chunks = orig
+    assert calls == [n]
+    np.testing.assert_array_equal(chunked.omega, whole.omega)
+    np.testing.assert_array_equal(chunked.omega_std, whole.omega_std)

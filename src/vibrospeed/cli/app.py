@@ -164,9 +164,8 @@ def estimate(
     extra_kw = {}
     if plot is not None and "return_posterior" in inspect.signature(mod.estimate).parameters:
         extra_kw["return_posterior"] = True
-    with err.status(f"{method}: {len(rec)} samples..."):
-        track = mod.estimate(rec, axis=axis, wheel_radius=wheel_radius, params=params,
-                             progress=False, **extra_kw)
+    track = mod.estimate(rec, axis=axis, wheel_radius=wheel_radius, params=params,
+                         progress=sys.stderr.isatty(), **extra_kw)
     # per-sample columns go to the CSV; a grid posterior (n, N) only to the plot
     grids = {k: v for k, v in track.extras.items() if np.shape(v) != (len(track),)}
     for k in grids:
@@ -318,6 +317,61 @@ def truth(
     for note in rec.notes:
         err.print(f"note: {note}")
     err.print(f"wrote {output}: {len(rec)} truth samples over {rec.duration:.1f} s")
+
+
+@app.command()
+@_friendly
+def info(
+    input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
+    fmt: FormatOpt = "auto",
+    columns: ColumnsOpt = None,
+    mapping: MappingOpt = None,
+    rate: RateOpt = None,
+    sort: SortOpt = False,
+) -> None:
+    """Describe a recording: format, time line, channels with units and ranges, what the reader
+    did, and which methods it can feed.
+
+    Example:
+
+      vibrospeed info ../shared/datasets/hungary_car_phyphox/rsq_q2_00
+    """
+    from vibrospeed.io.timebase import describe_timebase
+
+    rec = _load(input, fmt, columns, mapping, rate, sort, uniform=False)
+    out.print(f"{rec.source or input}: {len(rec)} samples, {rec.duration:.2f} s, "
+              f"median rate {rec.fs:.4g} Hz" + (f", wheel radius {rec.wheel_radius} m"
+                                                 if rec.wheel_radius else ""))
+    tab = Table(title_justify="left")
+    for col in ("channel", "unit", "finite", "min", "median", "max"):
+        tab.add_column(col, justify="left" if col in ("channel", "unit") else "right")
+    for name, x in rec.channels.items():
+        ok = np.isfinite(x)
+        if ok.any():
+            lo, med, hi = np.percentile(x[ok], [0, 50, 100])
+            tab.add_row(name, rec.units.get(name, ""), f"{ok.mean():.1%}", f"{lo:.4g}",
+                        f"{med:.4g}", f"{hi:.4g}")
+        else:
+            tab.add_row(name, rec.units.get(name, ""), "0%", "", "", "")
+    out.print(tab)
+    for name, ev in rec.events.items():
+        out.print(f"event stream {name}: {ev.size} events")
+    notes = list(rec.notes)
+    notes += [n for n in describe_timebase(rec) if n not in notes]
+    for note in notes:
+        out.print(f"note: {note}", markup=False)
+    ch = set(rec.channels)
+    uses = []
+    if ch & {"ax", "ay", "az"}:
+        uses.append("ekf, rbpmf, rbpf, shs (vibrations)")
+    if "ax" in ch or "ay" in ch:
+        uses.append("aided (with a longitudinal axis and the wheel radius)")
+    if "gps_speed" in ch:
+        uses.append("gps-riss")
+    if {"gz", "ax", "ay"} <= ch and all(f"wheel_omega_{w}" in ch for w in ("fl", "fr", "rl", "rr")):
+        uses.append("algebraic")
+    out.print("can feed: " + ("; ".join(uses) if uses else "no estimator (no known channel)"),
+              markup=False)
 
 
 @app.command()

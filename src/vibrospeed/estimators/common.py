@@ -87,3 +87,29 @@ def prepare_axis(
         y = running_rms_normalize(y, dt, normalize_tau)
         notes.append(f"normalised by a running RMS (tau = {normalize_tau:g} s)")
     return y, dt, notes
+
+
+def run_in_chunks(step_chunk, n: int, *, progress: bool = False, label: str = "estimating",
+                  chunk: int = 50_000) -> list:
+    """Call ``step_chunk(a, b)`` over consecutive index ranges covering ``0..n``.
+
+    The estimators' ``run`` functions take a start state, so chunked runs give the numbers of one
+    whole run; this only adds a progress bar (``rich``, on stderr) when ``progress`` is true and
+    there is more than one chunk. Returns the list of the chunks' results.
+    """
+    bounds = list(range(0, n, chunk)) + [n]
+    pairs = list(zip(bounds[:-1], bounds[1:], strict=True)) or [(0, 0)]
+    if not progress or len(pairs) == 1:
+        return [step_chunk(a, b) for a, b in pairs]
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TimeRemainingColumn
+
+    out = []
+    with Progress("[progress.description]{task.description}", BarColumn(),
+                  "{task.completed}/{task.total} samples", TimeRemainingColumn(),
+                  console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(label, total=n)
+        for a, b in pairs:
+            out.append(step_chunk(a, b))
+            bar.update(task, completed=b)
+    return out

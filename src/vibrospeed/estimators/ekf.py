@@ -268,7 +268,7 @@ def estimate(
     RMS normalisation; 0 = off, then the parameters are in the signal's own units and the
     thesis' values apply: ``r=0.003 q_amp=0.004 p0_amp=20``).
     """
-    from vibrospeed.estimators.common import prepare_axis, split_params
+    from vibrospeed.estimators.common import prepare_axis, run_in_chunks, split_params
 
     params = dict(params or {})
     model_kw, cfg_kw = split_params(HarmonicModel, params)
@@ -285,7 +285,15 @@ def estimate(
                                 omega_max=config.omega_max, normalize_tau=tau or None)
     model = config_from_params(HarmonicModel, model_kw, **{**model.to_dict(), "dt": dt})
     config = config_from_params(Config, cfg_kw, model=model)
-    res = run(config, y)
+    parts: list[Result] = []
+
+    def chunk(a: int, b: int) -> Result:
+        parts.append(run(config, y[a:b], parts[-1].final if parts else None))
+        return parts[-1]
+
+    run_in_chunks(chunk, y.size, progress=progress, label="ekf")
+    res = Result(*(np.concatenate([getattr(p, f) for p in parts])
+                   for f in Result._fields[:-1]), parts[-1].final)
     extras = {f"amp{m + 1}": res.amplitudes[:, m] for m in range(model.M)}
     extras["nis"] = res.innovation**2 / res.innovation_var
     return Track.from_omega(
