@@ -43,7 +43,9 @@ EVENT_UNITS: dict[str, str] = {"wss_ticks": "s"}
 ACCEL_CHANNELS = ("ax", "ay", "az")
 GYRO_CHANNELS = ("gx", "gy", "gz")
 WHEEL_CHANNELS = ("wheel_omega_fl", "wheel_omega_fr", "wheel_omega_rl", "wheel_omega_rr")
-TRUTH_CHANNELS = ("omega_true", "speed_true", "vy_true", "accel_true", "yaw_rate_true", "grade_true")
+TRUTH_CHANNELS = (
+    "omega_true", "speed_true", "vy_true", "accel_true", "yaw_rate_true", "grade_true",
+)
 
 
 @dataclass

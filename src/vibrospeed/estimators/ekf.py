@@ -4,7 +4,8 @@ Full-state EKF on the phasor model of :mod:`vibrospeed.models.harmonic`,
 ``x = [omega, alpha_1, beta_1, ..., alpha_M, beta_M]`` with
 
 * time update ``x- = f(x)``, ``P- = F P F' + Q`` where ``F = df/dx`` (thesis eq. 2.28-2.29
-  generalised to M harmonics): ``d/domega R(m omega T)[a, b] = m T [-sin a + cos b, -cos a - sin b]``
+  generalised to M harmonics):
+  ``d/domega R(m omega T)[a, b] = m T [-sin a + cos b, -cos a - sin b]``
   (``psi = m omega T``), ``Q = T diag(q_omega, q_amp, ..., q_amp)``;
 * measurement update with ``H = [0, 1, 0, 1, 0, ...]``, scalar innovation ``S = H P H' + R``,
   covariance in Joseph form ``P = (I - K H) P (I - K H)' + K R K'`` then symmetrised.
@@ -263,7 +264,8 @@ def estimate(
     ``params`` may set any :class:`Config` field (``omega0``, ``p0_omega``, ``amp0``,
     ``omega_max``), any :class:`HarmonicModel` field (``M``, ``q_omega``, ``q_amp``, ``r``,
     ``p0_amp``; ``dt`` comes from the data), ``prefilter`` (a preset of
-    :mod:`vibrospeed.signal.prefilter`, default ``thesis-hp``) ``omega_min`` (default 2 rad/s), ``omega_max`` (default 120 rad/s, checked against
+    :mod:`vibrospeed.signal.prefilter`, default ``thesis-hp``), ``omega_min`` (default 2 rad/s),
+    ``omega_max`` (default 120 rad/s, checked against
     the Nyquist limit ``M omega_max < pi fs``) and ``normalize_tau`` (s, running
     RMS normalisation; 0 = off, then the parameters are in the signal's own units and the
     thesis' values apply: ``r=0.003 q_amp=0.004 p0_amp=20``).

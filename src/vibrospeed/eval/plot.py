@@ -45,7 +45,8 @@ def plot_track(
     fs = recording.fs
     x = recording.channel(axis)
     if omega_max is None:
-        top = np.nanmax(track.omega_hi) if track is not None and np.isfinite(track.omega_hi).any() else 60
+        have = track is not None and np.isfinite(track.omega_hi).any()
+        top = np.nanmax(track.omega_hi) if have else 60.0
         omega_max = float(min(np.pi * fs, max(30.0, 1.2 * harmonics * top)))
     sg = spectrogram(x, fs, window_s=window_s, t0=recording.t[0], omega_max=omega_max)
     fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(11, 7), sharex=True,

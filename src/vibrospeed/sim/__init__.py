@@ -24,7 +24,6 @@ import inspect
 import numpy as np
 
 from vibrospeed.errors import ParameterError
-
 from vibrospeed.sim.drive import EXTRA_TRUTH_UNITS, simulate_drive
 from vibrospeed.sim.profile import Segment, SpeedProfile, Turn, build_profile
 from vibrospeed.sim.scenarios import (

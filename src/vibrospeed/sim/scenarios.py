@@ -159,7 +159,8 @@ def simulate(
     """Simulate the registered scenario ``name`` -> :class:`~vibrospeed.types.Recording`.
 
     ``seed`` fixes every random draw (same seed, same recording); ``duration`` (s) defaults to
-    the scenario's; ``fs`` Hz (None: the scenario's, 100 Hz for most); ``gps_model`` replaces the built-in GPS; ``overrides`` set fields
+    the scenario's; ``fs`` Hz (None: the scenario's, 100 Hz for most); ``gps_model`` replaces
+    the built-in GPS; ``overrides`` set fields
     of the scenario's Config (see :data:`CONFIGS`), dotted for nested ones.
 
     Examples
