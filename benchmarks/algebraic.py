@@ -14,7 +14,9 @@ Writes the tables into ``docs/algebraic.md`` between the RESULTS markers. Sectio
    and with small sensor biases;
 3. comma2k19 segment 40: Vx against the CAN wheel-speed truth and the fused pose speed, and the
    consistency ``a_y ~ Vx * yaw rate``;
-4. F1/10 FrictionMaps DS1-DS5: Vx against the particle-filter speed.
+4. F1/10 FrictionMaps DS1-DS5: Vx against the particle-filter speed;
+5. uncertainty: coverage of the 98 % bands of Vx and Vy on the simulator;
+6. slip-onset backtracking: Vx RMSE against the backtracking depth at mu = 0.5.
 """
 
 from __future__ import annotations
@@ -162,6 +164,9 @@ def bench_comma() -> str:
         f"| Vx RMSE vs CAN wheel-speed truth | {_rmse(vx, rec['speed_true']):.4f} m/s |",
         f"| Vx RMSE vs fused pose speed | {_rmse(vx, rec['speed_pose']):.3f} m/s "
         f"(CAN wheel speed vs pose: {_rmse(rec['speed_true'], rec['speed_pose']):.3f}) |",
+        f"| 98 % band of Vx covers the CAN truth | "
+        f"{np.mean((np.abs(vx - rec['speed_true']) <= Z98 * tr.speed_std)[ok]):.3f} "
+        f"(median sd {np.nanmedian(tr.speed_std):.3f} m/s) |",
         f"| fraction in integration (slip) mode | {np.nanmean(x['slip_mode']):.3f} |",
         f"| fraction with Vy integrated (turn mode) | {np.nanmean(x['turn_mode']):.3f} |",
     ]
@@ -182,20 +187,91 @@ def bench_comma() -> str:
     return "\n".join(lines)
 
 
+Z98 = 2.3263
+
+
+def bench_uncertainty(seeds=range(5)) -> str:
+    lines = ["| sensors | scenario | mu | Vx coverage | Vx RMSE | median sd(Vx) | Vy coverage | "
+             "Vy RMSE | median sd(Vy) |", "|---|---|---|---|---|---|---|---|---|"]
+    total = {}
+    for label, bias, params in (("white noise", False, {}),
+                                ("biased (0.1 m/s^2, 0.005 rad/s)", True, {}),
+                                ("biased, acc_bias_sd = 0.1, gyro_bias_sd = 0.005", True,
+                                 {"acc_bias_sd": 0.1, "gyro_bias_sd": 0.005})):
+        cfg_b = dict(bias_ax=0.1, bias_ay=0.1, bias_gz=0.005) if bias else {}
+        cx_all, cy_all = [], []
+        for name in ("braking", "combined"):
+            for mu in (0.5, 0.7, 0.9):
+                cx, cy, rx, ry, sx, sy = [], [], [], [], [], []
+                for seed in seeds:
+                    rec = sim.simulate(sim.Config(mu=mu, **cfg_b), np.random.default_rng(seed),
+                                       name=name)
+                    tr = A.estimate(rec, params=params)
+                    ex = tr.speed - rec["speed_true"]
+                    ey = tr.extras["vy"] - rec["vy_true"]
+                    cx.append(np.mean(np.abs(ex) <= Z98 * tr.speed_std))
+                    cy.append(np.mean(np.abs(ey) <= Z98 * tr.extras["vy_std"]))
+                    rx.append(_rmse(ex, 0 * ex))
+                    ry.append(_rmse(ey, 0 * ey))
+                    sx.append(np.median(tr.speed_std))
+                    sy.append(np.median(tr.extras["vy_std"]))
+                cx_all += cx
+                cy_all += cy
+                lines.append(f"| {label} | {name} | {mu} | {np.mean(cx):.3f} | {np.mean(rx):.3f} "
+                             f"| {np.mean(sx):.3f} | {np.mean(cy):.3f} | {np.mean(ry):.3f} | "
+                             f"{np.mean(sy):.3f} |")
+        total[label] = (np.mean(cx_all), np.mean(cy_all))
+    summary = "; ".join(f"{k}: Vx {v[0]:.3f}, Vy {v[1]:.3f}" for k, v in total.items())
+    return (f"Fraction of samples with |error| <= 2.326 sd (98 % band), mean over seeds "
+            f"{list(seeds)}; default parameters unless stated. Overall: {summary}.\n\n"
+            + "\n".join(lines))
+
+
+def bench_backtrack(seeds=range(10)) -> str:
+    depths = (0, 5, 10, 20, 40)
+    lines = ["| scenario | sensors | " + " | ".join(f"backtrack {b}" for b in depths) + " |",
+             "|---|---|" + "---|" * len(depths)]
+    for name in ("braking", "combined"):
+        for bias in (False, True):
+            cfg = sim.Config(mu=0.5, bias_ax=0.1 if bias else 0.0,
+                             bias_ay=0.1 if bias else 0.0, bias_gz=0.005 if bias else 0.0)
+            res = {b: [] for b in depths}
+            for seed in seeds:
+                rec = sim.simulate(cfg, np.random.default_rng(seed), name=name)
+                slip = np.abs(rec.meta["slip"]).max(axis=1) > 0.05
+                for b in depths:
+                    tr = A.estimate(rec, params={"backtrack": b})
+                    res[b].append((_rmse(tr.speed, rec["speed_true"]),
+                                   _rmse(tr.speed, rec["speed_true"], slip)))
+            cells = [f"{np.mean([a for a, _ in res[b]]):.3f} / "
+                     f"{np.mean([c for _, c in res[b]]):.3f}" for b in depths]
+            lines.append(f"| {name} | {'biased' if bias else 'white'} | " + " | ".join(cells)
+                         + " |")
+    return (f"mu = 0.5, Vx RMSE all samples / slip samples (m/s), mean over seeds {list(seeds)}; "
+            "the default is backtrack = alpha = 20 samples, limited to the preceding wheel-mode "
+            "run.\n\n" + "\n".join(lines))
+
+
 def bench_f1tenth() -> str:
+    tuned = {"eps_k": 3.0, "max_int": 0.5}
     lines = ["| run | duration s | median rate Hz | Vx alg (default) | Vx alg (eps1 = 3, "
-             "eps2 = 0.2) | odometry | slip fraction (default / tuned) |",
-             "|---|---|---|---|---|---|---|"]
+             "eps2 = 0.2) | Vx alg (eps_k = 3, max_int = 0.5 s) | odometry | "
+             "98 % coverage (eps_k, max_int) | integration fraction (default / eps_k, max_int) |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for ds in ("DS1", "DS2", "DS3", "DS4", "DS5"):
         rec = read_f1tenth(DATA / "f1tenth_frictionmaps" / ds)
         t0 = A.estimate(rec)
         t1 = A.estimate(rec, params={"eps1": 3.0, "eps2": 0.2, "window": 0.3, "window_d": 0.5})
+        t2 = A.estimate(rec, params=tuned)
         v = rec["speed_true"]
+        ok = np.isfinite(v) & np.isfinite(t2.speed)
+        cov = np.mean(np.abs(t2.speed - v)[ok] <= Z98 * t2.speed_std[ok])
         lines.append(
             f"| {ds} | {rec.duration:.0f} | {rec.fs:.1f} | {_rmse(t0.speed, v):.3f} | "
-            f"{_rmse(t1.speed, v):.3f} | {_rmse(rec['speed_odom'], v):.3f} | "
+            f"{_rmse(t1.speed, v):.3f} | {_rmse(t2.speed, v):.3f} | "
+            f"{_rmse(rec['speed_odom'], v):.3f} | {cov:.3f} | "
             f"{np.nanmean(t0.extras['slip_mode']):.2f} / "
-            f"{np.nanmean(t1.extras['slip_mode']):.2f} |")
+            f"{np.nanmean(t2.extras['slip_mode']):.2f} |")
     return ("RMSE in m/s against the particle-filter speed (pose differences over +-6 samples). "
             "The time line is irregular (18-44 Hz): the estimator resamples it to its median "
             "period. L1 = 0.159 m (F1TENTH gym default).\n\n" + "\n".join(lines))
@@ -207,6 +283,8 @@ def main() -> None:
         "### 2. Vx / Vy on the two-track simulator\n\n" + bench_velocity(),
         "### 3. comma2k19 segment 40 (2018 RAV4, highway)\n\n" + bench_comma(),
         "### 4. F1/10 FrictionMaps (drifting RC car)\n\n" + bench_f1tenth(),
+        "### 5. Uncertainty: 98 % band coverage on the simulator\n\n" + bench_uncertainty(),
+        "### 6. Slip-onset backtracking at mu = 0.5\n\n" + bench_backtrack(),
     ]
     text = "\n\n".join(parts)
     print(text)

@@ -97,8 +97,10 @@ KART_METHODS = [
     ("RBPMF (M=3)", "rbpmf", {}),
     ("RBPMF M=1", "rbpmf", {"M": 1}),
     ("RBPMF M=1, q_omega=100", "rbpmf", {"M": 1, "q_omega": 100.0}),
+    ("RBPMF (M=3), q_omega=100", "rbpmf", {"q_omega": 100.0}),
     ("EKF (M=2)", "ekf", {"M": 2, "omega0": 160.0}),
     ("EKF M=1", "ekf", {"M": 1, "omega0": 160.0}),
+    ("EKF M=1, q_omega=100", "ekf", {"M": 1, "omega0": 160.0, "q_omega": 100.0}),
     ("SHS", "shs", {}),
 ]
 
@@ -327,7 +329,7 @@ def _comma_phone(path: Path, can: Recording) -> Recording:
     """The phone IMU of the segment (104 Hz, uniform; phone axes, windshield mount) with the CAN
     wheel speeds and GNSS speed interpolated onto its time stamps (truth channels)."""
     base = path / "processed_log" / "IMU" / "accelerometer"
-    t = np.load(base / "t").astype(float)
+    t = np.load(base / "t").astype(float) - float(can.meta["t0_boot_s"])  # reader's t = 0
     a = np.load(base / "value").astype(float)
     ch = {"ax": a[:, 0], "ay": a[:, 1], "az": a[:, 2]}
     wcan = np.mean([can[k] for k in can.channels if k.startswith("wheel_omega")], axis=0)

@@ -159,3 +159,49 @@ def test_errors():
         aided.Config(standstill="maybe")
     tr = aided.estimate(bare, wheel_radius=0.08, params={"accel_axis": "-ax"})
     assert tr.params["accel_axis"] == "-ax"
+
+
+def test_line_gate_widens_band_without_line():
+    """White noise, no line: with the gate the vibration updates leave omega alone and its
+    variance grows like the random walk (P0 + q T k); without it the EKF claims precision."""
+    rng = np.random.default_rng(7)
+    n = 1500
+    y = rng.normal(0, 0.05, n)
+    u = np.zeros(n)
+    base = dict(omega0=10.0, p0_omega=0.25, standstill="none", q_bias=0.0, p0_bias=1e-300)
+    gated = aided.run(aided.Config(line_min=0.6, **base), y, u)
+    free = aided.run(aided.Config(**base), y, u)
+    assert not gated.locked.any() and free.locked[20:].all()
+    q = aided.Config().model.q_omega
+    expect = np.sqrt(0.25 + q * 0.01 * np.arange(n))
+    np.testing.assert_allclose(gated.omega_std, expect, rtol=1e-6)
+    np.testing.assert_allclose(gated.omega, 10.0, atol=1e-9)
+    assert free.omega_std[-1] < 0.5 * gated.omega_std[-1]
+
+
+def test_line_gate_keeps_a_real_line():
+    y, u = _signals(n=1200)
+    y = y.copy()
+    res = aided.run(aided.Config(line_min=0.6), y, u)
+    ref = aided.run(aided.Config(), y, u)
+    t = np.arange(y.size) * 0.01
+    w = np.where(t < 2, 0.0, np.minimum((t - 2) * 5, 10.0))
+    assert res.locked[-300:].mean() > 0.9
+    assert np.abs(res.omega[-300:] - w[-300:]).mean() < 0.3
+    assert np.abs(res.omega[-300:] - ref.omega[-300:]).max() < 0.3
+
+
+def test_init_ref_first_fix_sets_omega():
+    rng = np.random.default_rng(8)
+    n = 400
+    y = rng.normal(0, 0.05, n)
+    u = np.zeros(n)
+    ref = np.full(n, np.nan)
+    var = np.full(n, np.nan)
+    ref[150], var[150] = 12.0, 0.04
+    cfg = aided.Config(init_ref=True, omega0=0.0, p0_omega=1e6, standstill="none",
+                       omega_max=100.0)
+    res = aided.run(cfg, y, u, ref=ref, ref_var=var)
+    assert res.omega_std[149] > 900 and not res.locked[:150].any()
+    assert res.omega[150] == pytest.approx(12.0, abs=1e-3)
+    assert res.omega_std[150] == pytest.approx(0.2, rel=1e-3)

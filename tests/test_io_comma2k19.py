@@ -60,3 +60,14 @@ def test_bad_folder(tmp_path):
     (d / "t.npy").rename(d / "t")
     with pytest.raises(ReaderError, match="not increasing at index 2"):
         read_comma2k19(tmp_path)
+
+
+def test_detect_and_auto_format(tmp_path):
+    from vibrospeed import io
+    from vibrospeed.io.comma2k19 import detect
+
+    assert detect(SEG) and not detect(tmp_path) and not detect(tmp_path / "nope")
+    assert not detect(SEG / "processed_log")  # a sub-folder is not a segment
+    assert not detect(SEG.parents[1] / "f1tenth_frictionmaps" / "DS1")
+    assert io.detect_format(SEG) == "comma2k19"
+    assert len(io.read(SEG)) == 4974

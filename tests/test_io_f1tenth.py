@@ -58,3 +58,17 @@ def test_bad_input(tmp_path):
     (tmp_path / "imuData.csv").write_text(",s,ns,ax,ay\n0,1,0,0,0\n")
     with pytest.raises(ReaderError, match="column 'wz'"):
         read_f1tenth(tmp_path)
+
+
+def test_detect_and_auto_format(tmp_path):
+    from vibrospeed import io
+    from vibrospeed.io.f1tenth import detect
+
+    assert detect(ROOT / "DS1") and detect(ROOT / "DS1" / "imuData.csv")
+    assert not detect(ROOT / "DS1" / "commandData.csv") and not detect(ROOT)
+    assert not detect(tmp_path) and not detect(tmp_path / "nope")
+    for f in ("imuData.csv", "odomData.csv", "pfPoseData.csv"):
+        (tmp_path / f).write_text(",s,ns,x\n0,1,0,0\n")
+    assert not detect(tmp_path)  # no IMU columns
+    assert io.detect_format(ROOT / "DS2") == "f1tenth"
+    assert len(io.read(ROOT / "DS1")) == len(pd.read_csv(ROOT / "DS1" / "imuData.csv"))

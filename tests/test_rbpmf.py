@@ -179,3 +179,62 @@ def test_parameter_errors():
     t = np.arange(0, 5, 0.01)
     with pytest.raises(ParameterError, match="M = 3 harmonics"):
         rbpmf.estimate(Recording(t, {"ay": np.sin(t)}), params={"nyquist": "error"})
+
+
+def test_jumps_reacquire_a_lost_track():
+    """Tone at 30 rad/s for 4 s, then at 90: the random walk alone (sigma 0.2 rad/s per step)
+    needs far longer than 3 s; with jumps (rate 0.5/s) the posterior moves within ~1 s."""
+    model = HarmonicModel(M=1, dt=0.01, q_omega=4.0, q_amp=0.001, r=0.05, p0_amp=0.1)
+    t = np.arange(0, 7, 0.01)
+    y = np.where(t < 4, np.sin(30 * t), 0.5 * np.sin(90 * t)) + 0.3 * np.random.default_rng(
+        7).normal(size=t.size)
+
+    paper = rbpmf.run(rbpmf.Config(model=model), y)
+    jump = rbpmf.run(rbpmf.Config(model=model, jump_rate=0.5), y)
+    after = t > 5
+    assert np.median(np.abs(jump.omega[after] - 90)) < 1.0
+    assert np.median(np.abs(paper.omega[after] - 90)) > 10
+
+
+def test_no_line_state_and_ambiguity_masses():
+    t = np.arange(0, 10, 0.01)
+    rng = np.random.default_rng(8)
+    y = np.where(t < 5, 0.7 * np.sin(60 * t) + 0.2 * rng.normal(size=t.size),
+                 0.5 * rng.normal(size=t.size))
+    model = HarmonicModel(M=2, dt=0.01, q_omega=4.0, q_amp=0.002, r=0.15, p0_amp=0.1)
+    cfg = rbpmf.Config(model=model, off_rate=0.05, on_rate=0.5)
+    res = rbpmf.run(cfg, y, return_posterior=True)
+    line, none = (t > 1) & (t < 5), t > 6.5
+    assert np.all(res.p_null[line] < 0.05) and np.mean(res.p_null[none] > 0.5) > 0.95
+    width = res.omega_hi - res.omega_lo
+    assert np.median(width[none]) > 80
+    assert np.all((res.omega_lo[line] < 60) & (res.omega_hi[line] > 60))
+    # a single sinusoid with M = 2: 60 (harmonic 1) vs 30 (harmonic 2 of 30) both explain it
+    g = cfg.grid
+    near = lambda x: np.abs(g - x) <= np.maximum(cfg.amb_abs, cfg.amb_rel * x)  # noqa: E731
+    k = np.flatnonzero(line)
+    post = res.posterior[k].astype(np.float64)
+    sig = 1 - res.p_null[k]
+    ph = np.array([post[i][near(res.omega_map[j] / 2)].sum() for i, j in enumerate(k)]) / sig
+    pd = np.array([post[i][near(2 * res.omega_map[j])].sum() for i, j in enumerate(k)]) / sig
+    np.testing.assert_allclose(res.p_half[k], ph, atol=1e-5)
+    np.testing.assert_allclose(res.p_double[k], pd, atol=1e-5)
+    # the omega/2 (or 2 omega) alternative is reported, not hidden
+    assert np.max(np.maximum(res.p_half[k], res.p_double[k])) > 0.05
+
+
+def test_scaling_reuses_the_lead_normaliser():
+    from vibrospeed.estimators import scaling
+    from vibrospeed.signal.normalize import running_rms_normalize
+
+    x = np.random.default_rng(9).normal(size=3000) * 3.0
+    x[100:110] = np.nan
+    x[200] = 0.0
+    ys, rms = scaling.normalise(x, 0.01, tau=2.0, target=0.5)
+    np.testing.assert_array_equal(ys, 0.5 * running_rms_normalize(x, 0.01, 2.0))
+    ok = np.isfinite(x)
+    np.testing.assert_allclose(rms[ok] * ys[ok] / 0.5, x[ok], rtol=1e-12, atol=1e-12)
+    st = scaling.init()
+    for k in range(300):
+        st, v, r = scaling.step(st, x[k], 0.01, 2.0, 0.5)
+        assert (np.isnan(v) and np.isnan(ys[k])) or v == ys[k]

@@ -29,6 +29,20 @@ The harmonic EKF of :mod:`vibrospeed.estimators.ekf` extended with
   (not in acceleration mode: there the integration is trusted).
 * optional reference-speed fixes (thesis 4.2.4; :mod:`vibrospeed.eval.reference`): a measurement
   ``omega = v_ref / r`` with variance ``(sigma_v / r)^2`` on the samples where one exists.
+* line gate (not in the thesis; for recordings without a usable wheel line): the share of the
+  running power of the EKF input explained by the tracked harmonics, ``sum_m |a_m|^2 / 2``
+  over an exponential mean of ``y^2`` (time constant ``line_tau``), is computed from the prior
+  before each vibration update and averaged over the same time constant. Below ``line_min``
+  the update still runs for the phasor states
+  but with the gains on omega and b set to 0 (Joseph form, valid for any gain): the vibrations
+  then claim nothing about the speed, omega follows the aiding and the fixes, and its variance
+  grows with the random walk -- the band widens instead of showing a precision the data do not
+  have. If omega meets a real line again, the phasors grow at that rotation and the gate opens.
+  The gate stays closed until ``line_tau`` s of samples are in the running power.
+  ``line_min = 0`` (default) is the thesis' filter.
+* ``init_ref``: omega is unknown until the first reference fix or standstill measurement (start
+  with a large ``p0_omega``); until then vibration updates do not touch omega, so the first fix
+  sets it (a Kalman update from a prior of variance ``p0_omega``).
 
 Conventions as in :mod:`vibrospeed.estimators.ekf`: the stored state is the prior for the next
 sample; ``step`` updates with sample k, returns the posterior at ``t_k`` and predicts to
@@ -91,6 +105,12 @@ class Config:
     boost : apply the boost of eq. 3.15 (``mode_n`` T ubar / r) when acceleration mode starts.
     aid_always : integrate u in vibration mode too (variant, see the module docstring).
     omega_max : upper clip (rad/s); None: 0.98 pi fs / M.
+    line_min : gate on the explained power share (see the module docstring; 0 = off).
+    line_tau : time constant (s) of the running power of the EKF input for the gate.
+    line_omega_min : with the gate on, omega below this (rad/s) never opens it: a phasor
+        rotating slowly tracks the low-frequency content left by the high-pass (turns, body
+        sway) and would "explain" it, pinning omega near 0 (seen on the Hungary drives).
+    init_ref : omega unknown until the first fix / standstill measurement (module docstring).
     """
 
     model: HarmonicModel = field(default_factory=_thesis_model)
@@ -113,6 +133,10 @@ class Config:
     boost: bool = True
     aid_always: bool = False
     omega_max: float | None = None
+    line_min: float = 0.0
+    line_tau: float = 2.0
+    line_omega_min: float = 5.0
+    init_ref: bool = False
 
     def __post_init__(self) -> None:
         if not (self.wheel_radius and self.wheel_radius > 0):
@@ -124,6 +148,10 @@ class Config:
                      "cusum_h"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not 0 <= self.line_min < 1:
+            raise ParameterError(f"line_min must be in [0, 1), got {self.line_min}")
+        if not self.line_tau > 0:
+            raise ParameterError(f"line_tau must be > 0 s, got {self.line_tau}")
         for name in ("q_bias", "omega0"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
@@ -150,7 +178,9 @@ class State(NamedTuple):
     """Prior for the next sample plus the detectors' states.
 
     x (2+2M,) ``[omega, alpha_1, beta_1, ..., b]``, P (2+2M, 2+2M), window / cusum / mode:
-    detector states (:mod:`vibrospeed.signal.detectors`).
+    detector states (:mod:`vibrospeed.signal.detectors`); line (4,): [running mean of the
+    EKF input's square, samples in it, 1.0 once omega is known (``init_ref``), running mean
+    of the explained share].
     """
 
     x: np.ndarray
@@ -158,6 +188,7 @@ class State(NamedTuple):
     window: det.WindowState
     cusum: det.CusumState
     mode: det.ModeState
+    line: np.ndarray
 
 
 class Estimate(NamedTuple):
@@ -172,10 +203,12 @@ class Estimate(NamedTuple):
     ubar: float  # m/s^2, mean of the last mode_n a_x
     innovation: float  # vibration innovation (EKF units), NaN if no vibration update
     innovation_var: float
+    line_share: float  # explained power share of the prior (the gate's statistic)
+    locked: bool  # the vibration update was allowed to move omega
     amplitudes: np.ndarray  # (M,)
 
 
-N_OUT = 9  # omega, std, bias, ss, acc, boost, ubar, innov, innov var; then M amplitudes
+N_OUT = 11  # omega, std, bias, ss, acc, boost, ubar, innov, innov var, share, locked; then amps
 
 
 def init(config: Config) -> State:
@@ -188,7 +221,9 @@ def init(config: Config) -> State:
     P = np.eye(n) * m.p0_amp
     P[0, 0] = config.p0_omega
     P[-1, -1] = config.p0_bias
-    return State(x, P, det.window_init(config.ss_n), det.cusum_init(), det.mode_init(config.mode_n))
+    line = np.array([0.0, 0.0, 0.0 if config.init_ref else 1.0, 0.0])
+    return State(x, P, det.window_init(config.ss_n), det.cusum_init(), det.mode_init(config.mode_n),
+                 line)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -213,8 +248,9 @@ def _scalar_update(x, P, j, z, r):
 
 
 @njit(cache=True)
-def _vib_update(x, P, y, M, r):
-    """Vibration update ``y = sum_m alpha_m + e`` (thesis eq. 2.23, 2.26); -> (innov, S)."""
+def _vib_update(x, P, y, M, r, lock):
+    """Vibration update ``y = sum_m alpha_m + e`` (thesis eq. 2.23, 2.26); -> (innov, S).
+    ``lock`` False: the gains on omega (index 0) and b (last) are 0 (line gate)."""
     n = x.size
     pht = np.zeros(n)
     for i in range(n):
@@ -229,6 +265,9 @@ def _vib_update(x, P, y, M, r):
         yhat += x[1 + 2 * m]
     innov = y - yhat
     k = pht / s_var
+    if not lock:
+        k[0] = 0.0
+        k[n - 1] = 0.0
     for i in range(n):
         x[i] += k[i] * innov
     A = np.eye(n)
@@ -245,11 +284,11 @@ def _vib_update(x, P, y, M, r):
 
 
 @njit(cache=True)
-def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc, mflag,
+def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc, mflag, line,
                 M, ss_kind, boost_n, flags, fp, out):
     """One sample in place. ``flags`` int: [boost_on, aid_always, cusum_hold];
     ``fp``: [T, q_om, q_om_acc, q_amp, r, r_wheel, q_b, om_max, ss_mu, r_ss, c_sigma, c_nu,
-    c_h, mode_mu]."""
+    c_h, mode_mu, line_min, line_tau, line_omega_min]; ``line`` [power, count, known]."""
     T = fp[0]
     q_om = fp[1]
     q_om_acc = fp[2]
@@ -271,8 +310,23 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
     # ---- vibration measurement update (only in vibration mode) -----------------------------
     innov = np.nan
     s_var = np.nan
-    if not acc and np.isfinite(y) and np.isfinite(gain):
-        innov, s_var = _vib_update(x, P, y * gain, M, r)
+    share = np.nan
+    lock = False
+    if np.isfinite(y) and np.isfinite(gain):
+        yg = y * gain
+        line[1] += 1.0
+        a_pw = max(T / fp[15], 1.0 / line[1])
+        line[0] += a_pw * (yg * yg - line[0])
+        expl = 0.0
+        for m in range(M):
+            expl += 0.5 * (x[1 + 2 * m] ** 2 + x[2 + 2 * m] ** 2)
+        inst = expl / line[0] if line[0] > 0.0 else 0.0
+        line[3] += a_pw * (inst - line[3])
+        share = line[3]
+        lock = line[2] > 0.5 and (fp[14] <= 0.0 or (share >= fp[14] and x[0] >= fp[16]
+                                                     and line[1] * T >= fp[15]))
+        if not acc:
+            innov, s_var = _vib_update(x, P, yg, M, r, lock)
     if ss_kind == 2:
         eps = np.nan
         if np.isfinite(innov) and gain > 0.0:
@@ -284,9 +338,11 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
     ss = ss and not acc  # a vehicle in acceleration mode is not standing still
     if ss:
         _scalar_update(x, P, 0, 0.0, fp[9])
+        line[2] = 1.0
     # ---- reference-speed fix (thesis 4.2.4) ------------------------------------------------
     if np.isfinite(ref) and np.isfinite(ref_var) and ref_var > 0.0:
         _scalar_update(x, P, 0, ref, ref_var)
+        line[2] = 1.0
     # omega >= 0: clipped at 0 (with a_x aiding the direction is known; the EKF's mirror
     # symmetry (omega, beta) -> (-omega, -beta) would turn an overshoot below 0 into a speed)
     if x[0] < 0.0:
@@ -303,10 +359,12 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
     out[6] = ubar
     out[7] = innov
     out[8] = s_var
+    out[9] = share
+    out[10] = 1.0 if (lock and not acc and np.isfinite(innov)) else 0.0
     for m in range(M):
         a = x[1 + 2 * m]
         b = x[2 + 2 * m]
-        out[9 + m] = np.sqrt(a * a + b * b)
+        out[N_OUT + m] = np.sqrt(a * a + b * b)
     # ---- time update (thesis eq. 3.10-3.12) --------------------------------------------------
     ue = 0.0
     if (acc or flags[1] == 1) and np.isfinite(u):
@@ -349,13 +407,13 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
 
 @njit(cache=True)
 def _aided_run(ys, us, gains, refs, ref_vars, x, P, wbuf, wpc, wflag, cgs, mbuf, mpc, mflag,
-               M, ss_kind, boost_n, flags, fp):
+               line, M, ss_kind, boost_n, flags, fp):
     n_s = ys.size
     outs = np.empty((n_s, N_OUT + M))
     out = np.empty(N_OUT + M)
     for k in range(n_s):
         _aided_step(x, P, ys[k], us[k], gains[k], refs[k], ref_vars[k], wbuf, wpc, wflag, cgs,
-                    mbuf, mpc, mflag, M, ss_kind, boost_n, flags, fp, out)
+                    mbuf, mpc, mflag, line, M, ss_kind, boost_n, flags, fp, out)
         outs[k] = out
     return outs
 
@@ -365,7 +423,8 @@ def _args(config: Config) -> tuple:
     q_acc = m.q_omega if config.q_omega_accel is None else config.q_omega_accel
     fp = np.array([m.dt, m.q_omega, q_acc, m.q_amp, m.r, config.wheel_radius, config.q_bias,
                    config.omega_limit, config.ss_mu, config.r_ss, config.cusum_sigma,
-                   config.cusum_nu, config.cusum_h, config.mode_mu])
+                   config.cusum_nu, config.cusum_h, config.mode_mu, config.line_min,
+                   config.line_tau, config.line_omega_min])
     boost_on = 1 if (config.boost and not config.aid_always) else 0
     flags = np.array([boost_on, 1 if config.aid_always else 0,
                       det.cusum_hold(config.cusum_h, config.cusum_nu)], dtype=np.int64)
@@ -376,12 +435,13 @@ def _unpack(state: State) -> list:
     return [state.x.copy(), state.P.copy(), state.window.buf.copy(),
             state.window.pos_count.copy(), state.window.flag.copy(),
             np.array([state.cusum.g, state.cusum.since]), state.mode.buf.copy(),
-            state.mode.pos_count.copy(), state.mode.flag.copy()]
+            state.mode.pos_count.copy(), state.mode.flag.copy(), state.line.copy()]
 
 
 def _pack(a: list) -> State:
     return State(a[0], a[1], det.WindowState(a[2], a[3], a[4]),
-                 det.CusumState(float(a[5][0]), float(a[5][1])), det.ModeState(a[6], a[7], a[8]))
+                 det.CusumState(float(a[5][0]), float(a[5][1])), det.ModeState(a[6], a[7], a[8]),
+                 a[9])
 
 
 def step(
@@ -410,7 +470,8 @@ def step(
 
 def _estimate(o: np.ndarray) -> Estimate:
     return Estimate(float(o[0]), float(o[1]), float(o[2]), bool(o[3]), bool(o[4]), bool(o[5]),
-                    float(o[6]), float(o[7]), float(o[8]), o[N_OUT:].copy())
+                    float(o[6]), float(o[7]), float(o[8]), float(o[9]), bool(o[10] > 0.5),
+                    o[N_OUT:].copy())
 
 
 class Result(NamedTuple):
@@ -425,6 +486,8 @@ class Result(NamedTuple):
     ubar: np.ndarray  # (n,) m/s^2
     innovation: np.ndarray  # (n,)
     innovation_var: np.ndarray  # (n,)
+    line_share: np.ndarray  # (n,)
+    locked: np.ndarray  # (n,) bool
     amplitudes: np.ndarray  # (n, M)
     final: State
 
@@ -458,7 +521,7 @@ def run(
     a = _unpack(init(config) if state is None else state)
     o = _aided_run(y, u, gain, ref, ref_var, *a, *_args(config))
     return Result(o[:, 0], o[:, 1], o[:, 2], o[:, 3] > 0.5, o[:, 4] > 0.5, o[:, 5] > 0.5,
-                  o[:, 6], o[:, 7], o[:, 8], o[:, N_OUT:], _pack(a))
+                  o[:, 6], o[:, 7], o[:, 8], o[:, 9], o[:, 10] > 0.5, o[:, N_OUT:], _pack(a))
 
 
 def omega_shift(config: Config, u: float, bias: float, accelerating: bool) -> float:
@@ -517,6 +580,30 @@ def running_gain(y: np.ndarray, dt: float, tau: float) -> np.ndarray:
     return g
 
 
+def aiding_inputs(recording: Recording, dt: float, wheel_radius: float, *,
+                  accel_axis: str = "ax", detrend: float = 0.0, reference: str = "none",
+                  wheelbase: float | None = None) -> tuple:
+    """Aiding inputs shared by both trackers: ``(u, ref, ref_var, notes)``.
+
+    ``u`` = the ``accel_axis`` channel (m/s^2), minus a causal running mean with time constant
+    ``detrend`` s when ``detrend > 0``; ``ref``, ``ref_var``: per-sample omega fixes from
+    :mod:`vibrospeed.eval.reference` (None when ``reference == 'none'``).
+    """
+    u = _channel(recording, accel_axis)
+    notes = [f"aided by '{accel_axis}' (wheel radius {wheel_radius:g} m)"]
+    if detrend > 0:
+        u = u - running_mean(u, dt, detrend)
+        notes.append(f"'{accel_axis}' detrended by a causal running mean (tau = {detrend:g} s)")
+    ref = ref_var = None
+    if reference != "none":
+        from vibrospeed.eval import reference as refmod
+
+        fixes = refmod.detect(recording, kinds=reference, wheelbase=wheelbase)
+        ref, ref_var = refmod.fixes_to_omega(fixes, recording.t, wheel_radius)
+        notes.append(f"{len(fixes)} reference-speed fixes ({reference}) fed as measurements")
+    return u, ref, ref_var, notes
+
+
 def estimate(
     recording: Recording,
     *,
@@ -543,6 +630,15 @@ def estimate(
     from vibrospeed.io.timebase import check_nyquist
     from vibrospeed.signal import prefilter as pf
 
+    params = dict(params or {})
+    tracker = str(params.pop("tracker", "ekf"))
+    if tracker == "rbpmf":
+        from vibrospeed.estimators import aided_grid
+
+        return aided_grid.estimate(recording, axis=axis, wheel_radius=wheel_radius,
+                                   params=params, progress=progress)
+    if tracker != "ekf":
+        raise ParameterError(f"tracker must be 'ekf' or 'rbpmf', got '{tracker}'")
     del progress  # one compiled pass; nothing to report
     r = wheel_radius or recording.wheel_radius
     if not r:
@@ -577,25 +673,17 @@ def estimate(
     vib_name = axis_channel(axis)
     recording.require(vib_name)
     x = recording.channel(vib_name)
-    u = _channel(recording, accel_axis)
-    if detrend > 0:
-        u = u - running_mean(u, dt, detrend)
     sos = pf.design(pre, 1.0 / dt, M=model.M, lp_cutoff=lp)
     y = pf.apply(sos, x, level=start_level(x, dt))
+    u, ref, ref_var, more = aiding_inputs(recording, dt, float(r), accel_axis=accel_axis,
+                                          detrend=detrend, reference=reference,
+                                          wheelbase=wheelbase)
     notes = [f"pre-filter '{pre}' on '{vib_name}' at fs = {1 / dt:.4g} Hz",
-             f"aided by '{accel_axis}' (wheel radius {r:g} m), standstill test "
-             f"'{config.standstill}'"]
+             f"standstill test '{config.standstill}'", *more]
     gain = None
     if tau > 0:
         gain = running_gain(y, dt, tau)
         notes.append(f"EKF input normalised by a running RMS (tau = {tau:g} s)")
-    ref = ref_var = None
-    if reference != "none":
-        from vibrospeed.eval import reference as refmod
-
-        fixes = refmod.detect(recording, kinds=reference, wheelbase=wheelbase)
-        ref, ref_var = refmod.fixes_to_omega(fixes, recording.t, r)
-        notes.append(f"{len(fixes)} reference-speed fixes ({reference}) fed as measurements")
     res = run(config, y, u, gain=gain, ref=ref, ref_var=ref_var)
     extras = {f"amp{m + 1}": res.amplitudes[:, m] for m in range(model.M)}
     extras.update(
@@ -605,13 +693,15 @@ def estimate(
         bias=res.bias,
         ubar=res.ubar,
         nis=res.innovation**2 / res.innovation_var,
+        line_share=res.line_share,
+        locked=res.locked.astype(np.float64),
     )
     out_params = {**model.to_dict(), **{k: getattr(config, k) for k in (
         "omega0", "p0_omega", "amp0", "q_bias", "p0_bias", "q_omega_accel", "standstill",
         "ss_n", "ss_mu", "r_ss", "cusum_sigma", "cusum_nu", "cusum_h", "mode_n", "mode_mu",
-        "boost", "aid_always")}, "omega_max": config.omega_limit, "wheel_radius": float(r),
+        "boost", "aid_always", "line_min", "line_tau", "line_omega_min", "init_ref")}, "omega_max": config.omega_limit, "wheel_radius": float(r),
         "prefilter": pre, "lp_cutoff": lp, "normalize_tau": tau, "accel_detrend": detrend,
         "axis": axis,
-        "accel_axis": accel_axis, "reference": reference}
+        "accel_axis": accel_axis, "reference": reference, "tracker": "ekf"}
     return Track.from_omega(recording.t, res.omega, res.omega_std, wheel_radius=float(r),
                             method="aided", params=out_params, extras=extras, notes=notes)

@@ -21,7 +21,12 @@ Per sample ``t_i`` (sample period ``Ts``):
    ``Vy(t_i) = Vy(t_{i-1}) + Ts (gamma_y - psi_dot Vx)``.
 
 Both updates use the previous sample's ``Vx``, ``Vy`` (explicit Euler, as the seed's fixed
-integration step). NaN inputs are held at their last finite value (zero-order hold).
+integration step). Extensions (docs/algebraic.md): at the onset of slip the integration restarts
+``backtrack`` samples earlier (within the preceding wheel-mode run); optional noise-scaled
+thresholds (``eps_k``) and a cap on an integration episode (``max_int``); and standard
+deviations of Vx and Vy: wheel-speed noise plus slip allowances in wheel mode, a random walk of
+the measured accelerometer / gyro noise plus a bias ramp since the switch in integration mode.
+NaN inputs are held at their last finite value (zero-order hold).
 The seed gives no numbers for its thresholds (its Table I is lost in the text); the defaults
 here were tuned on :mod:`vibrospeed.sim.vehicle` (see docs/algebraic.md).
 """
@@ -46,12 +51,25 @@ INPUTS = ("gz", "ax", "ay", "omega_mean")
 OUTPUTS = (
     "vx", "vy", "gx", "gy", "dgx", "dgy", "slip_mode", "turn_mode",
     "yaw_rate", "yaw_acc", "ax", "ay", "omega_mean", "omega_dot",
+    "vx_std", "vy_std", "sd_gz", "sd_ax", "sd_ay", "sd_omega",
 )
+
+# packed scalar state: indices into State.s
+_GX, _GY, _VX, _VY, _NX, _NY, _NRESET, _POS, _STARTED = 0, 1, 2, 3, 4, 5, 6, 7, 8
+_LAST = 9  # 4 values: last finite input per channel (zero-order hold)
+_LAST2 = 13  # 4 values: the finite input before it
+_NSEEN = 17  # 4 values: finite samples seen per channel
+_ND2 = 21  # 4 values: second differences averaged per channel
+_MSQ = 25  # 4 values: running mean of the squared second differences
+_VX0, _VXRW, _TX, _VY0, _VYRW, _TY = 29, 30, 31, 32, 33, 34  # integration-mode variances
+_HX, _HY = 35, 36  # hand-over allowances (variances, decaying)
+_HPOS, _NSTEP, _VARX, _VARY = 37, 38, 39, 40
+_NS = 41
 
 
 @dataclass(frozen=True)
 class Config:
-    """Parameters of Algorithms 1 and 2.
+    """Parameters of Algorithms 1 and 2 and of the uncertainty model.
 
     Parameters
     ----------
@@ -66,6 +84,18 @@ class Config:
     reset_eps_x : m/s^2 on ``|r d(omega_mean)/dt|``; reset_eps_y : m/s^2 on
         ``|L1 psi_ddot|``; reset_hold : samples (0 disables the reset of remark 4).
     vy0 : initial lateral velocity in m/s (Algorithm 2 requires it).
+    backtrack : samples; at the onset of slip the integration restarts from ``Vx`` that many
+        samples before the switch (the wheels already slipped while ``dGx/dt`` was building
+        up); ``None`` -> ``alpha``, 0 -> the seed's restart from the previous sample.
+    eps_k : if > 0, the thresholds become ``max(eps1, eps_k sd(dGx/dt))`` and
+        ``max(eps2, eps_k sd(psi_dot))`` with the noise sds predicted from the sensor noise
+        measured on line (second differences); 0 (default) keeps the fixed thresholds.
+    Uncertainty: ``slip_sd`` relative allowance for undetected slip in wheel mode (sd of Vx
+    = ``slip_sd |Vx|``); ``acc_bias_sd`` m/s^2 and ``gyro_bias_sd`` rad/s, sds of the sensor
+    biases (integration drift ``b T``); ``handover_tau`` s, decay time of the disagreement
+    allowance at a switch back; ``noise_tau`` s, memory of the on-line noise estimates.
+    max_int : s, longest integration episode: after it the wheels are trusted again (the hold
+        window restarts); ``inf`` (default) is the seed's rule.
     """
 
     r: float = 0.31
@@ -85,19 +115,38 @@ class Config:
     reset_eps_y: float = 0.3
     reset_hold: int = 50
     vy0: float = 0.0
+    backtrack: int | None = None
+    eps_k: float = 0.0
+    slip_sd: float = 0.002
+    acc_bias_sd: float = 0.03
+    gyro_bias_sd: float = 0.001
+    handover_tau: float = 0.5
+    noise_tau: float = 5.0
+    max_int: float = float("inf")
 
     def __post_init__(self) -> None:
-        for name in ("r", "L1", "dt", "window", "window_d", "eps1", "eps2"):
+        for name in ("r", "L1", "dt", "window", "window_d", "eps1", "eps2", "handover_tau",
+                     "noise_tau", "max_int"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"algebraic: {name} must be > 0, got {getattr(self, name)}")
-        for name in ("alpha", "beta", "reset_hold"):
+        for name in ("eps_k", "slip_sd", "acc_bias_sd", "gyro_bias_sd"):
+            if not getattr(self, name) >= 0:
+                raise ParameterError(f"algebraic: {name} must be >= 0, got {getattr(self, name)}")
+        for name in ("alpha", "beta", "reset_hold", "backtrack"):
             v = getattr(self, name)
+            if v is None and name == "backtrack":
+                continue
             if int(v) != v or v < 0:
                 raise ParameterError(f"algebraic: {name} must be an integer >= 0, got {v}")
         if self.N < 1:
             raise ParameterError(
                 f"algebraic: N must be >= 1 (derivatives are needed), got {self.N}")
         self.filters()  # validates the windows against N
+
+    @property
+    def n_back(self) -> int:
+        """Backtracking depth in samples (``backtrack``, default ``alpha``)."""
+        return int(self.alpha if self.backtrack is None else self.backtrack)
 
     def filters(self) -> tuple[dif.Config, dif.Config]:
         """Differentiator configurations (value, first derivative)."""
@@ -113,68 +162,103 @@ class Config:
         return np.pad(b0, (0, L - b0.size)), np.pad(b1, (0, L - b1.size))
 
     def scalars(self) -> np.ndarray:
+        b0, b1 = self.taps()
         return np.array([self.r, self.L1, self.dt, self.eps1, self.alpha, self.eps2, self.beta,
-                         self.reset_eps_x, self.reset_eps_y, self.reset_hold, self.vy0])
+                         self.reset_eps_x, self.reset_eps_y, self.reset_hold, self.vy0,
+                         self.n_back, self.eps_k, self.slip_sd, self.acc_bias_sd,
+                         self.gyro_bias_sd, self.handover_tau, self.noise_tau,
+                         float(np.linalg.norm(b0)), float(np.linalg.norm(b1)), self.max_int])
 
 
 class State(NamedTuple):
-    """Ring buffers ``buf`` (4, L) of ``INPUTS``, and ``s`` (13,) packed scalars:
-    ``[Gx, Gy, Vx, Vy, n_x, n_y, n_reset, pos, started, last gz, ax, ay, omega_mean]``
-    (``n_*``: consecutive samples the switching / reset conditions have held)."""
+    """Ring buffers ``buf`` (4, L) of ``INPUTS``; ``hist`` (3, backtrack + 2) of past ``Vx``,
+    its variance and the integration increments ``Ts (gamma_x + psi_dot Vy)``; ``s`` (41,)
+    packed scalars (``G``, ``V``, hold counters, held inputs, noise statistics, variances;
+    see the ``_*`` indices in the module)."""
 
     buf: np.ndarray
+    hist: np.ndarray
     s: np.ndarray
 
     @property
     def vx(self) -> float:
-        return float(self.s[2])
+        return float(self.s[_VX])
 
     @property
     def vy(self) -> float:
-        return float(self.s[3])
+        return float(self.s[_VY])
 
 
 def init(config: Config) -> State:
     """Empty state: the first finite sample fills the buffers and sets ``Vx = r omega_mean``."""
     L = config.taps()[0].size
-    s = np.zeros(13)
-    s[9:13] = np.nan
-    return State(np.zeros((4, L)), s)
+    s = np.zeros(_NS)
+    s[_LAST:_LAST + 4] = np.nan
+    return State(np.zeros((4, L)), np.zeros((3, config.n_back + 2)), s)
 
 
 @njit(cache=True)
-def _core(b0, b1, p, buf, s, z, out):
-    """One sample of Algorithms 1 and 2 in place on ``buf``, ``s``; outputs to ``out`` (14,)."""
+def _noise_update(s, j, x, w_min, update):
+    """Second-difference noise statistic of channel ``j``: for white noise of sd sigma,
+    ``E[(x_i - 2 x_{i-1} + x_{i-2})^2] = 6 sigma^2``; running mean, memory ``noise_tau``."""
+    if s[_NSEEN + j] >= 2.0 and update:
+        d2 = x - 2.0 * s[_LAST + j] + s[_LAST2 + j]
+        s[_ND2 + j] += 1.0
+        w = max(1.0 / s[_ND2 + j], w_min)
+        s[_MSQ + j] += w * (d2 * d2 - s[_MSQ + j])
+    s[_LAST2 + j] = s[_LAST + j]
+    s[_LAST + j] = x
+    s[_NSEEN + j] += 1.0
+
+
+@njit(cache=True)
+def _core(b0, b1, p, buf, hist, s, z, out):
+    """One sample of Algorithms 1 and 2 in place on ``buf``, ``hist``, ``s``; outputs to
+    ``out`` (:data:`OUTPUTS`)."""
     r, L1, dt, eps1, alpha, eps2, beta = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
     rex, rey, rhold, vy0 = p[7], p[8], p[9], p[10]
+    nback, eps_k, slip_sd, b_acc, b_gyro, h_tau, n_tau = (
+        int(p[11]), p[12], p[13], p[14], p[15], p[16], p[17])
+    g0, g1, max_int = p[18], p[19], p[20]
     L = b0.size
-    # zero-order hold of NaN inputs
+    K = hist.shape[1]
+    first = s[_STARTED] == 0.0
+    # all channels known at least once (zero-order hold of NaN inputs)
     ok = True
     for j in range(4):
-        if np.isfinite(z[j]):
-            s[9 + j] = z[j]
-        elif not np.isfinite(s[9 + j]):
+        if not (np.isfinite(z[j]) or np.isfinite(s[_LAST + j])):
             ok = False
     if not ok:
         out[:] = np.nan
         return
-    pos = int(s[7])
-    if s[8] == 0.0:  # first sample: steady-state buffers, wheels roll, Vy = vy0
+    # on-line noise statistics; the wheel-speed noise only in wheel mode (ABS cycles are no
+    # noise) once 50 differences are known
+    w_min = dt / n_tau
+    wheel_upd = s[_NX] >= alpha + 1.0 or s[_ND2 + 3] < 50.0
+    for j in range(4):
+        if np.isfinite(z[j]):
+            _noise_update(s, j, z[j], w_min, j < 3 or wheel_upd)
+    sig2_gz = s[_MSQ] / 6.0
+    sig2_ax = s[_MSQ + 1] / 6.0
+    sig2_ay = s[_MSQ + 2] / 6.0
+    sig2_wm = s[_MSQ + 3] / 6.0
+    pos = int(s[_POS])
+    if first:  # steady-state buffers, wheels roll, Vy = vy0
         for j in range(4):
-            buf[j, :] = s[9 + j]
-        s[0] = 0.0
-        s[1] = 0.0
-        s[2] = r * s[12]
-        s[3] = vy0
-        s[4] = alpha + 1.0
-        s[5] = 0.0
-        s[6] = 0.0
-        s[8] = 1.0
+            buf[j, :] = s[_LAST + j]
+        s[_GX] = 0.0
+        s[_GY] = 0.0
+        s[_VX] = r * s[_LAST + 3]
+        s[_VY] = vy0
+        s[_NX] = alpha + 1.0
+        s[_NY] = 0.0
+        s[_NRESET] = 0.0
+        s[_STARTED] = 1.0
     # algebraic filters (Algorithm 1, line 1)
     f0 = np.zeros(4)
     f1 = np.zeros(4)
     for j in range(4):
-        buf[j, pos] = s[9 + j]
+        buf[j, pos] = s[_LAST + j]
         a0 = 0.0
         a1 = 0.0
         for k in range(L):
@@ -188,41 +272,120 @@ def _core(b0, b1, p, buf, s, z, out):
     pos += 1
     if pos == L:
         pos = 0
-    s[7] = pos
+    s[_POS] = pos
     wz, ax, ay, wm = f0[0], f0[1], f0[2], f0[3]
     wz_dot, wm_dot = f1[0], f1[3]
     # disturbance system (seed eq. 7), explicit Euler (line 2)
-    dgx, dgy = disturbance_rhs(s[0], s[1], wz, wz_dot, wm, wm_dot, ax, ay, r, L1)
-    s[0] += dt * dgx
-    s[1] += dt * dgy
+    dgx, dgy = disturbance_rhs(s[_GX], s[_GY], wz, wz_dot, wm, wm_dot, ax, ay, r, L1)
+    s[_GX] += dt * dgx
+    s[_GY] += dt * dgy
     # remark 4: reset G when the residual derivatives stay near zero
     if rhold > 0:
         if abs(r * wm_dot) < rex and abs(L1 * wz_dot) < rey:
-            s[6] += 1.0
+            s[_NRESET] += 1.0
         else:
-            s[6] = 0.0
-        if s[6] >= rhold:
-            s[0] = 0.0
-            s[1] = 0.0
+            s[_NRESET] = 0.0
+        if s[_NRESET] >= rhold:
+            s[_GX] = 0.0
+            s[_GY] = 0.0
+    # thresholds, optionally scaled to the measured noise of dGx/dt and of psi_dot
+    e1 = eps1
+    e2 = eps2
+    if eps_k > 0.0:
+        e1 = max(eps1, eps_k * np.sqrt(g0 * g0 * sig2_ax + r * r * g1 * g1 * sig2_wm))
+        e2 = max(eps2, eps_k * g0 * np.sqrt(sig2_gz))
     # window-held switching conditions (line 3 of Algorithms 1 and 2)
-    s[4] = s[4] + 1.0 if abs(dgx) < eps1 else 0.0
-    s[5] = s[5] + 1.0 if abs(wz) < eps2 else 0.0
-    vx_prev = s[2]
-    vy_prev = s[3]
-    slip = s[4] < alpha + 1.0
-    turn = s[5] < beta + 1.0
+    nx_prev = s[_NX]
+    was_slip = nx_prev < alpha + 1.0
+    was_turn = s[_NY] < beta + 1.0
+    s[_NX] = s[_NX] + 1.0 if abs(dgx) < e1 else 0.0
+    s[_NY] = s[_NY] + 1.0 if abs(wz) < e2 else 0.0
+    vx_prev = s[_VX]
+    vy_prev = s[_VY]
+    varx_prev = s[_VARX]
+    vary_prev = s[_VARY]
+    slip = s[_NX] < alpha + 1.0
+    if slip and was_slip and s[_TX] + dt > max_int:  # integration episode too long
+        s[_NX] = alpha + 1.0
+        slip = False
+    turn = s[_NY] < beta + 1.0
+    # history of Vx and of the increments Ts (gamma_x + psi_dot Vy) for the backtracking
+    hpos = int(s[_HPOS])
+    inc = dt * (ax + wz * vy_prev)
+    hist[2, hpos] = inc
+    decay = np.exp(-2.0 * dt / h_tau)
+    # Vx: Algorithm 1 with its standard deviation
+    qx = dt * dt * (sig2_ax + vy_prev * vy_prev * sig2_gz + wz * wz * vary_prev)
     if slip:
-        s[2] = vx_prev + dt * (ax + wz * vy_prev)
+        # never back into the previous integration episode (nx_prev - alpha samples of wheel
+        # mode precede this one)
+        nb = min(nback, int(s[_NSTEP]) - 1, int(nx_prev - alpha) - 1)
+        if not was_slip and nb >= 0:
+            # slip onset: restart from Vx(t_i - (nb + 1) Ts), re-integrate the nb + 1 increments
+            q = hpos - nb - 1
+            if q < 0:
+                q += K
+            vx = hist[0, q]
+            s[_VX0] = hist[1, q]
+            for _m in range(nb + 1):
+                q += 1
+                if q == K:
+                    q = 0
+                vx += hist[2, q]
+            s[_VX] = vx
+            s[_VXRW] = (nb + 1) * qx
+            s[_TX] = (nb + 1) * dt
+        else:
+            if not was_slip:  # slip from the first sample on
+                s[_VX0] = varx_prev
+                s[_VXRW] = 0.0
+                s[_TX] = 0.0
+            s[_VX] = vx_prev + inc
+            s[_VXRW] += qx
+            s[_TX] += dt
+        bx = s[_TX] * b_acc
+        varx = s[_VX0] + s[_VXRW] + bx * bx
     else:
-        s[2] = r * wm
+        s[_VX] = r * wm
+        if was_slip and not first:
+            d = vx_prev - s[_VX]  # disagreement at the hand-over: one of the two is wrong
+            s[_HX] = max(s[_HX] * decay, d * d)
+        else:
+            s[_HX] *= decay
+        sx = slip_sd * s[_VX]
+        varx = r * r * g0 * g0 * sig2_wm + sx * sx + s[_HX]
+    # Vy: Algorithm 2 with its standard deviation
     if turn:
-        s[3] = vy_prev + dt * (ay - wz * vx_prev)
+        qy = dt * dt * (sig2_ay + vx_prev * vx_prev * sig2_gz + wz * wz * varx_prev)
+        if not was_turn:
+            s[_VY0] = vary_prev
+            s[_VYRW] = qy
+            s[_TY] = dt
+        else:
+            s[_VYRW] += qy
+            s[_TY] += dt
+        s[_VY] = vy_prev + dt * (ay - wz * vx_prev)
+        by2 = (b_acc * b_acc + vx_prev * vx_prev * b_gyro * b_gyro) * s[_TY] * s[_TY]
+        vary = s[_VY0] + s[_VYRW] + by2
     else:
-        s[3] = 0.0
-    out[0] = s[2]
-    out[1] = s[3]
-    out[2] = s[0]
-    out[3] = s[1]
+        s[_VY] = 0.0
+        sy = L1 * e2  # kinematic side-slip bound while |psi_dot| < eps2
+        vary = sy * sy
+    if first:
+        vary = (L1 * e2) ** 2
+    s[_VARX] = varx
+    s[_VARY] = vary
+    hist[0, hpos] = s[_VX]
+    hist[1, hpos] = varx
+    hpos += 1
+    if hpos == K:
+        hpos = 0
+    s[_HPOS] = hpos
+    s[_NSTEP] += 1.0
+    out[0] = s[_VX]
+    out[1] = s[_VY]
+    out[2] = s[_GX]
+    out[3] = s[_GY]
     out[4] = dgx
     out[5] = dgy
     out[6] = 1.0 if slip else 0.0
@@ -233,37 +396,45 @@ def _core(b0, b1, p, buf, s, z, out):
     out[11] = ay
     out[12] = wm
     out[13] = wm_dot
+    out[14] = np.sqrt(varx)
+    out[15] = np.sqrt(vary)
+    out[16] = np.sqrt(sig2_gz)
+    out[17] = np.sqrt(sig2_ax)
+    out[18] = np.sqrt(sig2_ay)
+    out[19] = np.sqrt(sig2_wm)
 
 
 @njit(cache=True)
-def _run(b0, b1, p, buf, s, Z, outs):
+def _run(b0, b1, p, buf, hist, s, Z, outs):
     for i in range(Z.shape[0]):
-        _core(b0, b1, p, buf, s, Z[i], outs[i])
+        _core(b0, b1, p, buf, hist, s, Z[i], outs[i])
 
 
 def step(config: Config, state: State, z, taps=None) -> tuple[State, np.ndarray]:
     """One sample ``z = (gz, ax, ay, omega_mean)``; returns the new state and the outputs
-    (:data:`OUTPUTS`, (14,)). Pass ``taps = config.taps()`` to avoid recomputing kernels."""
+    (:data:`OUTPUTS`). Pass ``taps = config.taps()`` to avoid recomputing kernels."""
     b0, b1 = config.taps() if taps is None else taps
     buf = state.buf.copy()
+    hist = state.hist.copy()
     s = state.s.copy()
     out = np.empty(len(OUTPUTS))
-    _core(b0, b1, config.scalars(), buf, s, np.asarray(z, dtype=np.float64), out)
-    return State(buf, s), out
+    _core(b0, b1, config.scalars(), buf, hist, s, np.asarray(z, dtype=np.float64), out)
+    return State(buf, hist, s), out
 
 
 def run(config: Config, Z: np.ndarray, state: State | None = None) -> tuple[State, np.ndarray]:
-    """All samples ``Z`` (n, 4); outputs (n, 14), identical to repeated :func:`step`."""
+    """All samples ``Z`` (n, 4); outputs (n, len(OUTPUTS)), identical to repeated :func:`step`."""
     st = init(config) if state is None else state
     Z = np.ascontiguousarray(Z, dtype=np.float64)
     if Z.ndim != 2 or Z.shape[1] != 4:
         raise ParameterError(f"algebraic.run expects (n, 4) inputs {INPUTS}, got {Z.shape}")
     b0, b1 = config.taps()
     buf = st.buf.copy()
+    hist = st.hist.copy()
     s = st.s.copy()
     outs = np.empty((Z.shape[0], len(OUTPUTS)))
-    _run(b0, b1, config.scalars(), buf, s, Z, outs)
-    return State(buf, s), outs
+    _run(b0, b1, config.scalars(), buf, hist, s, Z, outs)
+    return State(buf, hist, s), outs
 
 
 # -- recordings -----------------------------------------------------------------------------
@@ -332,8 +503,10 @@ def estimate(
         notes.append(f"non-uniform time line resampled to {dt * 1e3:.4g} ms and back (linear)")
         out = np.stack([_interp_finite(recording.t, tg, out[:, j]) for j in range(out.shape[1])],
                        axis=1)
-    extras = {name: out[:, j].copy() for j, name in enumerate(OUTPUTS) if name != "vx"}
+    extras = {name: out[:, j].copy() for j, name in enumerate(OUTPUTS)
+              if name not in ("vx", "vx_std")}
     return Track.from_speed(
-        recording.t, out[:, 0], wheel_radius=float(r), method="algebraic",
+        recording.t, out[:, 0], out[:, OUTPUTS.index("vx_std")], wheel_radius=float(r),
+        method="algebraic",
         params={k: v for k, v in asdict(cfg).items()}, extras=extras, notes=notes,
     )

@@ -1,36 +1,45 @@
 """GPS + single-accelerometer Kalman fusion, "GPS/RISS" (METHODS.md section 3; O'Kane & Ringwood,
-sections IV-VI, eq. 1-18).
+sections IV-VI, eq. 1-18), with the accelerometer offset as a filter state and a GPS delay.
 
-Per accelerometer sample, with ``dt`` the time since the previous sample:
+State ``X = [v, a, b, x3, x4, d...]``: speed (m/s), acceleration (m/s^2), accelerometer offset b
+(m/s^2; road slope ``g sin theta`` plus calibration bias), the receiver's reported speed x3 and its
+derivative x4 (paper eq. 2), and the Pade states of an optional pure GPS delay
+(:func:`~vibrospeed.models.gps_riss.receiver_matrices`). Per accelerometer sample, ``dt`` the time
+since the previous one:
 
-1. accelerometer pre-processing (paper Fig. 1): ``a = gain * a_raw``; optional pitch compensation
-   ``p = poly(a)`` in degrees (eq. 14), ``a <- (a - g sin p) / cos p``; then the offset estimate
-   ``b`` of the drift filter is subtracted (section VI-b).
-2. predict the 4-state model ``X = [speed, accel, GPS speed, its derivative]`` with the exact
-   transition ``F = expm(A_c dt)`` (:mod:`vibrospeed.models.gps_riss`) and
-   ``Q = diag(q) * dt * q_rate``.
-3. update: on a sample with a *new valid* GPS fix (``gps_speed`` finite and ``gps_sats >=
-   min_sats``; a missing or NaN satellite count counts as valid) "KF1 INS/GPS",
-   ``H = [[0,1,0,0],[0,0,1,0]]``, ``R = diag(r_acc_gps, R22)`` (eq. 9, 12); otherwise "KF INS",
-   ``H = [0,1,0,0]``, ``R = r_acc_ins`` (eq. 10). A NaN accelerometer sample drops its row.
-4. GPS error (section VI-c): "KF2" runs the same model with the fixed ``R = diag(3.5, 40)``
-   (eq. 18); its speed is passed through the GPS lag model and ``E = |x3_KF2 - lag(x1_KF2)|``
-   (clipped to ``0..e_max``) sets ``R22 = r_gps_slope * E + r_gps`` (eq. 13: 72 E + 40).
-5. offset/drift (section VI-b, eq. 16-17): an integrator KF ``[drift, offset]`` with ``H = [1, 0]``
-   observes ``integral(a) - x1`` on samples with a valid fix; its offset is subtracted in step 1.
+1. accelerometer pre-processing (paper Fig. 1): ``a_m = gain * a_raw``; optional pitch
+   compensation ``p = poly(a_m)`` in degrees (eq. 14), ``a_m <- (a_m - g sin p) / cos p``.
+2. predict with the exact transition ``F = expm(A_c dt)`` (paper eq. 7 without its ZOH
+   approximation) and ``Q = diag(q_speed, q_accel, q_offset, q_gps...) dt`` (white-noise
+   intensities per second).
+3. update: on a sample with a *new valid* fix (``gps_speed`` finite and ``gps_sats >= min_sats``;
+   a missing or NaN count counts as valid) "KF1 INS/GPS" (eq. 9, 12): ``a_m = a + b + e``,
+   var ``r_acc_gps``, and ``gps = x3 + e``, var ``R22``; otherwise "KF INS" (eq. 10): the
+   accelerometer row alone, var ``r_acc_ins``. A NaN accelerometer sample drops its row.
+4. GPS error E and adaptive weighting (section VI-c, eq. 13, 18):
+   ``R22 = r_gps + r_gps_slope E + r_gps_sq E^2`` with E clipped to ``0..e_max``. Default
+   ``error_mode="innovation"``: E^2 = max(nu^2 - S, 0), nu the main filter's GPS innovation and S
+   its predicted variance (the part of the disagreement the model does not explain, so R22 grows to
+   nu^2 on a receiver jump). ``"kf2"``: the paper's KF2 (same model, fixed R = (r_acc_gps, r_gps))
+   predicts the fix through the lag model and E = |fix - prediction| before KF2's update;
+   ``"states"``: the paper's literal E = |x3_KF2 - lag(x1_KF2)| after it.
+5. offset (section VI-b): ``offset_mode="state"`` (default) estimates b inside the filter above
+   (random walk ``q_offset``), so grade changes are followed with the filter's own gain and the
+   speed covariance includes the offset uncertainty. ``"integrator"`` is the paper's separate
+   drift KF ``[drift, offset]`` on ``integral(a_m) - v`` at valid fixes (eq. 16-17), its offset
+   subtracted from ``a_m``; ``"off"`` estimates none.
 
-Noise units. The paper gives ``Q = diag(5, 4, 1, 1)`` (its eq. 11, called "P") and the R values
-without units or sample rate; its gains were computed off-line at 400 Hz. Read literally as
-per-step variances at 400 Hz the speed state is almost free and the accelerometer is nearly
-ignored (followed every simulated GPS jump), so by default we read q as white-noise intensities
-per second, ``Q = diag(q) dt`` (``q_rate = 1``), and keep R per sample; ``q_rate = 400`` gives the
-literal reading. Step 2 above writes this as ``Q = diag(q) * dt * q_rate``.
+Noise units. The paper's Q = diag(5, 4, 1, 1) and R values have no units or sample rate (only their
+ratios matter for its fixed-gain filter), so ``speed_std`` computed with them is ~40x too wide.
+The defaults here are physical (accelerometer white noise 0.3 m/s^2 per sample, GPS 0.1 m/s per
+fix, jerk intensity, offset random walk), so ``speed_std = sqrt(P11)`` is an honest 1-sigma; the
+paper's set is :meth:`Config.paper` (with Q read per second). Override them per sensor.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -38,7 +47,13 @@ from numba import njit
 
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import InputError, ParameterError
-from vibrospeed.models.gps_riss import GpsLagModel, simulate_receiver, transition
+from vibrospeed.models.gps_riss import (
+    GpsLagModel,
+    continuous_matrix,
+    receiver_steady_state,
+    simulate_receiver,
+    transition,
+)
 from vibrospeed.types import Recording, Track
 
 G = 9.80665
@@ -48,43 +63,48 @@ MODE_INS = 0  #: accelerometer only ("KF INS")
 MODE_GPS = 1  #: valid GPS fix fused ("KF1 INS/GPS")
 MODE_REJECTED = 2  #: a fix was present but gated out (too few satellites)
 
+_ERROR_MODES = ("innovation", "kf2", "states")
+_OFFSET_MODES = ("state", "integrator", "off")
+
 
 @dataclass(frozen=True)
 class Config:
-    """Parameters (paper values as defaults; units SI).
+    """Parameters (SI units; physical noise defaults, see the module notes; paper set:
+    :meth:`paper`).
 
     Parameters
     ----------
     gps_a, gps_b : GPS lag model A_gps (row-major) and B_gps, paper eq. 3-4.
-    q : process noise diag of ``[speed, accel, GPS speed, GPS accel]`` (paper eq. 11 "P":
-        5, 4, 1, 1); per-step ``Q = q * dt * q_rate``, so with the default ``q_rate = 1`` q is an
-        intensity per second; ``q_rate = 400`` reads q literally as per-step at the paper's 400 Hz.
-    r_acc_ins : accelerometer variance in "KF INS" (paper: 0.4).
-    r_acc_gps : accelerometer variance in "KF1/KF2 INS/GPS" (paper eq. 12: 3.5).
-    r_gps : GPS speed variance R22 at zero error and in KF2 (paper eq. 13, 18: 40).
-    r_gps_slope : R22 growth per m/s of GPS error E (paper eq. 13: 72).
-    e_max : clip of E in m/s (paper: 0..5).
-    adaptive : use R22 = r_gps_slope E + r_gps (else r_gps).
-    error_mode : "innovation" (default: new fix vs KF2's lagged speed before KF2's update) or
-        "states" (paper VI-c: KF2's x3 vs KF2's x1 through the lag model; reacts weakly).
-    min_sats : satellite-count gate (paper: 7).
-    gain : accelerometer calibration gain.
+    gps_delay : pure GPS delay (s) in front of the lag, Pade order ``gps_pade`` (1 or 2).
+    q_speed, q_accel, q_offset, q_gps : process noise intensities per second of the speed
+        ((m/s)^2/s, model error), acceleration ((m/s^2)^2/s, jerk), offset ((m/s^2)^2/s, grade
+        changes) and receiver states (paper eq. 11 "P" = 5, 4, -, 1).
+    r_acc_ins, r_acc_gps : accelerometer variance per sample in "KF INS" / "KF1" (paper 0.4, 3.5).
+    r_gps : GPS speed variance per fix at zero error (paper eq. 13, 18: 40 in its units).
+    r_gps_slope, r_gps_sq : R22 growth per m/s and per (m/s)^2 of the GPS error E (paper: 72, 0).
+    e_max : clip of E in m/s (paper: 5).  adaptive : use the adaptive R22 (else r_gps).
+    error_mode : "innovation", "kf2" or "states" (module notes, step 4).
+    min_sats : satellite-count gate (paper: 7).  gain : accelerometer calibration gain.
     pitch_compensation : apply ``pitch_poly`` (deg, highest power first; paper eq. 14, fitted for
         a motorcycle, so off by default).
-    offset_estimation : run the drift/offset KF (section VI-b).
-    q_drift, q_offset : drift KF process noise intensities, (m/s)^2/s and (m/s^2)^2/s.
-    r_drift : drift KF measurement variance (m/s)^2.  p0_offset : initial offset variance.
-    p0_speed : initial speed variance (m/s)^2.
+    offset_mode : "state", "integrator" (paper VI-b) or "off".
+    q_drift, r_drift : integrator drift filter noise ((m/s)^2/s, (m/s)^2); it uses q_offset too.
+    p0_speed, p0_accel, p0_offset : initial variances.
     """
 
     gps_a: tuple[float, ...] = (0.0, 1.0, -1427.2, -114.2)
     gps_b: tuple[float, ...] = (0.0, 1427.2)
-    q: tuple[float, ...] = (5.0, 4.0, 1.0, 1.0)
-    q_rate: float = 1.0
-    r_acc_ins: float = 0.4
-    r_acc_gps: float = 3.5
-    r_gps: float = 40.0
-    r_gps_slope: float = 72.0
+    gps_delay: float = 0.0
+    gps_pade: int = 2
+    q_speed: float = 1e-4
+    q_accel: float = 10.0
+    q_offset: float = 5e-3
+    q_gps: float = 1e-6
+    r_acc_ins: float = 0.09
+    r_acc_gps: float = 0.09
+    r_gps: float = 0.01
+    r_gps_slope: float = 0.0
+    r_gps_sq: float = 0.5
     e_max: float = 5.0
     adaptive: bool = True
     error_mode: str = "innovation"
@@ -92,60 +112,89 @@ class Config:
     gain: float = 1.0
     pitch_compensation: bool = False
     pitch_poly: tuple[float, ...] = (-0.0183, 0.2822, 0.0207)
-    offset_estimation: bool = True
+    offset_mode: str = "state"
     q_drift: float = 1e-3
-    q_offset: float = 1e-2
     r_drift: float = 0.1
+    p0_speed: float = 1.0
+    p0_accel: float = 1.0
     p0_offset: float = 0.25
-    p0_speed: float = 100.0
 
     def __post_init__(self) -> None:
         _ = self.lag  # validates the lag model
-        if len(self.q) != 4 or min(self.q) < 0:
-            raise ParameterError(f"q must be 4 values >= 0, got {self.q}")
-        for name in ("q_rate", "r_acc_ins", "r_acc_gps", "r_gps", "r_drift", "p0_offset",
-                     "p0_speed", "gain"):
+        for name in ("r_acc_ins", "r_acc_gps", "r_gps", "r_drift", "p0_offset", "p0_speed",
+                     "p0_accel", "gain"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
-        for name in ("r_gps_slope", "e_max", "q_drift", "q_offset", "min_sats"):
+        for name in ("q_speed", "q_accel", "q_offset", "q_gps", "r_gps_slope", "r_gps_sq",
+                     "e_max", "q_drift", "min_sats"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
-        if self.error_mode not in ("innovation", "states"):
-            raise ParameterError(
-                f"error_mode must be 'innovation' or 'states', got '{self.error_mode}'"
-            )
+        if self.error_mode not in _ERROR_MODES:
+            raise ParameterError(f"error_mode must be one of {', '.join(_ERROR_MODES)}, "
+                                 f"got '{self.error_mode}'")
+        if self.offset_mode not in _OFFSET_MODES:
+            raise ParameterError(f"offset_mode must be one of {', '.join(_OFFSET_MODES)}, "
+                                 f"got '{self.offset_mode}'")
         if len(self.pitch_poly) < 1:
             raise ParameterError("pitch_poly needs at least one coefficient")
 
+    @classmethod
+    def paper(cls, **kw) -> Config:
+        """The paper's constants (eq. 11-13, 18; Q read as intensities per second), its KF2 error
+        and separate drift filter: the weighting of the paper, but ``speed_std`` is not calibrated.
+        """
+        base = dict(q_speed=5.0, q_accel=4.0, q_offset=1e-2, q_gps=1.0, r_acc_ins=0.4,
+                    r_acc_gps=3.5, r_gps=40.0, r_gps_slope=72.0, r_gps_sq=0.0,
+                    error_mode="kf2", offset_mode="integrator", p0_speed=100.0, p0_accel=5.0)
+        base.update(kw)
+        return cls(**base)
+
     @property
     def lag(self) -> GpsLagModel:
-        """The GPS lag model."""
-        return GpsLagModel(a=tuple(self.gps_a), b=tuple(self.gps_b))  # type: ignore[arg-type]
+        """The GPS receiver model."""
+        return GpsLagModel(a=tuple(self.gps_a), b=tuple(self.gps_b),  # type: ignore[arg-type]
+                           delay=float(self.gps_delay), pade=int(self.gps_pade))
 
     @classmethod
     def with_lag(cls, lag: GpsLagModel, **kw) -> Config:
-        """Config using the receiver model ``lag`` (e.g. from :func:`identify_lag`)."""
-        return cls(gps_a=tuple(lag.a), gps_b=tuple(lag.b), **kw)
+        """Default config using the receiver model ``lag`` (e.g. from :func:`identify_lag`)."""
+        return cls(gps_a=tuple(lag.a), gps_b=tuple(lag.b), gps_delay=lag.delay,
+                   gps_pade=lag.pade, **kw)
 
-    def _arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def using_lag(self, lag: GpsLagModel) -> Config:
+        """This config with the receiver model replaced by ``lag``."""
+        return replace(self, gps_a=tuple(lag.a), gps_b=tuple(lag.b), gps_delay=lag.delay,
+                       gps_pade=lag.pade)
+
+    def _arrays(self):
+        lag = self.lag
+        Ac = continuous_matrix(lag, offset_state=True)
+        n = Ac.shape[0]
+        state_off = self.offset_mode == "state"
+        qc = np.full(n, self.q_gps)
+        qc[:3] = (self.q_speed, self.q_accel, self.q_offset if state_off else 0.0)
+        ha = np.zeros(n)
+        ha[1] = 1.0
+        ha[2] = 1.0 if state_off else 0.0
+        hg = np.zeros(n)
+        hg[3] = 1.0
         p = np.array([
-            self.q[0], self.q[1], self.q[2], self.q[3], self.q_rate,
-            self.r_acc_ins, self.r_acc_gps, self.r_gps, self.r_gps_slope, self.e_max,
-            float(self.adaptive), self.min_sats, self.gain, float(self.pitch_compensation),
-            float(self.offset_estimation), self.q_drift, self.q_offset, self.r_drift,
-            float(self.error_mode == "innovation"),
+            self.r_acc_ins, self.r_acc_gps, self.r_gps, self.r_gps_slope, self.r_gps_sq,
+            self.e_max, float(self.adaptive), self.min_sats, self.gain,
+            float(self.pitch_compensation), float(self.offset_mode == "integrator"),
+            self.q_drift, self.q_offset, self.r_drift, float(_ERROR_MODES.index(self.error_mode)),
         ], dtype=np.float64)
-        return self.lag.as_array(), p, np.array(self.pitch_poly, dtype=np.float64)
+        return Ac, qc, ha, hg, p, np.array(self.pitch_poly, dtype=np.float64)
 
 
 class State(NamedTuple):
     """Filter state after the last sample.
 
-    x, P : (4,), (4, 4) main filter (KF / KF1) mean and covariance.
-    x2, P2 : KF2 (fixed weighting) mean and covariance.
-    lag : (2,) GPS lag model driven by the KF2 speed, ``[x3, x4]`` predicted from x1.
-    od, Pod : (2,), (2, 2) drift filter ``[speed drift, accelerometer offset]``.
-    t : time of the last sample (NaN before the first).  err : GPS error E (m/s).
+    x, P : (n,), (n, n) main filter ``[v, a, b, x3, x4, d...]`` mean and covariance.
+    x2, P2 : KF2 (fixed weighting; error modes "kf2"/"states" only) mean and covariance.
+    lag : receiver states driven by the KF2 speed (prediction of the fix, "kf2"/"states").
+    od, Pod : (2,), (2, 2) integrator drift filter ``[speed drift, offset]`` (offset_mode
+        "integrator").  t : time of the last sample (NaN before the first).  err : GPS error E.
     v_int : integral of the pre-processed accelerometer (m/s).
     """
 
@@ -162,21 +211,21 @@ class State(NamedTuple):
 
     @property
     def speed(self) -> float:
-        """Fused speed estimate x1 (m/s)."""
+        """Fused speed estimate (m/s)."""
         return float(self.x[0])
 
     @property
     def offset(self) -> float:
-        """Accelerometer offset estimate (m/s^2)."""
-        return float(self.od[1])
+        """Accelerometer offset estimate (m/s^2), whichever filter holds it."""
+        return float(self.x[2] + self.od[1])
 
 
 class Output(NamedTuple):
     """Per-sample results of :func:`run` (all (n,) float64 except ``mode`` int8).
 
-    speed, speed_std : fused x1 and sqrt(P11), m/s.  accel : x2, m/s^2.
+    speed, speed_std : fused speed and sqrt(P11), m/s.  accel : a, m/s^2.
     gps_model : x3, the filter's idea of what the receiver reports, m/s.
-    offset : accelerometer offset estimate, m/s^2.  gps_error : E, m/s.
+    offset, offset_std : accelerometer offset estimate and its std, m/s^2.  gps_error : E, m/s.
     r22 : GPS variance used at fixes (NaN elsewhere).  mode : MODE_INS / MODE_GPS / MODE_REJECTED.
     """
 
@@ -185,56 +234,68 @@ class Output(NamedTuple):
     accel: np.ndarray
     gps_model: np.ndarray
     offset: np.ndarray
+    offset_std: np.ndarray
     gps_error: np.ndarray
     r22: np.ndarray
     mode: np.ndarray
 
 
-def init(config: Config, v0: float = 0.0, *, offset0: float = 0.0) -> State:
-    """State at speed ``v0`` (m/s) with the receiver in steady state (x3 = v0, x4 = 0).
+_NOUT = 8
 
-    The speed variance is ``p0_speed``; the other variances start at their per-second process
-    noise. ``offset0`` (m/s^2) is the initial accelerometer offset guess.
+
+def init(config: Config, v0: float = 0.0, *, offset0: float = 0.0) -> State:
+    """State at speed ``v0`` (m/s), acceleration 0, with the receiver in steady state.
+
+    Variances: ``p0_speed``, ``p0_accel``, ``p0_offset``; the receiver states are fully correlated
+    with the speed (steady state) plus their per-second process noise. ``offset0`` (m/s^2) is the
+    initial accelerometer offset guess.
     """
     v0 = float(v0)
     if not math.isfinite(v0):
         raise ParameterError(f"initial speed must be finite, got {v0}")
-    q = np.asarray(config.q, dtype=np.float64)
-    P = np.diag([config.p0_speed, q[1] + 1.0, config.p0_speed, q[3] + 1.0])
-    x = np.array([v0, 0.0, v0, 0.0])
-    od = np.array([0.0, float(offset0)])
+    lag = config.lag
+    g = receiver_steady_state(lag, 1.0)
+    n = 3 + g.size
+    T = np.zeros((n, 3))
+    T[:3, :3] = np.eye(3)
+    T[3:, 0] = g
+    P = T @ np.diag([config.p0_speed, config.p0_accel, config.p0_offset]) @ T.T
+    P[3:, 3:] += np.eye(g.size) * max(config.q_gps, 1e-12)
+    state_off = config.offset_mode == "state"
+    if not state_off:
+        P[2, :] = 0.0
+        P[:, 2] = 0.0
+    x = np.zeros(n)
+    x[0] = v0
+    x[2] = float(offset0) if state_off else 0.0
+    x[3:] = g * v0
+    od = np.array([0.0, float(offset0) if config.offset_mode == "integrator" else 0.0])
     Pod = np.diag([config.r_drift, config.p0_offset])
-    return State(x, P, x.copy(), P.copy(), np.array([v0, 0.0]), od, Pod, math.nan, 0.0, v0)
+    return State(x, P, x.copy(), P.copy(), g * v0, od, Pod, math.nan, 0.0, v0)
 
 
 # -- compiled core -----------------------------------------------------------------------------
 
 @njit(cache=True)
-def _kf_update(x, P, h_idx, z, r, m):
-    """Update with ``m`` direct observations ``z[i] = x[h_idx[i]] + e_i``, var(e_i) = r[i].
-
-    Sequential scalar updates (R is diagonal, so this equals the joint update), Joseph form
-    ``P = (I - K H) P (I - K H)' + K r K'``.
-    """
+def _update(x, P, h, z, r):
+    """Scalar update ``z = h x + e``, var(e) = r; Joseph form ``(I - K h) P (I - K h)' + K r K'``.
+    Returns the innovation."""
     n = x.size
-    for i in range(m):
-        j = h_idx[i]
-        s = P[j, j] + r[i]  # S = H P H' + R
-        k = P[:, j] / s  # K = P H' / S
-        innov = z[i] - x[j]
-        for a in range(n):
-            x[a] += k[a] * innov
-        # Joseph form with H = e_j
-        IKH = np.eye(n)
-        for a in range(n):
-            IKH[a, j] -= k[a]
-        Pn = IKH @ P @ IKH.T
-        for a in range(n):
-            for b in range(n):
-                Pn[a, b] += k[a] * r[i] * k[b]
-        for a in range(n):
-            for b in range(n):
-                P[a, b] = 0.5 * (Pn[a, b] + Pn[b, a])
+    Ph = P @ h
+    s = 0.0
+    for a in range(n):
+        s += h[a] * Ph[a]
+    s += r
+    k = Ph / s
+    innov = z - h @ x
+    for a in range(n):
+        x[a] += k[a] * innov
+    IKH = np.eye(n) - np.outer(k, h)
+    Pn = IKH @ P @ IKH.T + np.outer(k, k) * r
+    for a in range(n):
+        for b in range(n):
+            P[a, b] = 0.5 * (Pn[a, b] + Pn[b, a])
+    return innov
 
 
 @njit(cache=True)
@@ -251,80 +312,81 @@ def _predict(x, P, F, qd):
 
 
 @njit(cache=True)
-def _step_core(lagp, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw, gps, sats, out):
-    """One sample in place. ``sc = [t_prev, E, v_int]``; ``out`` (7,) receives the results."""
+def _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw, gps, sats,
+               Fc, out):
+    """One sample in place. ``sc = [t_prev, E, v_int, dt of Fc]``; ``Fc`` caches the transition
+    of the last step length; ``out`` (8,) receives the results. Returns the mode."""
     dt = 0.0 if math.isnan(sc[0]) else t - sc[0]
     sc[0] = t
-    q_rate = p[4]
-    use_off = p[14] > 0.5
-    # 1. accelerometer pre-processing: gain, pitch (paper eq. 14, degrees), offset
+    n = x.size
+    integ = p[10] > 0.5
+    emode = int(p[14])
+    use_kf2 = emode > 0
+    # 1. accelerometer pre-processing: gain, pitch (paper eq. 14, degrees)
     has_a = not math.isnan(a_raw)
-    a = p[12] * a_raw
-    if has_a and p[13] > 0.5:
+    a = p[8] * a_raw
+    if has_a and p[9] > 0.5:
         pitch = 0.0
         for c in poly:
             pitch = pitch * a + c
         pr = pitch * math.pi / 180.0
         a = (a - G * math.sin(pr)) / math.cos(pr)
-    # drift filter predict (eq. 16) and integral of the pre-processed accelerometer
+    # integrator drift filter predict (eq. 16) and integral of the pre-processed accelerometer
     if dt > 0.0:
         if has_a:
             sc[2] += dt * a
         else:
-            sc[2] += dt * (x[1] + od[1])
-        if use_off:
+            sc[2] += dt * (x[1] + x[2] + od[1])
+        if integ:
             od[0] += dt * od[1]
-            p00 = Pod[0, 0] + dt * (Pod[0, 1] + Pod[1, 0]) + dt * dt * Pod[1, 1] + p[15] * dt
+            p00 = Pod[0, 0] + dt * (Pod[0, 1] + Pod[1, 0]) + dt * dt * Pod[1, 1] + p[11] * dt
             p01 = Pod[0, 1] + dt * Pod[1, 1]
             Pod[0, 0] = p00
             Pod[0, 1] = p01
             Pod[1, 0] = p01
-            Pod[1, 1] += p[16] * dt
-    a_c = a - od[1] if use_off else a
-    # 2. predict KF / KF1 and KF2 with the exact transition
-    qd = np.empty(4)
-    for i in range(4):
-        qd[i] = p[i] * dt * q_rate
+            Pod[1, 1] += p[12] * dt
+    a_c = a - od[1] if integ else a
+    # 2. predict with the exact transition
     if dt > 0.0:
-        F = transition(lagp, dt)
-        # lag model driven by the KF2 speed (for the GPS error E), from KF2's previous posterior
-        l3 = F[2, 0] * x2[0] + F[2, 1] * x2[1] + F[2, 2] * lz[0] + F[2, 3] * lz[1]
-        l4 = F[3, 0] * x2[0] + F[3, 1] * x2[1] + F[3, 2] * lz[0] + F[3, 3] * lz[1]
-        lz[0] = l3
-        lz[1] = l4
-        _predict(x, P, F, qd)
-        _predict(x2, P2, F, qd)
+        if dt != sc[3]:
+            Fc[:, :] = transition(Ac, dt)
+            sc[3] = dt
+        qd = qc * dt
+        _predict(x, P, Fc, qd)
+        if use_kf2:
+            # receiver chain driven by KF2's speed and acceleration (prediction of the fix)
+            lzn = Fc[3:, 0] * x2[0] + Fc[3:, 1] * x2[1] + np.ascontiguousarray(Fc[3:, 3:]) @ lz
+            for i in range(lz.size):
+                lz[i] = lzn[i]
+            _predict(x2, P2, Fc, qd)
     # 3. gating
     has_fix = not math.isnan(gps)
-    valid = has_fix and (math.isnan(sats) or sats >= p[11])
-    h_idx = np.empty(2, dtype=np.int64)
-    z = np.empty(2)
-    r = np.empty(2)
-    m = 0
-    if has_a:
-        h_idx[0] = 1
-        z[0] = a_c
-        r[0] = p[6] if valid else p[5]
-        m = 1
+    valid = has_fix and (math.isnan(sats) or sats >= p[7])
     r22 = math.nan
+    r_acc = p[1] if valid else p[0]
+    if has_a:
+        _update(x, P, ha, a_c, r_acc)
+        if use_kf2:
+            _update(x2, P2, ha, a_c, r_acc)
     if valid:
-        h_idx[m] = 2
-        z[m] = gps
-        r[m] = p[7]
-        # 4. KF2 with fixed R (eq. 18), then E and the adaptive R22 (eq. 13)
-        if p[18] > 0.5:  # "innovation": fix against the lagged KF2 speed, before the update
+        # 4. GPS error E and R22 (eq. 13)
+        if emode == 0:  # main filter's innovation beyond its predicted spread
+            nu = gps - hg @ x
+            s0 = hg @ P @ hg + p[2]
+            e = math.sqrt(max(nu * nu - s0, 0.0))
+        elif emode == 1:  # KF2's prediction of the fix, before KF2's update
             e = abs(gps - lz[0])
-            _kf_update(x2, P2, h_idx, z, r, m + 1)
-        else:  # "states" (paper VI-c): KF2's x3 against its x1 passed through the lag model
-            _kf_update(x2, P2, h_idx, z, r, m + 1)
-            e = abs(x2[2] - lz[0])
-        sc[1] = min(max(e, 0.0), p[9])
-        r22 = p[7] + p[8] * sc[1] if p[10] > 0.5 else p[7]
-        r[m] = r22
-        _kf_update(x, P, h_idx, z, r, m + 1)
-        # 5. drift filter update (eq. 17): observes integral(a) - x1
-        if use_off:
-            s = Pod[0, 0] + p[17] * (r22 / p[7])  # weighted down like the GPS itself
+            _update(x2, P2, hg, gps, p[2])
+        else:  # "states" (paper VI-c): KF2's x3 against its speed through the lag model
+            _update(x2, P2, hg, gps, p[2])
+            e = abs(x2[3] - lz[0])
+        e = min(max(e, 0.0), p[5])
+        sc[1] = e
+        r22 = p[2] + p[3] * e + p[4] * e * e if p[6] > 0.5 else p[2]
+        _update(x, P, hg, gps, r22)
+        # 5. integrator drift filter update (eq. 17): observes integral(a) - v
+        if integ:
+            s = Pod[0, 0] + p[13] * (r22 / p[2])  # weighted down like the GPS itself
             k0 = Pod[0, 0] / s
             k1 = Pod[1, 0] / s
             innov = (sc[2] - x[0]) - od[0]
@@ -337,16 +399,18 @@ def _step_core(lagp, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw, gps, sats
             Pod[0, 1] = p01
             Pod[1, 0] = p01
             Pod[1, 1] = p11
-    elif m > 0:
-        _kf_update(x2, P2, h_idx, z, r, m)
-        _kf_update(x, P, h_idx, z, r, m)
     out[0] = x[0]
     out[1] = math.sqrt(max(P[0, 0], 0.0))
     out[2] = x[1]
-    out[3] = x[2]
-    out[4] = od[1]
-    out[5] = sc[1]
-    out[6] = r22
+    out[3] = x[3]
+    if integ:
+        out[4] = od[1]
+        out[5] = math.sqrt(max(Pod[1, 1], 0.0))
+    else:
+        out[4] = x[2]
+        out[5] = math.sqrt(max(P[2, 2], 0.0))
+    out[6] = sc[1]
+    out[7] = r22
     if valid:
         return 1
     if has_fix:
@@ -355,18 +419,23 @@ def _step_core(lagp, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw, gps, sats
 
 
 @njit(cache=True)
-def _run_core(lagp, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a, gps, sats, out, mode):
+def _run_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a, gps, sats, out, mode):
+    Fc = np.eye(x.size)
     for k in range(t.size):
-        mode[k] = _step_core(lagp, p, poly, x, P, x2, P2, lz, od, Pod, sc, t[k], a[k], gps[k],
-                             sats[k], out[k])
+        mode[k] = _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t[k], a[k],
+                             gps[k], sats[k], Fc, out[k])
 
 
-def _copy_state(state: State):
-    return (np.array(state.x, dtype=np.float64), np.array(state.P, dtype=np.float64),
+def _copy_state(state: State, n: int):
+    x = np.array(state.x, dtype=np.float64)
+    if x.shape != (n,):
+        raise ParameterError(f"state has {x.size} states but the config's model needs {n} "
+                             "(GPS delay on/off changed?)")
+    return (x, np.array(state.P, dtype=np.float64),
             np.array(state.x2, dtype=np.float64), np.array(state.P2, dtype=np.float64),
             np.array(state.lag, dtype=np.float64), np.array(state.od, dtype=np.float64),
             np.array(state.Pod, dtype=np.float64),
-            np.array([state.t, state.err, state.v_int], dtype=np.float64))
+            np.array([state.t, state.err, state.v_int, -1.0], dtype=np.float64))
 
 
 def _pack(arrs) -> State:
@@ -374,22 +443,25 @@ def _pack(arrs) -> State:
     return State(x, P, x2, P2, lz, od, Pod, float(sc[0]), float(sc[1]), float(sc[2]))
 
 
+_OUT_NAMES = ("speed", "speed_std", "accel", "gps_model", "offset", "offset_std", "gps_error",
+              "r22")
+
+
 def step(config: Config, state: State, y: tuple[float, float, float, float]
          ) -> tuple[State, dict[str, float]]:
     """One sample ``y = (t, ax, gps_speed, gps_sats)``; NaN marks "no sample now".
 
     ``gps_sats`` NaN means "unknown" (the fix counts as valid). Returns the new state and a dict
-    with ``speed, speed_std, accel, gps_model, offset, gps_error, r22, mode``.
+    with the :class:`Output` fields for this sample.
     """
     t, a, g, s = (float(v) for v in y)
     if not math.isnan(state.t) and not t >= state.t:
         raise InputError(f"time goes backwards at t = {t} s (previous {state.t} s)")
-    lagp, p, poly = config._arrays()
-    arrs = _copy_state(state)
-    out = np.empty(7)
-    mode = _step_core(lagp, p, poly, *arrs, t, a, g, s, out)
-    names = ("speed", "speed_std", "accel", "gps_model", "offset", "gps_error", "r22")
-    est = {k: float(v) for k, v in zip(names, out, strict=True)}
+    Ac, qc, ha, hg, p, poly = config._arrays()
+    arrs = _copy_state(state, Ac.shape[0])
+    out = np.empty(_NOUT)
+    mode = _step_core(Ac, qc, ha, hg, p, poly, *arrs, t, a, g, s, np.eye(Ac.shape[0]), out)
+    est = {k: float(v) for k, v in zip(_OUT_NAMES, out, strict=True)}
     est["mode"] = int(mode)
     return _pack(arrs), est
 
@@ -403,7 +475,7 @@ def run(config: Config, t, ax, gps_speed, gps_sats=None, *, state: State | None 
     t : (n,) s non-decreasing.  ax : (n,) m/s^2 longitudinal accelerometer (NaN = none).
     gps_speed : (n,) m/s, finite only at samples carrying a new fix.
     gps_sats : (n,) satellites, or None (every fix valid).
-    state : start state (default ``init(config, first finite GPS speed or 0)``).
+    state : start state (default ``init(config, first valid GPS speed or 0)``).
     """
     t = np.ascontiguousarray(t, dtype=np.float64)
     n = t.size
@@ -418,13 +490,37 @@ def run(config: Config, t, ax, gps_speed, gps_sats=None, *, state: State | None 
     if state is None:
         fin = np.flatnonzero(np.isfinite(g) & ~(s < config.min_sats))
         state = init(config, float(g[fin[0]]) if fin.size else 0.0)
-    lagp, p, poly = config._arrays()
-    arrs = _copy_state(state)
-    out = np.empty((n, 7))
+    Ac, qc, ha, hg, p, poly = config._arrays()
+    arrs = _copy_state(state, Ac.shape[0])
+    out = np.empty((n, _NOUT))
     mode = np.empty(n, dtype=np.int8)
-    _run_core(lagp, p, poly, *arrs, t, ax, g, s, out, mode)
-    o = Output(*(np.ascontiguousarray(out[:, i]) for i in range(7)), mode)
+    _run_core(Ac, qc, ha, hg, p, poly, *arrs, t, ax, g, s, out, mode)
+    o = Output(*(np.ascontiguousarray(out[:, i]) for i in range(_NOUT)), mode)
     return _pack(arrs), o
+
+
+def _run_progress(config: Config, t, ax, g, s, chunk: int = 200_000,
+                  state: State | None = None) -> Output:
+    """:func:`run` in chunks with a rich progress bar (same numbers: the state carries over)."""
+    from rich.progress import Progress
+
+    t = np.asarray(t, dtype=np.float64)
+    g = np.asarray(g, dtype=np.float64)
+    ax = np.asarray(ax, dtype=np.float64)
+    parts = []
+    with Progress(transient=True) as bar:
+        task = bar.add_task("gps-riss", total=t.size)
+        for k0 in range(0, t.size, chunk):
+            sl = slice(k0, k0 + chunk)
+            if state is None:
+                fin = np.flatnonzero(np.isfinite(g) & ~(np.asarray(s, float) < config.min_sats)
+                                     ) if s is not None else np.flatnonzero(np.isfinite(g))
+                state = init(config, float(g[fin[0]]) if fin.size else 0.0)
+            state, o = run(config, t[sl], ax[sl], g[sl], None if s is None else s[sl],
+                           state=state)
+            parts.append(o)
+            bar.update(task, advance=min(chunk, t.size - k0))
+    return Output(*(np.concatenate([getattr(o, f) for o in parts]) for f in Output._fields))
 
 
 _AXIS_CHANNEL = {"x": "ax", "y": "ay", "z": "az"}
@@ -435,34 +531,41 @@ def estimate(recording: Recording, *, axis: str = "x", wheel_radius: float | Non
     """Fused speed for a recording with an accelerometer channel and ``gps_speed``.
 
     ``axis`` names the longitudinal accelerometer channel: "x" -> ``ax`` (phones often have "y"
-    forward -> ``ay``); a channel name may be given directly. ``params`` overrides :class:`Config`
-    fields. The Track's ``speed_std`` is sqrt(P11); extras hold ``offset``, ``gps_error``,
-    ``accel``, ``mode``.
+    forward -> ``ay``); a channel name may be given directly. ``gps_speed`` must be finite only at
+    samples carrying a new fix (NaN between fixes). ``params`` overrides :class:`Config` fields.
+    ``progress`` shows a progress bar (the recording is filtered in chunks of 200 000 samples;
+    same numbers). The Track's ``speed_std`` is sqrt(P11) (an honest 1-sigma when the noise
+    parameters match the sensors; 98 % band by default); extras hold ``offset``, ``offset_std``,
+    ``gps_error``, ``accel``, ``gps_model``, ``mode``.
     """
     cfg = config_from_params(Config, params)
     ch = _AXIS_CHANNEL.get(axis, axis)
     recording.require(ch, "gps_speed")
     sats = recording.channels.get("gps_sats")
-    _, o = run(cfg, recording.t, recording.channel(ch), recording.channel("gps_speed"), sats)
+    args = (cfg, recording.t, recording.channel(ch), recording.channel("gps_speed"), sats)
+    o = _run_progress(*args) if progress else run(*args)[1]
     return Track.from_speed(
         recording.t, o.speed, o.speed_std, wheel_radius=wheel_radius or recording.wheel_radius,
         method="gps-riss", params={k: (list(v) if isinstance(v, tuple) else v)
                                    for k, v in asdict(cfg).items()},
-        extras={"offset": o.offset, "gps_error": o.gps_error, "accel": o.accel,
-                "gps_model": o.gps_model, "mode": o.mode.astype(np.float64)},
+        extras={"offset": o.offset, "offset_std": o.offset_std, "gps_error": o.gps_error,
+                "accel": o.accel, "gps_model": o.gps_model, "mode": o.mode.astype(np.float64)},
     )
 
 
 # -- identification ----------------------------------------------------------------------------
 
 def identify_lag(t, gps_speed, speed_ref, *, wn0: float = 10.0, zeta0: float = 0.8,
-                 fit_gain: bool = False) -> tuple[GpsLagModel, dict[str, float]]:
-    """Fit the second-order receiver model (paper section IV-b) to GPS fixes.
+                 fit_gain: bool = False, fit_delay: bool = False, delay0: float = 0.2,
+                 pade: int = 2) -> tuple[GpsLagModel, dict[str, float]]:
+    """Fit the receiver model (paper section IV-b: second-order lag; optionally a gain and a pure
+    delay in front, Pade order ``pade`` as the filter uses it) to GPS fixes.
 
     Simulates ``x3`` driven by the reference speed (taken piecewise linear) for candidate
-    ``(wn, zeta[, gain])`` and minimises the squared difference to ``gps_speed`` at its finite
-    samples (scipy ``least_squares`` on log-parameters). Returns the model and a dict with
-    ``wn, zeta, gain, rmse`` (m/s residual) and ``rmse_identity`` (residual of ``x3 = speed``).
+    ``(wn, zeta[, gain][, delay])`` and minimises the squared difference to ``gps_speed`` at its
+    finite samples (scipy ``least_squares``; wn, zeta on a log scale). Returns the model and a dict
+    with ``wn, zeta, gain, delay, rmse`` (m/s residual) and ``rmse_identity`` (residual of
+    ``x3 = speed``).
 
     Parameters
     ----------
@@ -482,20 +585,24 @@ def identify_lag(t, gps_speed, speed_ref, *, wn0: float = 10.0, zeta0: float = 0
     if fix.sum() < 10:
         raise InputError(f"identify_lag: need >= 10 GPS fixes with a reference, got {fix.sum()}")
 
-    def resid(theta):
+    def model(theta):
         wn, zeta = np.exp(theta[0]), np.exp(theta[1])
         gain = theta[2] if fit_gain else 1.0
-        lag = GpsLagModel.from_wn_zeta(wn, zeta, gain)
-        return simulate_receiver(t, v, lag)[fix] - g[fix]
+        delay = theta[-1] if fit_delay else 0.0
+        return GpsLagModel.from_wn_zeta(wn, zeta, gain, delay=delay if delay > 1e-4 else 0.0,
+                                        pade=pade)
 
-    x0 = [np.log(wn0), np.log(zeta0)] + ([1.0] if fit_gain else [])
-    lo = [np.log(0.05), np.log(0.05)] + ([0.5] if fit_gain else [])
-    hi = [np.log(500.0), np.log(20.0)] + ([1.5] if fit_gain else [])
-    sol = least_squares(resid, x0, bounds=(lo, hi), x_scale=1.0)
-    wn, zeta = float(np.exp(sol.x[0])), float(np.exp(sol.x[1]))
-    gain = float(sol.x[2]) if fit_gain else 1.0
-    lag = GpsLagModel.from_wn_zeta(wn, zeta, gain)
-    info = {"wn": wn, "zeta": zeta, "gain": gain,
+    def resid(theta):
+        return simulate_receiver(t, v, model(theta))[fix] - g[fix]
+
+    x0 = [np.log(wn0), np.log(zeta0)] + ([1.0] if fit_gain else []) + (
+        [delay0] if fit_delay else [])
+    lo = [np.log(0.05), np.log(0.05)] + ([0.5] if fit_gain else []) + ([0.0] if fit_delay else [])
+    hi = [np.log(500.0), np.log(20.0)] + ([1.5] if fit_gain else []) + (
+        [2.0] if fit_delay else [])
+    sol = least_squares(resid, x0, bounds=(lo, hi), x_scale=1.0, diff_step=1e-4)
+    lag = model(sol.x)
+    info = {"wn": lag.wn, "zeta": lag.zeta, "gain": lag.dc_gain, "delay": lag.delay,
             "rmse": float(np.sqrt(np.mean(sol.fun**2))),
             "rmse_identity": float(np.sqrt(np.mean((v[fix] - g[fix]) ** 2)))}
     return lag, info

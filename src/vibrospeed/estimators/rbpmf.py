@@ -780,11 +780,21 @@ def improved(config: Config | None = None, **kw) -> Config:
     import dataclasses
 
     base = Config() if config is None else config
-    return dataclasses.replace(base, **{**IMPROVED, **kw})
+    kw = {**IMPROVED, **kw}
+    mkw = {k: kw.pop(k) for k in list(kw) if k in ("M", "q_omega", "q_amp", "r", "p0_amp")}
+    return dataclasses.replace(base, model=dataclasses.replace(base.model, **mkw), **kw)
 
 
-#: issue-7 settings used by :func:`improved` and ``params={"improved": True}``
-IMPROVED = {"jump_rate": 0.05, "off_rate": 0.05, "on_rate": 0.5}
+#: noise levels for the improved tracker on the running-RMS scaled signal (docs/beyond.md):
+#: between the marginal-likelihood fits on the car (r 0.2, q_omega 16, q_amp 0.002) and the
+#: cart (r 0.0125, q_omega 0.125, q_amp 0.002); r large enough that a weak line still beats
+#: the "no line" state.
+IMPROVED_NOISE = {"r": 0.15, "q_amp": 0.002}
+#: issue-7 settings used by :func:`improved` and ``params={"improved": True}``: jumps at
+#: 0.05/s (a lost track is re-found within ~1/(0.05 * share of evidence) s; the posterior
+#: cost is a floor of eps u_j on far grid points), "no line" state entered at 0.05/s, left at
+#: 0.5/s, plus :data:`IMPROVED_NOISE`.
+IMPROVED = {"jump_rate": 0.05, "off_rate": 0.05, "on_rate": 0.5, **IMPROVED_NOISE}
 
 
 # ------------------------------------------------------------------------------------------

@@ -74,6 +74,18 @@ def _interp(tq: np.ndarray, t: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.interp(tq, t[ok], x[ok], left=np.nan, right=np.nan)
 
 
+def detect(path) -> bool:
+    """True for a comma2k19 segment folder: it holds ``processed_log/CAN/wheel_speed/t`` and
+    ``decoded_can/`` (the layout :func:`read_comma2k19` reads). Never raises."""
+    try:
+        root = Path(path)
+        return (root.is_dir()
+                and (root / "processed_log" / "CAN" / "wheel_speed" / "t").is_file()
+                and (root / "decoded_can").is_dir())
+    except OSError:
+        return False
+
+
 def read_comma2k19(path, *, wheel_radius: float = RAV4_WHEEL_RADIUS) -> Recording:
     """Read one comma2k19 segment folder into a :class:`Recording` (see the module docstring).
 

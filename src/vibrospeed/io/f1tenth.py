@@ -68,6 +68,29 @@ def _interp(tq, t, x):
     return np.interp(tq, t[ok], x[ok], left=np.nan, right=np.nan)
 
 
+#: the three logs :func:`read_f1tenth` needs
+LOGS = ("imuData.csv", "odomData.csv", "pfPoseData.csv")
+
+
+def detect(path) -> bool:
+    """True for a FrictionMaps data set folder (or one of its three logs): the folder holds
+    ``imuData.csv``, ``odomData.csv`` and ``pfPoseData.csv`` and the IMU log's header has the
+    ROS time columns ``s, ns`` and ``ax, ay, wz``. Never raises."""
+    try:
+        root = Path(path)
+        if root.is_file():
+            if root.name not in LOGS:
+                return False
+            root = root.parent
+        if not root.is_dir() or not all((root / f).is_file() for f in LOGS):
+            return False
+        with open(root / "imuData.csv", encoding="utf-8", errors="replace") as fh:
+            head = [h.strip() for h in fh.readline().split(",")]
+        return all(c in head for c in ("s", "ns", "ax", "ay", "wz"))
+    except OSError:
+        return False
+
+
 def read_f1tenth(
     path, *, wheel_radius: float = F1TENTH_WHEEL_RADIUS, pf_half: int = 6, max_gap: float = 0.5
 ) -> Recording:

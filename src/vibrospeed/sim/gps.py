@@ -75,6 +75,7 @@ def drive(
     gps_noise: float = 0.1,
     gps_jitter: float = 0.002,
     gps_error: np.ndarray | None = None,
+    gps_delay: float = 0.0,
     sats: np.ndarray | None = None,
     acc_noise: float = 0.3,
     acc_bias: float = 0.0,
@@ -92,6 +93,7 @@ def drive(
     v0 : initial speed, m/s.  lag : receiver model (default: the paper's, eq. 3-4).
     gps_rate : Hz (paper: 12.5).  gps_noise : m/s white noise std on each fix.
     gps_jitter : s std of the fix epochs.  gps_error : (n,) m/s added to the receiver output.
+    gps_delay : s pure delay of the receiver output (exact, on top of ``lag``; time-stamp latency).
     sats : (n,) satellite count (default 9 everywhere).  acc_noise : m/s^2 white noise std.
     acc_bias : m/s^2 constant accelerometer offset.  acc_gain : calibration gain error.
     slope_rad : (n,) road slope theta (uphill +).  pitch_deg : (n,) body pitch (nose up +).
@@ -107,7 +109,11 @@ def drive(
     p = np.deg2rad(pitch)
     ax = acc_gain * (accel * np.cos(p) + G * np.sin(p + theta)) + acc_bias
     ax = ax + rng.normal(0.0, acc_noise, n)
-    rx = simulate_receiver(t, speed, lag)
+    if not (np.isfinite(gps_delay) and 0.0 <= gps_delay <= 10.0):
+        raise ParameterError(f"{source}: gps_delay must be in 0..10 s, got {gps_delay}")
+    if gps_delay > 0:
+        lag = GpsLagModel(a=lag.a, b=lag.b, delay=float(gps_delay))
+    rx = simulate_receiver(t, speed, lag, exact_delay=True)
     if gps_error is not None:
         rx = rx + gps_error
     sats = np.full(n, 9.0) if sats is None else np.asarray(sats, float)
@@ -120,7 +126,7 @@ def drive(
         "pitch_deg": pitch,
         "slope_rad": theta,
         "accel_true": accel,
-        "gps_lag": {"a": list(lag.a), "b": list(lag.b)},
+        "gps_lag": {"a": list(lag.a), "b": list(lag.b), "delay": lag.delay},
         "gps_rate": gps_rate,
         "gps_noise": gps_noise,
         "acc_noise": acc_noise,
@@ -137,7 +143,11 @@ def drive(
     )
 
 
-def _timeline(duration: float, fs: float) -> np.ndarray:
+def _timeline(duration: float, fs: float, minimum: float = 10.0) -> np.ndarray:
+    if not (np.isfinite(duration) and duration >= minimum):
+        raise ParameterError(f"duration must be >= {minimum:g} s, got {duration}")
+    if not (np.isfinite(fs) and fs > 0):
+        raise ParameterError(f"fs must be > 0, got {fs}")
     return np.arange(int(round(duration * fs))) / fs
 
 
@@ -145,20 +155,21 @@ def braking(
     rng: np.random.Generator,
     *,
     fs: float = 400.0,
+    duration: float = 60.0,
     lag: GpsLagModel | None = None,
     overshoot: bool = True,
     **kw,
 ) -> Recording:
-    """Repeated hard braking and acceleration (paper Fig. 4), 60 s.
+    """Repeated hard braking and acceleration (paper Fig. 4), ``duration`` s (default 60).
 
     With ``overshoot`` (default) the receiver is underdamped (wn = 6 rad/s, zeta = 0.5: 0.17 s
     ramp lag, 16 % overshoot after braking, as the paper observes on Fig. 4); otherwise the paper's
     overdamped model eq. 3-4. An explicit ``lag`` wins over both.
     """
-    t = _timeline(60.0, fs)
+    t = _timeline(duration, fs)
     knots: list[tuple[float, float]] = [(0.0, 0.0)]
     tc = 2.0 + rng.uniform(0.0, 1.0)
-    while tc < 54.0:
+    while tc < duration - 6.0:
         up, hold, brake = rng.uniform(2.0, 3.5), rng.uniform(1.0, 3.0), rng.uniform(1.5, 2.5)
         a_up, a_br = rng.uniform(2.0, 3.5), -rng.uniform(4.0, 7.0)
         knots += [(tc, a_up), (tc + up, 0.0), (tc + up + hold, a_br), (tc + up + hold + brake, 0.0)]
@@ -192,15 +203,17 @@ def tunnel(
     rng: np.random.Generator,
     *,
     fs: float = 400.0,
+    duration: float = 60.0,
     lag: GpsLagModel | None = None,
     outage: float = 5.0,
     acc_bias: float = 0.1,
     **kw,
 ) -> Recording:
-    """60 s drive with a ``outage`` s tunnel at about t = 40 s (paper Fig. 5): satellites drop to 0
-    and the receiver reports 0 m/s; the car accelerates steadily on entering, then cruises."""
-    t = _timeline(60.0, fs)
-    t_in = 38.0 + rng.uniform(0.0, 4.0)
+    """Drive (``duration`` s, default 60) with a ``outage`` s tunnel at about t = 40 s (paper
+    Fig. 5; ends 12-16 s before the end on shorter drives): satellites drop to 0 and the receiver
+    reports 0 m/s; the car accelerates steadily on entering, then cruises."""
+    t = _timeline(duration, fs, minimum=outage + 20.0)
+    t_in = min(38.0, duration - outage - 16.0) + rng.uniform(0.0, 4.0)
     knots = [
         (5.0, rng.uniform(1.0, 2.0)), (9.0, 0.0),
         (18.0, -rng.uniform(1.0, 2.0)), (21.0, 0.0),
@@ -218,13 +231,14 @@ def hilly(
     rng: np.random.Generator,
     *,
     fs: float = 400.0,
+    duration: float = 180.0,
     lag: GpsLagModel | None = None,
     acc_bias: float = 0.5,
     **kw,
 ) -> Recording:
-    """180 s on a hilly course (paper section VI-b, Fig. 3): constant ``acc_bias`` plus road grades
-    of up to +-4 % changing every 30-50 s, so the offset is ``acc_bias + g sin(theta(t))``."""
-    duration = 180.0
+    """``duration`` s (default 180) on a hilly course (paper section VI-b, Fig. 3): constant
+    ``acc_bias`` plus road grades of up to +-4 % changing every 30-50 s, so the offset is
+    ``acc_bias + g sin(theta(t))``."""
     t = _timeline(duration, fs)
     knots: list[tuple[float, float]] = []
     tc = 0.0
@@ -243,19 +257,20 @@ def gps_jump(
     rng: np.random.Generator,
     *,
     fs: float = 400.0,
+    duration: float = 60.0,
     lag: GpsLagModel | None = None,
     size: float = 3.0,
     **kw,
 ) -> Recording:
-    """60 s with receiver jumps (paper section VI-c): three times the receiver switches solution,
+    """``duration`` s (default 60) with receiver jumps (paper section VI-c): three times the receiver switches solution,
     its position jumps and the speed it derives is off by about ``size`` m/s (random sign) for a
     0.4-1 s transient (raised-cosine edges of 0.1 s)."""
-    t = _timeline(60.0, fs)
+    t = _timeline(duration, fs)
     a = _smooth_profile(t, [(8.0, 1.5), (11.0, 0.0), (30.0, -1.5), (33.0, 0.0), (45.0, 1.0),
                             (48.0, 0.0)], rise=0.4)
     err = np.zeros(t.size)
     for t0 in (15.0, 36.0, 52.0):
-        t0 = t0 + rng.uniform(-2.0, 2.0)
+        t0 = (t0 + rng.uniform(-2.0, 2.0)) * duration / 60.0
         d = rng.uniform(0.4, 1.0)
         amp = size * rng.uniform(0.8, 1.2) * rng.choice([-1.0, 1.0])
         err += amp * (_smooth_profile(t, [(t0, 1.0), (t0 + d, 0.0)], rise=0.1))
@@ -267,16 +282,17 @@ def motorcycle(
     rng: np.random.Generator,
     *,
     fs: float = 400.0,
+    duration: float = 60.0,
     lag: GpsLagModel | None = None,
     pitch_poly: tuple[float, ...] = PAPER_PITCH_POLY,
     **kw,
 ) -> Recording:
-    """60 s of a motorcycle: hard accelerations (to 6 m/s^2) and braking (to -8 m/s^2); the body
+    """``duration`` s (default 60) of a motorcycle: hard accelerations (to 6 m/s^2) and braking (to -8 m/s^2); the body
     pitches with acceleration by the paper's polynomial eq. 14 (degrees) plus 0.1 deg noise."""
-    t = _timeline(60.0, fs)
+    t = _timeline(duration, fs)
     knots: list[tuple[float, float]] = []
     tc = 2.0 + rng.uniform(0.0, 1.0)
-    while tc < 52.0:
+    while tc < duration - 8.0:
         up, brake = rng.uniform(2.0, 4.0), rng.uniform(1.5, 2.5)
         knots += [(tc, rng.uniform(3.0, 6.0)), (tc + up, 0.0),
                   (tc + up + rng.uniform(1.0, 2.0), -rng.uniform(5.0, 8.0)),

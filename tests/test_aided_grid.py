@@ -1,0 +1,167 @@
+"""Aided RBPMF (issue 4 part 3): shift exactness, step == run, aiding hooks, simulated drives."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from vibrospeed.errors import ParameterError
+from vibrospeed.estimators import aided, aided_grid, rbpmf
+from vibrospeed.models.harmonic import HarmonicModel
+from vibrospeed.sim.aided import SCENARIOS
+
+
+def _small(**kw) -> aided_grid.Config:
+    model = HarmonicModel(M=2, dt=0.01, q_omega=0.5, q_amp=0.004, r=0.0022, p0_amp=0.1)
+    tr = rbpmf.Config(model=model, n_grid=81, omega_min=0.0, omega_max=20.0, scaling="none",
+                      prefilter="thesis-hplp", **kw.pop("tracker_kw", {}))
+    return aided_grid.Config(tracker=tr, **kw)
+
+
+def test_shift_against_brute_force():
+    """Whole-cell shift = index shift; fractional shift = linear split with moment matching."""
+    rng = np.random.default_rng(0)
+    N, n = 12, 4
+    lw = np.log(rng.uniform(0.1, 1.0, N))
+    mean = rng.normal(size=(N, n))
+    A = rng.normal(size=(N, n, n))
+    cov = A @ A.transpose(0, 2, 1) + np.eye(n)
+    # integer shift by 3: exact move, the top 3 merged into the last point
+    l1, m1, c1 = lw.copy(), mean.copy(), cov.copy()
+    aided_grid._shift(l1, m1, c1, 3.0, 0.1)
+    w = np.exp(lw)
+    np.testing.assert_allclose(np.exp(l1[3:11]), w[:8], rtol=1e-12)
+    np.testing.assert_allclose(m1[3:11], mean[:8], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(c1[3:11], cov[:8], rtol=1e-12, atol=1e-12)
+    assert np.all(np.isneginf(l1[:3]))
+    np.testing.assert_allclose(c1[0], 0.1 * np.eye(n))
+    lam = w[8:] / w[8:].sum()
+    mj = lam @ mean[8:]
+    Pj = sum(lam[i] * (cov[8 + i] + np.outer(mean[8 + i] - mj, mean[8 + i] - mj))
+             for i in range(4))
+    np.testing.assert_allclose(m1[11], mj, rtol=1e-10)
+    np.testing.assert_allclose(c1[11], Pj, rtol=1e-10, atol=1e-12)
+    # fractional shift by -0.3 cells (clamped at 0): brute-force dense transfer matrix
+    l2, m2, c2 = lw.copy(), mean.copy(), cov.copy()
+    aided_grid._shift(l2, m2, c2, -0.3, 0.1)
+    T = np.zeros((N, N))  # T[j, i]: share of point i that lands on j
+    for i in range(N):
+        T[max(i - 1, 0), i] += 0.3
+        T[i, i] += 0.7
+    W = T @ w
+    np.testing.assert_allclose(np.exp(l2), W, rtol=1e-12)
+    assert np.exp(l2).sum() == pytest.approx(w.sum(), rel=1e-12)
+    for j in range(N):
+        lamj = T[j] * w / W[j]
+        mj = lamj @ mean
+        Pj = sum(lamj[i] * (cov[i] + np.outer(mean[i] - mj, mean[i] - mj)) for i in range(N))
+        np.testing.assert_allclose(m2[j], mj, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(c2[j], Pj, rtol=1e-9, atol=1e-10)
+
+
+def _signals(n=500, seed=0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.01
+    w = np.where(t < 1.5, 0.0, np.minimum((t - 1.5) * 5, 10.0))
+    th = np.cumsum(w) * 0.01
+    y = 0.2 * np.cos(th) + 0.15 * np.cos(2 * th) + rng.normal(0, 0.004, n)
+    u = np.gradient(w * 0.08, 0.01) + rng.normal(0, 0.01, n)
+    y[100] = np.nan
+    u[300] = np.nan
+    return y, u
+
+
+def test_step_equals_run():
+    cfg = _small()
+    y, u = _signals()
+    ref = np.full(y.size, np.nan)
+    ref_var = np.full(y.size, np.nan)
+    ref[420], ref_var[420] = 10.0, 0.05
+    res = aided_grid.run(cfg, y, u, ref=ref, ref_var=ref_var)
+    assert res.standstill[:140].mean() > 0.5 and res.accelerating.any()
+    st = aided_grid.init(cfg)
+    for k in range(y.size):
+        st, est = aided_grid.step(cfg, st, y[k], u[k], ref=ref[k], ref_var=ref_var[k])
+        assert est.omega == res.omega[k]
+        assert est.omega_std == res.omega_std[k]
+        assert est.omega_lo == res.omega_lo[k] and est.omega_hi == res.omega_hi[k]
+        assert est.standstill == res.standstill[k] and est.accelerating == res.accelerating[k]
+    np.testing.assert_array_equal(st.grid.log_w, res.final.grid.log_w)
+    np.testing.assert_array_equal(st.grid.cov, res.final.grid.cov)
+    assert st.offset == res.final.offset
+    a = aided_grid.run(cfg, y[:230], u[:230], ref=ref[:230], ref_var=ref_var[:230])
+    b = aided_grid.run(cfg, y[230:], u[230:], ref=ref[230:], ref_var=ref_var[230:],
+                       state=a.final)
+    np.testing.assert_array_equal(np.concatenate([a.omega, b.omega]), res.omega)
+
+
+def test_pure_integration_moves_posterior_exactly():
+    """Acceleration mode, no random walk: the posterior is translated by boost + (T/r) sum u
+    (whole cells by index, the rest in the offset), so its mean moves exactly."""
+    r = 0.08
+    cfg = _small(wheel_radius=r, standstill="none", q_omega_accel=0.0,
+                 tracker_kw=dict(omega0=5.0, omega0_std=0.5))
+    n = 150
+    u = np.full(n, 0.3)
+    y = np.zeros(n)
+    res = aided_grid.run(cfg, y, u)
+    acc = res.accelerating
+    assert not acc[:19].any() and acc[19:].all() and res.boost[19]
+    m0 = res.omega[18]  # vibration mode, y = 0: the prior mean (grid-discretised)
+    expect = m0 + 20 * 0.01 * 0.3 / r + 0.01 * 0.3 / r * np.arange(n - 19)
+    np.testing.assert_allclose(res.omega[19:], expect, rtol=1e-9)
+    np.testing.assert_allclose(res.omega_std[19:], res.omega_std[19], rtol=1e-9)
+
+
+def test_standstill_pulls_to_zero():
+    rng = np.random.default_rng(2)
+    y = rng.normal(0, 0.003, 200)  # quiet: the window test fires
+    cfg = _small(tracker_kw=dict(omega0=5.0, omega0_std=1.0))
+    res = aided_grid.run(cfg, y, np.zeros(200))
+    assert res.standstill[25:].all()
+    assert res.omega[-1] < 0.02 and res.omega_hi[-1] < 0.5
+
+
+def _stop_latency(rec, omega, tol=0.1):
+    worst = 0.0
+    for a, b in rec.meta["stops"]:
+        if b - a < 1.0 or a == rec.t[0]:
+            continue
+        i = (rec.t >= a) & (rec.t <= b)
+        bad = np.flatnonzero(omega[i] > tol)
+        worst = max(worst, 0.0 if bad.size == 0 else rec.t[i][bad[-1]] - a)
+    return worst
+
+
+@pytest.mark.parametrize("name", ["stop_and_go", "sudden_change"])
+def test_aided_rbpmf_beats_plain_rbpmf(name):
+    rec = SCENARIOS[name](seed=11, duration=45)
+    w = rec["omega_true"]
+    tr = aided.estimate(rec, params={"tracker": "rbpmf"})
+    assert tr.params["tracker"] == "rbpmf" and tr.speed_lo is not None
+    plain = rbpmf.estimate(rec, params=dict(omega_min=0.0, omega_max=40.0, n_grid=161, M=2,
+                                            prefilter="thesis-hplp"))
+    rmse = np.sqrt(np.mean((tr.omega - w) ** 2))
+    rmse_plain = np.sqrt(np.mean((plain.omega - w) ** 2))
+    assert rmse * 3 < rmse_plain
+    assert rmse < 1.0
+    assert _stop_latency(rec, tr.omega) < 1.0
+    assert np.mean(tr.extras["standstill"][w > 0.5] > 0) < 0.01
+    # the band covers the truth most of the time
+    assert np.mean((w >= tr.omega_lo - 0.25) & (w <= tr.omega_hi + 0.25)) > 0.8
+
+
+def test_errors():
+    base = aided_grid.Config()
+    with pytest.raises(ParameterError, match="omega_min = 0"):
+        aided_grid.Config(tracker=dataclasses.replace(base.tracker, omega_min=1.0))
+    with pytest.raises(ParameterError, match="linear grid"):
+        aided_grid.Config(tracker=dataclasses.replace(base.tracker, spacing="log",
+                                                      omega_min=1.0))
+    with pytest.raises(ParameterError, match="standstill"):
+        aided_grid.Config(standstill="cusum")
+    rec = SCENARIOS["start_from_rest"](seed=0, duration=8)
+    with pytest.raises(ParameterError, match="tracker"):
+        aided.estimate(rec, params={"tracker": "kalman"})
+    with pytest.raises(ParameterError, match="unknown parameter"):
+        aided.estimate(rec, params={"tracker": "rbpmf", "bogus": 1})
