@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vibrospeed.estimators import aided, ekf
+from vibrospeed.estimators import aided, ekf, rbpmf
 from vibrospeed.sim.aided import SCENARIOS
 
 SEEDS = range(15)
@@ -55,13 +55,16 @@ VARIANTS = {
     "aided (CUSUM)": {"standstill": "cusum"},
     "aided (window, aid_always)": {"aid_always": True},
     "same kernel, no aiding": NO_AID,
+    "aided RBPMF (window, -p tracker=rbpmf)": {"tracker": "rbpmf"},
 }
+PLAIN_RBPMF = dict(omega_min=0.0, omega_max=40.0, n_grid=161, M=2, prefilter="thesis-hplp")
 
 
 def bench_sim() -> None:
     for name in ("stop_and_go", "sudden_change"):
         rows = {k: {"rmse": [], "lat": [], "fa": []} for k in VARIANTS}
         rows["EKF (ekf.estimate, omega0 = 0)"] = {"rmse": [], "lat": [], "fa": []}
+        rows["RBPMF (rbpmf.estimate, same grid, unaided)"] = {"rmse": [], "lat": [], "fa": []}
         t0 = time.time()
         for seed in SEEDS:
             rec = SCENARIOS[name](seed=seed)
@@ -74,6 +77,11 @@ def bench_sim() -> None:
                 rows[k]["fa"].append(float(np.mean(tr.extras["standstill"][moving] > 0)))
             e = ekf.estimate(rec, params={"omega0": 0.0})
             r = rows["EKF (ekf.estimate, omega0 = 0)"]
+            r["rmse"].append(_rmse(e.omega, w))
+            r["lat"] += _stop_latency(rec, e.omega)
+            r["fa"].append(np.nan)
+            e = rbpmf.estimate(rec, params=PLAIN_RBPMF)
+            r = rows["RBPMF (rbpmf.estimate, same grid, unaided)"]
             r["rmse"].append(_rmse(e.omega, w))
             r["lat"] += _stop_latency(rec, e.omega)
             r["fa"].append(np.nan)
@@ -125,43 +133,45 @@ def _gps_stats(t, v, gps):
     return float(np.sqrt(np.mean(e**2))), float(np.median(np.abs(e))), float(c)
 
 
+HUNGARY_BASE = {"normalize_tau": 5.0, "prefilter": "thesis-hp"}
+HUNGARY = {
+    "aided EKF (thesis scheme)": HUNGARY_BASE,
+    "aided EKF, detrended + turn fixes": {**HUNGARY_BASE, "accel_detrend": 60.0,
+                                          "reference": "turn"},
+    "aided EKF, detrended + turn fixes, init from 1st fix, line gate, aid_always": {
+        **HUNGARY_BASE, "accel_detrend": 60.0, "reference": "turn", "init_ref": True,
+        "p0_omega": 1e4, "line_min": 0.5, "aid_always": True},
+    "aided RBPMF, detrended + turn fixes": {
+        "tracker": "rbpmf", "accel_detrend": 60.0, "reference": "turn", "prefilter": "thesis-hp",
+        "scaling": "rms", "r": rbpmf.DEFAULT_R, "q_amp": 0.001, "q_omega": 1.0,
+        "n_grid": 241, "omega_max": 120.0},
+}
+
+
 def bench_hungary() -> None:
+    from vibrospeed.eval import reference as refmod
     from vibrospeed.io import read
     from vibrospeed.io.timebase import resample_uniform
 
     drives = sorted(p for p in DATA.iterdir() if p.is_dir())
     print("\n### Hungary phyphox drives: speed vs GPS (m/s), radius fitted once per drive\n")
-    print("| drive | min | tracker | r fitted (m) | RMSE | median abs err | corr | "
-          "standstill share GPS < 0.3 / GPS > 2 m/s |")
-    print("|---|---|---|---|---|---|---|---|")
-    methods = {
-        "aided (thesis scheme)": {"normalize_tau": 5.0, "prefilter": "thesis-hp"},
-        "aided, a_x detrended 60 s": {"normalize_tau": 5.0, "prefilter": "thesis-hp",
-                                     "accel_detrend": 60.0},
-        "aided, detrended + turn fixes": {"normalize_tau": 5.0, "prefilter": "thesis-hp",
-                                          "accel_detrend": 60.0, "reference": "turn"},
-        "aided, detrended, aid_always + turn fixes": {
-            "normalize_tau": 5.0, "prefilter": "thesis-hp", "accel_detrend": 60.0,
-            "reference": "turn", "aid_always": True},
-    }
+    print("| drive | min | turn fixes (first at s) | tracker | r fitted (m) | RMSE | median abs err | "
+          "corr | GPS inside 98 % band | median band half-width |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for d in drives:
-        rec = read(d)
+        rec = read(d, "phyphox")
         rec = resample_uniform(rec) if not rec.is_uniform(0.01) else rec
         # canonical body axes: x forward = phone y; y left = -(phone x, which points right)
         body = rec.with_channels(ax=rec["ay"], ay=-rec["ax"])
         gps = rec["gps_speed"]
-        for k, p in methods.items():
+        fx = refmod.detect(body, kinds="turn")
+        first = f"{fx.t_detect[0] - rec.t[0]:.0f}" if len(fx) else "-"
+        head = f"| {d.name} | {rec.duration / 60:.1f} | {len(fx)} ({first}) |"
+        for k, p in HUNGARY.items():
             tr = aided.estimate(body, axis="y", wheel_radius=0.3, params=p)
             r1 = _fit_radius(gps, tr.omega)
             tr = aided.estimate(body, axis="y", wheel_radius=r1, params=p)
-            v = tr.speed
-            rm, mae, c = _gps_stats(rec.t, v, gps)
-            ss = tr.extras["standstill"] > 0
-            still = np.isfinite(gps) & (gps < 0.3)
-            mov = np.isfinite(gps) & (gps > 2.0)
-            sss = f"{ss[still].mean():.2f}" if still.any() else "-"
-            print(f"| {d.name} | {rec.duration / 60:.1f} | {k} | {r1:.3f} | {rm:.2f} | "
-                  f"{mae:.2f} | {c:.2f} | {sss} / {ss[mov].mean():.2f} |")
+            print(f"{head} {k} | {r1:.3f} | {_row(tr.speed, tr.speed_lo, tr.speed_hi, gps)} |")
         for name in ("ekf", "rbpmf"):
             try:
                 from vibrospeed.estimators import get
@@ -169,12 +179,22 @@ def bench_hungary() -> None:
                 mod = get(name)
                 tr = mod.estimate(body, axis="y", wheel_radius=None)
             except Exception as exc:  # noqa: BLE001 - report and go on
-                print(f"| {d.name} | | {name} | failed: {type(exc).__name__}: {exc} | | | | |")
+                print(f"{head} {name} | failed: {type(exc).__name__}: {exc} | | | | | |")
                 continue
             r1 = _fit_radius(gps, tr.omega)
-            rm, mae, c = _gps_stats(rec.t, r1 * tr.omega, gps)
-            print(f"| {d.name} | | {name} (unaided) | {r1:.3f} | {rm:.2f} | {mae:.2f} | "
-                  f"{c:.2f} | - |")
+            lo = None if tr.omega_lo is None else r1 * tr.omega_lo
+            hi = None if tr.omega_hi is None else r1 * tr.omega_hi
+            print(f"{head} {name} (unaided) | {r1:.3f} | {_row(r1 * tr.omega, lo, hi, gps)} |")
+
+
+def _row(v, lo, hi, gps) -> str:
+    rm, mae, c = _gps_stats(None, v, gps)
+    ok = np.isfinite(gps) & np.isfinite(v)
+    if lo is None or hi is None:
+        return f"{rm:.2f} | {mae:.2f} | {c:.2f} | - | -"
+    inside = np.mean((gps[ok] >= lo[ok]) & (gps[ok] <= hi[ok]))
+    half = np.median(0.5 * (hi[ok] - lo[ok]))
+    return f"{rm:.2f} | {mae:.2f} | {c:.2f} | {100 * inside:.0f} % | {half:.2f}"
 
 
 if __name__ == "__main__":

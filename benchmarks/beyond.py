@@ -131,7 +131,8 @@ def run_recording(rec, base, fitted, axis="y", rbpf_k=0, seed=0, truth=None):
         outs = _track(cfg, y, smooth=sm)
         el = time.perf_counter() - t0
         for kind, (om, lo, hi, has) in outs.items():
-            key = name if kind == "filter" else f"{name} ({'smoother' if kind == 'fb' else 'lag 2 s'})"
+            label = "smoother" if kind == "fb" else "lag 2 s"
+            key = name if kind == "filter" else f"{name} ({label})"
             rows[key] = metrics(rec.t, om, truth, lo, hi, has if cfg.has_null else None)
             times[key] = el
     sp = {k: v for k, v in base.items() if k in ("prefilter", "omega_min", "omega_max")}

@@ -388,12 +388,15 @@ shared 2-core VM.
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("parts", nargs="*", default=["kart", "hungary", "comma"],
-                    choices=["kart", "hungary", "comma"])
+    ap.add_argument("parts", nargs="*", help="kart, hungary, comma (default: all three)")
     ap.add_argument("--rbpf", action="store_true", help="also the RBPF (slow: ~1000 samples/s)")
     ap.add_argument("--no-peers", action="store_true")
     ap.add_argument("--no-write", action="store_true")
     a = ap.parse_args(argv)
+    a.parts = a.parts or ["kart", "hungary", "comma"]
+    bad = set(a.parts) - {"kart", "hungary", "comma"}
+    if bad:
+        ap.error(f"unknown part(s) {sorted(bad)}: choose from kart, hungary, comma")
     with_peers = not a.no_peers
     if with_peers:
         P.available_peers()  # prints a note per missing peer

@@ -161,18 +161,23 @@ def test_errors():
     assert tr.params["accel_axis"] == "-ax"
 
 
+_UNIT = HarmonicModel(dt=0.01, **ekf.UNIT_RMS_MODEL)
+
+
 def test_line_gate_widens_band_without_line():
     """White noise, no line: with the gate the vibration updates leave omega alone and its
     variance grows like the random walk (P0 + q T k); without it the EKF claims precision."""
     rng = np.random.default_rng(7)
     n = 1500
-    y = rng.normal(0, 0.05, n)
+    y = rng.normal(0, 1.0, n)  # unit RMS, as after the running-RMS normalisation
     u = np.zeros(n)
-    base = dict(omega0=10.0, p0_omega=0.25, standstill="none", q_bias=0.0, p0_bias=1e-300)
-    gated = aided.run(aided.Config(line_min=0.6, **base), y, u)
+    base = dict(model=_UNIT, omega0=10.0, p0_omega=0.25, standstill="none", q_bias=0.0,
+                p0_bias=1e-300)
+    gated = aided.run(aided.Config(line_min=0.5, **base), y, u)
     free = aided.run(aided.Config(**base), y, u)
     assert not gated.locked.any() and free.locked[20:].all()
-    q = aided.Config().model.q_omega
+    assert np.nanmax(gated.line_share[300:]) < 0.2
+    q = _UNIT.q_omega
     expect = np.sqrt(0.25 + q * 0.01 * np.arange(n))
     np.testing.assert_allclose(gated.omega_std, expect, rtol=1e-6)
     np.testing.assert_allclose(gated.omega, 10.0, atol=1e-9)
@@ -181,9 +186,9 @@ def test_line_gate_widens_band_without_line():
 
 def test_line_gate_keeps_a_real_line():
     y, u = _signals(n=1200)
-    y = y.copy()
-    res = aided.run(aided.Config(line_min=0.6), y, u)
-    ref = aided.run(aided.Config(), y, u)
+    y = 4.0 * y  # about unit RMS while moving
+    res = aided.run(aided.Config(model=_UNIT, line_min=0.5), y, u)
+    ref = aided.run(aided.Config(model=_UNIT), y, u)
     t = np.arange(y.size) * 0.01
     w = np.where(t < 2, 0.0, np.minimum((t - 2) * 5, 10.0))
     assert res.locked[-300:].mean() > 0.9

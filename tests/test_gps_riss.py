@@ -305,7 +305,7 @@ def _xcorr_lag(ref, est, fs, maxlag=0.5):
 @pytest.mark.parametrize("seed", [0, 1])
 @pytest.mark.parametrize("name", ["gps_braking", "gps_motorcycle"])
 def test_fused_beats_raw_gps_and_removes_lag(name, seed):
-    rec = sg.scenario(name, np.random.default_rng(seed))
+    rec = sg.scenario(name, np.random.default_rng(seed), fs=200.0)
     lag = _lag_of(rec)
     cfg = gr.Config.with_lag(lag, pitch_compensation=name == "gps_motorcycle")
     _, o = gr.run(cfg, rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"])

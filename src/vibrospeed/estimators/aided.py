@@ -38,6 +38,9 @@ The harmonic EKF of :mod:`vibrospeed.estimators.ekf` extended with
   then claim nothing about the speed, omega follows the aiding and the fixes, and its variance
   grows with the random walk -- the band widens instead of showing a precision the data do not
   have. If omega meets a real line again, the phasors grow at that rotation and the gate opens.
+  While closed, the phasors run as a plain Kalman filter at the current omega (cross
+  covariances with omega and b dropped, no omega term in their time-update Jacobian), so their
+  bandwidth stays that of q_amp / r.
   The gate stays closed until ``line_tau`` s of samples are in the running power.
   ``line_min = 0`` (default) is the thesis' filter.
 * ``init_ref``: omega is unknown until the first reference fix or standstill measurement (start
@@ -327,6 +330,16 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
                                                      and line[1] * T >= fp[15]))
         if not acc:
             innov, s_var = _vib_update(x, P, yg, M, r, lock)
+    if not lock and fp[14] > 0.0:
+        # gate closed: the phasors are a plain Kalman filter at the current omega (no cross
+        # covariance with omega, and omega's growing variance is not fed into their phase in
+        # the time update); otherwise their bandwidth widens with var(omega) and they would
+        # "explain" any noise, opening the gate
+        for i in range(1, n - 1):
+            P[0, i] = 0.0
+            P[i, 0] = 0.0
+            P[n - 1, i] = 0.0
+            P[i, n - 1] = 0.0
     if ss_kind == 2:
         eps = np.nan
         if np.isfinite(innov) and gain > 0.0:
@@ -387,8 +400,9 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
         F[ia, ib] = s
         F[ib, ia] = -s
         F[ib, ib] = c
-        F[ia, 0] = h * T * (-s * a + c * b)
-        F[ib, 0] = h * T * (-c * a - s * b)
+        if lock or fp[14] <= 0.0:
+            F[ia, 0] = h * T * (-s * a + c * b)
+            F[ib, 0] = h * T * (-c * a - s * b)
     xn[0] = om + T * (x[nb] + ue) / rw
     F[0, nb] = T / rw
     for i in range(n):

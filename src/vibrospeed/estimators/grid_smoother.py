@@ -14,7 +14,8 @@ with the emission ``l_t(j) = p(y_t | omega_t = j, y_1..t-1)`` the grid point's p
 density from the merged linear-state moments. The smoother runs the *backward* recursion of
 that same chain::
 
-    beta_t(i) = sum_j T(i -> j) l_{t+1}(j) beta_{t+1}(j),   p(omega_t = j | y_1..T) ∝ alpha_t(j) beta_t(j)
+    beta_t(i) = sum_j T(i -> j) l_{t+1}(j) beta_{t+1}(j)
+    p(omega_t = j | y_1..T) ∝ alpha_t(j) beta_t(j)
 
 i.e. the emissions are kept as the filter computed them (conditioned on the past only, not
 re-conditioned on the future). Justification: (a) for a fixed omega path the linear states

@@ -464,8 +464,9 @@ def _mass_near(w, grid, x, rel, ab):
 @njit(cache=True)
 def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out):
     """Outputs 0-4, 6-8 from grid weights ``w`` (signal, sum 1 - w0) and null mass ``w0``:
-    omega is the mean given a line (grid part renormalised); std and band are of the mixture ``v_j = w_j + w0 u_j`` (the null's omega is
-    unknown: uniform on the grid); MAP and ambiguity masses are of the signal part."""
+    omega is the mean given a line (grid part renormalised); std and band are of the mixture
+    ``v_j = w_j + w0 u_j`` (the null's omega is unknown: uniform on the grid);
+    MAP and ambiguity masses are of the signal part."""
     N = grid.size
     mu = 0.0
     mc = 0.0
