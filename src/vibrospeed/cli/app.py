@@ -14,7 +14,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from vibrospeed.errors import VibrospeedError
+from vibrospeed.errors import ParameterError, VibrospeedError
 
 app = typer.Typer(
     name="vibrospeed",
@@ -134,6 +134,13 @@ def estimate(
     param: Annotated[list[str] | None, typer.Option("--param", "-p", help="estimator parameter "
                      "NAME=VALUE (repeatable), e.g. -p M=2 -p q_omega=8")] = None,
     plot: Annotated[Path | None, typer.Option(help="also write a spectrogram plot (PNG)")] = None,
+    smooth: Annotated[bool, typer.Option("--smooth", help="offline: forward-backward smoothing "
+                      "on the grid (rbpmf; uses the whole log, so the past sees the future)")]
+    = False,
+    lag: Annotated[float | None, typer.Option(help="fixed-lag smoothing with this delay in s "
+                   "(rbpmf; for devices that can wait)")] = None,
+    fit_params: Annotated[bool, typer.Option("--fit-params", help="fit q_omega, q_amp and r to "
+                          "this recording by marginal likelihood first (rbpmf)")] = False,
     fmt: FormatOpt = "auto",
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
@@ -151,7 +158,9 @@ def estimate(
 
       vibrospeed estimate rsq_q2_00/ --format phyphox --axis y -o est.csv
 
-      vibrospeed estimate kart.csv --columns c1=ax,c2=ay,c3=az --rate 198.4 -o est.csv
+      vibrospeed estimate kart.csv --columns ax=c1,ay=c2,az=c3 --rate 198.4 -o est.csv
+
+      vibrospeed estimate drive.csv --method rbpmf --smooth -p improved=true -o est.csv
     """
     from vibrospeed import estimators, io
     from vibrospeed.config import parse_params
@@ -159,6 +168,16 @@ def estimate(
     params = parse_params(param)
     if init_omega is not None:
         params["omega0"] = str(init_omega)
+    if smooth or lag is not None or fit_params:
+        if method not in ("rbpmf", "grid"):
+            raise ParameterError("--smooth, --lag and --fit-params need --method rbpmf or grid")
+        if smooth:
+            params["smooth"] = "fb"
+        elif lag is not None:
+            params["smooth"] = "lag"
+            params["lag"] = str(lag)
+        if fit_params:
+            params["fit"] = "q_omega,q_amp,r"
     mod = estimators.get(method)
     rec = _load(input, fmt, columns, mapping, rate, sort)
     extra_kw = {}

@@ -24,6 +24,10 @@ METHODS: dict[str, tuple[str, str]] = {
         "vibrospeed.estimators.rbpmf",
         "Rao-Blackwellized point-mass filter over an omega grid (paper III-D)",
     ),
+    "grid": (
+        "vibrospeed.estimators.grid",
+        "best vibration tracker: grid filter with re-acquisition, no-line state, smoothing",
+    ),
     "rbpf": ("vibrospeed.estimators.rbpf", "Rao-Blackwellized particle filter (paper III-C)"),
     "shs": ("vibrospeed.estimators.shs", "subharmonic summation per batch (Hermes 1988)"),
     "aided": (
