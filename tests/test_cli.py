@@ -126,9 +126,10 @@ def test_truth_from_ticks_and_scenario_list(tmp_path):
 
 def test_gps_riss_speed_only_evaluation(tmp_path):
     rec_path = tmp_path / "tunnel.csv"
-    assert "duration" in _err(_run("simulate", "--scenario", "gps_tunnel", "--duration", 30,
-                                   "-o", rec_path))
-    assert _run("simulate", "--scenario", "gps_tunnel", "-o", rec_path).exit_code == 0
+    assert "bogus" in _err(_run("simulate", "--scenario", "gps_tunnel", "--set", "bogus=1",
+                                "-o", rec_path))
+    assert _run("simulate", "--scenario", "gps_tunnel", "--duration", 30, "-o",
+                rec_path).exit_code == 0
     est = tmp_path / "gps.csv"
     res = _run("estimate", rec_path, "--method", "gps-riss", "--axis", "x", "-o", est)
     assert res.exit_code == 0, res.output

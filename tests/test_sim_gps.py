@@ -76,3 +76,31 @@ def test_jumps_and_pitch():
 def test_unknown_scenario():
     with pytest.raises(ParameterError, match="unknown GPS scenario 'x'"):
         sg.scenario("x", np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("name", list(sg.SCENARIOS))
+def test_duration_knob(name):
+    rec = sg.scenario(name, np.random.default_rng(0), fs=50.0, duration=40.0)
+    assert rec.duration == pytest.approx(40.0, abs=0.05)
+    assert np.all(rec["speed_true"] >= 0)
+    default = sg.scenario(name, np.random.default_rng(0), fs=50.0)
+    assert default.duration == pytest.approx(180.0 if name == "gps_hilly" else 60.0, abs=0.05)
+    if name == "gps_tunnel":
+        t0, t1 = rec.meta["tunnel"]
+        assert 0 < t0 < t1 < 40.0
+    with pytest.raises(ParameterError, match="duration"):
+        sg.scenario(name, np.random.default_rng(0), fs=50.0, duration=5.0)
+
+
+def test_gps_delay_is_an_exact_shift():
+    lag = GpsLagModel.from_wn_zeta(6.0, 0.5)
+    rec = sg.braking(np.random.default_rng(2), fs=100.0, lag=lag, gps_delay=0.37,
+                     gps_noise=0.0)
+    fix = np.isfinite(rec["gps_speed"])
+    rx = simulate_receiver(rec.t, rec["speed_true"], lag)
+    shifted = np.interp(rec.t - 0.37, rec.t, rx)
+    late = fix & (rec.t > 1.0)
+    np.testing.assert_allclose(rec["gps_speed"][late], np.maximum(shifted[late], 0), atol=1e-9)
+    assert rec.meta["gps_lag"]["delay"] == 0.37
+    with pytest.raises(ParameterError, match="gps_delay"):
+        sg.braking(np.random.default_rng(2), fs=100.0, gps_delay=-1.0)

@@ -106,13 +106,15 @@ def _gps_scenario(name: str, build):
             kw["duration"] = duration
         if fs is not None:
             kw["fs"] = fs
-        accepted = inspect.signature(build).parameters
-        takes_any = any(p.kind is p.VAR_KEYWORD for p in accepted.values())
-        for k in kw:
-            if k not in accepted and not (takes_any and k not in ("duration",)):
-                raise ParameterError(f"scenario '{name}' has no knob '{k}' "
-                                     f"(it has: {', '.join(a for a in accepted if a != 'rng')})")
-        rec = build(np.random.default_rng(seed), **kw)
+        try:
+            rec = build(np.random.default_rng(seed), **kw)
+        except TypeError as exc:
+            if "unexpected keyword argument" not in str(exc):
+                raise
+            bad = str(exc).split("argument", 1)[1].strip(" '\"")
+            known = [a for a in inspect.signature(build).parameters if a not in ("rng", "kw")]
+            raise ParameterError(f"scenario '{name}' has no knob '{bad}' "
+                                 f"(it has: {', '.join(known)}, ...)") from None
         rec.meta.update(scenario=name, seed=seed)
         rec.source = f"sim:{name}(seed={seed})"
         return rec
