@@ -155,8 +155,8 @@ def bench_hungary() -> None:
 
     drives = sorted(p for p in DATA.iterdir() if p.is_dir())
     print("\n### Hungary phyphox drives: speed vs GPS (m/s), radius fitted once per drive\n")
-    print("| drive | min | turn fixes (first at s) | tracker | r fitted (m) | RMSE | median abs err | "
-          "corr | GPS inside 98 % band | median band half-width |")
+    print("| drive | min | turn fixes (first at s) | tracker | r fitted (m) | RMSE | "
+          "median abs err | corr | GPS inside 98 % band | median band half-width |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for d in drives:
         rec = read(d, "phyphox")

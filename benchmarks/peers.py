@@ -258,7 +258,8 @@ def run_scenario(scen: str, seeds: int, rbpf_seeds: int, particles: int, peers: 
         # peers: the same pre-filtered axis as the trackers
         x = rec["ay"]
         head = x[: int(fs)][np.isfinite(x[: int(fs)])]
-        y = pf.apply(pf.design("thesis-hp", fs), x, level=float(np.mean(head)) if head.size else None)
+        level = float(np.mean(head)) if head.size else None
+        y = pf.apply(pf.design("thesis-hp", fs), x, level=level)
         t0 = time.process_time()
         tf, wf = spectrogram_peak(y, fs, wmin, wmax)
         add("spectrogram peak", to_samples(rec.t, tf, wf), truth, time.process_time() - t0)

@@ -713,7 +713,8 @@ def estimate(
     out_params = {**model.to_dict(), **{k: getattr(config, k) for k in (
         "omega0", "p0_omega", "amp0", "q_bias", "p0_bias", "q_omega_accel", "standstill",
         "ss_n", "ss_mu", "r_ss", "cusum_sigma", "cusum_nu", "cusum_h", "mode_n", "mode_mu",
-        "boost", "aid_always", "line_min", "line_tau", "line_omega_min", "init_ref")}, "omega_max": config.omega_limit, "wheel_radius": float(r),
+        "boost", "aid_always", "line_min", "line_tau", "line_omega_min", "init_ref")},
+        "omega_max": config.omega_limit, "wheel_radius": float(r),
         "prefilter": pre, "lp_cutoff": lp, "normalize_tau": tau, "accel_detrend": detrend,
         "axis": axis,
         "accel_axis": accel_axis, "reference": reference, "tracker": "ekf"}

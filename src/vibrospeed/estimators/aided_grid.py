@@ -110,7 +110,8 @@ class Config:
         if not (self.wheel_radius and self.wheel_radius > 0):
             raise ParameterError(f"wheel_radius must be > 0 m, got {self.wheel_radius}")
         if tr.spacing != "linear" or tr.n_grid < 2:
-            raise ParameterError("aided rbpmf needs a linear grid of >= 2 points (spacing='linear')")
+            raise ParameterError("aided rbpmf needs a linear grid of >= 2 points "
+                                 "(spacing='linear')")
         if tr.omega_min != 0.0:
             raise ParameterError(f"aided rbpmf needs omega_min = 0 (the grid point omega = 0 is "
                                  f"standstill), got {tr.omega_min}")

@@ -19,9 +19,10 @@ since the previous one:
 4. GPS error E and adaptive weighting (section VI-c, eq. 13, 18):
    ``R22 = r_gps + r_gps_slope E + r_gps_sq E^2`` with E clipped to ``0..e_max``. Default
    ``error_mode="innovation"``: E^2 = max(nu^2 - S, 0), nu the main filter's GPS innovation and S
-   its predicted variance (the part of the disagreement the model does not explain, so R22 grows to
-   nu^2 on a receiver jump). ``"kf2"``: the paper's KF2 (same model, fixed R = (r_acc_gps, r_gps))
-   predicts the fix through the lag model and E = |fix - prediction| before KF2's update;
+   its predicted variance (the part of the disagreement the model does not explain, so R22 grows
+   with nu^2 on a receiver jump). ``"kf2"``: the paper's KF2 (same model, fixed
+   R = (r_acc_gps, r_gps)) predicts the fix through the lag model and E = |fix - prediction|
+   before KF2's update;
    ``"states"``: the paper's literal E = |x3_KF2 - lag(x1_KF2)| after it.
 5. offset (section VI-b): ``offset_mode="state"`` (default) estimates b inside the filter above
    (random walk ``q_offset``), so grade changes are followed with the filter's own gain and the
@@ -318,7 +319,6 @@ def _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw,
     of the last step length; ``out`` (8,) receives the results. Returns the mode."""
     dt = 0.0 if math.isnan(sc[0]) else t - sc[0]
     sc[0] = t
-    n = x.size
     integ = p[10] > 0.5
     emode = int(p[14])
     use_kf2 = emode > 0

@@ -262,9 +262,9 @@ def gps_jump(
     size: float = 3.0,
     **kw,
 ) -> Recording:
-    """``duration`` s (default 60) with receiver jumps (paper section VI-c): three times the receiver switches solution,
-    its position jumps and the speed it derives is off by about ``size`` m/s (random sign) for a
-    0.4-1 s transient (raised-cosine edges of 0.1 s)."""
+    """``duration`` s (default 60) with receiver jumps (paper section VI-c): three times the
+    receiver switches solution, its position jumps and the speed it derives is off by about
+    ``size`` m/s (random sign) for a 0.4-1 s transient (raised-cosine edges of 0.1 s)."""
     t = _timeline(duration, fs)
     a = _smooth_profile(t, [(8.0, 1.5), (11.0, 0.0), (30.0, -1.5), (33.0, 0.0), (45.0, 1.0),
                             (48.0, 0.0)], rise=0.4)
@@ -287,8 +287,9 @@ def motorcycle(
     pitch_poly: tuple[float, ...] = PAPER_PITCH_POLY,
     **kw,
 ) -> Recording:
-    """``duration`` s (default 60) of a motorcycle: hard accelerations (to 6 m/s^2) and braking (to -8 m/s^2); the body
-    pitches with acceleration by the paper's polynomial eq. 14 (degrees) plus 0.1 deg noise."""
+    """``duration`` s (default 60) of a motorcycle: hard accelerations (to 6 m/s^2) and braking
+    (to -8 m/s^2); the body pitches with acceleration by the paper's polynomial eq. 14 (degrees)
+    plus 0.1 deg noise."""
     t = _timeline(duration, fs)
     knots: list[tuple[float, float]] = []
     tc = 2.0 + rng.uniform(0.0, 1.0)
