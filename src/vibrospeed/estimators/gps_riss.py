@@ -559,7 +559,8 @@ def identify_lag(t, gps_speed, speed_ref, *, wn0: float = 10.0, zeta0: float = 0
                  fit_gain: bool = False, fit_delay: bool = False, delay0: float = 0.2,
                  pade: int = 2) -> tuple[GpsLagModel, dict[str, float]]:
     """Fit the receiver model (paper section IV-b: second-order lag; optionally a gain and a pure
-    delay in front, Pade order ``pade`` as the filter uses it) to GPS fixes.
+    delay in front, Pade order ``pade`` as the filter uses it) to GPS fixes. With ``fit_delay``
+    the fit starts from the delays 0, ``delay0`` and ``2 delay0`` and keeps the best.
 
     Simulates ``x3`` driven by the reference speed (taken piecewise linear) for candidate
     ``(wn, zeta[, gain][, delay])`` and minimises the squared difference to ``gps_speed`` at its
@@ -595,12 +596,18 @@ def identify_lag(t, gps_speed, speed_ref, *, wn0: float = 10.0, zeta0: float = 0
     def resid(theta):
         return simulate_receiver(t, v, model(theta))[fix] - g[fix]
 
-    x0 = [np.log(wn0), np.log(zeta0)] + ([1.0] if fit_gain else []) + (
-        [delay0] if fit_delay else [])
     lo = [np.log(0.05), np.log(0.05)] + ([0.5] if fit_gain else []) + ([0.0] if fit_delay else [])
     hi = [np.log(500.0), np.log(20.0)] + ([1.5] if fit_gain else []) + (
         [2.0] if fit_delay else [])
-    sol = least_squares(resid, x0, bounds=(lo, hi), x_scale=1.0, diff_step=1e-4)
+    # the delay trades off against the lag (near-equal residuals): start from several delays and
+    # keep the best fit
+    sol = None
+    for d0 in ((0.0, delay0, 2.0 * delay0) if fit_delay else (None,)):
+        x0 = [np.log(wn0), np.log(zeta0)] + ([1.0] if fit_gain else []) + (
+            [d0] if fit_delay else [])
+        cand = least_squares(resid, x0, bounds=(lo, hi), x_scale=1.0, diff_step=1e-4)
+        if sol is None or cand.cost < sol.cost - 1e-9 * max(sol.cost, 1e-12):
+            sol = cand
     lag = model(sol.x)
     info = {"wn": lag.wn, "zeta": lag.zeta, "gain": lag.dc_gain, "delay": lag.delay,
             "rmse": float(np.sqrt(np.mean(sol.fun**2))),
