@@ -32,8 +32,8 @@ import numpy as np
 
 from vibrospeed import sim
 from vibrospeed.estimators import fit as _fit
+from vibrospeed.estimators import grid, rbpf, rbpmf, shs
 from vibrospeed.estimators import grid_smoother as gs
-from vibrospeed.estimators import rbpf, rbpmf, shs
 
 SCEN = {
     "car": {"prefilter": "thesis-hp"},
@@ -81,6 +81,7 @@ def metrics(t, est, truth, lo=None, hi=None, has=None):
     out = {"ok_cruise": ok[cru].mean() if cru.any() else np.nan, "ok_moving": ok[mov].mean(),
            "wrong": (near & ~ok)[mov].mean()}
     h = np.ones_like(truth, bool) if has is None else has
+    out["ok_has"] = ok[mov & h].mean() if (mov & h).any() else np.nan
     if lo is not None:
         sel = mov & h
         out["cover"] = ((truth >= lo) & (truth <= hi))[sel].mean() if sel.any() else np.nan
@@ -105,6 +106,23 @@ def _track(cfg, y, *, smooth=None):
         sm = gs.smooth(cfg, res.grid_loglik)
         out["fb"] = (sm.omega, sm.omega_lo, sm.omega_hi, sm.p_null < 0.5)
         lg = gs.fixed_lag(cfg, res.grid_loglik, lag=2.0)
+        out["lag"] = (lg.omega, lg.omega_lo, lg.omega_hi, lg.p_null < 0.5)
+    return out
+
+
+def grid_track(rec, axis, base, *, lag=True):
+    """The product (`-m grid`): filter, smoother and (optionally) fixed lag 2 s."""
+    p = {k: v for k, v in base.items() if k != "prefilter"}
+    p = {**{k: v for k, v in grid.GRID_DEFAULTS.items()
+            if k not in grid.HarmonicModel.__dataclass_fields__}, "smooth": "none", **p}
+    cfg_t, y, _, _ = rbpmf.prepare(rec, axis, rbpmf.Config, p, grid._grid_model)
+    cfg = grid.Config(tracker=cfg_t)
+    res = grid.run(cfg, y, return_grid_loglik=True).filt
+    out = {"filter": (res.omega, res.omega_lo, res.omega_hi, res.p_null < 0.5)}
+    sm = gs.smooth(cfg_t, res.grid_loglik)
+    out["fb"] = (sm.omega, sm.omega_lo, sm.omega_hi, sm.p_null < 0.5)
+    if lag:
+        lg = gs.fixed_lag(cfg_t, res.grid_loglik, lag=2.0)
         out["lag"] = (lg.omega, lg.omega_lo, lg.omega_hi, lg.p_null < 0.5)
     return out
 
@@ -135,6 +153,13 @@ def run_recording(rec, base, fitted, axis="y", rbpf_k=0, seed=0, truth=None):
             key = name if kind == "filter" else f"{name} ({label})"
             rows[key] = metrics(rec.t, om, truth, lo, hi, has if cfg.has_null else None)
             times[key] = el
+    t0 = time.perf_counter()
+    outs = grid_track(rec, axis, base)
+    el = time.perf_counter() - t0
+    for kind, (om, lo, hi, has) in outs.items():
+        key = {"filter": "grid (filter)", "fb": "grid (smoother)", "lag": "grid (lag 2 s)"}[kind]
+        rows[key] = metrics(rec.t, om, truth, lo, hi, has)
+        times[key] = el
     sp = {k: v for k, v in base.items() if k in ("prefilter", "omega_min", "omega_max")}
     sp["omega_min"] = max(sp.get("omega_min", 10.0), 4.0)
     t0 = time.perf_counter()
@@ -162,10 +187,11 @@ def table(allrows, alltimes):
         for k in r:
             if k not in names:
                 names.append(k)
-    print("| method | runs | ok cruise % | ok moving % | wrong harmonic % | band coverage % "
+    print("| method | runs | ok cruise % | ok moving % | ok moving where has_signal % | "
+          "wrong harmonic % | band coverage % "
           "(where has_signal) | has_signal moving / standing % | lock s median (< 2 s %) "
           "| s/run |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for n in names:
         rs = [r[n] for r in allrows if n in r]
         ts = [t[n] for t in alltimes if n in t]
@@ -176,9 +202,10 @@ def table(allrows, alltimes):
 
         lk = np.array([r["lock"] for r in rs])
         hs = (f"{m('hs_moving'):.0f} / {m('hs_still'):.0f}" if "hs_moving" in rs[0]
-              and n.split(" (")[0] in ("all", "+ no-line state") else "-")
+              and n.split(" (")[0] in ("all", "+ no-line state", "grid") else "-")
         cov = f"{m('cover'):.0f}" if "cover" in rs[0] else "-"
         print(f"| {n} | {len(rs)} | {m('ok_cruise'):.1f} | {m('ok_moving'):.1f} | "
+              f"{m('ok_has'):.1f} | "
               f"{m('wrong'):.1f} | {cov} | {hs} | {np.nanmedian(lk):.1f} "
               f"({100 * np.mean(np.isfinite(lk) & (lk < 2)):.0f} %) | {np.mean(ts):.2f} |",
               flush=True)
@@ -235,28 +262,31 @@ def _kart():
     return rec, v
 
 
-def real_bench(fitted):
+def real_bench(fitted, kart_axes=("x", "y", "z")):
     """Real data: omega truth = gps speed / r. Hungary: r = 0.31 m (typical), coverage of the
     GPS-implied omega by the band and ok share after fitting r once per drive; kart: r fitted
-    once (the line's effective radius)."""
+    once (the line's effective radius), every axis."""
     print("\n### Real recordings\n")
-    print("| recording | method | ok moving % (r fitted) | r fit m | band coverage % "
-          "(where has_signal, r = 0.31 / fitted) | has_signal moving % |")
-    print("|---|---|---|---|---|---|")
+    print("| recording | method | ok moving % (r fitted) | ok where has_signal % | within 5 % | "
+          "r fit m | band coverage % (where has_signal, r = 0.31 / fitted) | "
+          "has_signal moving % | s |")
+    print("|---|---|---|---|---|---|---|---|---|")
     sets = []
     for name, rec in _hungary():
         sets.append((f"Hungary {name}", rec, rec["gps_speed"], 0.31, "z",
                      {"prefilter": "thesis-hp", "omega_min": 5.0, "omega_max": 60.0}))
     krec, kv = _kart()
-    sets.append(("GoPro kart", krec, kv, None, "z",
-                 {"prefilter": "thesis-hp", "omega_min": 20.0, "omega_max": 250.0, "M": 2}))
+    for ax in kart_axes:
+        sets.append((f"GoPro kart ({ax})", krec, kv, None, ax,
+                     {"prefilter": "thesis-hp", "omega_min": 20.0, "omega_max": 250.0, "M": 2}))
     for label, rec, v, r_typ, axis, base in sets:
         from vibrospeed.estimators.common import prepare_axis
 
-        res = {}
+        res, el = {}, {}
         for name, (p, sm) in variants(fitted).items():
             if name not in ("paper RBPMF", "all"):
                 continue
+            t0 = time.perf_counter()
             cfg, y, _, _ = rbpmf.prepare(rec, axis, rbpmf.Config, {**base, **p},
                                          rbpmf._paper_model)
             for kind, (om, lo, hi, has) in _track(cfg, y, smooth=sm).items():
@@ -264,15 +294,25 @@ def real_bench(fitted):
                     continue
                 key = name if kind == "filter" else f"{name} (smoother)"
                 res[key] = (om, lo, hi, has if cfg.has_null else np.ones(om.size, bool))
+                el[key] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        for kind, out in grid_track(rec, axis, base, lag=False).items():
+            key = "grid (filter)" if kind == "filter" else "grid (smoother)"
+            res[key] = out
+            el[key] = time.perf_counter() - t0
+        t0 = time.perf_counter()
         yy, dt, _ = prepare_axis(rec, axis, prefilter=base["prefilter"], normalize_tau=None)
-        est = stft_harmonic_sum(yy, dt, base["omega_min"], base["omega_max"])
+        est = stft_harmonic_sum(yy, dt, base["omega_min"], base["omega_max"],
+                                M=base.get("M", 3))
         res["STFT harmonic sum (baseline)"] = (est, None, None, np.ones(est.size, bool))
+        el["STFT harmonic sum (baseline)"] = time.perf_counter() - t0
         mov = np.isfinite(v) & (v > 2.0)
         for key, (om, lo, hi, has) in res.items():
             sel = mov & np.isfinite(om)
             r_fit = float(np.median(v[sel] / om[sel]))
             w = v / r_fit
             ok = np.abs(om - w) <= np.maximum(2.0, 0.1 * w)
+            w5 = np.abs(om - w) <= 0.05 * w
             cov = "-"
             if lo is not None:
                 c1 = "-"
@@ -281,8 +321,10 @@ def real_bench(fitted):
                     c1 = f"{100 * np.mean(((w1 >= lo) & (w1 <= hi))[mov & has]):.0f}"
                 c2 = f"{100 * np.mean(((w >= lo) & (w <= hi))[mov & has]):.0f}"
                 cov = f"{c1} / {c2}"
-            print(f"| {label} | {key} | {100 * ok[mov].mean():.1f} | {r_fit:.3f} | {cov} | "
-                  f"{100 * has[mov].mean():.0f} |", flush=True)
+            okh = f"{100 * ok[mov & has].mean():.1f}" if (mov & has).any() else "-"
+            print(f"| {label} | {key} | {100 * ok[mov].mean():.1f} | {okh} | "
+                  f"{100 * w5[mov].mean():.1f} | {r_fit:.3f} | {cov} | "
+                  f"{100 * has[mov].mean():.0f} | {el[key]:.1f} |", flush=True)
 
 
 def speed():

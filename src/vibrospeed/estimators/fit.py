@@ -36,9 +36,10 @@ class FitResult(NamedTuple):
     history: list
 
 
-def loglik(config: _rb.Config, y: np.ndarray) -> float:
-    """``log p(y_1..T)`` under ``config`` (sum of the filter's predictive log-likelihoods)."""
-    return float(np.sum(_rb.run(config, y).loglik))
+def loglik(config: _rb.Config, y: np.ndarray, extra=None) -> float:
+    """``log p(y_1..T)`` under ``config`` (sum of the filter's predictive log-likelihoods;
+    with ``temper`` < 1 or ``extra`` evidence, of the tempered/augmented normalisers)."""
+    return float(np.sum(_rb.run(config, y, extra=extra).loglik))
 
 
 def _with(config: _rb.Config, values: dict) -> _rb.Config:
@@ -54,11 +55,13 @@ def fit(
     min_factor: float = 1.4,
     rounds: int = 4,
     max_seconds: float | None = None,
+    extra=None,
 ) -> FitResult:
     """Maximise ``log p(y_1..T)`` over the model parameters ``names`` (coordinate search).
 
     ``y`` : the pre-filtered, scaled signal the filter sees. ``max_seconds``: use only the
-    first that many seconds of ``y`` (faster fits on long logs).
+    first that many seconds of ``y`` (faster fits on long logs). ``extra``: extra log-evidence
+    as in :func:`vibrospeed.estimators.rbpmf.run` (kept fixed during the fit).
     """
     names = list(names)
     bad = [n for n in names if n not in FIT_NAMES]
@@ -68,6 +71,9 @@ def fit(
     y = np.asarray(y, dtype=np.float64)
     if max_seconds is not None:
         y = y[: max(1, int(round(max_seconds / config.model.dt)))]
+        if extra is not None:
+            keep = np.asarray(extra[0]) < y.size
+            extra = (np.asarray(extra[0])[keep], np.asarray(extra[1])[keep])
     vals = {n: float(getattr(config.model, n)) for n in names}
     cache: dict[tuple, float] = {}
     history: list = []
@@ -75,7 +81,7 @@ def fit(
     def ev(v: dict) -> float:
         key = tuple(round(np.log(v[n]), 9) for n in names)
         if key not in cache:
-            ll = loglik(_with(config, v), y)
+            ll = loglik(_with(config, v), y, extra)
             cache[key] = ll if np.isfinite(ll) else -np.inf
             history.append((dict(v), cache[key]))
         return cache[key]

@@ -66,6 +66,8 @@ class Smoothed(NamedTuple):
     p_half: np.ndarray
     p_double: np.ndarray
     posterior: np.ndarray | None
+    p_third: np.ndarray | None = None
+    p_triple: np.ndarray | None = None
 
 
 class Path(NamedTuple):
@@ -133,7 +135,9 @@ def _forward(gll, lw_init, kb, B, u, eps, p_off, p_on, has_null, log_floor):
             s += a[j]
         for j in range(N1):
             a[j] /= s
-            alpha[t, j] = a[j]
+            # stored as float32: floored at 1e-37 (the smallest normal float32 is 1.2e-38) so
+            # that alpha * beta cannot vanish on every state when strong evidence disagrees
+            alpha[t, j] = max(a[j], 1e-37) if (j < N or has_null) else 0.0
         _predict(a, kb, B, u, eps, p_off, p_on, has_null, pr)
         for j in range(N1):
             lw[j] = np.log(pr[j]) if pr[j] > 0.0 else -np.inf
@@ -179,6 +183,11 @@ def _emit(alpha_t, beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, row
     for j in range(N + 1):
         g[j] = alpha_t[j] * beta[j]
         s += g[j]
+    if not s > 0.0:  # pragma: no cover - guarded by the alpha floor
+        s = 0.0
+        for j in range(N + 1):
+            g[j] = alpha_t[j]
+            s += g[j]
     for j in range(N + 1):
         g[j] /= s
     jmap = _summary(g[:N], g[N], u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, row)
@@ -213,7 +222,7 @@ def _smooth_range(alpha, gll, t_end, t_lo, t_hi, kb, B, grid, edges, u, eps, p_o
 
 def _result(outs: np.ndarray, posts: np.ndarray | None) -> Smoothed:
     return Smoothed(outs[:, 0], outs[:, 1], outs[:, 2], outs[:, 3], outs[:, 4], outs[:, 6],
-                    outs[:, 7], outs[:, 8], posts)
+                    outs[:, 7], outs[:, 8], posts, outs[:, 9], outs[:, 10])
 
 
 def _prep(config, gll, return_posterior):

@@ -111,6 +111,12 @@ class Config:
         :mod:`vibrospeed.estimators.grid_smoother`.
     fit : comma-separated model parameters to fit by marginal likelihood before tracking
         (e.g. ``"q_omega,q_amp,r"``; :mod:`vibrospeed.estimators.fit`); empty: none.
+    temper : power ``c`` in (0, 1] on the per-sample predictive likelihoods (grid and "no
+        line"): ``log w_j += c log N(y; h m_j, S_j)``. ``c = 1`` is the paper's filter; ``c < 1``
+        is the coarsened ("power") likelihood for a misspecified model (unmodelled resonances
+        and interfering lines make the per-sample evidence over-confident): the posterior then
+        moves as if it had seen ``c`` times the samples, leaving room for other evidence
+        (:mod:`vibrospeed.estimators.grid`).
     """
 
     model: HarmonicModel = field(default_factory=_paper_model)
@@ -138,6 +144,7 @@ class Config:
     smooth: str = "none"
     lag: float = 2.0
     fit: str = ""
+    temper: float = 1.0
 
     def __post_init__(self) -> None:
         if int(self.n_grid) != self.n_grid or self.n_grid < 1:
@@ -175,6 +182,8 @@ class Config:
             raise ParameterError(f"null_var must be > 0, got {self.null_var}")
         if self.smooth not in ("none", "fb", "lag"):
             raise ParameterError(f"smooth must be 'none', 'fb' or 'lag', got '{self.smooth}'")
+        if not 0 < self.temper <= 1:
+            raise ParameterError(f"temper must be in (0, 1], got {self.temper}")
         if not self.lag > 0:
             raise ParameterError(f"lag must be > 0 s, got {self.lag}")
         bad = [p for p in self.fit_names if p not in ("q_omega", "q_amp", "r")]
@@ -366,7 +375,8 @@ class Estimate(NamedTuple):
     """Posterior at one sample (rad/s): mean, std, MAP, credible interval [lo, hi]; the
     predictive log-likelihood ``log p(y_k | y_1..k-1)``; ``p_null`` (mass of "no line"),
     ``p_half``, ``p_double`` (mass near MAP/2 and 2 MAP); amplitudes (M,) at the MAP point;
-    ``posterior`` (N,) grid weights (signal part)."""
+    ``posterior`` (N,) grid weights (signal part); ``p_third``, ``p_triple`` (mass near MAP/3
+    and 3 MAP)."""
 
     omega: float
     omega_std: float
@@ -379,6 +389,8 @@ class Estimate(NamedTuple):
     p_double: float
     amplitudes: np.ndarray
     posterior: np.ndarray
+    p_third: float = 0.0
+    p_triple: float = 0.0
 
 
 class Result(NamedTuple):
@@ -397,9 +409,13 @@ class Result(NamedTuple):
     posterior: np.ndarray | None  # (n, N) float32 when asked for
     grid_loglik: np.ndarray | None  # (n, N + 1) float32 when asked for (last column: null)
     final: State
+    p_third: np.ndarray | None = None  # mass near MAP/3
+    p_triple: np.ndarray | None = None  # mass near 3 MAP
 
 
-N_OUT_FIXED = 9  # mean, std, map, lo, hi, pred loglik, p_null, p_half, p_double; then M amps
+#: outputs per sample: mean, std, map, lo, hi, pred loglik, p_null, p_half, p_double, p_third,
+#: p_triple; then M amplitudes
+N_OUT_FIXED = 11
 
 
 def init(config: Config) -> State:
@@ -463,7 +479,7 @@ def _mass_near(w, grid, x, rel, ab):
 
 @njit(cache=True)
 def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out):
-    """Outputs 0-4, 6-8 from grid weights ``w`` (signal, sum 1 - w0) and null mass ``w0``:
+    """Outputs 0-4, 6-10 from grid weights ``w`` (signal, sum 1 - w0) and null mass ``w0``:
     omega is the mean given a line (grid part renormalised); std and band are of the mixture
     ``v_j = w_j + w0 u_j`` (the null's omega is unknown: uniform on the grid);
     MAP and ambiguity masses are of the signal part."""
@@ -490,19 +506,27 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out):
     out[6] = w0
     sig = 1.0 - w0
     if sig > 1e-300:
-        out[7] = _mass_near(w, grid, 0.5 * grid[jmap], amb_rel, amb_abs) / sig
-        out[8] = _mass_near(w, grid, 2.0 * grid[jmap], amb_rel, amb_abs) / sig
+        x = grid[jmap]
+        out[7] = _mass_near(w, grid, x / 2.0, amb_rel, amb_abs) / sig
+        out[8] = _mass_near(w, grid, 2.0 * x, amb_rel, amb_abs) / sig
+        out[9] = _mass_near(w, grid, x / 3.0, amb_rel, amb_abs) / sig
+        out[10] = _mass_near(w, grid, 3.0 * x, amb_rel, amb_abs) / sig
     else:
         out[7] = 0.0
         out[8] = 0.0
+        out[9] = 0.0
+        out[10] = 0.0
     return jmap
 
 
 @njit(cache=True)
 def _step(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo, q_hi,
-          eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, w, v, X, acc, out, post, gll):
+          eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, ex, w, v, X, acc, out, post,
+          gll):
     """One RBPMF iteration in place on (lw, lw0[0], mean, cov); writes ``out``, ``post`` (N,)
-    and ``gll`` (N + 1,) per-point predictive log-likelihoods (if sized).
+    and ``gll`` (N + 1,) per-point log-emissions (if sized): ``temper`` times the predictive
+    log-likelihood plus ``ex`` (N + 1,) extra log-evidence for this sample (if sized; last entry
+    for the "no line" state).
 
     Specialised to the harmonic model: ``h = [1, 0, 1, 0, ...]`` (rank-1 update with
     ``P h' = sum of the even columns``), ``F`` block diagonal with rotations ``cs[i, m] =
@@ -541,18 +565,28 @@ def _step(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_
                     val = Pj[i, k] - pi * ph[k]
                     Pj[i, k] = val
                     Pj[k, i] = val
-            ll = -0.5 * (LOG_2PI + np.log(S) + nu * nu * inv)
+            ll = -0.5 * (LOG_2PI + np.log(S) + nu * nu * inv) * temper
+            if ex.size > 0:
+                ll += ex[j]
             lw[j] += ll
             if gll.size > 0:
                 gll[j] = ll
         if has_null:
-            ll0 = -0.5 * (LOG_2PI + np.log(null_var) + y * y / null_var)
+            ll0 = -0.5 * (LOG_2PI + np.log(null_var) + y * y / null_var) * temper
+            if ex.size > 0:
+                ll0 += ex[N]
             lw0[0] += ll0
             if gll.size > 0:
                 gll[N] = ll0
-    elif gll.size > 0:
-        for j in range(N + 1):
-            gll[j] = 0.0
+    else:
+        if ex.size > 0:
+            for j in range(N):
+                lw[j] += ex[j]
+            if has_null:
+                lw0[0] += ex[N]
+        if gll.size > 0:
+            for j in range(N + 1):
+                gll[j] = ex[j] if ex.size > 0 else 0.0
     mx = lw0[0] if has_null else -np.inf
     for j in range(N):
         if lw[j] > mx:
@@ -686,7 +720,8 @@ def _step(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_
 
 @njit(cache=True)
 def _run(ys, lw, lw0, mean, cov, r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo, q_hi,
-         eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, want_post, want_gll):
+         eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, ex_idx, ex_val, want_post,
+         want_gll):
     n_s = ys.size
     N = grid.size
     n = mean.shape[1]
@@ -701,10 +736,16 @@ def _run(ys, lw, lw0, mean, cov, r, cs, qd, kb, B, grid, edges, u, log_floor, q_
     L = n + n * (n + 1) // 2
     X = np.empty((N, L))
     acc = np.empty(L)
+    no_ex = np.empty(0)
+    f = 0
+    n_ex = ex_idx.size
     for k in range(n_s):
+        while f < n_ex and ex_idx[f] < k:
+            f += 1
+        ex = ex_val[f] if (f < n_ex and ex_idx[f] == k) else no_ex
         _step(lw, lw0, mean, cov, ys[k], r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo,
-              q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, w, v, X, acc, outs[k],
-              post, gll)
+              q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, ex, w, v, X, acc,
+              outs[k], post, gll)
         if want_post:
             for j in range(N):
                 posts[k, j] = post[j]
@@ -730,11 +771,24 @@ def _args(config: Config) -> tuple:
     eps, p_off, p_on, nv = config.rates()
     return (float(m.r), cs, float(m.dt * m.q_amp), k.kb, int(k.B), k.grid, k.edges, u,
             float(config.log_floor), q, 1.0 - q, eps, p_off, p_on, nv, float(m.p0_amp),
-            float(config.amb_rel), float(config.amb_abs))
+            float(config.amb_rel), float(config.amb_abs), float(config.temper))
 
 
-def step(config: Config, state: State, y: float) -> tuple[State, Estimate]:
-    """Process one sample; returns the prior for the next sample and the posterior now."""
+def _extra_vec(config: Config, ex) -> np.ndarray:
+    N = config.n_grid
+    e = np.ascontiguousarray(ex, dtype=np.float64)
+    if e.shape == (N,):
+        e = np.append(e, 0.0)
+    if e.shape != (N + 1,):
+        raise ParameterError(f"extra evidence must have {N} or {N + 1} entries, got {e.shape}")
+    return e
+
+
+def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Estimate]:
+    """Process one sample; returns the prior for the next sample and the posterior now.
+
+    ``extra`` : optional (N,) or (N + 1,) log-evidence added to the grid points' (and the "no
+    line" state's) log-weights with this sample (e.g. :mod:`vibrospeed.estimators.grid`)."""
     lw = state.log_w.copy()
     lw0 = np.array([state.log_w_null])
     mean = state.mean.copy()
@@ -744,9 +798,11 @@ def step(config: Config, state: State, y: float) -> tuple[State, Estimate]:
     out = np.empty(N_OUT_FIXED + M)
     post = np.empty(N)
     L = n + n * (n + 1) // 2
-    _step(lw, lw0, mean, cov, float(y), *_args(config), np.empty(N), np.empty(N),
+    ex = np.empty(0) if extra is None else _extra_vec(config, extra)
+    _step(lw, lw0, mean, cov, float(y), *_args(config), ex, np.empty(N), np.empty(N),
           np.empty((N, L)), np.empty(L), out, post, np.empty(0))
-    est = Estimate(*out[:5], out[5], out[6], out[7], out[8], out[N_OUT_FIXED:].copy(), post)
+    est = Estimate(*out[:5], out[5], out[6], out[7], out[8], out[N_OUT_FIXED:].copy(), post,
+                   out[9], out[10])
     return State(lw, mean, cov, float(lw0[0])), est
 
 
@@ -757,22 +813,38 @@ def run(
     *,
     return_posterior: bool = False,
     return_grid_loglik: bool = False,
+    extra: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> Result:
     """Run over a whole (already pre-filtered, scaled) signal; identical to repeated
     :func:`step`. ``return_posterior``: also return the grid posterior (n, N) as float32;
-    ``return_grid_loglik``: the per-state predictive log-likelihoods (n, N + 1) float32 that
-    :mod:`vibrospeed.estimators.grid_smoother` needs (last column: the "no line" state)."""
+    ``return_grid_loglik``: the per-state log-emissions (n, N + 1) float32 that
+    :mod:`vibrospeed.estimators.grid_smoother` needs (last column: the "no line" state).
+    ``extra = (idx, values)``: log-evidence ``values[f]`` ((N,) or (N + 1,) per row) added at
+    sample ``idx[f]`` (indices into ``y``, increasing), as :func:`step`'s ``extra``."""
     st = init(config) if state is None else state
     lw = np.array(st.log_w, dtype=np.float64)
     lw0 = np.array([st.log_w_null], dtype=np.float64)
     mean = np.ascontiguousarray(st.mean, dtype=np.float64).copy()
     cov = np.ascontiguousarray(st.cov, dtype=np.float64).copy()
     ys = np.ascontiguousarray(y, dtype=np.float64)
-    outs, posts, glls = _run(ys, lw, lw0, mean, cov, *_args(config), bool(return_posterior),
-                             bool(return_grid_loglik))
-    return Result(*(outs[:, c] for c in range(N_OUT_FIXED)), outs[:, N_OUT_FIXED:],
+    N = config.n_grid
+    if extra is None:
+        ex_idx, ex_val = np.zeros(0, np.int64), np.zeros((0, N + 1))
+    else:
+        ex_idx = np.ascontiguousarray(extra[0], dtype=np.int64)
+        ex_val = np.ascontiguousarray(extra[1], dtype=np.float64)
+        if ex_val.ndim == 2 and ex_val.shape[1] == N:
+            ex_val = np.ascontiguousarray(np.column_stack([ex_val, np.zeros(len(ex_val))]))
+        if ex_val.shape != (ex_idx.size, N + 1):
+            raise ParameterError(f"extra evidence must be ({ex_idx.size}, {N} or {N + 1}), "
+                                 f"got {ex_val.shape}")
+        if ex_idx.size > 1 and np.any(np.diff(ex_idx) <= 0):
+            raise ParameterError("extra evidence indices must be strictly increasing")
+    outs, posts, glls = _run(ys, lw, lw0, mean, cov, *_args(config), ex_idx, ex_val,
+                             bool(return_posterior), bool(return_grid_loglik))
+    return Result(*(outs[:, c] for c in range(9)), outs[:, N_OUT_FIXED:],
                   posts if return_posterior else None, glls if return_grid_loglik else None,
-                  State(lw, mean, cov, float(lw0[0])))
+                  State(lw, mean, cov, float(lw0[0])), outs[:, 9], outs[:, 10])
 
 
 def improved(config: Config | None = None, **kw) -> Config:
@@ -869,9 +941,10 @@ def estimate(
 
     The Track's ``omega`` is the posterior mean, its band the ``level`` credible interval;
     extras (per sample): ``omega_map`` (filter: MAP; smoother: Viterbi path, NaN in "no line"),
-    ``loglik``, ``p_null``, ``p_half``, ``p_double``, ``confidence`` (= 1 - p_null),
-    ``has_signal`` (1.0 where confidence >= 0.5), ``ambiguous`` (1.0 where p_half or p_double
-    >= 0.05), ``amp1..M`` (in signal units), ``rms``. With ``return_posterior`` the extras also
+    ``loglik``, ``p_null``, ``p_half``, ``p_double``, ``p_third``, ``p_triple`` (mass near
+    MAP/2, 2 MAP, MAP/3, 3 MAP), ``confidence`` (= 1 - p_null), ``has_signal`` (1.0 where
+    confidence >= 0.5), ``ambiguous`` (1.0 where any of the four >= 0.05), ``amp1..M`` (in
+    signal units), ``rms``. With ``return_posterior`` the extras also
     hold ``posterior`` (n, N) float32 and ``grid`` (N,) (for the posterior image).
 
     Examples
@@ -889,29 +962,68 @@ def estimate(
     if _truthy(params.pop("improved", False)):
         params = {**IMPROVED, **params}
     config, y, rms, notes = prepare(recording, axis, Config, params, _paper_model)
+    return track(recording, config, y, rms, notes, axis=axis, wheel_radius=wheel_radius,
+                 progress=progress, return_posterior=return_posterior, method="rbpmf")
+
+
+#: gain of the paper's high-pass (order 2) below which a note warns that the pre-filter
+#: suppresses the low end of the grid (and with it the fundamental of slow wheels)
+_PREFILTER_NOTE_GAIN = 0.5
+
+
+def prefilter_note(config: Config, fs: float) -> str | None:
+    """A note when the pre-filter's high-pass attenuates ``omega_min`` by more than half: e.g.
+    ``paper-hp`` (8 Hz = 50 rad/s) on a 10 rad/s cart leaves the fundamental at 4 % and the
+    2nd harmonic at 16 % of their amplitudes, so a body resonance wins (issue 7)."""
+    from scipy.signal import sosfreqz
+
+    from vibrospeed.signal import prefilter as pf
+
+    try:
+        sos = pf.design(config.prefilter, fs, M=config.model.M)
+    except Exception:  # pragma: no cover - preset validated in prepare
+        return None
+    _, h = sosfreqz(sos, worN=[config.omega_min / (2 * np.pi)], fs=fs)
+    g = float(np.abs(h[0]))
+    if g < _PREFILTER_NOTE_GAIN:
+        return (f"pre-filter '{config.prefilter}' passes only {100 * g:.0f} % of the amplitude at "
+                f"omega_min = {config.omega_min:g} rad/s: slow wheels' low harmonics are "
+                "suppressed (use -p prefilter=thesis-hp for slow vehicles)")
+    return None
+
+
+def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, notes: list,
+          *, axis: str, wheel_radius: float | None, progress: bool = False,
+          return_posterior: bool = False, method: str = "rbpmf",
+          extra: tuple[np.ndarray, np.ndarray] | None = None,
+          extra_params: dict | None = None) -> Track:
+    """The part of :func:`estimate` after :func:`prepare` (shared with
+    :mod:`vibrospeed.estimators.grid`): optional fit, filter or smoother, Track with extras.
+    ``extra``: log-evidence per :func:`run`."""
     if config.fit_names:
         from vibrospeed.estimators import fit as _fit
 
-        fr = _fit.fit(config, y, names=config.fit_names)
+        fr = _fit.fit(config, y, names=config.fit_names, extra=extra)
         config = fr.config
         notes.append("fitted by marginal likelihood: " + ", ".join(
             f"{k} = {v:.4g}" for k, v in fr.values.items()) + f" (log p(y) {fr.loglik:.6g})")
-    note = check_grid_spacing(config)
-    if note:
-        notes.append(note)
+    for note in (check_grid_spacing(config), prefilter_note(config, 1.0 / config.model.dt)):
+        if note:
+            notes.append(note)
     if config.kern.B > 0:
         notes.append(f"banded kernel: B = {config.kern.B}, discarded row mass <= "
                      f"{config.kern.tail:.2g}")
     M = config.model.M
     if config.smooth == "none":
-        res = _run_chunked(config, y, return_posterior, progress)
+        res = _run_chunked(config, y, return_posterior, progress, extra)
         omega, std, lo, hi = res.omega, res.omega_std, res.omega_lo, res.omega_hi
         omap, p_null, p_half, p_double = res.omega_map, res.p_null, res.p_half, res.p_double
+        p_third, p_triple = res.p_third, res.p_triple
         post = res.posterior
     else:
         from vibrospeed.estimators import grid_smoother
 
-        res = run(config, y, return_grid_loglik=True)
+        res = run(config, y, return_grid_loglik=True, extra=extra)
         if config.smooth == "fb":
             sm = grid_smoother.smooth(config, res.grid_loglik, return_posterior=return_posterior)
             vit = grid_smoother.viterbi(config, res.grid_loglik)
@@ -924,12 +1036,14 @@ def estimate(
             notes.append(f"fixed-lag smoother, lag {config.lag:g} s (delay <= 2 lag)")
         omega, std, lo, hi = sm.omega, sm.omega_std, sm.omega_lo, sm.omega_hi
         p_null, p_half, p_double, post = sm.p_null, sm.p_half, sm.p_double, sm.posterior
+        p_third, p_triple = sm.p_third, sm.p_triple
     conf = 1.0 - p_null
+    amb = np.maximum(np.maximum(p_half, p_double), np.maximum(p_third, p_triple))
     extras: dict[str, np.ndarray] = {
         "omega_map": omap, "loglik": res.loglik, "p_null": p_null, "p_half": p_half,
-        "p_double": p_double, "confidence": conf,
+        "p_double": p_double, "p_third": p_third, "p_triple": p_triple, "confidence": conf,
         "has_signal": (conf >= 0.5).astype(np.float64),
-        "ambiguous": (np.maximum(p_half, p_double) >= 0.05).astype(np.float64), "rms": rms,
+        "ambiguous": (amb >= 0.05).astype(np.float64), "rms": rms,
     }
     for m in range(M):
         extras[f"amp{m + 1}"] = res.amplitudes[:, m] * rms / config.signal_rms
@@ -938,14 +1052,16 @@ def estimate(
         extras["grid"] = config.grid.copy()
     return Track.from_omega(
         recording.t, omega, std, lo=lo, hi=hi,
-        level=config.level, wheel_radius=wheel_radius or recording.wheel_radius, method="rbpmf",
-        params={**config.to_dict(), "axis": axis}, extras=extras, notes=notes,
+        level=config.level, wheel_radius=wheel_radius or recording.wheel_radius, method=method,
+        params={**config.to_dict(), **(extra_params or {}), "axis": axis}, extras=extras,
+        notes=notes,
     )
 
 
-def _run_chunked(config: Config, y: np.ndarray, return_posterior: bool, progress: bool) -> Result:
-    if not progress:
-        return run(config, y, return_posterior=return_posterior)
+def _run_chunked(config: Config, y: np.ndarray, return_posterior: bool, progress: bool,
+                 extra=None) -> Result:
+    if not progress or extra is not None:
+        return run(config, y, return_posterior=return_posterior, extra=extra)
     from rich.progress import Progress
 
     chunk = 20000
@@ -960,4 +1076,5 @@ def _run_chunked(config: Config, y: np.ndarray, return_posterior: bool, progress
             bar.update(task, advance=min(chunk, y.size - k0))
     cat = [np.concatenate([getattr(p, f) for p in parts]) for f in Result._fields[:10]]
     post = np.concatenate([p.posterior for p in parts]) if return_posterior else None
-    return Result(*cat, post, None, state)
+    return Result(*cat, post, None, state, np.concatenate([p.p_third for p in parts]),
+                  np.concatenate([p.p_triple for p in parts]))
