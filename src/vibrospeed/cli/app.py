@@ -126,8 +126,8 @@ def estimate(
                       "omega_lo, omega_hi, speed, ...) + a .json sidecar")],
     method: Annotated[str, typer.Option("--method", "-m", help="estimator (see `vibrospeed "
                       "methods`)")] = "ekf",
-    axis: Annotated[str, typer.Option(help="vibration axis (x, y, z or a channel name); for "
-                    "gps-riss the longitudinal axis")] = "y",
+    axis: Annotated[str | None, typer.Option(help="vibration axis (x, y, z or a channel name; "
+                    "default y); for gps-riss the longitudinal axis (default x)")] = None,
     wheel_radius: Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]
     = None,
     init_omega: Annotated[float | None, typer.Option(help="initial omega in rad/s (EKF)")] = None,
@@ -183,8 +183,11 @@ def estimate(
     extra_kw = {}
     if plot is not None and "return_posterior" in inspect.signature(mod.estimate).parameters:
         extra_kw["return_posterior"] = True
-    track = mod.estimate(rec, axis=axis, wheel_radius=wheel_radius, params=params,
+    if axis is not None:
+        extra_kw["axis"] = axis
+    track = mod.estimate(rec, wheel_radius=wheel_radius, params=params,
                          progress=sys.stderr.isatty(), **extra_kw)
+    axis = track.params.get("axis", axis) if isinstance(track.params.get("axis"), str) else axis
     # per-sample columns go to the CSV; a grid posterior (n, N) only to the plot
     grids = {k: v for k, v in track.extras.items() if np.shape(v) != (len(track),)}
     for k in grids:
@@ -200,7 +203,8 @@ def estimate(
         from vibrospeed.estimators.common import axis_channel
         from vibrospeed.eval.plot import plot_track
 
-        ch = axis_channel(axis) if axis_channel(axis) in rec.channels else next(iter(rec.channels))
+        ch = axis_channel(axis or "y")
+        ch = ch if ch in rec.channels else next(iter(rec.channels))
         plot_track(plot, rec, track, axis=ch, posterior=grids.get("posterior"),
                    grid=grids.get("grid"))
         err.print(f"wrote {plot}")

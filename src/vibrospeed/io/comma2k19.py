@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from vibrospeed.errors import ReaderError
+from vibrospeed.io.timebase import place_nearest
 from vibrospeed.types import WHEEL_CHANNELS, Recording
 
 RAV4_WHEEL_RADIUS = 0.362  # m, 225/65R17: (17 * 25.4 + 2 * 0.65 * 225) / 2 mm
@@ -126,7 +127,10 @@ def read_comma2k19(path, *, wheel_radius: float = RAV4_WHEEL_RADIUS) -> Recordin
         tg = _npy(gnss / "t").astype(np.float64)
         vg = _npy(gnss / "value").astype(np.float64)
         if vg.ndim == 2 and vg.shape[0] == tg.size and vg.shape[1] > 2:
-            ch["gps_speed"] = _interp(t, tg, vg[:, 2])
+            # each 10 Hz fix appears once, at the nearest sample (NaN between fixes), as the
+            # phyphox reader does: estimators must see a new fix exactly once
+            inside = (tg >= t[0]) & (tg <= t[-1])
+            ch["gps_speed"] = place_nearest(tg[inside], vg[inside, 2], t)
     pose = root / "global_pose"
     if (pose / "frame_times").exists():
         tp = _npy(pose / "frame_times").astype(np.float64)
