@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import inspect
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -51,6 +52,14 @@ def _friendly(fn):
         except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
             print(f"vibrospeed: error: {exc.filename or ''}: {exc.strerror}", file=sys.stderr)
             raise typer.Exit(2) from None
+        except (typer.Exit, typer.Abort, KeyboardInterrupt):
+            raise
+        except Exception as exc:  # a bug, not bad input: one line, exit 1, traceback on demand
+            if os.environ.get("VIBROSPEED_DEBUG"):
+                raise
+            print(f"vibrospeed: internal error: {type(exc).__name__}: {exc} (please report it; "
+                  "set VIBROSPEED_DEBUG=1 for the traceback)", file=sys.stderr)
+            raise typer.Exit(1) from None
 
     return wrapper
 
@@ -386,7 +395,9 @@ def info(
     ch = set(rec.channels)
     uses = []
     if ch & {"ax", "ay", "az"}:
-        uses.append("ekf, rbpmf, rbpf, shs (vibrations)")
+        top = np.pi * rec.fs / 2  # highest omega with M = 2 harmonics below Nyquist
+        uses.append("ekf, rbpmf, grid, rbpf, shs (vibrations" + (
+            ")" if top >= 120 else f"; only up to omega = {top:.0f} rad/s at this rate with M = 2)"))
     if "ax" in ch or "ay" in ch:
         uses.append("aided (with a longitudinal axis and the wheel radius)")
     if "gps_speed" in ch:

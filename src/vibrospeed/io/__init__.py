@@ -108,6 +108,8 @@ _BUILTIN: dict[str, _Format] = {
                         "comma2k19 segment: phone IMU, GNSS and CAN wheel speeds"),
     "f1tenth": _entry("vibrospeed.io.f1tenth", "read_f1tenth", "detect",
                       "F1TENTH friction-map logs: IMU (g, deg/s), VESC odometry"),
+    "androsensor": _entry("vibrospeed.io.androsensor", "read_androsensor", "detect",
+                          "AndroSensor accel.<trip>.csv (+ gps.<trip>.csv beside it)"),
     "csv": _entry("vibrospeed.io.canonical", "read_csv", None,
                   "canonical CSV: header 't,ax,ay,...' in SI units (vibrospeed's own)"),
     "mapped": _entry("vibrospeed.io.mapped", "read_mapped", None,
