@@ -396,8 +396,8 @@ def info(
     uses = []
     if ch & {"ax", "ay", "az"}:
         top = np.pi * rec.fs / 2  # highest omega with M = 2 harmonics below Nyquist
-        uses.append("ekf, rbpmf, grid, rbpf, shs (vibrations" + (
-            ")" if top >= 120 else f"; only up to omega = {top:.0f} rad/s at this rate with M = 2)"))
+        limit = "" if top >= 120 else f"; only up to omega = {top:.0f} rad/s at this rate, M = 2"
+        uses.append(f"ekf, rbpmf, grid, rbpf, shs (vibrations{limit})")
     if "ax" in ch or "ay" in ch:
         uses.append("aided (with a longitudinal axis and the wheel radius)")
     if "gps_speed" in ch:
