@@ -143,3 +143,16 @@ def test_info_describes_channels(drive):
     res = _run("info", drive)
     assert res.exit_code == 0, res.output
     assert "omega_true" in res.output and "rad/s" in res.output and "can feed" in res.output
+
+
+def test_gps_riss_paper_preset(tmp_path):
+    rec_path = tmp_path / "jump.csv"
+    assert _run("simulate", "--scenario", "gps_jump", "--duration", 20, "-o",
+                rec_path).exit_code == 0
+    est = tmp_path / "p.csv"
+    res = _run("estimate", rec_path, "-m", "gps-riss", "-p", "preset=paper", "-o", est)
+    assert res.exit_code == 0, res.output
+    side = json.loads(est.with_name("p.csv.json").read_text())
+    assert side["params"]["r_gps_slope"] == 72.0 and side["params"]["error_mode"] == "kf2"
+    assert "preset" in _err(_run("estimate", rec_path, "-m", "gps-riss", "-p", "preset=x",
+                                 "-o", est))

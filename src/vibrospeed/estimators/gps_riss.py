@@ -536,9 +536,15 @@ def estimate(recording: Recording, *, axis: str = "x", wheel_radius: float | Non
     ``progress`` shows a progress bar (the recording is filtered in chunks of 200 000 samples;
     same numbers). The Track's ``speed_std`` is sqrt(P11) (an honest 1-sigma when the noise
     parameters match the sensors; 98 % band by default); extras hold ``offset``, ``offset_std``,
-    ``gps_error``, ``accel``, ``gps_model``, ``mode``.
+    ``gps_error``, ``accel``, ``gps_model``, ``mode``. ``params["preset"] = "paper"`` starts from
+    :meth:`Config.paper` (the paper's noise constants) instead of the calibrated defaults.
     """
-    cfg = config_from_params(Config, params)
+    params = dict(params or {})
+    preset = str(params.pop("preset", "default")).lower()
+    if preset not in ("default", "paper"):
+        raise ParameterError(f"unknown gps-riss preset '{preset}' (choose default or paper)")
+    base = asdict(Config.paper()) if preset == "paper" else {}
+    cfg = config_from_params(Config, params, **base)
     ch = _AXIS_CHANNEL.get(axis, axis)
     recording.require(ch, "gps_speed")
     sats = recording.channels.get("gps_sats")
