@@ -25,7 +25,9 @@ demo: venv
 	$(BIN)/vibrospeed estimate $(OUT)/cart.csv --method ekf --init-omega 10 -o $(OUT)/cart_ekf.csv --plot $(OUT)/cart_ekf.png
 	$(BIN)/vibrospeed evaluate $(OUT)/cart_ekf.csv --truth $(OUT)/cart_truth.csv
 	$(BIN)/vibrospeed simulate --scenario car --seed 1 -o $(OUT)/car.csv
-	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method rbpmf -o $(OUT)/car_rbpmf.csv --plot $(OUT)/car_rbpmf.png
+	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method grid -o $(OUT)/car_grid.csv --plot $(OUT)/car_grid.png
+	$(BIN)/vibrospeed evaluate $(OUT)/car_grid.csv --truth $(OUT)/car.csv
+	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method rbpmf -o $(OUT)/car_rbpmf.csv
 	$(BIN)/vibrospeed evaluate $(OUT)/car_rbpmf.csv --truth $(OUT)/car.csv
 	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method gps-riss --axis x -o $(OUT)/car_gps.csv
 	$(BIN)/vibrospeed evaluate $(OUT)/car_gps.csv --truth $(OUT)/car.csv

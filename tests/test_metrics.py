@@ -51,3 +51,16 @@ def test_interp_outside_span_is_nan_and_time_to_lock():
     est = np.array([0, 0, 5, 5, 9, 10, 10, 10, 10, 10.0])
     assert time_to_lock(t, est, np.full(10, 10.0)) == 4.0
     assert time_to_lock(t, np.zeros(10), np.full(10, 10.0)) == np.inf
+
+
+def test_ok_share_and_claimed_scores():
+    t = np.arange(10.0)
+    truth = np.full(10, 50.0)
+    est = np.array([50, 54, 56, 50, 50, 80, 80, 50, 50, 50.0])  # ok within 5 rad/s (10 %)
+    tr = Track.from_omega(t, est, np.full(10, 1.0), method="x",
+                          extras={"has_signal": np.r_[np.ones(5), np.zeros(2), np.ones(3)]})
+    m = compare(tr, t, truth)
+    assert m.ok_share == pytest.approx(0.7)
+    assert m.claimed_share == pytest.approx(0.8)
+    assert m.ok_claimed == pytest.approx(7 / 8)
+    assert m.rmse_claimed == pytest.approx(np.sqrt((16 + 36) / 8))

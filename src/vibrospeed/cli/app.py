@@ -144,12 +144,13 @@ def estimate(
                      "NAME=VALUE (repeatable), e.g. -p M=2 -p q_omega=8")] = None,
     plot: Annotated[Path | None, typer.Option(help="also write a spectrogram plot (PNG)")] = None,
     smooth: Annotated[bool, typer.Option("--smooth", help="offline: forward-backward smoothing "
-                      "on the grid (rbpmf; uses the whole log, so the past sees the future)")]
+                      "on the grid (rbpmf, grid; uses the whole log, so the past sees the "
+                      "future; grid smooths by default)")]
     = False,
     lag: Annotated[float | None, typer.Option(help="fixed-lag smoothing with this delay in s "
-                   "(rbpmf; for devices that can wait)")] = None,
+                   "(rbpmf, grid; for devices that can wait)")] = None,
     fit_params: Annotated[bool, typer.Option("--fit-params", help="fit q_omega, q_amp and r to "
-                          "this recording by marginal likelihood first (rbpmf)")] = False,
+                          "this recording by marginal likelihood first (rbpmf, grid)")] = False,
     fmt: FormatOpt = "auto",
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
@@ -260,8 +261,14 @@ def evaluate(
          f"{m.coverage:.1%}" if m.coverage == m.coverage else "n/a (no band)", ""),
     ]
     if m.unit != "m/s":
-        rows += [("share at omega/2", f"{m.half_share:.1%}", ""),
+        rows += [("share within max(2 rad/s, 10 %)", f"{m.ok_share:.1%}", ""),
+                 ("share at omega/2", f"{m.half_share:.1%}", ""),
                  ("share at 2 omega", f"{m.double_share:.1%}", "")]
+    if m.claimed_share == m.claimed_share:
+        rows += [("share where it claims a signal", f"{m.claimed_share:.1%}", ""),
+                 ("  RMSE there", f"{m.rmse_claimed:.3f}", m.unit),
+                 ("  within max(2 rad/s, 10 %) there", f"{m.ok_claimed:.1%}", ""),
+                 ("  band coverage there", f"{m.coverage_claimed:.1%}", "")]
     if m.rmse_speed == m.rmse_speed and m.unit != "m/s":
         rows.append(("RMSE speed", f"{m.rmse_speed:.3f}", "m/s"))
     for row in rows:

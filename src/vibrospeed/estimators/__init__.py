@@ -26,7 +26,8 @@ METHODS: dict[str, tuple[str, str]] = {
     ),
     "grid": (
         "vibrospeed.estimators.grid",
-        "best vibration tracker: grid filter with re-acquisition, no-line state, smoothing",
+        "best vibration tracker: improved grid filter + harmonic-comb evidence, smoothed "
+        "offline (-p smooth=none: causal)",
     ),
     "rbpf": ("vibrospeed.estimators.rbpf", "Rao-Blackwellized particle filter (paper III-C)"),
     "shs": ("vibrospeed.estimators.shs", "subharmonic summation per batch (Hermes 1988)"),

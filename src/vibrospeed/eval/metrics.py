@@ -32,6 +32,11 @@ class Metrics:
     double_share: float  # share near 2 * truth
     rmse_speed: float
     unit: str = "rad/s"  # unit of rmse, mae, bias: "rad/s", or "m/s" when compared as speeds
+    ok_share: float = float("nan")  # share within max(ok_abs, ok_rel * truth) (issue 7 score)
+    claimed_share: float = float("nan")  # share of moving samples where has_signal (if reported)
+    rmse_claimed: float = float("nan")  # RMSE where the tracker claims a signal
+    ok_claimed: float = float("nan")  # ok share where the tracker claims a signal
+    coverage_claimed: float = float("nan")  # band coverage where the tracker claims a signal
 
     def to_dict(self) -> dict:
         """Plain dict (for JSON)."""
@@ -68,12 +73,16 @@ def compare(
     min_omega: float = 1.0,
     warmup: float = 0.0,
     tol: float = 0.15,
+    ok_abs: float = 2.0,
+    ok_rel: float = 0.10,
 ) -> Metrics:
     """Metrics of ``track`` against truth samples ``(truth_t, truth_omega_values)`` (rad/s).
 
     ``min_omega``: truth below this (rad/s) counts as standing still and is excluded.
     ``warmup``: seconds at the start of the track excluded. ``tol``: relative tolerance for the
-    half/double harmonic shares.
+    half/double harmonic shares. ``ok_abs`` (rad/s) and ``ok_rel``: a sample is "ok" within
+    ``max(ok_abs, ok_rel * truth)`` (issue 7's score). Where the track reports ``has_signal``
+    (grid trackers), the ``*_claimed`` fields score only the samples it claims.
     """
     w = interp_truth(np.asarray(truth_t, float), np.asarray(truth_omega_values, float), track.t)
     after = track.t >= track.t[0] + warmup
@@ -94,6 +103,15 @@ def compare(
     double = float(np.mean(np.abs(est - 2 * wt) < tol * 2 * wt))
     r = track.wheel_radius
     rmse_v = float(np.sqrt(np.mean((r * e) ** 2))) if r else float("nan")
+    ok = np.abs(e) <= np.maximum(ok_abs, ok_rel * wt)
+    claimed = {}
+    if "has_signal" in track.extras:
+        c = np.asarray(track.extras["has_signal"], float)[moving] > 0.5
+        claimed = dict(claimed_share=float(c.mean()))
+        if c.any():
+            cov_c = (wt[c] >= lo[c]) & (wt[c] <= hi[c])
+            claimed.update(rmse_claimed=float(np.sqrt(np.mean(e[c] ** 2))),
+                           ok_claimed=float(ok[c].mean()), coverage_claimed=float(cov_c.mean()))
     return Metrics(
         n=n,
         moving_share=share,
@@ -106,6 +124,8 @@ def compare(
         half_share=half,
         double_share=double,
         rmse_speed=rmse_v,
+        ok_share=float(ok.mean()),
+        **claimed,
     )
 
 

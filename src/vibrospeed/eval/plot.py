@@ -75,7 +75,15 @@ def plot_track(
                      label="estimate x m" if m == 1 else None)
         ax1.fill_between(track.t, track.omega_lo, track.omega_hi, color="tab:blue", alpha=0.25,
                          lw=0, label=f"{track.level:.0%} band")
-        ax1.plot(track.t, track.omega, color="tab:blue", lw=1.0, label=f"estimate ({track.method})")
+        if "has_signal" in track.extras:  # dim the estimate where the tracker sees no line
+            sig = np.asarray(track.extras["has_signal"], float) > 0.5
+            ax1.plot(track.t, np.where(sig, np.nan, track.omega), color="tab:blue", lw=0.6,
+                     alpha=0.35, label="estimate, no line seen")
+            ax1.plot(track.t, np.where(sig, track.omega, np.nan), color="tab:blue", lw=1.0,
+                     label=f"estimate ({track.method})")
+        else:
+            ax1.plot(track.t, track.omega, color="tab:blue", lw=1.0,
+                     label=f"estimate ({track.method})")
     if om_truth is not None:
         ax0.plot(t_truth, om_truth, color="lime", lw=0.8, ls="--", label="truth")
         ax1.plot(t_truth, om_truth, color="k", lw=0.9, ls="--", label="truth")
