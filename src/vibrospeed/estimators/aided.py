@@ -69,6 +69,7 @@ from numba import njit
 
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators.ekf import rotate_phasors, symmetrize_into
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
 from vibrospeed.signal.detectors import _cusum_core, _mode_core, _window_core
@@ -385,24 +386,7 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
     om = x[0]
     F = np.eye(n)
     xn = x.copy()
-    for m in range(M):
-        h = m + 1.0
-        psi = h * om * T
-        c = np.cos(psi)
-        s = np.sin(psi)
-        ia = 1 + 2 * m
-        ib = 2 + 2 * m
-        a = x[ia]
-        b = x[ib]
-        xn[ia] = c * a + s * b
-        xn[ib] = -s * a + c * b
-        F[ia, ia] = c
-        F[ia, ib] = s
-        F[ib, ia] = -s
-        F[ib, ib] = c
-        if lock or fp[14] <= 0.0:
-            F[ia, 0] = h * T * (-s * a + c * b)
-            F[ib, 0] = h * T * (-c * a - s * b)
+    rotate_phasors(x, xn, F, M, T, lock or fp[14] <= 0.0)
     xn[0] = om + T * (x[nb] + ue) / rw
     F[0, nb] = T / rw
     for i in range(n):
@@ -412,11 +396,7 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
     for i in range(1, nb):
         Pn[i, i] += T * q_amp
     Pn[nb, nb] += T * q_b
-    for i in range(n):
-        for j in range(i, n):
-            v = 0.5 * (Pn[i, j] + Pn[j, i])
-            P[i, j] = v
-            P[j, i] = v
+    symmetrize_into(Pn, P)
 
 
 @njit(cache=True)

@@ -102,6 +102,46 @@ def init(config: Config) -> State:
 
 
 @njit(cache=True)
+def rotate_phasors(x, xn, F, M, T, jacobian):
+    """Phasor time update ``xn[1:] = blockdiag_m R(m omega T) x[1:]`` with ``omega = x[0]``.
+
+    Writes the rotation blocks into ``F`` and, if ``jacobian``, the omega column
+    ``d/domega R(m omega T)[a, b] = m T [-sin a + cos b, -cos a - sin b]`` (thesis eq. 2.29).
+    Shared by this EKF and the aided EKF (:mod:`vibrospeed.estimators.aided`).
+    """
+    om = x[0]
+    for m in range(M):
+        h = m + 1.0
+        psi = h * om * T
+        c = np.cos(psi)
+        s = np.sin(psi)
+        ia = 1 + 2 * m
+        ib = 2 + 2 * m
+        a = x[ia]
+        b = x[ib]
+        xn[ia] = c * a + s * b
+        xn[ib] = -s * a + c * b
+        F[ia, ia] = c
+        F[ia, ib] = s
+        F[ib, ia] = -s
+        F[ib, ib] = c
+        if jacobian:
+            F[ia, 0] = h * T * (-s * a + c * b)
+            F[ib, 0] = h * T * (-c * a - s * b)
+
+
+@njit(cache=True)
+def symmetrize_into(Pn, P):
+    """``P = (Pn + Pn') / 2`` in place (keeps covariances exactly symmetric)."""
+    n = P.shape[0]
+    for i in range(n):
+        for j in range(i, n):
+            v = 0.5 * (Pn[i, j] + Pn[j, i])
+            P[i, j] = v
+            P[j, i] = v
+
+
+@njit(cache=True)
 def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_min, om_max, out):
     """In place: update x, P with y (skip if NaN), write outputs, predict. ``out`` (4+M,)."""
     n = x.size
@@ -135,11 +175,7 @@ def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_min, om_max, out):
         for i in range(n):
             for j in range(n):
                 Pn[i, j] += r * k[i] * k[j]
-        for i in range(n):
-            for j in range(i, n):
-                v = 0.5 * (Pn[i, j] + Pn[j, i])
-                P[i, j] = v
-                P[j, i] = v
+        symmetrize_into(Pn, P)
     # keep omega >= 0 via the symmetry (omega, beta) -> (-omega, -beta)
     if x[0] < 0.0:
         x[0] = -x[0]
@@ -164,37 +200,16 @@ def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_min, om_max, out):
         b = x[2 + 2 * m]
         out[4 + m] = np.sqrt(a * a + b * b)
     # ---- time update ----------------------------------------------------------------
-    om = x[0]
     F = np.eye(n)
     xn = x.copy()
-    for m in range(M):
-        h = m + 1.0
-        psi = h * om * T
-        c = np.cos(psi)
-        s = np.sin(psi)
-        ia = 1 + 2 * m
-        ib = 2 + 2 * m
-        a = x[ia]
-        b = x[ib]
-        xn[ia] = c * a + s * b
-        xn[ib] = -s * a + c * b
-        F[ia, ia] = c
-        F[ia, ib] = s
-        F[ib, ia] = -s
-        F[ib, ib] = c
-        F[ia, 0] = h * T * (-s * a + c * b)
-        F[ib, 0] = h * T * (-c * a - s * b)
+    rotate_phasors(x, xn, F, M, T, True)
     for i in range(n):
         x[i] = xn[i]
     Pn = F @ P @ F.T
     Pn[0, 0] += T * q_om
     for i in range(1, n):
         Pn[i, i] += T * q_amp
-    for i in range(n):
-        for j in range(i, n):
-            v = 0.5 * (Pn[i, j] + Pn[j, i])
-            P[i, j] = v
-            P[j, i] = v
+    symmetrize_into(Pn, P)
 
 
 @njit(cache=True)

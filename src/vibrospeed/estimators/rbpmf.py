@@ -117,6 +117,14 @@ class Config:
         and interfering lines make the per-sample evidence over-confident): the posterior then
         moves as if it had seen ``c`` times the samples, leaving room for other evidence
         (:mod:`vibrospeed.estimators.grid`).
+    null_model : time-domain emission of the "no line" state. ``"white"`` (default):
+        ``y ~ N(0, null_var)``. ``"mixture"``: the signal part's own one-step predictive
+        density, ``p0(y_k) = sum_j p(omega_j | y_1..k-1, line) p(y_k | omega_j, y_1..k-1)``
+        (tempered like the grid's), so the per-sample data never favour "line" over "no
+        line": a single strong line (idling engine, resonance) that the harmonic model fits
+        no longer proves that a *wheel* is turning; that decision is left to ``extra``
+        evidence that scores the harmonic comb (:mod:`vibrospeed.estimators.grid`) and to the
+        switching rates. The data still place omega within the signal part.
     """
 
     model: HarmonicModel = field(default_factory=_paper_model)
@@ -145,6 +153,7 @@ class Config:
     lag: float = 2.0
     fit: str = ""
     temper: float = 1.0
+    null_model: str = "white"
 
     def __post_init__(self) -> None:
         if int(self.n_grid) != self.n_grid or self.n_grid < 1:
@@ -182,6 +191,9 @@ class Config:
             raise ParameterError(f"null_var must be > 0, got {self.null_var}")
         if self.smooth not in ("none", "fb", "lag"):
             raise ParameterError(f"smooth must be 'none', 'fb' or 'lag', got '{self.smooth}'")
+        if self.null_model not in ("white", "mixture"):
+            raise ParameterError(f"null_model must be 'white' or 'mixture', got "
+                                 f"'{self.null_model}'")
         if not 0 < self.temper <= 1:
             raise ParameterError(f"temper must be in (0, 1], got {self.temper}")
         if not self.lag > 0:
@@ -521,12 +533,13 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out):
 
 @njit(cache=True)
 def _step(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo, q_hi,
-          eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, ex, w, v, X, acc, out, post,
-          gll):
+          eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, ex, w, v, X, acc,
+          out, post, gll):
     """One RBPMF iteration in place on (lw, lw0[0], mean, cov); writes ``out``, ``post`` (N,)
     and ``gll`` (N + 1,) per-point log-emissions (if sized): ``temper`` times the predictive
     log-likelihood plus ``ex`` (N + 1,) extra log-evidence for this sample (if sized; last entry
-    for the "no line" state).
+    for the "no line" state). ``null_mix``: the "no line" state's time-domain emission is the
+    signal part's predictive mixture (Config.null_model "mixture") instead of N(0, null_var).
 
     Specialised to the harmonic model: ``h = [1, 0, 1, 0, ...]`` (rank-1 update with
     ``P h' = sum of the even columns``), ``F`` block diagonal with rotations ``cs[i, m] =
@@ -566,13 +579,32 @@ def _step(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_
                     Pj[i, k] = val
                     Pj[k, i] = val
             ll = -0.5 * (LOG_2PI + np.log(S) + nu * nu * inv) * temper
+            if null_mix:
+                v[j] = lw[j]  # prior log-weight
+                w[j] = lw[j] + ll  # prior times (tempered) predictive
             if ex.size > 0:
                 ll += ex[j]
             lw[j] += ll
             if gll.size > 0:
                 gll[j] = ll
         if has_null:
-            ll0 = -0.5 * (LOG_2PI + np.log(null_var) + y * y / null_var) * temper
+            if null_mix:
+                # log sum_j p_j l_j - log sum_j p_j (signal part's predictive mixture)
+                ma = -np.inf
+                mb = -np.inf
+                for j in range(N):
+                    if w[j] > ma:
+                        ma = w[j]
+                    if v[j] > mb:
+                        mb = v[j]
+                sa = 0.0
+                sb = 0.0
+                for j in range(N):
+                    sa += np.exp(w[j] - ma)
+                    sb += np.exp(v[j] - mb)
+                ll0 = ma + np.log(sa) - mb - np.log(sb)
+            else:
+                ll0 = -0.5 * (LOG_2PI + np.log(null_var) + y * y / null_var) * temper
             if ex.size > 0:
                 ll0 += ex[N]
             lw0[0] += ll0
@@ -720,8 +752,8 @@ def _step(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_
 
 @njit(cache=True)
 def _run(ys, lw, lw0, mean, cov, r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo, q_hi,
-         eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, ex_idx, ex_val, want_post,
-         want_gll):
+         eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, ex_idx, ex_val,
+         want_post, want_gll):
     n_s = ys.size
     N = grid.size
     n = mean.shape[1]
@@ -744,8 +776,8 @@ def _run(ys, lw, lw0, mean, cov, r, cs, qd, kb, B, grid, edges, u, log_floor, q_
             f += 1
         ex = ex_val[f] if (f < n_ex and ex_idx[f] == k) else no_ex
         _step(lw, lw0, mean, cov, ys[k], r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo,
-              q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, ex, w, v, X, acc,
-              outs[k], post, gll)
+              q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, ex, w, v,
+              X, acc, outs[k], post, gll)
         if want_post:
             for j in range(N):
                 posts[k, j] = post[j]
@@ -771,7 +803,8 @@ def _args(config: Config) -> tuple:
     eps, p_off, p_on, nv = config.rates()
     return (float(m.r), cs, float(m.dt * m.q_amp), k.kb, int(k.B), k.grid, k.edges, u,
             float(config.log_floor), q, 1.0 - q, eps, p_off, p_on, nv, float(m.p0_amp),
-            float(config.amb_rel), float(config.amb_abs), float(config.temper))
+            float(config.amb_rel), float(config.amb_abs), float(config.temper),
+            config.null_model == "mixture")
 
 
 def _extra_vec(config: Config, ex) -> np.ndarray:
