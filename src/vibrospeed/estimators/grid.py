@@ -80,6 +80,9 @@ class Config:
     comb_snr : SNR ``a`` of a harmonic in the per-harmonic likelihood ratio (module docstring).
     comb_cap : nats, largest evidence one harmonic can contribute.
     comb_bg : Hz, width of the running-median background of the spectrum.
+    comb_lead : nats, largest lead of the best harmonic's term over the second best (M >= 2):
+        ``E = sum_k l_k - l_(1) + min(l_(1), l_(2) + comb_lead)``, so that a hypothesis needs
+        at least two harmonics to score; ``inf``: no such limit.
     """
 
     tracker: _rb.Config = field(default_factory=_default_tracker)
@@ -89,9 +92,10 @@ class Config:
     comb_snr: float = 3.0
     comb_cap: float = 3.0
     comb_bg: float = 2.0
+    comb_lead: float = float("inf")
 
     def __post_init__(self) -> None:
-        for name in ("comb_window", "comb_hop", "comb_snr", "comb_cap", "comb_bg"):
+        for name in ("comb_window", "comb_hop", "comb_snr", "comb_cap", "comb_bg", "comb_lead"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
         if not self.comb_weight >= 0:
@@ -168,13 +172,19 @@ def frame_evidence(config: Config, frames: np.ndarray) -> np.ndarray:
     a = config.comb_snr
     la = np.log1p(a)
     grid = tr.grid
-    for k in range(1, tr.model.M + 1):
+    M = tr.model.M
+    lk = np.empty((M, F, N))
+    for k in range(1, M + 1):
         fk = _folded(k * grid, fs)
         pos = np.interp(fk, f, np.arange(f.size))
         i0 = np.minimum(pos.astype(np.int64), f.size - 2)
         fr = pos - i0
         s = S[:, i0] * (1 - fr) + S[:, i0 + 1] * fr
-        out[:, :N] += np.minimum(s * (a / (1 + a)) - la, config.comb_cap)
+        lk[k - 1] = np.minimum(s * (a / (1 + a)) - la, config.comb_cap)
+    out[:, :N] = lk.sum(axis=0)
+    if M >= 2 and np.isfinite(config.comb_lead):
+        top2 = -np.partition(-lk, 1, axis=0)[:2]  # best, second best per (frame, point)
+        out[:, :N] += np.minimum(top2[0], top2[1] + config.comb_lead) - top2[0]
     out[:, :N] *= config.comb_weight
     out[bad] = 0.0
     return out
