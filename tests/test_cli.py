@@ -131,8 +131,10 @@ def test_gps_riss_speed_only_evaluation(tmp_path):
     assert _run("simulate", "--scenario", "gps_tunnel", "--duration", 30, "-o",
                 rec_path).exit_code == 0
     est = tmp_path / "gps.csv"
-    res = _run("estimate", rec_path, "--method", "gps-riss", "--axis", "x", "-o", est)
+    res = _run("estimate", rec_path, "--method", "gps-riss", "--axis", "x", "-o", est,
+               "--plot", tmp_path / "gps.png")
     assert res.exit_code == 0, res.output
+    assert (tmp_path / "gps.png").stat().st_size > 10_000  # speed panel (no wheel radius)
     res = _run("evaluate", est, "--truth", rec_path, "--json", tmp_path / "m.json")
     assert res.exit_code == 0, res.output
     m = json.loads((tmp_path / "m.json").read_text())

@@ -40,6 +40,11 @@ def plot_track(
     rad/s, from a grid tracker, is drawn as an image under the estimate (paper Fig. 3).
     """
     path = Path(path)
+    speed_only = (track is not None and not np.isfinite(track.omega).any()
+                  and np.isfinite(track.speed).any())
+    if speed_only:  # GPS fusion / algebraic without a wheel radius: lower panel in m/s
+        return _plot_speed(path, recording, track, axis=axis, truth=truth, window_s=window_s,
+                           title=title)
     if track is not None and isinstance(track.params.get("M"), int):
         harmonics = track.params["M"]
     fs = recording.fs
@@ -102,6 +107,40 @@ def plot_track(
         r = track.wheel_radius
         sec = ax1.secondary_yaxis("right", functions=(lambda w: w * r, lambda v: v / r))
         sec.set_ylabel("speed [m/s]")
+    ax0.set_title(title or f"{recording.source or 'recording'}")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png")
+    plt.close(fig)
+    return path
+
+
+def _plot_speed(path: Path, recording: Recording, track: Track, *, axis: str,
+                truth: Recording | None, window_s: float, title: str | None) -> Path:
+    """Spectrogram of ``axis`` over a speed panel (m/s): estimate, band, truth, GPS fixes."""
+    fs = recording.fs
+    sg = spectrogram(recording.channel(axis), fs, window_s=window_s, t0=recording.t[0],
+                     omega_max=float(min(np.pi * fs, 300.0)))
+    fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(11, 7), sharex=True,
+                                   gridspec_kw={"height_ratios": [2, 3]})
+    db = 10 * np.log10(sg.power + 1e-20)
+    vmax = np.percentile(db, 99.5)
+    ax0.pcolormesh(sg.t, sg.omega, db, shading="auto", cmap="magma", vmin=vmax - 45, vmax=vmax)
+    ax0.set_ylabel(f"{axis}: omega [rad/s]")
+    ax1.fill_between(track.t, track.speed_lo, track.speed_hi, color="tab:blue", alpha=0.25,
+                     lw=0, label=f"{track.level:.0%} band")
+    ax1.plot(track.t, track.speed, color="tab:blue", lw=1.0, label=f"estimate ({track.method})")
+    tr = truth if truth is not None else recording
+    if "speed_true" in tr.channels:
+        ax1.plot(tr.t, tr.channel("speed_true"), color="k", lw=0.9, ls="--", label="truth")
+    if "gps_speed" in recording.channels:
+        g = recording.channel("gps_speed")
+        ok = np.isfinite(g)
+        ax1.plot(recording.t[ok], g[ok], ".", ms=3, color="tab:orange", label="GPS speed")
+    ax1.set_ylabel("speed [m/s]")
+    ax1.set_xlabel("t [s]")
+    ax1.legend(loc="upper right", fontsize=8)
+    ax1.grid(alpha=0.3)
     ax0.set_title(title or f"{recording.source or 'recording'}")
     fig.tight_layout()
     with atomic_path(path) as tmp:
