@@ -25,6 +25,13 @@ background, the log likelihood ratio "line at k omega" vs "background" is::
 (1 + a)`` > 0 nats, which is what penalises single-line hypotheses; each l_k is capped at
 ``comb_cap`` nats (robust likelihood: a harmonic's power beyond what a wheel comb makes is
 explained by "some other source", so one strong line cannot outvote the missing companions).
+A comb needs at least two harmonics (M >= 2): the best harmonic's term may exceed the second
+best's by at most ``comb_lead`` nats (``l_(1) <- min(l_(1), l_(2) + comb_lead)``), so a single
+line (the idling engine, a resonance) scores *below* the "no line" state, whose evidence is 0.
+With ``null_model="mixture"`` (:class:`vibrospeed.estimators.rbpmf.Config`, the default here)
+the time-domain data do not favour "line" over "no line" at all, so this evidence and the
+switching rates alone decide ``has_signal``: at a car's standstill the engine line no longer
+reads as a turning wheel (docs/beyond.md).
 Aliasing is folded like the rotation model (k omega above Nyquist appears at its alias). The
 grid point's evidence ``E(omega) = comb_weight * sum_k l_k(omega)`` (the "no line" state: 0)
 is added to the log-weights at the end of every frame (``rbpmf.step(..., extra=E)``). The
@@ -58,9 +65,12 @@ from vibrospeed.types import Recording, Track
 #: (r 0.15, q_amp 0.002; q_omega 16 (rad/s)^2/s follows car accelerations of ~8 rad/s^2),
 #: likelihood tempered to 0.2, the thesis high-pass (4 rad/s) instead of the paper's 8 Hz
 #: (which removes a slow wheel's fundamental: the cart failure of issue 7).
+#: The "no line" state's time-domain emission is the signal part's predictive mixture
+#: (``null_model="mixture"``): only the comb evidence decides whether a wheel comb is there.
 GRID_DEFAULTS = {
     "jump_rate": 0.05, "off_rate": 0.01, "on_rate": 0.5, "r": 0.15, "q_amp": 0.002,
     "q_omega": 16.0, "temper": 0.2, "prefilter": "thesis-hp", "smooth": "fb",
+    "null_model": "mixture",
 }
 
 
@@ -89,15 +99,17 @@ class Config:
     comb_weight: float = 0.5
     comb_window: float = 3.0
     comb_hop: float = 0.25
-    comb_snr: float = 3.0
+    comb_snr: float = 2.0
     comb_cap: float = 3.0
     comb_bg: float = 2.0
-    comb_lead: float = float("inf")
+    comb_lead: float = 0.5
 
     def __post_init__(self) -> None:
-        for name in ("comb_window", "comb_hop", "comb_snr", "comb_cap", "comb_bg", "comb_lead"):
+        for name in ("comb_window", "comb_hop", "comb_snr", "comb_cap", "comb_bg"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not self.comb_lead >= 0:
+            raise ParameterError(f"comb_lead must be >= 0, got {self.comb_lead}")
         if not self.comb_weight >= 0:
             raise ParameterError(f"comb_weight must be >= 0, got {self.comb_weight}")
         if self.comb_hop > self.comb_window:
