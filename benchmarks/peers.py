@@ -40,11 +40,13 @@ DOC = ROOT / "docs" / "peers.md"
 SETUP = {
     "car": {
         "track": {"prefilter": "thesis-hp"},
+        "grid": {},  # the product's defaults (thesis-hp, grid [10, 120] rad/s)
         "shs": {"prefilter": "thesis-hp"},
         "range": (10.0, 120.0),
     },
     "cart": {
         "track": {"prefilter": "thesis-hp", "omega_min": 2.0, "omega_max": 30.0},
+        "grid": {"omega_min": 2.0, "omega_max": 30.0},
         # SHS needs one period of omega_min per 2 s batch
         "shs": {"prefilter": "thesis-hp", "omega_min": 4.0, "omega_max": 30.0},
         "range": (4.0, 30.0),
@@ -59,11 +61,16 @@ SPEC_WIN_S = 2.0  # s: spectrogram-peak window (= SHS batch of 200 samples at 10
 
 # -- metrics ------------------------------------------------------------------------------------
 
-def metrics(est: np.ndarray, truth: np.ndarray) -> dict[str, float]:
+def metrics(est: np.ndarray, truth: np.ndarray, lo: np.ndarray | None = None,
+            hi: np.ndarray | None = None, claim: np.ndarray | None = None) -> dict[str, float]:
     """Scores over the moving samples (truth > MOVING); a NaN estimate counts as a miss.
 
     within: |e| < max(2 rad/s, 10 % of truth); wrong harmonic: not within, but within that
     tolerance of omega/2 or 2 omega; RMSE / median |e| over the moving samples with an estimate.
+    With a band (``lo``, ``hi``): ``cover``, the share of moving samples with the truth in it.
+    With ``claim`` (bool per sample: the grid tracker's ``has_signal > 0.5``, a peer's voicing):
+    ``claimed`` (share of moving samples claimed), and ``within_c``, ``rmse_c``, ``cover_c``:
+    the same scores over the claimed moving samples only.
     """
     mov = truth > MOVING
     fin = mov & np.isfinite(est)
@@ -72,13 +79,33 @@ def metrics(est: np.ndarray, truth: np.ndarray) -> dict[str, float]:
     within = fin & (np.abs(e) < tol)
     harm = fin & ~within & ((np.abs(est - truth / 2) < tol) | (np.abs(est - 2 * truth) < tol))
     n = max(int(mov.sum()), 1)
-    return {
+    out = {
         "rmse": float(np.sqrt(np.mean(e[fin] ** 2))) if fin.any() else np.nan,
         "medae": float(np.median(np.abs(e[fin]))) if fin.any() else np.nan,
         "within": within.sum() / n,
         "harm": harm.sum() / n,
         "avail": fin.sum() / n,
     }
+    inband = None
+    if lo is not None and hi is not None and np.isfinite(lo[mov]).any():
+        inband = mov & (lo <= truth) & (truth <= hi)
+        out["cover"] = inband.sum() / n
+    if claim is not None:
+        c = mov & np.asarray(claim, bool)
+        fc = c & fin
+        nc = max(int(c.sum()), 1)
+        out["claimed"] = c.sum() / n
+        out["within_c"] = (within & c).sum() / nc if c.any() else np.nan
+        out["rmse_c"] = float(np.sqrt(np.mean(e[fc] ** 2))) if fc.any() else np.nan
+        if inband is not None:
+            out["cover_c"] = (inband & c).sum() / nc if c.any() else np.nan
+    return out
+
+
+def claims(track) -> np.ndarray | None:
+    """The grid tracker's claim "a line is there" (``extras["has_signal"] > 0.5``), else None."""
+    hs = track.extras.get("has_signal") if track.extras else None
+    return None if hs is None else np.asarray(hs, float) > 0.5
 
 
 def to_samples(t: np.ndarray, t_frames: np.ndarray, w_frames: np.ndarray) -> np.ndarray:
@@ -220,6 +247,25 @@ def available_peers(quiet: bool = False) -> dict:
 
 # -- benchmark ----------------------------------------------------------------------------------
 
+def voiced_on_samples(t: np.ndarray, t_frames: np.ndarray, voiced: np.ndarray) -> np.ndarray:
+    """A peer's per-frame voicing on the sample times (linear interpolation > 0.5; False
+    outside the frames)."""
+    return np.interp(t, t_frames, np.asarray(voiced, float), left=0.0, right=0.0) > 0.5
+
+
+def tracker_list(scen: str, seeds: int, rbpf_seeds: int, particles: int):
+    """(label, method, params, seeds to run) of our trackers on ``scen``."""
+    setup = SETUP[scen]
+    return [
+        ("RBPMF N=200", "rbpmf", setup["track"], seeds),
+        (f"RBPF K={particles}", "rbpf", {**setup["track"], "n_particles": particles}, rbpf_seeds),
+        ("grid (smoother, offline)", "grid", setup["grid"], seeds),
+        ("grid (filter, causal)", "grid", {**setup["grid"], "smooth": "none"}, seeds),
+        ("SHS (ours)", "shs", setup["shs"], seeds),
+        ("EKF", "ekf", {}, seeds),
+    ]
+
+
 def run_scenario(scen: str, seeds: int, rbpf_seeds: int, particles: int, peers: dict):
     setup = SETUP[scen]
     wmin, wmax = setup["range"]
@@ -227,18 +273,13 @@ def run_scenario(scen: str, seeds: int, rbpf_seeds: int, particles: int, peers: 
     info: dict[str, str] = {}
     n_samples = 0
 
-    def add(name, est, truth, dt_run, voiced=None):
-        m = metrics(est, truth)
+    def add(name, est, truth, dt_run, voiced=None, lo=None, hi=None, claim=None):
+        m = metrics(est, truth, lo, hi, claim)
         m["time"] = dt_run
         m["voiced"] = np.nan if voiced is None else voiced
         rows.setdefault(name, []).append(m)
 
-    trackers = [
-        ("RBPMF N=200", "rbpmf", setup["track"], seeds),
-        (f"RBPF K={particles}", "rbpf", {**setup["track"], "n_particles": particles}, rbpf_seeds),
-        ("SHS (ours)", "shs", setup["shs"], seeds),
-        ("EKF", "ekf", {}, seeds),
-    ]
+    trackers = tracker_list(scen, seeds, rbpf_seeds, particles)
     for seed in range(seeds):
         rec = sim.simulate(scen, seed=seed)
         truth = rec["omega_true"]
@@ -252,7 +293,10 @@ def run_scenario(scen: str, seeds: int, rbpf_seeds: int, particles: int, peers: 
                 mod = get(method)
                 t0 = time.process_time()
                 tr = mod.estimate(rec, axis="y", params=p)
-                add(name, tr.omega, truth, time.process_time() - t0)
+                el = time.process_time() - t0
+                c = claims(tr)
+                add(name, tr.omega, truth, el, None if c is None else float(np.mean(c)),
+                    tr.omega_lo, tr.omega_hi, c)
             except Exception as exc:  # noqa: BLE001 - a tracker under change must not stop the run
                 print(f"  {scen} seed {seed}: {name} failed: {type(exc).__name__}: {exc}")
         # peers: the same pre-filtered axis as the trackers
@@ -274,27 +318,39 @@ def run_scenario(scen: str, seeds: int, rbpf_seeds: int, particles: int, peers: 
                 tf, wf, voiced, what = fn(av)
                 el = time.process_time() - t0
                 info[name] = what
-                add(name, to_samples(rec.t, tf, wf), truth, el, float(np.mean(voiced)))
+                add(name, to_samples(rec.t, tf, wf), truth, el, float(np.mean(voiced)),
+                    claim=voiced_on_samples(rec.t, tf, voiced))
             except Exception as exc:  # noqa: BLE001
                 print(f"  {scen} seed {seed}: {name} failed: {type(exc).__name__}: {exc}")
         print(f"  {scen} seed {seed} done", flush=True)
     return rows, info, n_samples
 
 
+def _pct(rs: list[dict], key: str) -> str:
+    v = np.array([r.get(key, np.nan) for r in rs], float)
+    return f"{100 * np.nanmean(v):.1f}" if np.isfinite(v).any() else "-"
+
+
 def table(rows: dict[str, list[dict]], n_samples: int) -> str:
     out = ["| method | runs | RMSE median (best / worst) rad/s | median abs err rad/s | "
-           "within max(2, 10 %) % | wrong harmonic % | voiced % | CPU s/run | samples/s |",
-           "|---|---|---|---|---|---|---|---|---|"]
+           "within max(2, 10 %) % | wrong harmonic % | claims signal (voiced) % | "
+           "within where claimed % | RMSE where claimed (median) | 98 % band covers truth % "
+           "(where claimed) | CPU s/run | samples/s |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, rs in rows.items():
         rm = np.array([r["rmse"] for r in rs])
-        v = np.array([r["voiced"] for r in rs])
         tm = float(np.mean([r["time"] for r in rs]))
-        vtxt = f"{100 * np.mean(v):.0f}" if np.isfinite(v).all() else "-"
+        rc = np.array([r.get("rmse_c", np.nan) for r in rs], float)
+        rctxt = f"{np.nanmedian(rc):.2f}" if np.isfinite(rc).any() else "-"
+        cov = _pct(rs, "cover")
+        if cov != "-" and _pct(rs, "cover_c") != "-":
+            cov += f" ({_pct(rs, 'cover_c')})"
         out.append(
             f"| {name} | {len(rs)} | {np.nanmedian(rm):.2f} ({np.nanmin(rm):.2f} / "
             f"{np.nanmax(rm):.2f}) | {np.nanmedian([r['medae'] for r in rs]):.2f} | "
             f"{100 * np.mean([r['within'] for r in rs]):.1f} | "
-            f"{100 * np.mean([r['harm'] for r in rs]):.1f} | {vtxt} | {tm:.3f} | "
+            f"{100 * np.mean([r['harm'] for r in rs]):.1f} | {_pct(rs, 'claimed')} | "
+            f"{_pct(rs, 'within_c')} | {rctxt} | {cov} | {tm:.3f} | "
             f"{n_samples / tm if tm > 0 else float('inf'):,.0f} |")
     return "\n".join(out)
 
@@ -311,16 +367,26 @@ Generated by `PYTHONPATH=src .venv/bin/python benchmarks/peers.py` (do not edit 
   as docs/trackers.md).
 * Metrics per run: RMSE and median |error| over the moving samples that have an estimate;
   "within": share of moving samples with |error| < max(2 rad/s, 10 % of truth); "wrong
-  harmonic": share outside that tolerance but within it of omega/2 or 2 omega; "voiced": share of
-  frames the peer called voiced (unvoiced frames are not dropped: pyin keeps its best guess,
-  Praat frames are interpolated between voiced neighbours; a sample without any estimate counts
-  as a miss). Table: median RMSE over the runs (best / worst run), median of the medians, means
-  of the shares, mean CPU time per run (`time.process_time`, one process on a shared 2-core VM).
-* Ours through the public `estimate()`: RBPMF and RBPF with the paper's Table I defaults and the
-  `thesis-hp` pre-filter (car: grid [10, 120] rad/s; cart: [2, 30]); RBPF with 3000 particles
-  on the first {rbpf} seeds only (about 40 s per car run); SHS (ours, batch 200 = 2 s) with range
-  car [10, 120], cart [4, 30]; EKF with its defaults (started from its default omega0). All four
-  are **causal filters** (the estimate at t uses data up to t; SHS one 2 s batch).
+  harmonic": share outside that tolerance but within it of omega/2 or 2 omega; "98 % band
+  covers truth": share of moving samples with the truth inside the tracker's band (trackers
+  with a band). "Claims signal": for the grid tracker (and any tracker reporting it) the share
+  of moving samples with `extras["has_signal"] > 0.5`; for pyin and Praat the share of moving
+  samples whose nearest frames are voiced (frame voicing interpolated > 0.5). "Where claimed":
+  within, RMSE and band coverage over those samples only (the honest reading of a tracker that
+  says "no line here"); the all-moving-time columns count every sample. Unvoiced frames are
+  not dropped from the all-time scores: pyin keeps its best guess, Praat frames are
+  interpolated between voiced neighbours; a sample without any estimate counts as a miss.
+  Table: median RMSE over the runs (best / worst run), median of the medians, means of the
+  shares, mean CPU time per run (`time.process_time`, one process on a shared 2-core VM).
+* Ours through the public `get(name).estimate()`: RBPMF and RBPF with the paper's Table I
+  defaults and the `thesis-hp` pre-filter (car: grid [10, 120] rad/s; cart: [2, 30]); RBPF with
+  3000 particles on the first {rbpf} seeds only (about 40 s per car run); **grid** (the product,
+  `vibrospeed estimate -m grid`: improved RBPMF + harmonic-comb evidence, its own defaults,
+  cart grid [2, 30]) twice: smoothed (its default, **offline**, forward-backward over the
+  whole recording) and `smooth=none` (the causal filter); SHS (ours, batch 200 = 2 s) with
+  range car [10, 120], cart [4, 30]; EKF with its defaults (started from its default omega0).
+  RBPMF, RBPF, grid (filter), SHS and EKF are **causal filters** (the estimate at t uses data
+  up to t; SHS one 2 s batch).
 * Peers get the same input: `ay` through the same `thesis-hp` pre-filter, and the same search
   range as our SHS (car [10, 120] rad/s, cart [4, 30] rad/s). They are **non-causal** (centred
   windows; pyin's HMM and Praat's path finder run Viterbi over the whole recording), which is an

@@ -74,3 +74,61 @@ def test_band_stats_confident_miss():
     assert st["cover"] == pytest.approx(2 / 4)
     assert st["conf_miss"] == pytest.approx(2 / 4)
     assert st["within"] == pytest.approx(1 / 4)
+
+
+trackers = pytest.importorskip("trackers")
+
+
+def test_metrics_band_and_claims_hand_computed():
+    truth = np.array([0.0, 10.0, 20.0, 40.0, 40.0, 50.0])
+    est = np.array([99.0, 11.0, 10.0, 20.5, np.nan, 50.0])
+    lo = est - 2.0
+    hi = est + 2.0
+    claim = np.array([True, True, False, True, True, True])
+    m = peers.metrics(est, truth, lo, hi, claim)
+    # band: samples 1 (9..13 holds 10) and 5 (48..52 holds 50) of 5 moving; the NaN band misses
+    assert m["cover"] == pytest.approx(2 / 5)
+    # claimed moving samples: 1, 3, 4, 5 (4 of 5)
+    assert m["claimed"] == pytest.approx(4 / 5)
+    assert m["within_c"] == pytest.approx(2 / 4)  # 1 and 5 within; 3 on omega/2; 4 no estimate
+    assert m["rmse_c"] == pytest.approx(np.sqrt((1.0 + 19.5**2 + 0.0) / 3))
+    assert m["cover_c"] == pytest.approx(2 / 4)
+
+
+def test_voiced_on_samples():
+    t = np.array([0.1, 0.25, 0.35, 0.45, 0.55, 0.6, 0.7])
+    v = peers.voiced_on_samples(t, np.array([0.2, 0.4, 0.6]), np.array([True, False, True]))
+    # outside the frames: not voiced; between frames: the nearer frame's decision
+    assert v.tolist() == [False, True, False, False, True, True, False]
+
+
+def test_cruise_starts_rule():
+    t = np.arange(0, 100, 0.01)
+    # 0-20 s ramp 0 -> 60 rad/s (3 rad/s^2), 20-50 s cruise at 60, 50-55 s brake to 40 (4 rad/s^2),
+    # 55-61 s cruise at 40 (too short), 61-81 s ramp down to 20 (1 rad/s^2, but partly < 30)
+    w = np.interp(t, [0, 20, 50, 55, 61, 81, 100], [0, 60, 60, 40, 40, 20, 20])
+    starts = trackers.cruise_starts(t, w)
+    assert len(starts) == 2
+    (a0, e0), (a1, e1) = starts
+    assert e0 == pytest.approx(50.0, abs=0.02) and a0 == pytest.approx(35.0, abs=0.02)
+    # the slow descent counts while above 30 rad/s (|dw/dt| = 1 < 2): from 55 to 71 s
+    assert e1 == pytest.approx(71.0, abs=0.02) and a1 == pytest.approx(63.0, abs=0.02)
+
+
+def test_lock_after_hand_computed():
+    t = np.arange(0, 10, 0.01)
+    truth = np.full(t.size, 50.0)
+    est = truth.copy()
+    est[:150] = 25.0  # omega/2 for 1.5 s, then locked
+    est[400] = 53.0  # one excursion at 4 s: the strict lock moves to 4.01 s
+    r = trackers.lock_after(t, est, truth)
+    assert r["lock_s"] == pytest.approx(4.01)
+    assert r["lock95_s"] == pytest.approx(1.5)
+    assert r["half"] == 0.0 and not r["ends_half"]
+    est2 = np.where(t < 6, 50.0, 25.0)  # falls to omega/2 at 6 s and stays
+    r2 = trackers.lock_after(t, est2, truth)
+    assert np.isnan(r2["lock_s"]) and r2["ends_half"]
+    assert r2["half"] == pytest.approx(400 / 800)
+    est3 = truth.copy()
+    est3[-30:] = np.nan  # an unfinished last batch is dropped
+    assert trackers.lock_after(t, est3, truth)["lock_s"] == 0.0

@@ -11,7 +11,8 @@ from vibrospeed.types import Recording
 def _harmonics(omega, orders, amps, n=200, dt=0.01, noise=0.0, seed=0):
     t = np.arange(n) * dt
     rng = np.random.default_rng(seed)
-    y = sum(a * np.cos(k * omega * t + rng.uniform(0, 6)) for k, a in zip(orders, amps, strict=True))
+    y = sum(a * np.cos(k * omega * t + rng.uniform(0, 6))
+            for k, a in zip(orders, amps, strict=True))
     return y + noise * rng.normal(size=n)
 
 

@@ -29,7 +29,9 @@ def normalise_log(logw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     logw = np.asarray(logw, dtype=np.float64)
     mx = np.max(logw)
     if not np.isfinite(mx):
-        raise ParameterError("all log-weights are -inf or NaN: the filter has lost every hypothesis")
+        raise ParameterError(
+            "all log-weights are -inf or NaN: the filter has lost every hypothesis"
+        )
     lse = mx + np.log(np.sum(np.exp(logw - mx)))
     lw = logw - lse
     return lw, np.exp(lw)

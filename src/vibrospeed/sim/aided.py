@@ -30,8 +30,7 @@ IMU noise defaults to 0.01 m/s^2 per axis (a phone accelerometer of about 100 ug
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
-from typing import Any
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -39,7 +38,7 @@ from vibrospeed.errors import ParameterError
 from vibrospeed.sim.drive import simulate_drive
 from vibrospeed.sim.profile import Segment, SpeedProfile, Turn, build_profile
 from vibrospeed.sim.scenarios import SCENARIOS as SIM_SCENARIOS
-from vibrospeed.sim.scenarios import make_config, register
+from vibrospeed.sim.scenarios import register
 from vibrospeed.sim.sensors import ImuConfig, TickConfig
 from vibrospeed.sim.vibration import VibrationConfig
 from vibrospeed.types import Recording
