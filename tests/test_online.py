@@ -63,3 +63,21 @@ def test_chunked_estimate_with_progress_equals_whole():
     assert calls == [n]
     np.testing.assert_array_equal(chunked.omega, whole.omega)
     np.testing.assert_array_equal(chunked.omega_std, whole.omega_std)
+
+
+def test_online_grid_trackers_equal_their_causal_estimate():
+    from vibrospeed.estimators import grid, rbpmf
+    from vibrospeed.estimators.common import start_level
+
+    rng = np.random.default_rng(7)
+    n = 700
+    t = np.arange(n) / 100.0
+    ay = 0.2 * np.cos(30.0 * t) + 0.1 * np.cos(60.0 * t) + 0.05 * rng.normal(size=n) + 9.8
+    rec = Recording(t, {"ay": ay})
+    for mod, params in ((rbpmf, {"n_grid": 40}),
+                        (grid, {"n_grid": 40, "smooth": "none", "comb_window": 1.0})):
+        track = mod.estimate(rec, axis="y", params=params)
+        cfg = mod.config_for(rec, axis="y", params=params)
+        trk = OnlineTracker(mod, cfg, level=start_level(ay, 0.01))
+        om = np.array([trk.update(v).omega for v in ay])
+        np.testing.assert_allclose(om, track.omega, rtol=0, atol=1e-9)

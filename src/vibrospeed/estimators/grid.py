@@ -290,6 +290,23 @@ def _grid_model(dt: float) -> HarmonicModel:
     return _default_tracker(dt).model
 
 
+def _prepare(recording: Recording, axis: str, params: dict | None):
+    params = dict(params or {})
+    params.pop("improved", None)
+    comb_kw = {k: params.pop(k) for k in list(params) if k in _COMB}
+    model_names = {f.name for f in dataclasses.fields(HarmonicModel)}
+    params = {**{k: v for k, v in GRID_DEFAULTS.items() if k not in model_names}, **params}
+    config_t, y, rms, notes = _rb.prepare(recording, axis, _rb.Config, params, _grid_model)
+    return config_from_params(Config, comb_kw, tracker=config_t), y, rms, notes
+
+
+def config_for(recording: Recording, *, axis: str = "y", params: dict | None = None) -> Config:
+    """The :class:`Config` that :func:`estimate` builds for ``recording`` and ``params``: hand it
+    to :class:`vibrospeed.estimators.online.OnlineTracker` to run the causal tracker on a
+    device (smoothing needs the whole log and is not applied by ``step``)."""
+    return _prepare(recording, axis, params)[0]
+
+
 def estimate(
     recording: Recording,
     *,
@@ -318,13 +335,7 @@ def estimate(
     >>> bool(abs(np.median(tr.omega[1000:]) - 50) < 1)
     True
     """
-    params = dict(params or {})
-    params.pop("improved", None)
-    comb_kw = {k: params.pop(k) for k in list(params) if k in _COMB}
-    model_names = {f.name for f in dataclasses.fields(HarmonicModel)}
-    params = {**{k: v for k, v in GRID_DEFAULTS.items() if k not in model_names}, **params}
-    config_t, y, rms, notes = _rb.prepare(recording, axis, _rb.Config, params, _grid_model)
-    config = config_from_params(Config, comb_kw, tracker=config_t)
+    config, y, rms, notes = _prepare(recording, axis, params)
     L = config.frame_len
     idx, vals = evidence(config, y)
     if config.comb_weight > 0:

@@ -2,10 +2,11 @@
 
 :class:`OnlineTracker` chains the same stages as ``estimate()`` does in batch: pre-filter
 (:mod:`vibrospeed.signal.prefilter`), running-RMS normalisation
-(:mod:`vibrospeed.signal.normalize`) and an estimator's ``step``. Feeding a recording sample by
-sample gives the numbers of the batch path (tested), so a tracker tuned offline behaves the same
-on a device. The object is the only mutable thing here; its ``state`` is a tuple of the stages'
-immutable states and can be saved and restored.
+(:mod:`vibrospeed.signal.normalize`, times a target RMS) and an estimator's ``step``. Feeding a
+recording sample by sample gives the numbers of the batch path (tested for the EKF, the RBPMF and
+the causal grid tracker), so a tracker tuned offline behaves the same on a device. The object is
+the only mutable thing here; its ``state`` is a tuple of the stages' immutable states and can be
+saved and restored.
 """
 
 from __future__ import annotations
@@ -19,15 +20,28 @@ from vibrospeed.signal import normalize as nz
 from vibrospeed.signal import prefilter as pf
 
 
+def _pipeline_of(config: Any) -> tuple[Any, str, float | None, float]:
+    """(harmonic model, pre-filter, normalisation tau, target RMS) that ``estimate()`` uses."""
+    inner = getattr(config, "tracker", config)  # grid.Config wraps an rbpmf.Config
+    model = inner.model
+    if hasattr(inner, "signal_rms"):  # rbpmf / grid: their own pre-filter and scaling
+        tau = inner.rms_tau if getattr(inner, "scaling", "rms") == "rms" else None
+        return model, inner.prefilter, tau, inner.signal_rms
+    return model, "thesis-hp", 5.0, 1.0  # ekf.estimate's defaults
+
+
 class OnlineTracker:
     """Streaming pipeline ``raw sample -> pre-filter -> normalise -> estimator.step``.
 
     Parameters
     ----------
     estimator : an estimator module with ``init(config)`` and ``step(config, state, y)``
-        (e.g. :mod:`vibrospeed.estimators.ekf`).
-    config : that estimator's ``Config`` (its model's ``dt`` is the sample period).
-    prefilter : pre-filter preset name. normalize_tau : s, 0 or None = off.
+        (:mod:`~vibrospeed.estimators.ekf`, :mod:`~vibrospeed.estimators.rbpmf`,
+        :mod:`~vibrospeed.estimators.grid` (causal: smoothing needs the whole log)).
+    config : that estimator's ``Config`` (its model's ``dt`` is the sample period). The
+        pre-filter and scaling default to what that estimator's ``estimate()`` uses.
+    prefilter : pre-filter preset name. normalize_tau : s, 0 or None = off. target_rms : the
+        RMS the normalised signal is scaled to.
     level : resting level of the raw signal (e.g. the mean of a first second buffered on the
         device; :func:`vibrospeed.estimators.common.start_level` computes it as ``estimate()``
         does); None = the first sample.
@@ -44,16 +58,18 @@ class OnlineTracker:
         estimator: ModuleType,
         config: Any,
         *,
-        prefilter: str = "thesis-hp",
-        normalize_tau: float | None = 5.0,
+        prefilter: str | None = None,
+        normalize_tau: float | None | bool = True,
+        target_rms: float | None = None,
         level: float | None = None,
     ) -> None:
+        model, pre, tau, target = _pipeline_of(config)
         self.estimator = estimator
         self.config = config
-        dt = config.model.dt
-        self.dt = dt
-        self.sos = pf.design(prefilter, 1.0 / dt, M=config.model.M)
-        self.tau = normalize_tau or None
+        self.dt = model.dt
+        self.sos = pf.design(prefilter or pre, 1.0 / model.dt, M=model.M)
+        self.tau = (tau if normalize_tau is True else normalize_tau) or None
+        self.target = target if target_rms is None else target_rms
         self.state = (pf.init(self.sos, level), nz.init(), estimator.init(config))
 
     def update(self, sample: float) -> Any:
@@ -62,6 +78,7 @@ class OnlineTracker:
         fs, y = pf.step(self.sos, fs, float(sample))
         if self.tau:
             ns, y = nz.step(ns, y, self.dt, self.tau)
+            y = self.target * y
         es, est = self.estimator.step(self.config, es, y if np.isfinite(y) else np.nan)
         self.state = (fs, ns, es)
         return est

@@ -991,12 +991,23 @@ def estimate(
     >>> bool(abs(tr.omega[-1] - 50) < 1)
     True
     """
+    config, y, rms, notes = prepare(recording, axis, Config, _with_improved(params),
+                                    _paper_model)
+    return track(recording, config, y, rms, notes, axis=axis, wheel_radius=wheel_radius,
+                 progress=progress, return_posterior=return_posterior, method="rbpmf")
+
+
+def _with_improved(params: dict | None) -> dict:
     params = dict(params or {})
     if _truthy(params.pop("improved", False)):
         params = {**IMPROVED, **params}
-    config, y, rms, notes = prepare(recording, axis, Config, params, _paper_model)
-    return track(recording, config, y, rms, notes, axis=axis, wheel_radius=wheel_radius,
-                 progress=progress, return_posterior=return_posterior, method="rbpmf")
+    return params
+
+
+def config_for(recording: Recording, *, axis: str = "y", params: dict | None = None) -> Config:
+    """The :class:`Config` that :func:`estimate` builds for ``recording`` and ``params``: hand it
+    to :class:`vibrospeed.estimators.online.OnlineTracker` to run the same filter on a device."""
+    return prepare(recording, axis, Config, _with_improved(params), _paper_model)[0]
 
 
 #: gain of the paper's high-pass (order 2) below which a note warns that the pre-filter
