@@ -78,7 +78,7 @@ def cruise_starts(t: np.ndarray, omega_true: np.ndarray, *, omega_min: float = C
     ok = (omega_true > omega_min) & (np.abs(np.gradient(omega_true, t)) < max_rate)
     edges = np.flatnonzero(np.diff(np.r_[0, ok.astype(np.int8), 0]))
     out = []
-    for a, b in zip(edges[::2], edges[1::2]):
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
         t_end = t[b] if b < t.size else t[-1] + (t[-1] - t[-2])
         if t_end - t[a] >= min_len:
             out.append((float(0.5 * (t[a] + t_end)), float(t_end)))
@@ -250,7 +250,8 @@ def accuracy(seeds: int, rbpf_seeds: int, particles: int, scenarios: list[str]) 
             truth = rec["omega_true"]
             n = len(rec)
 
-            def add(name, est, el, lo=None, hi=None, claim=None, rec=rec, truth=truth):
+            def add(name, est, el, lo=None, hi=None, claim=None, rec=rec, truth=truth,
+                    rows=rows, times=times):
                 m = P.metrics(est, truth, lo, hi, claim)
                 m["lock_s"] = lock_from_standstill(rec.t, est, truth)
                 rows.setdefault(name, []).append(m)
