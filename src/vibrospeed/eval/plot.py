@@ -110,7 +110,7 @@ def plot_track(
     ax0.set_title(title or f"{recording.source or 'recording'}")
     fig.tight_layout()
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png")
+        fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png", bbox_inches="tight")
     plt.close(fig)
     return path
 
@@ -144,6 +144,6 @@ def _plot_speed(path: Path, recording: Recording, track: Track, *, axis: str,
     ax0.set_title(title or f"{recording.source or 'recording'}")
     fig.tight_layout()
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png")
+        fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png", bbox_inches="tight")
     plt.close(fig)
     return path
