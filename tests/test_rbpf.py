@@ -72,3 +72,21 @@ def test_estimate_runs_and_records_seed():
     tr = rbpf.estimate(Recording(t, {"ay": ay}), params={"n_particles": 300, "seed": 3})
     assert tr.params["seed"] == 3 and tr.method == "rbpf"
     assert np.all(np.isfinite(tr.omega)) and tr.extras["ess"].max() <= 300 + 1e-9
+
+
+def test_estimate_in_chunks_with_progress_equals_one_run():
+    from vibrospeed.estimators import common, rbpf
+    from vibrospeed.types import Recording
+
+    t = np.arange(1200) / 100.0
+    rec = Recording(t, {"ay": np.cos(40.0 * t) + 0.5 * np.cos(80.0 * t)})
+    params = {"n_particles": 200, "seed": 3}
+    whole = rbpf.estimate(rec, params=params)
+    orig = common.run_in_chunks
+    common.run_in_chunks = lambda fn, n, **kw: orig(fn, n, **{**kw, "chunk": 500})
+    try:
+        chunked = rbpf.estimate(rec, params=params, progress=True)
+    finally:
+        common.run_in_chunks = orig
+    np.testing.assert_array_equal(chunked.omega, whole.omega)
+    np.testing.assert_array_equal(chunked.extras["ess"], whole.extras["ess"])
