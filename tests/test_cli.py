@@ -54,8 +54,9 @@ def test_simulate_estimate_evaluate_plot(drive, tmp_path):
 def test_params_reach_the_estimator(drive, tmp_path):
     est = tmp_path / "e.csv"
     # M = 3 up to 120 rad/s needs fs > 115 Hz: refused at 100 Hz, fine with a lower range
-    assert "too low" in _err(_run("estimate", drive, "-o", est, "-p", "M=3"))
-    res = _run("estimate", drive, "-o", est, "-p", "M=3", "-p", "q_omega=2,omega_max=100")
+    assert "too low" in _err(_run("estimate", drive, "-m", "ekf", "-o", est, "-p", "M=3"))
+    res = _run("estimate", drive, "-m", "ekf", "-o", est, "-p", "M=3", "-p",
+               "q_omega=2,omega_max=100")
     assert res.exit_code == 0, res.output
     side = json.loads(est.with_name("e.csv.json").read_text())
     assert side["params"]["M"] == 3 and side["params"]["q_omega"] == 2.0

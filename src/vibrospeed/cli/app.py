@@ -134,7 +134,8 @@ def estimate(
     output: Annotated[Path, typer.Option("-o", "--output", help="estimate CSV (t, omega, "
                       "omega_lo, omega_hi, speed, ...) + a .json sidecar")],
     method: Annotated[str, typer.Option("--method", "-m", help="estimator (see `vibrospeed "
-                      "methods`)")] = "ekf",
+                      "methods`; default grid, the most robust one-accelerometer tracker)")]
+    = "grid",
     axis: Annotated[str | None, typer.Option(help="vibration axis (x, y, z or a channel name; "
                     "default y); for gps-riss the longitudinal axis (default x)")] = None,
     wheel_radius: Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]

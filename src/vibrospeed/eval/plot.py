@@ -75,8 +75,11 @@ def plot_track(
         ax1.pcolormesh(tc, np.asarray(grid), np.log10(cols.T + 1e-12), shading="auto",
                        cmap="Greys", vmin=-6, vmax=0, alpha=0.8)
     if track is not None:
+        shown = track.omega
+        if "has_signal" in track.extras:  # harmonics only where the tracker sees a line
+            shown = np.where(np.asarray(track.extras["has_signal"], float) > 0.5, shown, np.nan)
         for m in range(1, harmonics + 1):
-            ax0.plot(track.t, m * track.omega, color="cyan", lw=0.8, alpha=0.9,
+            ax0.plot(track.t, m * shown, color="cyan", lw=0.8, alpha=0.9,
                      label="estimate x m" if m == 1 else None)
         ax1.fill_between(track.t, track.omega_lo, track.omega_hi, color="tab:blue", alpha=0.25,
                          lw=0, label=f"{track.level:.0%} band")
