@@ -20,7 +20,8 @@ from the first moving sample to the first time |error| < 2 rad/s holds for 1 s.
 while the car drives; see :func:`cruise_starts` and :func:`lock_after`): ``car`` seeds, start
 times in the middle of every cruise, each run from the tracker's uninformed prior on the
 recording cut at the start, time to lock (|error| < 2 rad/s from then on to the end of that
-cruise) and whether it is left on omega/2.
+cruise) and whether it is left on omega/2. RBPMF / grid runs are also scored on their MAP
+point ("[MAP]") and on the mean of the MAP mode ("[mode]", ``extras["omega_mode"]``).
 
 ``speed``: samples per second of ``estimate()`` on 1000 s of 100 Hz noise (RBPMF vs grid size
 N, RBPF, SHS, grid), peak traced memory.
@@ -128,7 +129,11 @@ def transient_methods(rbpf_seeds: int, particles: int):
     return [
         ("RBPMF (paper filter, thesis-hp)", "rbpmf", {"prefilter": "thesis-hp"}, None),
         ("RBPMF (paper filter, paper-hp)", "rbpmf", {}, None),
+        ("RBPMF (q_omega 1, point=mode, thesis-hp)", "rbpmf",
+         {"prefilter": "thesis-hp", "q_omega": 1.0, "point": "mode"}, None),
         ("grid (filter, smooth=none)", "grid", {"smooth": "none"}, None),
+        ("grid (filter, q_omega 4, point=mode)", "grid",
+         {"smooth": "none", "q_omega": 4.0, "point": "mode"}, None),
         ("SHS", "shs", {"prefilter": "thesis-hp"}, None),
         ("EKF (omega0 = 65, the grid centre)", "ekf", {"omega0": 65.0}, None),
         (f"RBPF K={particles} (thesis-hp)", "rbpf",
@@ -164,6 +169,8 @@ def transient(seeds: int, rbpf_seeds: int, particles: int) -> None:
                 outs = [(label, tr.omega)]
                 if method in ("rbpmf", "grid") and "omega_map" in tr.extras:
                     outs.append((label + " [MAP]", np.asarray(tr.extras["omega_map"], float)))
+                if method in ("rbpmf", "grid") and params.get("point") != "mode":
+                    outs.append((label + " [mode]", np.asarray(tr.extras["omega_mode"], float)))
                 for lab, est in outs:
                     r = lock_after(cut.t, est, truth)
                     r.update(seed=seed, t0=t0, dur=t_end - t0)
@@ -189,7 +196,7 @@ def transient(seeds: int, rbpf_seeds: int, particles: int) -> None:
         sd = np.array([r["seed"] for r in rs])
         per_seed = [lk_inf[sd == s] for s in np.unique(sd)]
         every = np.mean([np.all(x < LOCK_TARGET) for x in per_seed])
-        base = label.replace(" [MAP]", "")
+        base = label.replace(" [MAP]", "").replace(" [mode]", "")
         print(f"| {label} | {len(per_seed)} | {len(rs)} | {q(np.median(lk_inf))} / "
               f"{q(np.sort(lk_inf)[int(np.ceil(0.9 * lk_inf.size)) - 1])} / "
               f"{q(np.max(lk_inf))} | "

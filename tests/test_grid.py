@@ -240,3 +240,33 @@ def test_single_engine_line_is_no_signal_and_a_comb_is():
             assert np.median(np.abs(tr.omega[600:] - 40)) < 1.0
         else:
             assert hs.mean() < 0.1
+
+
+def test_growing_start_frames_match_reference_and_stream():
+    cfg = _small(comb_min_window=0.2)  # frames of 20, 30, ..., 60 samples, then full (64)
+    rng = np.random.default_rng(5)
+    t = np.arange(200) * 0.01
+    y = 0.5 * np.sin(35 * t) + 0.3 * np.sin(70 * t) + 0.2 * rng.normal(size=t.size)
+    y[25:27] = np.nan
+    idx, vals = grid.evidence(cfg, y)
+    L, H = cfg.frame_len, cfg.hop_len
+    grow = np.arange(19, L - 1, H)
+    full = np.arange(L - 1, y.size, H)
+    np.testing.assert_array_equal(idx, np.r_[grow, full])
+    for e, v in zip(idx, vals, strict=True):  # each frame: the (up to L) samples up to e
+        np.testing.assert_allclose(v, _reference_evidence(cfg, y[max(0, e - L + 1):e + 1]),
+                                   rtol=1e-7, atol=1e-7)
+    # streaming == batch, split inside the growing phase
+    res = grid.run(cfg, y)
+    st = grid.init(cfg)
+    om = []
+    for v in y:
+        st, est = grid.step(cfg, st, v)
+        om.append(est.omega)
+    np.testing.assert_array_equal(np.array(om), res.filt.omega)
+    a = grid.run(cfg, y[:33])
+    b = grid.run(cfg, y[33:], a.final)
+    np.testing.assert_array_equal(np.r_[a.filt.omega, b.filt.omega], res.filt.omega)
+    # comb_min_window >= comb_window: no growing frames (the earlier behaviour)
+    idx2, _ = grid.evidence(dataclasses.replace(cfg, comb_min_window=1.0), y)
+    np.testing.assert_array_equal(idx2, full)

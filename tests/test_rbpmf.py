@@ -240,3 +240,75 @@ def test_scaling_reuses_the_lead_normaliser():
     for k in range(300):
         st, v, r = scaling.step(st, x[k], 0.01, 2.0, 0.5)
         assert (np.isnan(v) and np.isnan(ys[k])) or v == ys[k]
+
+
+def _basin_reference(w, g):
+    """Mode basin from the MAP by non-increasing weights (plain loop): (mean, mass share)."""
+    j = int(np.argmax(w))
+    a = j
+    while a > 0 and w[a - 1] <= w[a]:
+        a -= 1
+    b = j
+    while b < w.size - 1 and w[b + 1] <= w[b]:
+        b += 1
+    s = w[a : b + 1]
+    return float(s @ g[a : b + 1] / s.sum()), float(s.sum() / w.sum())
+
+
+def test_mode_mean_matches_reference_and_equals_mean_when_unimodal():
+    # two tones, the weaker one at 2/3 of the stronger: a bimodal posterior at the start
+    rng = np.random.default_rng(3)
+    t = np.arange(600) * 0.01
+    y = 0.6 * np.sin(45 * t) + 0.45 * np.sin(30 * t + 1.0) + 0.2 * rng.normal(size=t.size)
+    model = HarmonicModel(M=1, dt=0.01, q_omega=4.0, q_amp=0.001, r=0.05, p0_amp=0.1)
+    cfg = rbpmf.Config(model=model, n_grid=120, omega_min=10.0, omega_max=70.0)
+    res = rbpmf.run(cfg, y)
+    st = rbpmf.init(cfg)
+    ref = []
+    for k, v in enumerate(y):  # float64 posteriors from step(), which also equals run()
+        st, est = rbpmf.step(cfg, st, v)
+        assert est.omega_mode == res.omega_mode[k] and est.p_mode == res.p_mode[k]
+        ref.append(_basin_reference(est.posterior, cfg.grid))
+    ref = np.array(ref)
+    np.testing.assert_allclose(res.omega_mode, ref[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(res.p_mode, ref[:, 1], rtol=1e-9, atol=1e-12)
+    # a two-bump posterior (masses 0.35 at 30, 0.65 at 45 rad/s, sd 1.5) shown by a NaN step
+    g = cfg.grid
+    w = 0.35 * np.exp(-0.5 * ((g - 30) / 1.5) ** 2) + 0.65 * np.exp(-0.5 * ((g - 45) / 1.5) ** 2)
+    w /= w.sum()
+    st0 = rbpmf.init(cfg)
+    _, est = rbpmf.step(cfg, st0._replace(log_w=np.log(w)), np.nan)
+    assert abs(est.omega - (0.35 * 30 + 0.65 * 45)) < 0.05  # the mean: on neither line
+    assert abs(est.omega_mode - 45) < 0.05 and abs(est.p_mode - 0.65) < 0.01
+    # where the basin holds all the mass the mode mean is the posterior mean
+    full = res.p_mode > 1 - 1e-12
+    assert full.sum() > 100
+    np.testing.assert_allclose(res.omega_mode[full], res.omega[full], atol=1e-9)
+
+
+def test_point_mode_in_estimate():
+    rng = np.random.default_rng(4)
+    t = np.arange(1500) * 0.01
+    ay = np.sin(50 * t) + 0.5 * np.sin(100 * t) + 0.3 * rng.normal(size=t.size)
+    rec = Recording(t, {"ay": ay})
+    a = rbpmf.estimate(rec)
+    b = rbpmf.estimate(rec, params={"point": "mode"})
+    np.testing.assert_array_equal(b.omega, a.extras["omega_mode"])
+    np.testing.assert_array_equal(b.extras["omega_mean"], a.omega)
+    np.testing.assert_array_equal(b.extras["multimodal"], (a.extras["p_mode"] < 0.9) * 1.0)
+    assert abs(np.median(b.omega[-500:]) - 50) < 1
+    with pytest.raises(ParameterError):
+        rbpmf.Config(point="median")
+
+
+def test_point_mode_step_equals_run():
+    model, _, y = _step_signal(seed=6, n=200)
+    cfg = rbpmf.Config(model=model, n_grid=30, omega_min=20.0, omega_max=50.0, point="mode")
+    res = rbpmf.run(cfg, y)
+    ref = rbpmf.run(dataclasses.replace(cfg, point="mean"), y)
+    np.testing.assert_array_equal(res.omega, ref.omega_mode)
+    np.testing.assert_array_equal(res.omega_mean, ref.omega)
+    st = rbpmf.init(cfg)
+    for k, v in enumerate(y):
+        st, est = rbpmf.step(cfg, st, v)
+        assert est.omega == res.omega[k] and est.omega_mean == res.omega_mean[k]

@@ -67,10 +67,13 @@ from vibrospeed.types import Recording, Track
 #: (which removes a slow wheel's fundamental: the cart failure of issue 7).
 #: The "no line" state's time-domain emission is the signal part's predictive mixture
 #: (``null_model="mixture"``): only the comb evidence decides whether a wheel comb is there.
+#: The reported omega is the mean of the MAP mode (``point="mode"``, issue 3 follow-up): on a
+#: line where the posterior is split (acquisition, an interfering line), the posterior mean
+#: (in ``extras["omega_mean"]``) is the MMSE choice but lies between the lines.
 GRID_DEFAULTS = {
     "jump_rate": 0.05, "off_rate": 0.01, "on_rate": 0.5, "r": 0.15, "q_amp": 0.002,
     "q_omega": 16.0, "temper": 0.2, "prefilter": "thesis-hp", "smooth": "fb",
-    "null_model": "mixture",
+    "null_model": "mixture", "point": "mode",
 }
 
 
@@ -93,6 +96,12 @@ class Config:
     comb_lead : nats, largest lead of the best harmonic's term over the second best (M >= 2):
         ``E = sum_k l_k - l_(1) + min(l_(1), l_(2) + comb_lead)``, so that a hypothesis needs
         at least two harmonics to score; ``inf``: no such limit.
+    comb_min_window : s; before ``comb_window`` s of data have been seen (the start, e.g. a
+        tracker switched on while driving), frames grow: every ``comb_hop`` s from
+        ``comb_min_window`` s on, a frame over all samples seen so far. Without them the comb
+        evidence would first arrive after ``comb_window`` s and acquisition from an uninformed
+        prior would rest on the time-domain likelihood alone until then (it may take an
+        interfering line first). ``>= comb_window``: no growing frames.
     """
 
     tracker: _rb.Config = field(default_factory=_default_tracker)
@@ -103,9 +112,11 @@ class Config:
     comb_cap: float = 3.0
     comb_bg: float = 2.0
     comb_lead: float = 0.5
+    comb_min_window: float = 1.0
 
     def __post_init__(self) -> None:
-        for name in ("comb_window", "comb_hop", "comb_snr", "comb_cap", "comb_bg"):
+        for name in ("comb_window", "comb_hop", "comb_snr", "comb_cap", "comb_bg",
+                     "comb_min_window"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
         if not self.comb_lead >= 0:
@@ -217,16 +228,35 @@ def _frames_of(config: Config, history: np.ndarray, y: np.ndarray, count0: int):
     return ends.astype(np.int64), win[ends + 1]
 
 
+def _growing_frames(config: Config, history: np.ndarray, y: np.ndarray, count0: int):
+    """The growing start-up frames (``comb_min_window``): frame-end indices into ``y`` and,
+    per end, the 1-D frame of every sample seen up to it (global index g < L - 1)."""
+    L, H = config.frame_len, config.hop_len
+    L0 = max(8, int(round(config.comb_min_window / config.tracker.model.dt)))
+    g = count0 + np.arange(y.size)
+    ends = np.flatnonzero((g + 1 >= L0) & (g < L - 1) & ((g + 1 - L0) % H == 0))
+    if ends.size == 0 or config.comb_weight == 0:
+        return np.zeros(0, np.int64), []
+    full = np.concatenate([history, y])
+    # sample y[e] is full[e + L]; the g + 1 samples seen so far end there
+    return ends.astype(np.int64), [full[e + L - g[e] : e + L + 1] for e in ends]
+
+
 def evidence(config: Config, y: np.ndarray, state: State | None = None):
     """``(idx, values)`` comb evidence for ``y`` (indices into ``y``), continuing ``state``."""
     st = init(config) if state is None else state
     hist = _ordered(st)
-    idx, fr = _frames_of(config, hist, np.asarray(y, dtype=np.float64), st.count)
+    y = np.asarray(y, dtype=np.float64)
+    idx, fr = _frames_of(config, hist, y, st.count)
     vals = np.zeros((0, config.tracker.n_grid + 1))
     if idx.size:
         chunk = 2000
         vals = np.concatenate([frame_evidence(config, fr[i:i + chunk])
                                for i in range(0, idx.size, chunk)])
+    g_idx, g_fr = _growing_frames(config, hist, y, st.count)
+    if g_idx.size:  # all before the first full frame
+        g_vals = np.concatenate([frame_evidence(config, f[None, :]) for f in g_fr])
+        idx, vals = np.concatenate([g_idx, idx]), np.concatenate([g_vals, vals])
     return idx, vals
 
 
@@ -341,8 +371,9 @@ def estimate(
     if config.comb_weight > 0:
         notes.append(f"harmonic-comb evidence: {config.comb_window:g} s frames every "
                      f"{config.comb_hop:g} s, weight {config.comb_weight:g}, SNR "
-                     f"{config.comb_snr:g}, cap {config.comb_cap:g} nats ({idx.size} frames, "
-                     f"the first after {L} samples)")
+                     f"{config.comb_snr:g}, cap {config.comb_cap:g} nats ({idx.size} frames; "
+                     f"full {L}-sample frames, growing ones from {config.comb_min_window:g} s "
+                     "before)")
     comb = {k: getattr(config, k) for k in _COMB}
     return _rb.track(recording, config.tracker, y, rms, notes, axis=axis,
                      wheel_radius=wheel_radius, progress=progress,

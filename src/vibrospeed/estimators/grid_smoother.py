@@ -68,6 +68,8 @@ class Smoothed(NamedTuple):
     posterior: np.ndarray | None
     p_third: np.ndarray | None = None
     p_triple: np.ndarray | None = None
+    omega_mode: np.ndarray | None = None  # mean of the MAP mode's basin
+    p_mode: np.ndarray | None = None  # the basin's share of the signal mass
 
 
 class Path(NamedTuple):
@@ -222,7 +224,8 @@ def _smooth_range(alpha, gll, t_end, t_lo, t_hi, kb, B, grid, edges, u, eps, p_o
 
 def _result(outs: np.ndarray, posts: np.ndarray | None) -> Smoothed:
     return Smoothed(outs[:, 0], outs[:, 1], outs[:, 2], outs[:, 3], outs[:, 4], outs[:, 6],
-                    outs[:, 7], outs[:, 8], posts, outs[:, 9], outs[:, 10])
+                    outs[:, 7], outs[:, 8], posts, outs[:, 9], outs[:, 10], outs[:, 11],
+                    outs[:, 12])
 
 
 def _prep(config, gll, return_posterior):

@@ -125,6 +125,15 @@ class Config:
         no longer proves that a *wheel* is turning; that decision is left to ``extra``
         evidence that scores the harmonic comb (:mod:`vibrospeed.estimators.grid`) and to the
         switching rates. The data still place omega within the signal part.
+    point : the point estimate :func:`estimate` reports as the Track's ``omega``: ``"mean"``
+        (the paper's posterior mean) or ``"mode"``: the conditional mean of the MAP mode's
+        basin (the grid points reached from the MAP by non-increasing weights). For a unimodal
+        posterior both are equal; while the posterior is split between lines (acquisition
+        from a uniform prior, a resonance, omega/2) the global mean lies between the modes,
+        on no line, while the mode mean stays on the most probable one. Both are always in
+        the outputs (``omega`` and ``omega_mode``, with the basin's share ``p_mode`` of the
+        signal mass); samples with ``p_mode < mode_share`` are flagged ``multimodal``.
+        ``step``/``run`` report the chosen one as ``omega`` (and the mean as ``omega_mean``).
     """
 
     model: HarmonicModel = field(default_factory=_paper_model)
@@ -154,6 +163,8 @@ class Config:
     fit: str = ""
     temper: float = 1.0
     null_model: str = "white"
+    point: str = "mean"
+    mode_share: float = 0.9
 
     def __post_init__(self) -> None:
         if int(self.n_grid) != self.n_grid or self.n_grid < 1:
@@ -196,6 +207,10 @@ class Config:
                                  f"'{self.null_model}'")
         if not 0 < self.temper <= 1:
             raise ParameterError(f"temper must be in (0, 1], got {self.temper}")
+        if self.point not in ("mean", "mode"):
+            raise ParameterError(f"point must be 'mean' or 'mode', got '{self.point}'")
+        if not 0 < self.mode_share <= 1:
+            raise ParameterError(f"mode_share must be in (0, 1], got {self.mode_share}")
         if not self.lag > 0:
             raise ParameterError(f"lag must be > 0 s, got {self.lag}")
         bad = [p for p in self.fit_names if p not in ("q_omega", "q_amp", "r")]
@@ -403,6 +418,9 @@ class Estimate(NamedTuple):
     posterior: np.ndarray
     p_third: float = 0.0
     p_triple: float = 0.0
+    omega_mode: float = np.nan
+    p_mode: float = np.nan
+    omega_mean: float = np.nan
 
 
 class Result(NamedTuple):
@@ -423,11 +441,14 @@ class Result(NamedTuple):
     final: State
     p_third: np.ndarray | None = None  # mass near MAP/3
     p_triple: np.ndarray | None = None  # mass near 3 MAP
+    omega_mode: np.ndarray | None = None  # mean of the MAP mode's basin
+    p_mode: np.ndarray | None = None  # the basin's share of the signal mass
+    omega_mean: np.ndarray | None = None  # the posterior mean (= omega unless point="mode")
 
 
 #: outputs per sample: mean, std, map, lo, hi, pred loglik, p_null, p_half, p_double, p_third,
-#: p_triple; then M amplitudes
-N_OUT_FIXED = 11
+#: p_triple, mode mean, mode mass; then M amplitudes
+N_OUT_FIXED = 13
 
 
 def init(config: Config) -> State:
@@ -516,7 +537,24 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out):
     out[3] = _quantile(v, edges, q_lo)
     out[4] = _quantile(v, edges, q_hi)
     out[6] = w0
+    # the MAP mode's basin: grid points reached from jmap by non-increasing weights; its
+    # conditional mean (= the posterior mean when the posterior is unimodal) and its share of
+    # the signal mass
+    sb = w[jmap]
+    mb = w[jmap] * grid[jmap]
+    a = jmap
+    while a > 0 and w[a - 1] <= w[a]:
+        a -= 1
+        sb += w[a]
+        mb += w[a] * grid[a]
+    b = jmap
+    while b < N - 1 and w[b + 1] <= w[b]:
+        b += 1
+        sb += w[b]
+        mb += w[b] * grid[b]
+    out[11] = mb / sb if sb > 0.0 else grid[jmap]
     sig = 1.0 - w0
+    out[12] = min(1.0, sb / sig) if sig > 1e-300 else 1.0
     if sig > 1e-300:
         x = grid[jmap]
         out[7] = _mass_near(w, grid, x / 2.0, amb_rel, amb_abs) / sig
@@ -834,8 +872,9 @@ def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Est
     ex = np.empty(0) if extra is None else _extra_vec(config, extra)
     _step(lw, lw0, mean, cov, float(y), *_args(config), ex, np.empty(N), np.empty(N),
           np.empty((N, L)), np.empty(L), out, post, np.empty(0))
-    est = Estimate(*out[:5], out[5], out[6], out[7], out[8], out[N_OUT_FIXED:].copy(), post,
-                   out[9], out[10])
+    om = out[11] if config.point == "mode" else out[0]
+    est = Estimate(om, *out[1:5], out[5], out[6], out[7], out[8], out[N_OUT_FIXED:].copy(),
+                   post, out[9], out[10], out[11], out[12], out[0])
     return State(lw, mean, cov, float(lw0[0])), est
 
 
@@ -875,9 +914,11 @@ def run(
             raise ParameterError("extra evidence indices must be strictly increasing")
     outs, posts, glls = _run(ys, lw, lw0, mean, cov, *_args(config), ex_idx, ex_val,
                              bool(return_posterior), bool(return_grid_loglik))
-    return Result(*(outs[:, c] for c in range(9)), outs[:, N_OUT_FIXED:],
+    om = outs[:, 11] if config.point == "mode" else outs[:, 0]
+    return Result(om, *(outs[:, c] for c in range(1, 9)), outs[:, N_OUT_FIXED:],
                   posts if return_posterior else None, glls if return_grid_loglik else None,
-                  State(lw, mean, cov, float(lw0[0])), outs[:, 9], outs[:, 10])
+                  State(lw, mean, cov, float(lw0[0])), outs[:, 9], outs[:, 10], outs[:, 11],
+                  outs[:, 12], outs[:, 0])
 
 
 def improved(config: Config | None = None, **kw) -> Config:
@@ -972,7 +1013,9 @@ def estimate(
     (:mod:`.grid_smoother`), ``fit="q_omega,q_amp,r"`` fits those by marginal likelihood first
     (:mod:`.fit`; values in the Track's params and notes).
 
-    The Track's ``omega`` is the posterior mean, its band the ``level`` credible interval;
+    The Track's ``omega`` is the posterior mean (``point="mode"``: the mean of the MAP mode,
+    the posterior mean then in extras ``omega_mean``), its band the ``level`` credible interval;
+    extras ``omega_mode``, ``p_mode`` and ``multimodal`` (``p_mode < mode_share``) always;
     extras (per sample): ``omega_map`` (filter: MAP; smoother: Viterbi path, NaN in "no line"),
     ``loglik``, ``p_null``, ``p_half``, ``p_double``, ``p_third``, ``p_triple`` (mass near
     MAP/2, 2 MAP, MAP/3, 3 MAP), ``confidence`` (= 1 - p_null), ``has_signal`` (1.0 where
@@ -1081,6 +1124,15 @@ def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, 
         omega, std, lo, hi = sm.omega, sm.omega_std, sm.omega_lo, sm.omega_hi
         p_null, p_half, p_double, post = sm.p_null, sm.p_half, sm.p_double, sm.posterior
         p_third, p_triple = sm.p_third, sm.p_triple
+    if config.smooth == "none":  # res.omega is already the chosen point estimate
+        o_mode, p_mode, o_mean = res.omega_mode, res.p_mode, res.omega_mean
+    else:
+        o_mode, p_mode, o_mean = sm.omega_mode, sm.p_mode, sm.omega
+        if config.point == "mode":
+            omega = o_mode
+    if config.point == "mode":
+        notes.append("omega = mean of the MAP mode (point='mode'); the posterior mean is in "
+                     "extras['omega_mean']")
     conf = 1.0 - p_null
     amb = np.maximum(np.maximum(p_half, p_double), np.maximum(p_third, p_triple))
     extras: dict[str, np.ndarray] = {
@@ -1088,7 +1140,11 @@ def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, 
         "p_double": p_double, "p_third": p_third, "p_triple": p_triple, "confidence": conf,
         "has_signal": (conf >= 0.5).astype(np.float64),
         "ambiguous": (amb >= 0.05).astype(np.float64), "rms": rms,
+        "omega_mode": o_mode, "p_mode": p_mode,
+        "multimodal": (p_mode < config.mode_share).astype(np.float64),
     }
+    if config.point == "mode":
+        extras["omega_mean"] = o_mean
     for m in range(M):
         extras[f"amp{m + 1}"] = res.amplitudes[:, m] * rms / config.signal_rms
     if return_posterior:
@@ -1120,5 +1176,5 @@ def _run_chunked(config: Config, y: np.ndarray, return_posterior: bool, progress
             bar.update(task, advance=min(chunk, y.size - k0))
     cat = [np.concatenate([getattr(p, f) for p in parts]) for f in Result._fields[:10]]
     post = np.concatenate([p.posterior for p in parts]) if return_posterior else None
-    return Result(*cat, post, None, state, np.concatenate([p.p_third for p in parts]),
-                  np.concatenate([p.p_triple for p in parts]))
+    tail = [np.concatenate([getattr(p, f) for p in parts]) for f in Result._fields[13:]]
+    return Result(*cat, post, None, state, *tail)
