@@ -1,6 +1,6 @@
 """Benchmark of the inertial-aided tracker (issue 4; thesis ch. 3). Run by hand:
 
-    PYTHONPATH=src .venv/bin/python benchmarks/aided.py [sim] [sweep] [hungary]
+    PYTHONPATH=src .venv/bin/python benchmarks/aided.py [sim] [sweep] [hungary] [hungary_grid]
 
 * sim: stop_and_go and sudden_change, 15 seeds each: RMSE over the whole drive (starts and stops
   included) of the aided tracker (window and CUSUM standstill tests, the thesis' scheme and the
@@ -12,6 +12,8 @@
 * hungary: the phyphox car drives (x lateral, y forward, gyro z): speed vs GPS with the wheel
   radius fitted once per drive, aided (with and without steady-turn fixes) next to the
   unaided EKF and RBPMF.
+* hungary_grid: the aided grid trackers (-p tracker=rbpmf and tracker=grid) on the same drives,
+  with the band's coverage split by the "no line" state (has_signal = p_null <= 0.5).
 Results are printed as markdown (pasted into docs/aided.md).
 """
 
@@ -56,6 +58,7 @@ VARIANTS = {
     "aided (window, aid_always)": {"aid_always": True},
     "same kernel, no aiding": NO_AID,
     "aided RBPMF (window, -p tracker=rbpmf)": {"tracker": "rbpmf"},
+    "aided grid (window, -p tracker=grid)": {"tracker": "grid"},
 }
 PLAIN_RBPMF = dict(omega_min=0.0, omega_max=40.0, n_grid=161, M=2, prefilter="thesis-hplp")
 
@@ -187,6 +190,55 @@ def bench_hungary() -> None:
             print(f"{head} {name} (unaided) | {r1:.3f} | {_row(r1 * tr.omega, lo, hi, gps)} |")
 
 
+HUNGARY_GRID_BASE = {"accel_detrend": 60.0, "reference": "turn", "prefilter": "thesis-hp",
+                     "scaling": "rms", "n_grid": 241, "omega_max": 120.0, "q_omega": 1.0}
+HUNGARY_GRID = {
+    "aided RBPMF (tracker=rbpmf, as above)": {**HUNGARY_GRID_BASE, "tracker": "rbpmf",
+                                              "r": rbpmf.DEFAULT_R, "q_amp": 0.001},
+    "aided grid (tracker=grid)": {**HUNGARY_GRID_BASE, "tracker": "grid", "r": 0.15,
+                                  "q_amp": 0.002},
+}
+
+
+def bench_hungary_grid() -> None:
+    from vibrospeed.io import read
+    from vibrospeed.io.timebase import resample_uniform
+
+    drives = sorted(p for p in DATA.iterdir() if p.is_dir())
+    print("\n### Hungary drives, aided grid trackers: band coverage by \"no line\" state\n")
+    print("| drive | tracker | r fitted (m) | RMSE | corr | GPS inside 98 % band | has_signal | "
+          "inside where has_signal | inside where p_null < 0.1 (share) | inside where no line "
+          "| median half-width has_signal / no line (m/s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for d in drives:
+        rec = read(d, "phyphox")
+        rec = resample_uniform(rec) if not rec.is_uniform(0.01) else rec
+        body = rec.with_channels(ax=rec["ay"], ay=-rec["ax"])
+        gps = rec["gps_speed"]
+        for k, p in HUNGARY_GRID.items():
+            tr = aided.estimate(body, axis="y", wheel_radius=0.3, params=p)
+            r1 = _fit_radius(gps, tr.omega)
+            tr = aided.estimate(body, axis="y", wheel_radius=r1, params=p)
+            v, lo, hi = tr.speed, tr.speed_lo, tr.speed_hi
+            ok = np.isfinite(gps) & np.isfinite(v)
+            rm, _, c = _gps_stats(None, v, gps)
+            ins = (gps >= lo) & (gps <= hi)
+            hs = tr.extras.get("has_signal", np.ones(v.size)) > 0
+            conf = tr.extras["p_null"] < 0.1
+            half = 0.5 * (hi - lo)
+
+            def pct(m, ins=ins):
+                return f"{100 * np.mean(ins[m]):.0f} %" if np.any(m) else "-"
+
+            def med(m, half=half):
+                return f"{np.median(half[m]):.2f}" if np.any(m) else "-"
+
+            print(f"| {d.name} | {k} | {r1:.3f} | {rm:.2f} | {c:.2f} | {pct(ok)} | "
+                  f"{100 * np.mean(hs[ok]):.0f} % | {pct(ok & hs)} | {pct(ok & conf)} "
+                  f"({100 * np.mean(conf[ok]):.0f} %) | {pct(ok & ~hs)} | "
+                  f"{med(ok & hs)} / {med(ok & ~hs)} |", flush=True)
+
+
 def _row(v, lo, hi, gps) -> str:
     rm, mae, c = _gps_stats(None, v, gps)
     ok = np.isfinite(gps) & np.isfinite(v)
@@ -205,3 +257,5 @@ if __name__ == "__main__":
         bench_sweep()
     if "hungary" in parts:
         bench_hungary()
+    if "hungary_grid" in parts:
+        bench_hungary_grid()

@@ -133,12 +133,13 @@ def _stop_latency(rec, omega, tol=0.1):
     return worst
 
 
+@pytest.mark.parametrize("kind", ["rbpmf", "grid"])
 @pytest.mark.parametrize("name", ["stop_and_go", "sudden_change"])
-def test_aided_rbpmf_beats_plain_rbpmf(name):
+def test_aided_rbpmf_beats_plain_rbpmf(name, kind):
     rec = SCENARIOS[name](seed=11, duration=45)
     w = rec["omega_true"]
-    tr = aided.estimate(rec, params={"tracker": "rbpmf"})
-    assert tr.params["tracker"] == "rbpmf" and tr.speed_lo is not None
+    tr = aided.estimate(rec, params={"tracker": kind})
+    assert tr.params["tracker"] == kind and tr.speed_lo is not None
     plain = rbpmf.estimate(rec, params=dict(omega_min=0.0, omega_max=40.0, n_grid=161, M=2,
                                             prefilter="thesis-hplp"))
     rmse = np.sqrt(np.mean((tr.omega - w) ** 2))
@@ -165,3 +166,112 @@ def test_errors():
         aided.estimate(rec, params={"tracker": "kalman"})
     with pytest.raises(ParameterError, match="unknown parameter"):
         aided.estimate(rec, params={"tracker": "rbpmf", "bogus": 1})
+    with pytest.raises(ParameterError, match="tracker=grid"):
+        aided.estimate(rec, params={"tracker": "rbpmf", "comb_weight": 1.0})
+    with pytest.raises(ParameterError, match="comb"):
+        cfg = _small_grid()
+        aided_grid.Config(tracker=dataclasses.replace(cfg.tracker, n_grid=41), comb=cfg.comb)
+
+
+# --- tracker=grid: "no line" state, comb evidence (issue 4 follow-up) -------------------------
+def _small_grid(**kw) -> aided_grid.Config:
+    from vibrospeed.estimators import grid as gridmod
+
+    cfg = _small(tracker_kw=dict(off_rate=0.05, on_rate=0.5, jump_rate=0.05,
+                                 null_model="mixture", point="mode", **kw.pop("tracker_kw", {})),
+                 **kw)
+    comb = gridmod.Config(tracker=cfg.tracker, comb_window=1.0, comb_hop=0.1,
+                          comb_min_window=0.5)
+    return dataclasses.replace(cfg, comb=comb)
+
+
+def test_grid_step_equals_run():
+    """Comb frames (growing and full), standstill, acceleration mode and a fix: run == step."""
+    cfg = _small_grid()
+    y, u = _signals()
+    ref = np.full(y.size, np.nan)
+    ref_var = np.full(y.size, np.nan)
+    ref[420], ref_var[420] = 10.0, 0.05
+    gain = np.linspace(1.0, 1.5, y.size)
+    res = aided_grid.run(cfg, y, u, gain=gain, ref=ref, ref_var=ref_var)
+    assert res.standstill[:140].mean() > 0.5 and res.accelerating.any()
+    assert np.ptp(res.p_null) > 0.05  # the "no line" state is in play
+    st = aided_grid.init(cfg)
+    for k in range(y.size):
+        st, est = aided_grid.step(cfg, st, y[k], u[k], gain=gain[k], ref=ref[k],
+                                  ref_var=ref_var[k])
+        assert est.omega == res.omega[k] and est.p_null == res.p_null[k]
+        assert est.omega_lo == res.omega_lo[k] and est.omega_hi == res.omega_hi[k]
+    np.testing.assert_array_equal(st.grid.log_w, res.final.grid.log_w)
+    assert st.grid.log_w_null == res.final.grid.log_w_null
+    np.testing.assert_array_equal(st.buf, res.final.buf)
+    assert st.count == res.final.count == y.size
+    a = aided_grid.run(cfg, y[:230], u[:230], gain=gain[:230], ref=ref[:230],
+                       ref_var=ref_var[:230])
+    b = aided_grid.run(cfg, y[230:], u[230:], gain=gain[230:], ref=ref[230:],
+                       ref_var=ref_var[230:], state=a.final)
+    np.testing.assert_array_equal(np.concatenate([a.omega, b.omega]), res.omega)
+    np.testing.assert_array_equal(np.concatenate([a.p_null, b.p_null]), res.p_null)
+
+
+def test_fix_weighs_no_line_state_by_its_marginal():
+    """"No line" has omega uniform on the grid: against a line posterior that is uniform too,
+    a fix leaves p_null unchanged; against a line posterior on one point omega_j, the odds
+    line : no line change by N(z; omega_j, R) / mean_i N(z; omega_i, R)."""
+    cfg = _small(standstill="none", tracker_kw=dict(off_rate=0.1, on_rate=0.1,
+                                                    null_model="mixture"))
+    st0 = aided_grid.init(cfg)
+    assert 0.4 < np.exp(st0.grid.log_w_null) < 0.6
+    z, R = 7.0, 0.3
+    with_fix = aided_grid.step(cfg, st0, 0.01, 0.0, ref=z, ref_var=R)[1]
+    without = aided_grid.step(cfg, st0, 0.01, 0.0)[1]
+    assert with_fix.p_null == pytest.approx(without.p_null, rel=1e-9)
+    assert abs(with_fix.omega - z) < 1.0  # the line part moved to the fix
+    # line mass on one grid point (index 12, omega = 3 rad/s)
+    g = cfg.grid
+    lw = np.full(g.size, -np.inf)
+    lw[12] = np.log(0.5)
+    st1 = st0._replace(grid=st0.grid._replace(log_w=lw, log_w_null=np.log(0.5)))
+    lik = np.exp(-0.5 * (g - z) ** 2 / R)
+    odds = lik[12] / lik.mean()  # prior odds 1
+    # the RBPMF step after the fix: mixture null -> the sample does not change the odds;
+    # the switching moves mass between the states (p_off, p_on per step)
+    p_off = -np.expm1(-0.1 * 0.01)
+    p_line = odds / (1 + odds)
+    expect_null = p_off * p_line + (1 - p_off) * (1 - p_line)
+    # p_null of step = the posterior mass before the transition: compare the next step's prior
+    st2, e2 = aided_grid.step(cfg, st1, 0.01, 0.0, ref=z, ref_var=R)
+    assert e2.p_null == pytest.approx(1 - p_line, rel=1e-6)
+    assert np.exp(st2.grid.log_w_null) / (np.exp(st2.grid.log_w_null)
+                                          + np.exp(st2.grid.log_w).sum()) == pytest.approx(
+        expect_null, rel=1e-6)
+
+
+def _resonance(seed=0, n=3000):
+    """Constant speed, no wheel line: one body resonance at 14 Hz plus noise (Hungary-like)."""
+    from vibrospeed.types import Recording
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.01
+    ay = 0.3 * np.sin(2 * np.pi * 14.0 * t + 0.3 * np.sin(0.5 * t)) + rng.normal(0, 0.1, n)
+    ax = rng.normal(0, 0.02, n)
+    return Recording(t, {"ay": ay, "ax": ax})
+
+
+def test_grid_band_widens_without_a_wheel_line():
+    """A single resonance (14 Hz = 88 rad/s) is no wheel comb; the wheel turns at 30 rad/s.
+    tracker=rbpmf claims a line at 88 or 44 (its 2nd harmonic) and its band misses the truth;
+    tracker=grid gives the "no line" state weight and its band covers the truth."""
+    rec = _resonance()
+    p = {"prefilter": "thesis-hp", "scaling": "rms", "r": 0.15, "q_amp": 0.002, "n_grid": 241,
+         "omega_max": 120.0, "q_omega": 1.0}
+    late = slice(1000, None)
+    rb = aided.estimate(rec, wheel_radius=0.3, params={"tracker": "rbpmf", **p})
+    gr = aided.estimate(rec, wheel_radius=0.3, params={"tracker": "grid", **p})
+    assert gr.params["tracker"] == "grid"
+    truth = 30.0
+    cov_rb = np.mean((rb.omega_lo[late] <= truth) & (truth <= rb.omega_hi[late]))
+    cov_gr = np.mean((gr.omega_lo[late] <= truth) & (truth <= gr.omega_hi[late]))
+    assert cov_rb < 0.05 and cov_gr > 0.9
+    assert np.max(rb.extras["p_null"]) == 0.0 and np.mean(gr.extras["p_null"][late]) > 0.25
+    assert np.median((gr.omega_hi - gr.omega_lo)[late]) > 80.0

@@ -617,6 +617,10 @@ def estimate(
     ``wheelbase`` (m, for bump fixes); ``accel_detrend`` (s; subtract a causal running mean of
     a_x with this time constant, for a tilted phone whose a_x carries a large gravity offset that
     would hold the mode detector in acceleration mode; default 0 = off, as in the thesis).
+    ``tracker``: 'ekf' (default), 'rbpmf' (the aiding around the paper's grid filter) or
+    'grid' (around the grid product's filter: "no line" state, jumps, mode estimate and
+    harmonic-comb evidence); the grid trackers go to
+    :func:`vibrospeed.estimators.aided_grid.estimate`.
 
     The wheel radius comes from ``wheel_radius`` or ``recording.wheel_radius``.
     """
@@ -626,13 +630,13 @@ def estimate(
 
     params = dict(params or {})
     tracker = str(params.pop("tracker", "ekf"))
-    if tracker == "rbpmf":
+    if tracker in ("rbpmf", "grid"):
         from vibrospeed.estimators import aided_grid
 
         return aided_grid.estimate(recording, axis=axis, wheel_radius=wheel_radius,
-                                   params=params, progress=progress)
+                                   params=params, progress=progress, kind=tracker)
     if tracker != "ekf":
-        raise ParameterError(f"tracker must be 'ekf' or 'rbpmf', got '{tracker}'")
+        raise ParameterError(f"tracker must be 'ekf', 'rbpmf' or 'grid', got '{tracker}'")
     del progress  # one compiled pass; nothing to report
     r = wheel_radius or recording.wheel_radius
     if not r:

@@ -40,6 +40,17 @@ Bias: unlike the EKF version there is no bias state (a grid over (omega, b) woul
 cost); ``accel_bias`` is a fixed known offset added to ``u``. On real data the offset of the
 forward axis is removed before (``accel_detrend`` in :func:`estimate`).
 
+"No line" state and comb evidence (``tracker=grid``, issue 4 follow-up): the tracker config may
+carry the RBPMF's "no line" state (``off_rate`` > 0; its omega is unknown, i.e. uniform on the
+grid) and ``comb`` (a :class:`vibrospeed.estimators.grid.Config`) adds the harmonic-comb
+log-evidence of the grid product every ``comb_hop`` s (``rbpmf.step(..., extra=E)``; frames of the
+RBPMF input ``y * gain``, kept in a ring buffer in the state). The scalar omega measurements
+above then also weigh the "no line" state by its marginal likelihood ``p(z | no line) =
+mean_j N(z; omega_j + offset, R)`` (uniform omega), so a standstill measurement puts the mass
+on the line state at 0. In acceleration mode the comb evidence is skipped (``comb_in_accel``:
+a 3 s spectrum lags a fast speed change; the vibration update is skipped there too). The
+integration and the boost move only the line part; the "no line" part stays uniform.
+
 Conventions as in the RBPMF: the stored state is the prior for the next sample, ``step``
 returns the posterior at ``t_k``; ``run`` gives exactly the numbers of repeated ``step``
 (vibration-only stretches are passed to :func:`rbpmf.run`, which equals repeated
@@ -58,6 +69,7 @@ import numpy as np
 from numba import njit
 
 from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
@@ -90,6 +102,9 @@ class Config:
     standstill : 'window' (thesis 3.1) or 'none'. ss_n, ss_mu, r_ss : as in
         :class:`vibrospeed.estimators.aided.Config`.
     mode_n, mode_mu, boost : mode detector (thesis 3.3) and the boost of eq. 3.15.
+    comb : harmonic-comb evidence (:class:`vibrospeed.estimators.grid.Config`, its ``tracker``
+        must have this tracker's grid and ``dt``) or None (none; the default).
+    comb_in_accel : also apply the comb evidence in acceleration mode (default False).
     """
 
     tracker: rbpmf.Config = field(default_factory=_cart_tracker)
@@ -104,6 +119,8 @@ class Config:
     mode_n: int = det.MODE_N
     mode_mu: float = det.MODE_MU
     boost: bool = True
+    comb: gridmod.Config | None = None
+    comb_in_accel: bool = False
 
     def __post_init__(self) -> None:
         tr = self.tracker
@@ -133,6 +150,12 @@ class Config:
             v = getattr(self, name)
             if int(v) != v or v < 1:
                 raise ParameterError(f"{name} must be a positive integer, got {v}")
+        if self.comb is not None:
+            ct = self.comb.tracker
+            if (ct.n_grid != tr.n_grid or not np.array_equal(ct.grid, tr.grid)
+                    or ct.model.dt != tr.model.dt or ct.model.M != tr.model.M):
+                raise ParameterError("comb: its tracker must have the aided tracker's grid, dt "
+                                     "and M")
 
     def _with_q(self, q: float | None) -> rbpmf.Config:
         if q is None or q == self.tracker.model.q_omega:
@@ -160,12 +183,16 @@ class Config:
 
 class State(NamedTuple):
     """Prior for the next sample: ``grid`` (RBPMF state), ``offset`` (rad/s, sub-cell shift not
-    yet applied to the grid), detector states ``window`` and ``mode``."""
+    yet applied to the grid), detector states ``window`` and ``mode``; with comb evidence the
+    last ``comb.frame_len`` RBPMF inputs ``buf`` (ring buffer, oldest at ``count % L``) and the
+    number ``count`` of samples seen."""
 
     grid: rbpmf.State
     offset: float
     window: det.WindowState
     mode: det.ModeState
+    buf: np.ndarray | None = None
+    count: int = 0
 
 
 class Estimate(NamedTuple):
@@ -186,9 +213,22 @@ class Estimate(NamedTuple):
 
 def init(config: Config) -> State:
     """RBPMF prior of the tracker config (uniform over the grid unless its ``omega0`` is set),
-    no offset, empty detectors."""
+    no offset, empty detectors (and an empty comb frame buffer)."""
+    buf = None if config.comb is None else np.zeros(config.comb.frame_len)
     return State(rbpmf.init(config.tracker), 0.0, det.window_init(config.ss_n),
-                 det.mode_init(config.mode_n))
+                 det.mode_init(config.mode_n), buf, 0)
+
+
+def _push(buf: np.ndarray, count: int, y: np.ndarray) -> np.ndarray:
+    """Ring buffer ``buf`` (oldest at ``count % L``) after appending ``y``."""
+    L = buf.size
+    out = buf.copy()
+    if y.size >= L:
+        pos = (count + y.size - L + np.arange(L)) % L
+        out[pos] = y[-L:]
+    else:
+        out[(count + np.arange(y.size)) % L] = y
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -281,8 +321,9 @@ def _decide(config: Config, window: det.WindowState, mode: det.ModeState, y: flo
 
 def _core(config: Config, g: rbpmf.State, offset: float, y: float, u: float, gain: float,
           ref: float, ref_var: float, ss: bool, acc: bool, boost: bool,
-          ubar: float) -> tuple[rbpmf.State, float, Estimate]:
-    """One sample on a detector decision; ``g`` is modified in place before the RBPMF step."""
+          ubar: float, ext: np.ndarray | None = None) -> tuple[rbpmf.State, float, Estimate]:
+    """One sample on a detector decision; ``g`` is modified in place before the RBPMF step;
+    ``ext`` the comb evidence of a frame ending here (None: none)."""
     T = config.tracker.model.dt
     r = config.wheel_radius
     if boost and config.boost:
@@ -297,11 +338,17 @@ def _core(config: Config, g: rbpmf.State, offset: float, y: float, u: float, gai
             ll -= 0.5 * om * om / config.r_ss
         if np.isfinite(ref) and np.isfinite(ref_var) and ref_var > 0:
             ll -= 0.5 * (om - ref) ** 2 / ref_var
-        g = rbpmf.State(g.log_w + ll, g.mean, g.cov, g.log_w_null)
+        ll0 = g.log_w_null
+        if np.isfinite(ll0):  # "no line": omega uniform on the (linear) grid
+            mx = np.max(ll)
+            ll0 = ll0 + mx + np.log(np.mean(np.exp(ll - mx)))
+        g = rbpmf.State(g.log_w + ll, g.mean, g.cov, ll0)
     vib, accel, still = config.trackers
     cfg = accel if acc else (still if ss else vib)
     yin = np.nan if acc else y * gain
-    g, e = rbpmf.step(cfg, g, yin)
+    if acc and not config.comb_in_accel:
+        ext = None
+    g, e = rbpmf.step(cfg, g, yin, extra=ext)
     est = _output(e.omega, e.omega_std, e.omega_map, e.omega_lo, e.omega_hi, e.p_null, offset,
                   ss, acc, boost, ubar, e.amplitudes)
     if acc and np.isfinite(u):
@@ -326,10 +373,17 @@ def step(config: Config, state: State, y: float, u: float, *, gain: float = 1.0,
     mode = det.ModeState(state.mode.buf.copy(), state.mode.pos_count.copy(),
                          state.mode.flag.copy())
     ss, acc, boost, ubar = _decide(config, window, mode, float(y), float(u))
+    ext, buf = None, state.buf
+    if config.comb is not None:
+        yy = np.array([float(y) * float(gain)])
+        idx, vals = gridmod.evidence(config.comb, yy,
+                                     gridmod.State(state.grid, state.buf, state.count))
+        ext = vals[0] if idx.size else None
+        buf = _push(state.buf, state.count, yy)
     g = _copy_grid(state.grid)
     g, offset, est = _core(config, g, float(state.offset), float(y), float(u), float(gain),
-                           float(ref), float(ref_var), ss, acc, boost, ubar)
-    return State(g, offset, window, mode), est
+                           float(ref), float(ref_var), ss, acc, boost, ubar, ext)
+    return State(g, offset, window, mode, buf, state.count + 1), est
 
 
 class Result(NamedTuple):
@@ -385,19 +439,28 @@ def run(config: Config, y: np.ndarray, u: np.ndarray, *, gain: np.ndarray | None
     ss = ss & ~acc
     has_ref = np.isfinite(ref) & np.isfinite(ref_var) & (ref_var > 0)
     special = ss | acc | boost | has_ref
+    yin = y * gain
+    ev_row = np.full(n, -1, np.int64)
+    ev_idx, ev_vals, buf = np.zeros(0, np.int64), np.zeros((0, 0)), st.buf
+    if config.comb is not None:
+        ev_idx, ev_vals = gridmod.evidence(config.comb, yin,
+                                           gridmod.State(st.grid, st.buf, st.count))
+        ev_row[ev_idx] = np.arange(ev_idx.size)
+        buf = _push(st.buf, st.count, yin)
     M = config.tracker.model.M
     out = np.full((n, 6), np.nan)
     amps = np.full((n, M), np.nan)
     g = _copy_grid(st.grid)
     offset = float(st.offset)
-    yin = y * gain
     k = 0
     while k < n:
         if not special[k] and offset == 0.0:
             e = k + 1
             while e < n and not special[e]:
                 e += 1
-            res = rbpmf.run(config.tracker, yin[k:e], g)
+            sel = (ev_idx >= k) & (ev_idx < e)
+            extra = (ev_idx[sel] - k, ev_vals[sel]) if np.any(sel) else None
+            res = rbpmf.run(config.tracker, yin[k:e], g, extra=extra)
             g = res.final
             out[k:e] = np.column_stack([np.maximum(res.omega, 0.0), res.omega_std,
                                         np.maximum(res.omega_map, 0.0),
@@ -409,17 +472,28 @@ def run(config: Config, y: np.ndarray, u: np.ndarray, *, gain: np.ndarray | None
         g = _copy_grid(g)
         g, offset, est = _core(config, g, offset, float(y[k]), float(u[k]), float(gain[k]),
                                float(ref[k]), float(ref_var[k]), bool(ss[k]), bool(acc[k]),
-                               bool(boost[k]), float(ubar[k]))
+                               bool(boost[k]), float(ubar[k]),
+                               ev_vals[ev_row[k]] if ev_row[k] >= 0 else None)
         out[k] = est[:6]
         amps[k] = est.amplitudes
         k += 1
     return Result(*(out[:, c] for c in range(6)), ss, acc, boost, ubar, amps,
-                  State(g, offset, window, mode))
+                  State(g, offset, window, mode, buf, st.count + n))
 
 
 # ---------------------------------------------------------------------------------------------
 #: parameters of :func:`estimate` that are neither Config, rbpmf.Config nor HarmonicModel fields
 INPUT_PARAMS = ("accel_axis", "lp_cutoff", "reference", "wheelbase", "accel_detrend")
+
+#: ``tracker=grid`` (issue 4 follow-up): the grid product's tracker settings
+#: (:data:`vibrospeed.estimators.grid.GRID_DEFAULTS`: jumps, "no line" state with the mixture
+#: null model, tempered likelihood, mode estimate) on the aided model, plus its comb evidence
+#: (:class:`vibrospeed.estimators.grid.Config` defaults). The noise levels and q_omega stay the
+#: aided ones (the aiding follows the accelerations that the product's q_omega = 16 covers).
+GRID_TRACKER = {"jump_rate": 0.05, "off_rate": 0.01, "on_rate": 0.5, "temper": 1.0,
+                "null_model": "mixture", "point": "mode"}
+#: comb-evidence parameters accepted by :func:`estimate` (grid.Config fields)
+COMB_PARAMS = tuple(f.name for f in dataclasses.fields(gridmod.Config) if f.name != "tracker")
 
 
 def estimate(
@@ -429,8 +503,12 @@ def estimate(
     wheel_radius: float | None = None,
     params: dict | None = None,
     progress: bool = False,
+    kind: str = "rbpmf",
 ):
-    """Aided RBPMF tracking of omega (``--method aided -p tracker=rbpmf``).
+    """Aided RBPMF tracking of omega (``--method aided -p tracker=rbpmf``, or ``kind="grid"``:
+    ``-p tracker=grid``, the grid product's "no line" state, jumps, tempering, mode estimate
+    (:data:`GRID_TRACKER`) and harmonic-comb evidence (``comb_*`` params, defaults of
+    :class:`vibrospeed.estimators.grid.Config`)).
 
     ``params``: any :class:`Config` field, any :class:`rbpmf.Config` field (grid ``n_grid``,
     ``omega_max``, ``prefilter``, ``scaling``, ``off_rate`` ...; defaults of
@@ -451,8 +529,15 @@ def estimate(
         raise ParameterError(
             f"{recording.source or 'recording'}: the aided tracker needs the wheel radius "
             "(pass wheel_radius=... / --wheel-radius, or use a recording that knows it)")
+    if kind not in ("rbpmf", "grid"):
+        raise ParameterError(f"tracker must be 'ekf', 'rbpmf' or 'grid', got '{kind}'")
     params = dict(params or {})
+    if kind == "grid":
+        params = {**GRID_TRACKER, **params}
     inp = {k: params.pop(k) for k in INPUT_PARAMS if k in params}
+    comb_kw = {k: params.pop(k) for k in COMB_PARAMS if k in params}
+    if comb_kw and kind != "grid":
+        raise ParameterError(f"{', '.join(comb_kw)}: comb evidence needs tracker=grid")
     model_kw, rest = split_params(HarmonicModel, params)
     model_kw.pop("dt", None)
     tr_names = {f.name for f in dataclasses.fields(rbpmf.Config)} - {"model"}
@@ -466,7 +551,10 @@ def estimate(
     tdef = {f.name: getattr(base, f.name) for f in dataclasses.fields(rbpmf.Config)
             if f.name in ("n_grid", "omega_min", "omega_max", "prefilter", "scaling")}
     tracker = config_from_params(rbpmf.Config, tr_kw, model=model, **tdef)
-    config = config_from_params(Config, cfg_kw, tracker=tracker, wheel_radius=float(r))
+    comb = (config_from_params(gridmod.Config, comb_kw, tracker=tracker) if kind == "grid"
+            else None)
+    config = config_from_params(Config, cfg_kw, tracker=tracker, wheel_radius=float(r),
+                                comb=comb)
     src = recording.source or "recording"
     if tracker.omega_max >= np.pi / dt:
         raise ParameterError(f"{src}: omega_max {tracker.omega_max:g} rad/s needs fs > "
@@ -485,6 +573,12 @@ def estimate(
     notes = [f"pre-filter '{tracker.prefilter}' on '{vib_name}' at fs = {1 / dt:.4g} Hz",
              f"aided rbpmf: {tracker.n_grid} grid points on [0, {tracker.omega_max:g}] rad/s, "
              f"standstill test '{config.standstill}'"] + notes
+    if comb is not None:
+        notes.append(f"tracker=grid: 'no line' state (off {tracker.off_rate:g}/s, on "
+                     f"{tracker.on_rate:g}/s, null model '{tracker.null_model}'), jumps "
+                     f"{tracker.jump_rate:g}/s, temper {tracker.temper:g}, point "
+                     f"'{tracker.point}'; harmonic-comb evidence ({comb.comb_window:g} s frames "
+                     f"every {comb.comb_hop:g} s, weight {comb.comb_weight:g})")
     gain = None
     if tracker.scaling == "rms":
         gain = tracker.signal_rms * aided.running_gain(y, dt, tracker.rms_tau)
@@ -494,11 +588,12 @@ def estimate(
     extras.update(standstill=res.standstill.astype(np.float64),
                   accelerating=res.accelerating.astype(np.float64),
                   boost=res.boost.astype(np.float64), ubar=res.ubar, omega_map=res.omega_map,
-                  p_null=res.p_null)
+                  p_null=res.p_null, has_signal=(res.p_null <= 0.5).astype(np.float64))
     out_params = {**tracker.to_dict(), **{f.name: getattr(config, f.name)
                                           for f in dataclasses.fields(Config)
-                                          if f.name != "tracker"},
-                  "tracker": "rbpmf", "axis": axis, "lp_cutoff": lp,
+                                          if f.name not in ("tracker", "comb")},
+                  **({k: getattr(comb, k) for k in COMB_PARAMS} if comb is not None else {}),
+                  "tracker": kind, "axis": axis, "lp_cutoff": lp,
                   **{k: inp.get(k) for k in INPUT_PARAMS if k != "lp_cutoff"}}
     return Track.from_omega(recording.t, res.omega, res.omega_std, lo=res.omega_lo,
                             hi=res.omega_hi, level=tracker.level, wheel_radius=float(r),
