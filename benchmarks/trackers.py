@@ -124,6 +124,23 @@ def lock_after(t: np.ndarray, est: np.ndarray, truth: np.ndarray, *, tol: float 
             "ends_half": bool(abs(e_end - np.median(truth[last]) / 2) < tol)}
 
 
+#: (q_omega, q_omega_fast, p_fast) of the two-component walk rows: the paper's q with a rare
+#: fast component, cruise q 1 with a moderate / a heavy-tailed fast one, a low q with a mild one
+WALK_MIX = [(4.0, 100.0, 0.02), (1.0, 16.0, 0.01), (1.0, 100.0, 0.002), (0.5, 4.0, 0.1)]
+
+
+def _mix(q_slow: float, q_fast: float, p_fast: float) -> dict:
+    return {"q_omega": q_slow, "q_omega_fast": q_fast, "p_fast": p_fast}
+
+
+def _selected(methods, only: str | None):
+    """Rows whose label contains one of the comma-separated substrings of ``only``."""
+    if not only:
+        return methods
+    keys = [k.strip() for k in only.split(",") if k.strip()]
+    return [m for m in methods if any(k in m[0] for k in keys)]
+
+
 def transient_methods(rbpf_seeds: int, particles: int):
     """(label, method, params, seeds) of the transient experiment (all causal)."""
     return [
@@ -134,6 +151,13 @@ def transient_methods(rbpf_seeds: int, particles: int):
         ("grid (filter, smooth=none)", "grid", {"smooth": "none"}, None),
         ("grid (filter, q_omega 4, point=mode)", "grid",
          {"smooth": "none", "q_omega": 4.0, "point": "mode"}, None),
+        # two-component omega walk (rbpmf.Config.q_omega_fast / p_fast; issue 3 follow-up)
+        *[(f"RBPMF (walk mix q {qs:g} / {qf:g}, p_fast {pf_:g}, thesis-hp)", "rbpmf",
+           {"prefilter": "thesis-hp", **_mix(qs, qf, pf_)}, None) for qs, qf, pf_ in WALK_MIX],
+        ("RBPMF (walk mix q 1 / 16, p_fast 0.01, point=mode, thesis-hp)", "rbpmf",
+         {"prefilter": "thesis-hp", **_mix(1.0, 16.0, 0.01), "point": "mode"}, None),
+        ("grid (filter, walk mix q 1 / 16, p_fast 0.05, point=mode)", "grid",
+         {"smooth": "none", **_mix(1.0, 16.0, 0.05), "point": "mode"}, None),
         ("SHS", "shs", {"prefilter": "thesis-hp"}, None),
         ("EKF (omega0 = 65, the grid centre)", "ekf", {"omega0": 65.0}, None),
         (f"RBPF K={particles} (thesis-hp)", "rbpf",
@@ -141,11 +165,11 @@ def transient_methods(rbpf_seeds: int, particles: int):
     ]
 
 
-def transient(seeds: int, rbpf_seeds: int, particles: int) -> None:
+def transient(seeds: int, rbpf_seeds: int, particles: int, only: str | None = None) -> None:
     rows: dict[str, list[dict]] = {}
     times: dict[str, float] = {}
     n_starts = []
-    methods = transient_methods(rbpf_seeds, particles)
+    methods = _selected(transient_methods(rbpf_seeds, particles), only)
     for seed in range(seeds):
         rec = sim.simulate("car", seed=seed)
         starts = cruise_starts(rec.t, rec["omega_true"])
@@ -235,6 +259,11 @@ def accuracy_methods(scen: str, rbpf_seeds: int, particles: int):
     p = SCENARIO_PARAMS[scen]
     return [
         ("RBPMF N=200", "rbpmf", p, None),
+        ("RBPMF N=200, q_omega 1", "rbpmf", {**p, "q_omega": 1.0}, None),
+        ("RBPMF N=200, walk mix q 1 / 16, p_fast 0.01", "rbpmf",
+         {**p, **_mix(1.0, 16.0, 0.01)}, None),
+        ("RBPMF N=200, walk mix q 4 / 100, p_fast 0.02", "rbpmf",
+         {**p, **_mix(4.0, 100.0, 0.02)}, None),
         (f"RBPF K={particles}", "rbpf", {**p, "n_particles": particles}, rbpf_seeds),
         ("grid (smoother, offline)", "grid", GRID_PARAMS[scen], None),
         ("grid (filter, causal)", "grid", {**GRID_PARAMS[scen], "smooth": "none"}, None),
@@ -243,7 +272,8 @@ def accuracy_methods(scen: str, rbpf_seeds: int, particles: int):
     ]
 
 
-def accuracy(seeds: int, rbpf_seeds: int, particles: int, scenarios: list[str]) -> None:
+def accuracy(seeds: int, rbpf_seeds: int, particles: int, scenarios: list[str],
+             only: str | None = None) -> None:
     for scen in scenarios:
         rows: dict[str, list[dict]] = {}
         times: dict[str, float] = {}
@@ -264,7 +294,8 @@ def accuracy(seeds: int, rbpf_seeds: int, particles: int, scenarios: list[str]) 
                 rows.setdefault(name, []).append(m)
                 times[name] = times.get(name, 0.0) + el
 
-            for label, method, params, n_seeds in accuracy_methods(scen, rbpf_seeds, particles):
+            for label, method, params, n_seeds in _selected(
+                    accuracy_methods(scen, rbpf_seeds, particles), only):
                 if n_seeds is not None and seed >= n_seeds:
                     continue
                 pp = {**params, "seed": seed} if method == "rbpf" else params
@@ -276,6 +307,9 @@ def accuracy(seeds: int, rbpf_seeds: int, particles: int, scenarios: list[str]) 
                     continue
                 add(label, tr.omega, time.process_time() - c0, tr.omega_lo, tr.omega_hi,
                     P.claims(tr))
+            if only:  # a selection of rows: no peer
+                print(f"  {scen} seed {seed} done", flush=True)
+                continue
             fs = 1.0 / float(np.median(np.diff(rec.t)))
             x = rec["ay"]
             head = x[: int(fs)][np.isfinite(x[: int(fs)])]
@@ -355,11 +389,14 @@ def main() -> None:
     ap.add_argument("--rbpf-seeds", type=int, default=2)
     ap.add_argument("--particles", type=int, default=3000)
     ap.add_argument("--scenarios", default="car,cart")
+    ap.add_argument("--only", default=None,
+                    help="run only the rows whose label contains one of these comma-separated "
+                         "substrings (accuracy: without the spectrogram peer)")
     a = ap.parse_args()
     if a.what == "accuracy":
-        accuracy(a.seeds, a.rbpf_seeds, a.particles, a.scenarios.split(","))
+        accuracy(a.seeds, a.rbpf_seeds, a.particles, a.scenarios.split(","), a.only)
     elif a.what == "transient":
-        transient(a.seeds, a.rbpf_seeds, a.particles)
+        transient(a.seeds, a.rbpf_seeds, a.particles, a.only)
     else:
         speed()
 

@@ -36,7 +36,9 @@ targets ``|i - j| <= B``, with ``B`` the smallest band whose discarded row mass
 row is then within total variation ``eps <= kernel_tol`` (L1 ``2 eps``) of the exact row, so one
 transition of any weight vector moves it by at most ``2 kernel_tol`` in L1; the merged moments
 are weighted by these same numbers. Work per sample is O(N B (2M)^2). ``kernel="exact"`` keeps
-the full rows (B = N - 1; O(N^2) kernel memory) as the reference.
+the full rows (B = N - 1; O(N^2) kernel memory) as the reference. The optional two-component
+walk (``Config.q_omega_fast``, ``p_fast``) uses the mixture rows ``(1 - p) K_slow + p K_fast``
+with the same band rule and bound (B then follows the wide component).
 
 Weights are kept in log space and floored at ``log_floor`` nats below the best grid point
 (default 600, i.e. a relative weight 1e-261): every hypothesis stays alive (the paper's argument
@@ -134,6 +136,13 @@ class Config:
         the outputs (``omega`` and ``omega_mode``, with the basin's share ``p_mode`` of the
         signal mass); samples with ``p_mode < mode_share`` are flagged ``multimodal``.
         ``step``/``run`` report the chosen one as ``omega`` (and the mean as ``omega_mean``).
+    q_omega_fast, p_fast : two-component ("slow cruise / fast acceleration") omega random
+        walk (issue 3 follow-up; off by default, ``p_fast = 0`` is the paper's kernel): each
+        step's increment is drawn from ``(1 - p_fast) N(0, T q_omega) + p_fast N(0, T
+        q_omega_fast)`` (rad/s)^2/s, i.e. kernel rows ``K = (1 - p_fast) K_slow + p_fast
+        K_fast`` with each component normalised over the grid. The band B (and the work per
+        sample) follows the wider component; the ``kernel_tol`` bound holds for the mixture
+        rows. Memory stays O(N B).
     """
 
     model: HarmonicModel = field(default_factory=_paper_model)
@@ -165,6 +174,8 @@ class Config:
     null_model: str = "white"
     point: str = "mean"
     mode_share: float = 0.9
+    q_omega_fast: float = 0.0
+    p_fast: float = 0.0
 
     def __post_init__(self) -> None:
         if int(self.n_grid) != self.n_grid or self.n_grid < 1:
@@ -209,6 +220,10 @@ class Config:
             raise ParameterError(f"temper must be in (0, 1], got {self.temper}")
         if self.point not in ("mean", "mode"):
             raise ParameterError(f"point must be 'mean' or 'mode', got '{self.point}'")
+        if not self.q_omega_fast >= 0:
+            raise ParameterError(f"q_omega_fast must be >= 0, got {self.q_omega_fast}")
+        if not 0 <= self.p_fast <= 1:
+            raise ParameterError(f"p_fast must be in [0, 1], got {self.p_fast}")
         if not 0 < self.mode_share <= 1:
             raise ParameterError(f"mode_share must be in (0, 1], got {self.mode_share}")
         if not self.lag > 0:
@@ -222,6 +237,11 @@ class Config:
     def fit_names(self) -> list[str]:
         """Parameters named in ``fit``."""
         return [p.strip() for p in str(self.fit).split(",") if p.strip()]
+
+    @property
+    def has_fast(self) -> bool:
+        """Whether the omega random walk is the two-component mixture (``p_fast > 0``)."""
+        return self.p_fast > 0
 
     @property
     def has_null(self) -> bool:
@@ -344,6 +364,91 @@ def _band_kernel(grid, widths, sigma, B):
     return kb
 
 
+@njit(cache=True)
+def _mix_row(grid, widths, sigmas, probs, i, row):
+    """Row i of the mixture kernel ``sum_c probs[c] K_c(i, .)`` into ``row`` (N,), each
+    component ``K_c(i, j) ~ N(grid_j; grid_i, sigmas[c]^2) widths_j`` normalised over the grid
+    (``sigmas[c] = 0``: stays at i)."""
+    N = grid.size
+    for j in range(N):
+        row[j] = 0.0
+    for c in range(sigmas.size):
+        if probs[c] == 0.0:
+            continue
+        if sigmas[c] == 0.0:
+            row[i] += probs[c]
+            continue
+        tot = 0.0
+        for j in range(N):
+            z = (grid[j] - grid[i]) / sigmas[c]
+            tot += np.exp(-0.5 * z * z) * widths[j]
+        f = probs[c] / tot
+        for j in range(N):
+            z = (grid[j] - grid[i]) / sigmas[c]
+            row[j] += np.exp(-0.5 * z * z) * widths[j] * f
+
+
+@njit(cache=True)
+def _band_tails_mix(grid, widths, sigmas, probs):
+    """As :func:`_band_tails` for the mixture rows of :func:`_mix_row`."""
+    N = grid.size
+    maxtail = np.zeros(N)
+    row = np.empty(N)
+    bymass = np.empty(N)
+    for i in range(N):
+        _mix_row(grid, widths, sigmas, probs, i, row)
+        tot = 0.0
+        for j in range(N):
+            tot += row[j]
+        for d in range(N):
+            bymass[d] = 0.0
+        for j in range(N):
+            bymass[abs(j - i)] += row[j] / tot
+        acc = 0.0
+        for B in range(N - 1, -1, -1):
+            if acc > maxtail[B]:
+                maxtail[B] = acc
+            acc += bymass[B]
+    return maxtail
+
+
+@njit(cache=True)
+def _band_kernel_mix(grid, widths, sigmas, probs, B):
+    """(N, 2B+1) mixture kernel by target, each row renormalised over its band."""
+    N = grid.size
+    kb = np.zeros((N, 2 * B + 1))
+    row = np.empty(N)
+    for i in range(N):
+        _mix_row(grid, widths, sigmas, probs, i, row)
+        lo = max(0, i - B)
+        hi = min(N - 1, i + B)
+        tot = 0.0
+        for j in range(lo, hi + 1):
+            tot += row[j]
+        for j in range(lo, hi + 1):
+            kb[j, i - j + B] = row[j] / tot
+    return kb
+
+
+def _build_mix(config: Config, grid: np.ndarray, widths: np.ndarray) -> tuple:
+    """(kb, B, tail) of the two-component random walk (``Config.q_omega_fast``, ``p_fast``)."""
+    model = config.model
+    T = model.dt
+    sigmas = np.sqrt(np.array([model.q_omega_step, T * config.q_omega_fast], dtype=np.float64))
+    probs = np.array([1.0 - config.p_fast, config.p_fast], dtype=np.float64)
+    N = grid.size
+    if N == 1 or not np.any(sigmas * (probs > 0) > 0):
+        B, tail = 0, 0.0
+    elif config.kernel == "exact":
+        B, tail = N - 1, 0.0
+    else:
+        tails = _band_tails_mix(grid, widths, sigmas, probs)
+        ok = np.flatnonzero(tails <= config.kernel_tol)
+        B = int(ok[0]) if ok.size else N - 1
+        tail = float(tails[B])
+    return _band_kernel_mix(grid, widths, sigmas, probs, B), B, tail
+
+
 def build_kernel(config: Config) -> Kernel:
     """Grid, cell widths, the (banded or exact) transition kernel and the F blocks."""
     model = config.model
@@ -352,6 +457,10 @@ def build_kernel(config: Config) -> Kernel:
     widths = np.diff(edges)
     sigma = float(np.sqrt(model.q_omega_step))
     N = grid.size
+    if config.has_fast:
+        kb, B, tail = _build_mix(config, grid, widths)
+        blocks = np.ascontiguousarray(blocks_from_F(model.F(grid)))
+        return Kernel(grid, edges, widths, kb, B, tail, blocks)
     if sigma == 0.0 or N == 1:
         B, tail = 0, 0.0
     elif config.kernel == "exact":
