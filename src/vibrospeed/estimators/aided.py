@@ -69,7 +69,7 @@ from numba import njit
 
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import InputError, ParameterError
-from vibrospeed.estimators.ekf import rotate_phasors, symmetrize_into
+from vibrospeed.estimators.ekf import harmonic_update, rotate_phasors, symmetrize_into
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
 from vibrospeed.signal.detectors import _cusum_core, _mode_core, _window_core
@@ -255,36 +255,7 @@ def _scalar_update(x, P, j, z, r):
 def _vib_update(x, P, y, M, r, lock):
     """Vibration update ``y = sum_m alpha_m + e`` (thesis eq. 2.23, 2.26); -> (innov, S).
     ``lock`` False: the gains on omega (index 0) and b (last) are 0 (line gate)."""
-    n = x.size
-    pht = np.zeros(n)
-    for i in range(n):
-        acc = 0.0
-        for m in range(M):
-            acc += P[i, 1 + 2 * m]
-        pht[i] = acc
-    s_var = r
-    yhat = 0.0
-    for m in range(M):
-        s_var += pht[1 + 2 * m]
-        yhat += x[1 + 2 * m]
-    innov = y - yhat
-    k = pht / s_var
-    if not lock:
-        k[0] = 0.0
-        k[n - 1] = 0.0
-    for i in range(n):
-        x[i] += k[i] * innov
-    A = np.eye(n)
-    for i in range(n):
-        for m in range(M):
-            A[i, 1 + 2 * m] -= k[i]
-    Pn = A @ P @ A.T
-    for i in range(n):
-        for j in range(i, n):
-            v = 0.5 * (Pn[i, j] + Pn[j, i]) + r * k[i] * k[j]
-            P[i, j] = v
-            P[j, i] = v
-    return innov, s_var
+    return harmonic_update(x, P, y, M, r, not lock, not lock)
 
 
 @njit(cache=True)

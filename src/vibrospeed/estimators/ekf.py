@@ -142,6 +142,48 @@ def symmetrize_into(Pn, P):
 
 
 @njit(cache=True)
+def harmonic_update(x, P, y, M, r, freeze_first, freeze_last):
+    """Measurement update with ``y = sum_m alpha_m + e`` (thesis eq. 2.23, 2.26), in place.
+
+    ``H`` picks the alpha entries of ``x = [omega, alpha_1, beta_1, ..., (extra states)]``;
+    ``S = H P H' + r``, ``K = P H' / S``, Joseph form ``P = A P A' + r K K'`` with
+    ``A = I - K H``, symmetrised. ``freeze_first`` / ``freeze_last`` zero the gain of the first /
+    last state (the aided EKF's line gate holds omega and the bias). Returns ``(innov, S)``.
+    """
+    n = x.size
+    pht = np.zeros(n)  # P H' = sum of the alpha columns
+    for i in range(n):
+        acc = 0.0
+        for m in range(M):
+            acc += P[i, 1 + 2 * m]
+        pht[i] = acc
+    s_var = r
+    yhat = 0.0
+    for m in range(M):
+        s_var += pht[1 + 2 * m]
+        yhat += x[1 + 2 * m]
+    innov = y - yhat
+    k = pht / s_var
+    if freeze_first:
+        k[0] = 0.0
+    if freeze_last:
+        k[n - 1] = 0.0
+    for i in range(n):
+        x[i] += k[i] * innov
+    A = np.eye(n)
+    for i in range(n):
+        for m in range(M):
+            A[i, 1 + 2 * m] -= k[i]
+    Pn = A @ P @ A.T
+    for i in range(n):
+        for j in range(i, n):
+            v = 0.5 * (Pn[i, j] + Pn[j, i]) + r * k[i] * k[j]
+            P[i, j] = v
+            P[j, i] = v
+    return innov, s_var
+
+
+@njit(cache=True)
 def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_min, om_max, out):
     """In place: update x, P with y (skip if NaN), write outputs, predict. ``out`` (4+M,)."""
     n = x.size
@@ -149,33 +191,7 @@ def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_min, om_max, out):
     innov = np.nan
     s_var = np.nan
     if np.isfinite(y):
-        # PHt = P H'  (sum of alpha columns); S = H P H' + R
-        pht = np.zeros(n)
-        for i in range(n):
-            acc = 0.0
-            for m in range(M):
-                acc += P[i, 1 + 2 * m]
-            pht[i] = acc
-        s_var = r
-        yhat = 0.0
-        for m in range(M):
-            s_var += pht[1 + 2 * m]
-            yhat += x[1 + 2 * m]
-        innov = y - yhat
-        k = pht / s_var
-        for i in range(n):
-            x[i] += k[i] * innov
-        # Joseph form: A = I - K H; P = A P A' + R K K'
-        A = np.eye(n)
-        for i in range(n):
-            for m in range(M):
-                A[i, 1 + 2 * m] -= k[i]
-        AP = A @ P
-        Pn = AP @ A.T
-        for i in range(n):
-            for j in range(n):
-                Pn[i, j] += r * k[i] * k[j]
-        symmetrize_into(Pn, P)
+        innov, s_var = harmonic_update(x, P, y, M, r, False, False)
     # keep omega >= 0 via the symmetry (omega, beta) -> (-omega, -beta)
     if x[0] < 0.0:
         x[0] = -x[0]
