@@ -79,7 +79,7 @@ def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate:
 FormatOpt = Annotated[str, typer.Option("--format", "-f", help="input format: auto (detect), "
                       "csv (canonical: header t,ax,ay,...), mapped (any CSV with --columns or "
                       "--mapping), phyphox (folder or zip), sensorfusion (app log), parquet, "
-                      "comma2k19, f1tenth")]
+                      "androsensor, comma2k19, f1tenth")]
 ColumnsOpt = Annotated[str | None, typer.Option(help="generic CSV column mapping, e.g. "
                        "'t=time,ay=acc_y:g' (name=column[:unit])")]
 MappingOpt = Annotated[Path | None, typer.Option("--mapping", help="TOML file with the column "
@@ -140,7 +140,8 @@ def estimate(
                     "default y); for gps-riss the longitudinal axis (default x)")] = None,
     wheel_radius: Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]
     = None,
-    init_omega: Annotated[float | None, typer.Option(help="initial omega in rad/s (EKF)")] = None,
+    init_omega: Annotated[float | None, typer.Option(help="initial omega guess in rad/s (EKF "
+                          "start; rbpmf/grid: centre of the initial prior)")] = None,
     param: Annotated[list[str] | None, typer.Option("--param", "-p", help="estimator parameter "
                      "NAME=VALUE (repeatable), e.g. -p M=2 -p q_omega=8")] = None,
     plot: Annotated[Path | None, typer.Option(help="also write a spectrogram plot (PNG)")] = None,
@@ -165,7 +166,9 @@ def estimate(
 
     Examples:
 
-      vibrospeed estimate drive.csv --method ekf -o est.csv --plot est.png
+      vibrospeed estimate drive.csv -o est.csv --plot est.png        (grid tracker)
+
+      vibrospeed estimate drive.csv --method ekf --init-omega 10 -o est.csv
 
       vibrospeed estimate rsq_q2_00/ --format phyphox --axis y -o est.csv
 
