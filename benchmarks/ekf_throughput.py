@@ -1,5 +1,7 @@
 """EKF throughput: samples per second on one core for M = 2 and M = 3 (issue 2 target: 1000 s of
-100 Hz data, 100 000 samples, in under 0.5 s). Run: ``.venv/bin/python benchmarks/ekf_throughput.py``.
+100 Hz data, 100 000 samples, in under 0.5 s).
+
+Run: ``.venv/bin/python benchmarks/ekf_throughput.py``.
 """
 
 from __future__ import annotations
