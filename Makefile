@@ -42,7 +42,7 @@ bench: venv
 	$(BIN)/python benchmarks/ekf_throughput.py
 
 lint: venv
-	$(BIN)/python -m ruff check src tests
+	$(BIN)/python -m ruff check .
 
 clean:
 	rm -rf $(VENV) $(OUT) build *.egg-info src/*.egg-info
