@@ -457,13 +457,20 @@ class Result(NamedTuple):
     final: State
 
 
-def _as_input(v, n: int, fill: float, name: str) -> np.ndarray:
-    if v is None:
-        return np.full(n, fill)
-    a = np.ascontiguousarray(v, dtype=np.float64)
-    if a.shape != (n,):
-        raise InputError(f"aided.run: '{name}' has shape {a.shape}, expected ({n},) like y")
-    return a
+def input_arrays(n: int, u, gain, ref, ref_var, where: str = "aided.run") -> tuple:
+    """``(u, gain, ref, ref_var)`` as (n,) float64 arrays; None -> NaN (gain: 1). Shared by the
+    aided EKF and the aided grid filter; a wrong shape is an :class:`InputError`."""
+    out = []
+    for name, v, fill in (("u", u, np.nan), ("gain", gain, 1.0), ("ref", ref, np.nan),
+                          ("ref_var", ref_var, np.nan)):
+        if v is None:
+            out.append(np.full(n, fill))
+            continue
+        a = np.ascontiguousarray(v, dtype=np.float64)
+        if a.shape != (n,):
+            raise InputError(f"{where}: '{name}' has shape {a.shape}, expected ({n},) like y")
+        out.append(a)
+    return tuple(out)
 
 
 def run(
@@ -479,10 +486,7 @@ def run(
     """Run over whole signals (see :func:`step` for the inputs); identical to repeated step."""
     y = np.ascontiguousarray(y, dtype=np.float64)
     n = y.size
-    u = _as_input(u, n, np.nan, "u")
-    gain = _as_input(gain, n, 1.0, "gain")
-    ref = _as_input(ref, n, np.nan, "ref")
-    ref_var = _as_input(ref_var, n, np.nan, "ref_var")
+    u, gain, ref, ref_var = input_arrays(n, u, gain, ref, ref_var)
     a = _unpack(init(config) if state is None else state)
     o = _aided_run(y, u, gain, ref, ref_var, *a, *_args(config))
     return Result(o[:, 0], o[:, 1], o[:, 2], o[:, 3] > 0.5, o[:, 4] > 0.5, o[:, 5] > 0.5,

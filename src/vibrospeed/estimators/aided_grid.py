@@ -68,9 +68,10 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
+from vibrospeed.estimators.aided import input_arrays
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
 from vibrospeed.signal.detectors import _mode_core, _window_core
@@ -403,15 +404,6 @@ class Result(NamedTuple):
     final: State
 
 
-def _as_input(v, n: int, fill: float, name: str) -> np.ndarray:
-    if v is None:
-        return np.full(n, fill)
-    a = np.ascontiguousarray(v, dtype=np.float64)
-    if a.shape != (n,):
-        raise InputError(f"aided_grid.run: '{name}' has shape {a.shape}, expected ({n},) like y")
-    return a
-
-
 def run(config: Config, y: np.ndarray, u: np.ndarray, *, gain: np.ndarray | None = None,
         ref: np.ndarray | None = None, ref_var: np.ndarray | None = None,
         state: State | None = None) -> Result:
@@ -423,10 +415,7 @@ def run(config: Config, y: np.ndarray, u: np.ndarray, *, gain: np.ndarray | None
     """
     y = np.ascontiguousarray(y, dtype=np.float64)
     n = y.size
-    u = _as_input(u, n, np.nan, "u")
-    gain = _as_input(gain, n, 1.0, "gain")
-    ref = _as_input(ref, n, np.nan, "ref")
-    ref_var = _as_input(ref_var, n, np.nan, "ref_var")
+    u, gain, ref, ref_var = input_arrays(n, u, gain, ref, ref_var, "aided_grid.run")
     st = init(config) if state is None else state
     window = det.WindowState(st.window.buf.copy(), st.window.pos_count.copy(),
                              st.window.flag.copy())
