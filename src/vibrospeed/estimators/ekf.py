@@ -62,9 +62,8 @@ class Config:
 
     @property
     def omega_limit(self) -> float:
-        """Upper clip for omega in rad/s."""
-        nyq = 0.98 * np.pi / (self.model.M * self.model.dt)
-        return nyq if self.omega_max is None else min(self.omega_max, nyq)
+        """Upper clip for omega in rad/s (:meth:`HarmonicModel.omega_clip`)."""
+        return self.model.omega_clip(self.omega_max)
 
     @classmethod
     def from_thesis(cls, dt: float = 0.01, M: int = 3) -> Config:

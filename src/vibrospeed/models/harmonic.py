@@ -96,6 +96,12 @@ class HarmonicModel:
         """Per-step variance of the omega random walk, ``T * q_omega`` (rad/s)^2."""
         return self.dt * self.q_omega
 
+    def omega_clip(self, omega_max: float | None = None) -> float:
+        """Largest omega (rad/s) a tracker may report: ``omega_max`` capped just below the
+        Nyquist limit of harmonic M, ``0.98 pi / (M T)``."""
+        nyq = 0.98 * np.pi / (self.M * self.dt)
+        return nyq if omega_max is None else min(omega_max, nyq)
+
     def F(self, omega: float | np.ndarray) -> np.ndarray:
         """Phasor transition ``blockdiag_m R(m omega T)``; shape (2M, 2M), or (N, 2M, 2M)."""
         om = np.asarray(omega, dtype=np.float64)
