@@ -78,3 +78,13 @@ def parse_params(items: list[str] | None) -> dict[str, str]:
             k, v = part.split("=", 1)
             out[k.strip()] = v.strip()
     return out
+
+
+def flat_dict(config: Any) -> dict[str, Any]:
+    """A Config dataclass as a flat dict: the fields of its ``model`` (which must have
+    ``to_dict()``) followed by its own fields (for JSON sidecars and Track params)."""
+    out = dict(config.model.to_dict())
+    for f in dataclasses.fields(config):
+        if f.name != "model":
+            out[f.name] = getattr(config, f.name)
+    return out

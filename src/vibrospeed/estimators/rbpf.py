@@ -20,12 +20,13 @@ step draws, in this order, the resampling uniforms (only when it resamples) and 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
+from vibrospeed.config import flat_dict
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import resampling
 from vibrospeed.estimators.kalman import predict_one, rotation_blocks, update_one
@@ -93,11 +94,7 @@ class Config:
 
     def to_dict(self) -> dict:
         """JSON-serialisable parameters (model flattened)."""
-        out = self.model.to_dict()
-        for f in fields(self):
-            if f.name != "model":
-                out[f.name] = getattr(self, f.name)
-        return out
+        return flat_dict(self)
 
 
 class State(NamedTuple):

@@ -48,14 +48,14 @@ for the grid), the weights cannot underflow, and the floor changes the posterior
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from vibrospeed.config import config_from_params
+from vibrospeed.config import config_from_params, flat_dict
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import scaling as _scaling
 from vibrospeed.estimators.kalman import blocks_from_F
@@ -275,11 +275,7 @@ class Config:
 
     def to_dict(self) -> dict:
         """JSON-serialisable parameters (model flattened)."""
-        out = self.model.to_dict()
-        for f in fields(self):
-            if f.name != "model":
-                out[f.name] = getattr(self, f.name)
-        return out
+        return flat_dict(self)
 
 
 # ------------------------------------------------------------------------------------------
