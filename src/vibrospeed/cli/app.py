@@ -201,7 +201,8 @@ def estimate(
         extra_kw["axis"] = axis
     track = mod.estimate(rec, wheel_radius=wheel_radius, params=params,
                          progress=sys.stderr.isatty(), **extra_kw)
-    axis = track.params.get("axis", axis) if isinstance(track.params.get("axis"), str) else axis
+    used = track.params.get("axis")  # the axis the estimator chose when --axis was not given
+    axis = used if isinstance(used, str) else axis
     # per-sample columns go to the CSV; a grid posterior (n, N) only to the plot
     grids = {k: v for k, v in track.extras.items() if np.shape(v) != (len(track),)}
     for k in grids:
