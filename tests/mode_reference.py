@@ -1,0 +1,31 @@
+"""Brute-force reference of the grid trackers' mode (``point="mode"``), shared by tests."""
+
+import numpy as np
+
+
+def window_masses(w, g, rel, ab):
+    """Mass of ``w`` within max(ab, rel g_j) of every grid point g_j (plain loops)."""
+    hw = np.maximum(ab, rel * g)
+    return np.array([w[np.abs(g - g[j]) <= hw[j]].sum() for j in range(g.size)]), hw
+
+
+def check_mode(w, g, rel, ab, omega_mode, p_mode, tol=1e-9):
+    """The reported mode is the mean of a window holding the most mass (ties within 1e-12),
+    and p_mode the mass covered by that window's basin of non-increasing window masses."""
+    w = np.asarray(w, np.float64)
+    m, hw = window_masses(w, g, rel, ab)
+    cands = np.flatnonzero(m >= m.max() - 1e-12)
+    means = []
+    for j in cands:
+        inw = np.abs(g - g[j]) <= hw[j]
+        means.append(w[inw] @ g[inw] / m[j])
+    k = int(np.argmin(np.abs(np.array(means) - omega_mode)))
+    assert abs(means[k] - omega_mode) <= tol * max(1.0, abs(omega_mode))
+    j = int(cands[k])
+    a, b = j, j
+    while a > 0 and m[a - 1] <= m[a] + 1e-12:
+        a -= 1
+    while b < g.size - 1 and m[b + 1] <= m[b] + 1e-12:
+        b += 1
+    cover = (g >= g[a] - hw[a]) & (g <= g[b] + hw[b])
+    assert abs(w[cover].sum() / w.sum() - p_mode) < tol
