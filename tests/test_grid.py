@@ -60,7 +60,7 @@ def _ref_comb(cfg, x, dt):
     return out
 
 
-def _reference_evidence(cfg, frame):
+def _reference_evidence(cfg, frame, centre=False):
     """Independent loop form of the comb evidence (module docstring): per relative rate b the
     frame resampled (np.interp) at the times s where tau = s + b s^2 / 2 is uniform, then
     log sum_b p_b exp(E_b)."""
@@ -68,8 +68,10 @@ def _reference_evidence(cfg, frame):
     dt = tr.model.dt
     L = frame.size
     x = np.nan_to_num(frame) - np.mean(np.nan_to_num(frame))
-    s_i = (np.arange(L) - (L - 1)) * dt
-    rates = [0.0] + [b for b in cfg.comb_rates if b != 0 and b < 0.9 / (L * dt)]
+    c = (L - 1) / 2 if centre else L - 1  # the reference time: the frame's middle or end
+    s_i = (np.arange(L) - c) * dt
+    ok = (lambda b: abs(b) < 1.8 / (L * dt)) if centre else (lambda b: b < 0.9 / (L * dt))
+    rates = [0.0] + [b for b in cfg.comb_rates if b != 0 and ok(b)]
     p = [1.0] if len(rates) == 1 else [cfg.comb_rate_p0] + [
         (1 - cfg.comb_rate_p0) / (len(rates) - 1)] * (len(rates) - 1)
     E = []
@@ -77,11 +79,11 @@ def _reference_evidence(cfg, frame):
         if b == 0:
             E.append(_ref_comb(cfg, x, dt))
             continue
-        tau = np.linspace(s_i[0] + 0.5 * b * s_i[0] ** 2, 0.0, L)
+        tau = np.linspace(s_i[0] + 0.5 * b * s_i[0] ** 2, s_i[-1] + 0.5 * b * s_i[-1] ** 2, L)
         # the root of b s^2 / 2 + s - tau = 0 on the frame (the other lies beyond +-1/b)
         s = np.array([min(np.roots([0.5 * b, 1.0, -t]).real, key=lambda r, t=t: abs(r - t))
                       for t in tau])
-        E.append(_ref_comb(cfg, np.interp(s, s_i, x), -tau[0] / (L - 1)))
+        E.append(_ref_comb(cfg, np.interp(s, s_i, x), (tau[-1] - tau[0]) / (L - 1)))
     E = np.array(E)
     out = np.zeros(tr.n_grid + 1)
     out[:-1] = np.log(np.sum(np.array(p)[:, None] * np.exp(E), axis=0))
@@ -98,6 +100,8 @@ def test_frame_evidence_matches_loop_reference():
     got = grid.frame_evidence(cfg, fr[None, :])[0]
     ref = _reference_evidence(cfg, fr)
     np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(grid.frame_evidence(cfg, fr[None, :], centre=True)[0],
+                               _reference_evidence(cfg, fr, centre=True), rtol=1e-9, atol=1e-9)
     one = dataclasses.replace(cfg, comb_rates=(0.0,))  # no warps: the stationary evidence
     np.testing.assert_allclose(grid.frame_evidence(one, fr[None, :])[0],
                                _reference_evidence(one, fr), rtol=1e-9, atol=1e-9)
@@ -344,3 +348,23 @@ def test_comb_rates_parameter():
     # rates whose warp would fold over a frame are left out (beta < 0.9 / W)
     cfg = grid.Config(comb_rates=(0.1, 0.5))
     np.testing.assert_array_equal(cfg.rates_in_frame(300), [0.0, 0.1])
+
+
+def test_centre_referred_evidence_sits_mid_frame_and_scores_the_middle_frequency():
+    tr = rbpmf.improved(rbpmf.Config.from_paper_table1(0.01), n_grid=200, omega_min=10.0,
+                        omega_max=120.0)
+    cfg = grid.Config(tracker=tr)
+    t = np.arange(300) * 0.01
+    th = 40 * t + 5 * t ** 2  # omega = 40 + 10 t: 55 rad/s at the frame's middle
+    x = sum(a * np.cos(k * th) for k, a in ((1, 1.0), (2, 0.8), (3, 0.5)))
+    x = x + 0.5 * np.random.default_rng(0).normal(size=t.size)
+    e = grid.frame_evidence(cfg, x[None, :], centre=True)[0, :-1]
+    assert abs(tr.grid[np.argmax(e)] - 55.0) < 2.0
+    y = np.random.default_rng(1).normal(size=2000)
+    i_end, v_end = grid.evidence(cfg, y)
+    i_mid, v_mid = grid.evidence(cfg, y, centre=True)
+    full = i_end >= cfg.frame_len - 1
+    np.testing.assert_array_equal(i_mid[full], i_end[full] - (cfg.frame_len - 1) // 2)
+    assert np.all(np.diff(i_mid) > 0) and i_mid[0] >= 0
+    with pytest.raises(ValueError):
+        grid.evidence(cfg, y, grid.init(cfg), centre=True)
