@@ -368,3 +368,25 @@ def test_centre_referred_evidence_sits_mid_frame_and_scores_the_middle_frequency
     assert np.all(np.diff(i_mid) > 0) and i_mid[0] >= 0
     with pytest.raises(ValueError):
         grid.evidence(cfg, y, grid.init(cfg), centre=True)
+
+
+@pytest.mark.parametrize("lag", [1.0, 2.5])
+def test_grid_fixed_lag_uses_no_data_beyond_two_lags(lag):
+    # with the evidence placed mid-frame the fixed-lag blocks shrink by half a frame, so a
+    # sample's estimate must not change when data more than 2 lag s after it change
+    rng = np.random.default_rng(7)
+    t = np.arange(2400) * 0.01
+    ay = np.sin(40 * t) + 0.5 * np.sin(80 * t) + 0.4 * rng.normal(size=t.size)
+    ay2 = ay.copy()
+    cut = 1600
+    ay2[cut:] = rng.normal(size=t.size - cut)  # a different future from 16 s on
+    p = {"smooth": "lag", "lag": lag, "omega_min": 10.0, "omega_max": 80.0, "n_grid": 80}
+    a = grid.estimate(Recording(t, {"ay": ay}), params=p)
+    b = grid.estimate(Recording(t, {"ay": ay2}), params=p)
+    horizon = 2 * lag - 1.5 if lag > 1.5 else 2 * lag  # the note's "up to lag..2 lag - W/2"
+    safe = t < t[cut] - horizon - 0.01
+    np.testing.assert_array_equal(a.omega[safe], b.omega[safe])
+    assert not np.array_equal(a.omega, b.omega)
+    assert a.params["lag"] == lag  # the delay asked for is recorded
+    if lag > 1.5:
+        assert any("mid-frame" in n for n in a.notes)
