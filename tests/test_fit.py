@@ -44,3 +44,31 @@ def test_fit_through_estimate_and_errors():
         rbpmf.Config(fit="q_bogus")
     with pytest.raises(ParameterError, match="unknown"):
         fit.fit(rbpmf.Config(n_grid=5), np.zeros(10), names=["x"])
+
+
+def test_fit_stays_within_its_span_and_warns_at_the_limit():
+    model, y = _data()
+    start = dataclasses.replace(model, r=0.2, q_amp=0.0005)  # r's optimum is 10x below
+    cfg = rbpmf.Config(model=start, n_grid=40, omega_min=25.0, omega_max=45.0)
+    fr = fit.fit(cfg, y, names=["r"], factor=2.0, min_factor=1.2, span=2.0)
+    assert fr.values["r"] == pytest.approx(0.1)  # the limit start / span
+    assert len(fr.warnings) == 1 and "search limit" in fr.warnings[0]
+    free = fit.fit(cfg, y, names=["r"], factor=2.0, min_factor=1.2)
+    assert free.warnings == [] and free.values["r"] < 0.05
+
+
+def test_grid_smoother_fits_with_the_causal_filters_evidence():
+    from vibrospeed.estimators import grid
+    from vibrospeed.types import Recording
+
+    t = np.arange(0, 12, 0.01)
+    rng = np.random.default_rng(2)
+    ay = np.sin(50 * t) + 0.5 * np.sin(100 * t) + 0.4 * rng.normal(size=t.size)
+    rec = Recording(t, {"ay": ay})
+    p = {"fit": "r", "n_grid": 60, "omega_min": 20.0, "omega_max": 80.0}
+    tr = grid.estimate(rec, params={**p, "smooth": "fb"})
+    cfg, y, _, _ = grid._prepare(rec, "y", {**p, "smooth": "none"})
+    ref = fit.fit(cfg.tracker, y, names=["r"], extra=grid.evidence(cfg, y))
+    assert tr.params["r"] == pytest.approx(ref.values["r"], rel=1e-12)
+    causal = grid.estimate(rec, params={**p, "smooth": "none"})
+    assert causal.params["r"] == pytest.approx(ref.values["r"], rel=1e-12)

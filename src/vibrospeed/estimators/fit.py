@@ -8,6 +8,12 @@ kept, the factor square-rooted after a round without improvement, until ``rounds
 the factor falls below ``min_factor``. Deterministic, derivative-free, ~4 runs of the filter
 per parameter and round (each O(n N B)); a coarse search is all the likelihood surface needs
 (it is flat to a few percent in the values: :func:`profile` shows it).
+
+The search stays within ``[start / span, start * span]`` (``span`` 1e4 by default) and
+:attr:`FitResult.warnings` says when a value ends at that limit or moved by more than three
+decades: on a recording without a steady line (docs/fits.md: the Hungary drives) q_omega runs
+to the limit and r to zero, i.e. the harmonic model does not describe the data, and the fitted
+values should not be used as settings.
 """
 
 from __future__ import annotations
@@ -26,7 +32,8 @@ FIT_NAMES = ("q_omega", "q_amp", "r")
 class FitResult(NamedTuple):
     """``config`` with the fitted model; ``values`` name -> fitted value; ``loglik``
     log p(y_1..T) at the optimum (nats); ``start_loglik`` at the start; ``evals`` filter runs;
-    ``history`` list of (values dict, loglik) for every evaluation."""
+    ``history`` list of (values dict, loglik) for every evaluation; ``warnings`` one line per
+    value at the search limit or moved by more than three decades."""
 
     config: _rb.Config
     values: dict
@@ -34,6 +41,7 @@ class FitResult(NamedTuple):
     start_loglik: float
     evals: int
     history: list
+    warnings: list
 
 
 def loglik(config: _rb.Config, y: np.ndarray, extra=None) -> float:
@@ -56,12 +64,14 @@ def fit(
     rounds: int = 4,
     max_seconds: float | None = None,
     extra=None,
+    span: float = 1e4,
 ) -> FitResult:
     """Maximise ``log p(y_1..T)`` over the model parameters ``names`` (coordinate search).
 
     ``y`` : the pre-filtered, scaled signal the filter sees. ``max_seconds``: use only the
     first that many seconds of ``y`` (faster fits on long logs). ``extra``: extra log-evidence
-    as in :func:`vibrospeed.estimators.rbpmf.run` (kept fixed during the fit).
+    as in :func:`vibrospeed.estimators.rbpmf.run` (kept fixed during the fit). ``span``: each
+    value stays within ``[start / span, start * span]``.
     """
     names = list(names)
     bad = [n for n in names if n not in FIT_NAMES]
@@ -75,6 +85,7 @@ def fit(
             keep = np.asarray(extra[0]) < y.size
             extra = (np.asarray(extra[0])[keep], np.asarray(extra[1])[keep])
     vals = {n: float(getattr(config.model, n)) for n in names}
+    start_vals = dict(vals)
     cache: dict[tuple, float] = {}
     history: list = []
 
@@ -96,7 +107,10 @@ def fit(
                 if n == "q_omega" and vals[n] == 0.0:
                     continue
                 trial = dict(vals)
-                trial[n] = vals[n] * f**k
+                trial[n] = float(np.clip(vals[n] * f**k, start_vals[n] / span,
+                                         start_vals[n] * span))
+                if trial[n] == vals[n]:
+                    continue
                 ll = ev(trial)
                 if ll > best + 1e-6:
                     best, cand = ll, trial
@@ -106,7 +120,19 @@ def fit(
             f = np.sqrt(f)
             if f < min_factor:
                 break
-    return FitResult(_with(config, vals), vals, best, start, len(cache), history)
+    warnings = []
+    for n in names:
+        v0, v = start_vals[n], vals[n]
+        if v0 <= 0:
+            continue
+        if v >= v0 * span * (1 - 1e-9) or v <= v0 / span * (1 + 1e-9):
+            warnings.append(f"{n} = {v:.3g} ended at the search limit ({v / v0:.3g} x the start "
+                            f"{v0:.3g}): the harmonic model may not describe these data (no "
+                            "steady line?); do not use it as a setting")
+        elif abs(np.log10(v / v0)) > 3:
+            warnings.append(f"{n} = {v:.3g} moved {abs(np.log10(v / v0)):.1f} decades from "
+                            f"{v0:.3g}: check the recording has a steady line")
+    return FitResult(_with(config, vals), vals, best, start, len(cache), history, warnings)
 
 
 def profile(config: _rb.Config, y: np.ndarray, name: str,

@@ -512,6 +512,16 @@ def estimate(
     half = 0.5 * config.frame_len * tr.model.dt
     centre = tr.smooth == "fb" or (tr.smooth == "lag" and tr.lag >= half + tr.model.dt)
     comb = {k: getattr(config, k) for k in _COMB}
+    if tr.fit_names and centre:
+        # the marginal likelihood is the causal filter's: fit with end-referred evidence
+        from vibrospeed.estimators import fit as _fit
+
+        fr = _fit.fit(tr, y, names=tr.fit_names, extra=evidence(config, y))
+        notes.append("fitted by marginal likelihood: " + ", ".join(
+            f"{k} = {v:.4g}" for k, v in fr.values.items()) + f" (log p(y) {fr.loglik:.6g})")
+        notes.extend(f"fit: {w}" for w in fr.warnings)
+        tr = dataclasses.replace(fr.config, fit="")
+        config = dataclasses.replace(config, tracker=tr)
     if tr.smooth == "lag" and centre:
         comb["lag"] = tr.lag  # the delay the user asked for, recorded as such
         config = dataclasses.replace(config, tracker=dataclasses.replace(tr, lag=tr.lag - half))

@@ -39,10 +39,11 @@ are weighted by these same numbers. The bound is per transition and in L1: it do
 the *relative* weight of far-off grid points (banded: at the floor; exact: hundreds of nats
 above it), which a later likelihood can magnify, so during an acquisition (a cart start-up)
 banded and exact runs can differ by more than the bound suggests (docs/reference.md: up to
-7.5 rad/s for a moment on one cart drive, RMSE 0.816 vs 0.802 rad/s). Work per sample is O(N B (2M)^2). ``kernel="exact"`` keeps
-the full rows (B = N - 1; O(N^2) kernel memory) as the reference. The optional two-component
-walk (``Config.q_omega_fast``, ``p_fast``) uses the mixture rows ``(1 - p) K_slow + p K_fast``
-with the same band rule and bound (B then follows the wide component).
+7.5 rad/s for a moment on one cart drive, RMSE 0.816 vs 0.802 rad/s). Work per sample is
+O(N B (2M)^2). ``kernel="exact"`` keeps the full rows (B = N - 1; O(N^2) kernel memory) as
+the reference. The optional two-component walk (``Config.q_omega_fast``, ``p_fast``) uses the
+mixture rows ``(1 - p) K_slow + p K_fast`` with the same band rule and bound (B then follows
+the wide component).
 
 Weights are kept in log space and floored at ``log_floor`` nats below the best grid point
 (default 600, i.e. a relative weight 1e-261): every hypothesis stays alive (the paper's argument
@@ -1234,6 +1235,7 @@ def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, 
         config = fr.config
         notes.append("fitted by marginal likelihood: " + ", ".join(
             f"{k} = {v:.4g}" for k, v in fr.values.items()) + f" (log p(y) {fr.loglik:.6g})")
+        notes.extend(f"fit: {w}" for w in fr.warnings)
     for note in (check_grid_spacing(config), prefilter_note(config, 1.0 / config.model.dt)):
         if note:
             notes.append(note)
