@@ -384,7 +384,7 @@ def evidence(config: Config, y: np.ndarray, state: State | None = None, *,
     idx, fr = _frames_of(config, hist, y, st.count)
     vals = np.zeros((0, config.tracker.n_grid + 1))
     if idx.size:
-        chunk = 500
+        chunk = 128  # frames per batch: bounds the spectra and median temporaries (~35 MB)
         vals = np.concatenate([frame_evidence(config, fr[i:i + chunk], centre)
                                for i in range(0, idx.size, chunk)])
         if centre:
