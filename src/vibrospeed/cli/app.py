@@ -174,6 +174,12 @@ def estimate(
 
       vibrospeed estimate kart.csv --columns ax=c1,ay=c2,az=c3 --rate 198.4 -o est.csv
 
+      vibrospeed estimate kart.csv --columns ax=c1,ay=c2,az=c3 --rate 198.4 --axis z
+      -p omega_min=60 -p omega_max=300 -p prefilter=paper-hp -o est.csv
+      (set the grid range to where the wheel line can be: v / r for your speeds and radius)
+
+      vibrospeed estimate drive.csv -p smooth=none -o est.csv   (causal grid filter, online)
+
       vibrospeed estimate drive.csv --method rbpmf --smooth -p improved=true -o est.csv
     """
     from vibrospeed import estimators, io
