@@ -390,3 +390,17 @@ def test_grid_fixed_lag_uses_no_data_beyond_two_lags(lag):
     assert a.params["lag"] == lag  # the delay asked for is recorded
     if lag > 1.5:
         assert any("mid-frame" in n for n in a.notes)
+
+
+@pytest.mark.parametrize("fs", [104.4, 100.0, 89.0, 44.0, 6.0])
+def test_centre_evidence_indices_strictly_increase_at_any_rate(fs):
+    # 104.4 Hz (a phone): the last growing frame (312 samples) and the first full one (313)
+    # share their middle sample; the smoother needs strictly increasing evidence indices
+    n = int(40 * fs)
+    rec = Recording(np.arange(n) / fs, {"ay": np.random.default_rng(0).normal(size=n)})
+    p = {"n_grid": 40, "omega_min": 2.0, "omega_max": min(120.0, 0.9 * np.pi * fs)}
+    cfg, y, _, _ = grid._prepare(rec, "y", p)  # (6 Hz: hop of 2 samples, a 1 s growing step)
+    idx, vals = grid.evidence(cfg, y, centre=True)
+    assert np.all(np.diff(idx) > 0) and idx[0] >= 0 and idx.size == vals.shape[0]
+    tr = grid.estimate(rec, params=p)  # the smoother runs
+    assert tr.omega.shape == (n,)

@@ -395,6 +395,11 @@ def evidence(config: Config, y: np.ndarray, state: State | None = None, *,
         if centre:
             g_idx = g_idx - np.array([(f.size - 1) // 2 for f in g_fr], np.int64)
         idx, vals = np.concatenate([g_idx, idx]), np.concatenate([g_vals, vals])
+    if centre and idx.size > 1:
+        # a growing frame a few samples shorter than the first full one can share its middle
+        # sample (e.g. 104.4 Hz: 312 and 313 samples); keep the first of such near-duplicates
+        keep = np.r_[True, idx[1:] > np.maximum.accumulate(idx)[:-1]]
+        idx, vals = idx[keep], vals[keep]
     return idx, vals
 
 
