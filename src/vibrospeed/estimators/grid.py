@@ -375,7 +375,8 @@ def evidence(config: Config, y: np.ndarray, state: State | None = None, *,
     ``centre`` (offline, whole recordings only: no ``state``): each frame's evidence refers to
     and is placed at the frame's middle sample instead of its end, which is where a stationary
     spectrum describes the comb (the forward-backward smoother uses it; a causal filter
-    cannot)."""
+    cannot). The last W/2 s then get shrinking frames (all samples to the end, every hop, down
+    to ``comb_min_window`` s), the mirror of the growing frames at the start."""
     if centre and state is not None:
         raise ValueError("centre-referred evidence is for whole recordings (no state)")
     st = init(config) if state is None else state
@@ -388,7 +389,18 @@ def evidence(config: Config, y: np.ndarray, state: State | None = None, *,
         vals = np.concatenate([frame_evidence(config, fr[i:i + chunk], centre)
                                for i in range(0, idx.size, chunk)])
         if centre:
-            idx = idx - (fr.shape[1] - 1) // 2
+            # the recording's end: shrinking frames (the mirror of the growing ones), every
+            # hop from the last full frame's start on while at least comb_min_window s remain,
+            # so the last W/2 s are not left without evidence
+            L, H = config.frame_len, config.hop_len
+            L0 = max(8, int(round(config.comb_min_window / config.tracker.model.dt)))
+            starts = np.arange(idx[-1] - L + 1 + H, y.size - L0 + 1, H)
+            s_vals = [frame_evidence(config, y[a:][None, :], True) for a in starts]
+            idx = idx - (L - 1) // 2
+            if starts.size:
+                s_idx = starts + (y.size - starts - 1) // 2
+                idx = np.concatenate([idx, s_idx])
+                vals = np.concatenate([vals, *s_vals])
     g_idx, g_fr = _growing_frames(config, hist, y, st.count)
     if g_idx.size:  # all before the first full frame
         g_vals = np.concatenate([frame_evidence(config, f[None, :], centre) for f in g_fr])
