@@ -368,6 +368,17 @@ def _growing_frames(config: Config, history: np.ndarray, y: np.ndarray, count0: 
     return ends.astype(np.int64), [full[e + L - g[e] : e + L + 1] for e in ends]
 
 
+def _shrinking_frames(config: Config, y: np.ndarray, last_end: int):
+    """The recording's end, for centre-referred evidence (the mirror of the growing frames):
+    every hop after the start of the last full frame (ending at ``last_end``), a frame over all
+    samples to the end while at least ``comb_min_window`` s remain; returns their middle
+    samples and the frames, so the last W/2 s are not left without evidence."""
+    L, H = config.frame_len, config.hop_len
+    L0 = max(8, int(round(config.comb_min_window / config.tracker.model.dt)))
+    starts = np.arange(last_end - L + 1 + H, y.size - L0 + 1, H)
+    return starts + (y.size - starts - 1) // 2, [y[a:] for a in starts]
+
+
 def evidence(config: Config, y: np.ndarray, state: State | None = None, *,
              centre: bool = False):
     """``(idx, values)`` comb evidence for ``y`` (indices into ``y``), continuing ``state``.
@@ -389,18 +400,12 @@ def evidence(config: Config, y: np.ndarray, state: State | None = None, *,
         vals = np.concatenate([frame_evidence(config, fr[i:i + chunk], centre)
                                for i in range(0, idx.size, chunk)])
         if centre:
-            # the recording's end: shrinking frames (the mirror of the growing ones), every
-            # hop from the last full frame's start on while at least comb_min_window s remain,
-            # so the last W/2 s are not left without evidence
-            L, H = config.frame_len, config.hop_len
-            L0 = max(8, int(round(config.comb_min_window / config.tracker.model.dt)))
-            starts = np.arange(idx[-1] - L + 1 + H, y.size - L0 + 1, H)
-            s_vals = [frame_evidence(config, y[a:][None, :], True) for a in starts]
-            idx = idx - (L - 1) // 2
-            if starts.size:
-                s_idx = starts + (y.size - starts - 1) // 2
+            s_idx, s_fr = _shrinking_frames(config, y, int(idx[-1]))
+            idx = idx - (config.frame_len - 1) // 2
+            if s_idx.size:
                 idx = np.concatenate([idx, s_idx])
-                vals = np.concatenate([vals, *s_vals])
+                vals = np.concatenate([vals, *[frame_evidence(config, f[None, :], True)
+                                               for f in s_fr]])
     g_idx, g_fr = _growing_frames(config, hist, y, st.count)
     if g_idx.size:  # all before the first full frame
         g_vals = np.concatenate([frame_evidence(config, f[None, :], centre) for f in g_fr])
