@@ -411,3 +411,19 @@ def test_centre_evidence_indices_strictly_increase_at_any_rate(fs):
     assert np.all(np.diff(idx) > 0) and idx[0] >= 0 and idx.size == vals.shape[0]
     tr = grid.estimate(rec, params=p)  # the smoother runs
     assert tr.omega.shape == (n,)
+
+
+def test_grid_is_scale_invariant():
+    # a phone in g or in m/s^2, a car sensor cluster or a cart: the same track for a signal and
+    # 1e-3 times it (running-RMS normalisation before the filter; whitened comb spectra)
+    rng = np.random.default_rng(11)
+    t = np.arange(1500) * 0.01
+    om = 30 + 0.8 * t  # accelerating: the warped evidence is used
+    th = np.cumsum(om) * 0.01
+    ay = np.cos(th) + 0.6 * np.cos(2 * th) + 0.5 * rng.normal(size=t.size)
+    p = {"n_grid": 60, "omega_min": 10.0, "omega_max": 70.0}
+    a = grid.estimate(Recording(t, {"ay": ay}), params=p)
+    b = grid.estimate(Recording(t, {"ay": 1e-3 * ay}), params=p)
+    np.testing.assert_allclose(b.omega, a.omega, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(b.omega_hi, a.omega_hi, rtol=1e-9, atol=1e-9)
+    assert abs(np.median(a.omega[-300:] - om[-300:])) < 1.0
