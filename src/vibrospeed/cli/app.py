@@ -175,8 +175,9 @@ def estimate(
       vibrospeed estimate kart.csv --columns ax=c1,ay=c2,az=c3 --rate 198.4 -o est.csv
 
       vibrospeed estimate kart.csv --columns ax=c1,ay=c2,az=c3 --rate 198.4 --axis z
-      -p omega_min=60 -p omega_max=300 -p prefilter=paper-hp -o est.csv
-      (set the grid range to where the wheel line can be: v / r for your speeds and radius)
+      -p omega_min=60 -p omega_max=300 -p prefilter=paper-hp -p M=2 -o est.csv
+      (the grid range where the wheel line can be: v / r for your speeds and radius; M the
+      harmonics the vehicle shows: the kart's line has at most a weak 2nd)
 
       vibrospeed estimate drive.csv -p smooth=none -o est.csv   (causal grid filter, online)
 
