@@ -65,11 +65,12 @@ def check_increasing(t: np.ndarray, source: str = "", *, rows: np.ndarray | None
     if not np.isfinite(now):
         msg = f"time is {now} (not a number)"
     elif now == prev:
-        msg = f"time {now!r} s repeats the previous sample (use sort=True to de-duplicate)"
+        msg = (f"time {now!r} s repeats the previous sample (--sort, or sort=True in Python, "
+               "de-duplicates)")
     else:
         msg = (
             f"time goes backwards ({now!r} s after {prev!r} s); "
-            "use sort=True to sort and de-duplicate"
+            "--sort (sort=True in Python) sorts and de-duplicates"
         )
     if rows is not None:
         raise ReaderError(name, msg, row=int(rows[i]), column="t")
