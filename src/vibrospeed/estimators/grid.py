@@ -173,6 +173,11 @@ class Config:
                      np.full(rates.size - 1, (1.0 - self.comb_rate_p0) / (rates.size - 1))]
 
     @property
+    def min_frame_len(self) -> int:
+        """Samples of the shortest growing (start) or shrinking (end) frame."""
+        return max(8, int(round(self.comb_min_window / self.tracker.model.dt)))
+
+    @property
     def frame_len(self) -> int:
         """Samples per frame (at the tracker's sample period)."""
         return max(8, int(round(self.comb_window / self.tracker.model.dt)))
@@ -329,11 +334,8 @@ def frame_evidence(config: Config, frames: np.ndarray, centre: bool = False) -> 
             top2 = -np.partition(-lk, 1, axis=0)[:2]  # best, second best per (frame, point)
             e += np.minimum(top2[0], top2[1] + config.comb_lead) - top2[0]
         E[b] = e + logp[b]
-    if rates.size == 1:
-        out[:, :N] = E[0] - logp[0]
-    else:
-        mx = E.max(axis=0)
-        out[:, :N] = mx + np.log(np.exp(E - mx).sum(axis=0))
+    mx = E.max(axis=0)  # (one rate: log p = 0 and this is E[0] exactly)
+    out[:, :N] = mx + np.log(np.exp(E - mx).sum(axis=0))
     out[:, :N] *= config.comb_weight
     out[bad] = 0.0
     return out
@@ -358,7 +360,7 @@ def _growing_frames(config: Config, history: np.ndarray, y: np.ndarray, count0: 
     """The growing start-up frames (``comb_min_window``): frame-end indices into ``y`` and,
     per end, the 1-D frame of every sample seen up to it (global index g < L - 1)."""
     L, H = config.frame_len, config.hop_len
-    L0 = max(8, int(round(config.comb_min_window / config.tracker.model.dt)))
+    L0 = config.min_frame_len
     g = count0 + np.arange(y.size)
     ends = np.flatnonzero((g + 1 >= L0) & (g < L - 1) & ((g + 1 - L0) % H == 0))
     if ends.size == 0 or config.comb_weight == 0:
@@ -374,7 +376,7 @@ def _shrinking_frames(config: Config, y: np.ndarray, last_end: int):
     samples to the end while at least ``comb_min_window`` s remain; returns their middle
     samples and the frames, so the last W/2 s are not left without evidence."""
     L, H = config.frame_len, config.hop_len
-    L0 = max(8, int(round(config.comb_min_window / config.tracker.model.dt)))
+    L0 = config.min_frame_len
     starts = np.arange(last_end - L + 1 + H, y.size - L0 + 1, H)
     return starts + (y.size - starts - 1) // 2, [y[a:] for a in starts]
 
@@ -536,13 +538,7 @@ def estimate(
     comb = {k: getattr(config, k) for k in _COMB}
     if tr.fit_names and centre:
         # the marginal likelihood is the causal filter's: fit with end-referred evidence
-        from vibrospeed.estimators import fit as _fit
-
-        fr = _fit.fit(tr, y, names=tr.fit_names, extra=evidence(config, y))
-        notes.append("fitted by marginal likelihood: " + ", ".join(
-            f"{k} = {v:.4g}" for k, v in fr.values.items()) + f" (log p(y) {fr.loglik:.6g})")
-        notes.extend(f"fit: {w}" for w in fr.warnings)
-        tr = dataclasses.replace(fr.config, fit="")
+        tr = dataclasses.replace(_rb.fit_for_track(tr, y, evidence(config, y), notes), fit="")
         config = dataclasses.replace(config, tracker=tr)
     if tr.smooth == "lag" and centre:
         comb["lag"] = tr.lag  # the delay the user asked for, recorded as such

@@ -1220,6 +1220,18 @@ def prefilter_note(config: Config, fs: float) -> str | None:
     return None
 
 
+def fit_for_track(config: Config, y: np.ndarray, extra, notes: list) -> Config:
+    """``config`` with ``config.fit_names`` fitted by marginal likelihood on ``y`` (with the
+    causal filter's ``extra`` evidence); the fitted values and any warnings go to ``notes``."""
+    from vibrospeed.estimators import fit as _fit
+
+    fr = _fit.fit(config, y, names=config.fit_names, extra=extra)
+    notes.append("fitted by marginal likelihood: " + ", ".join(
+        f"{k} = {v:.4g}" for k, v in fr.values.items()) + f" (log p(y) {fr.loglik:.6g})")
+    notes.extend(f"fit: {w}" for w in fr.warnings)
+    return fr.config
+
+
 def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, notes: list,
           *, axis: str, wheel_radius: float | None, progress: bool = False,
           return_posterior: bool = False, method: str = "rbpmf",
@@ -1229,13 +1241,7 @@ def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, 
     :mod:`vibrospeed.estimators.grid`): optional fit, filter or smoother, Track with extras.
     ``extra``: log-evidence per :func:`run`."""
     if config.fit_names:
-        from vibrospeed.estimators import fit as _fit
-
-        fr = _fit.fit(config, y, names=config.fit_names, extra=extra)
-        config = fr.config
-        notes.append("fitted by marginal likelihood: " + ", ".join(
-            f"{k} = {v:.4g}" for k, v in fr.values.items()) + f" (log p(y) {fr.loglik:.6g})")
-        notes.extend(f"fit: {w}" for w in fr.warnings)
+        config = fit_for_track(config, y, extra, notes)
     for note in (check_grid_spacing(config), prefilter_note(config, 1.0 / config.model.dt)):
         if note:
             notes.append(note)
