@@ -173,12 +173,13 @@ def transient_methods(rbpf_seeds: int, particles: int):
     ]
 
 
-def transient(seeds: int, rbpf_seeds: int, particles: int, only: str | None = None) -> None:
+def transient(seeds: int, rbpf_seeds: int, particles: int, only: str | None = None,
+              seed0: int = 0) -> None:
     rows: dict[str, list[dict]] = {}
     times: dict[str, float] = {}
     n_starts = []
     methods = _selected(transient_methods(rbpf_seeds, particles), only)
-    for seed in range(seeds):
+    for seed in range(seed0, seed0 + seeds):
         rec = sim.simulate("car", seed=seed)
         starts = cruise_starts(rec.t, rec["omega_true"])
         n_starts.append(len(starts))
@@ -188,7 +189,7 @@ def transient(seeds: int, rbpf_seeds: int, particles: int, only: str | None = No
             cut = rec.slice_time(t0, t_end)
             truth = cut["omega_true"]
             for label, method, params, n_seeds in methods:
-                if n_seeds is not None and seed >= n_seeds:
+                if n_seeds is not None and seed - seed0 >= n_seeds:
                     continue
                 p = {**params, "seed": seed} if method == "rbpf" else params
                 c0 = time.process_time()
@@ -210,7 +211,7 @@ def transient(seeds: int, rbpf_seeds: int, particles: int, only: str | None = No
                     rows.setdefault(lab, []).append(r)
         print(f"  seed {seed}: {len(starts)} starts "
               f"({', '.join(f'{a:.0f}' for a, _ in starts)} s)", flush=True)
-    print(f"\n## transient: car, {seeds} seeds, {sum(n_starts)} starts "
+    print(f"\n## transient: car, seeds {seed0}..{seed0 + seeds - 1}, {sum(n_starts)} starts "
           f"({min(n_starts)}-{max(n_starts)} per seed)\n")
     print("| method | seeds | starts | lock s median / 90 % / max | starts locked < 2 s % | "
           "comb complete / in a fade: locked < 2 s % | "
@@ -403,6 +404,8 @@ def main() -> None:
     ap.add_argument("--rbpf-seeds", type=int, default=2)
     ap.add_argument("--particles", type=int, default=3000)
     ap.add_argument("--scenarios", default="car,cart")
+    ap.add_argument("--seed0", type=int, default=0,
+                    help="transient: first seed (e.g. 15 for a held-out set beside 0..14)")
     ap.add_argument("--only", default=None,
                     help="run only the rows whose label contains one of these comma-separated "
                          "substrings (accuracy: without the spectrogram peer)")
@@ -410,7 +413,7 @@ def main() -> None:
     if a.what == "accuracy":
         accuracy(a.seeds, a.rbpf_seeds, a.particles, a.scenarios.split(","), a.only)
     elif a.what == "transient":
-        transient(a.seeds, a.rbpf_seeds, a.particles, a.only)
+        transient(a.seeds, a.rbpf_seeds, a.particles, a.only, a.seed0)
     else:
         speed()
 

@@ -37,7 +37,8 @@ def _ref_comb(cfg, x, dt):
     hann = 0.5 - 0.5 * np.cos(2 * np.pi * n / (L - 1))
     P = np.array([abs(np.sum(x * hann * np.exp(-2j * np.pi * b * n / nfft))) ** 2
                   for b in range(nfft // 2 + 1)])
-    medw = max(3, int(round(cfg.comb_bg * dt * nfft)) | 1)
+    bg = max(cfg.comb_bg, 6.0 / (L * tr.model.dt))  # >= 1.5 Hann main lobes
+    medw = max(3, int(round(bg * dt * nfft)) | 1)
     S = P / (_ref_median(P, medw) / np.log(2))
     df = 2 * np.pi / (dt * nfft)
     a = cfg.comb_snr
@@ -310,6 +311,25 @@ def test_growing_start_frames_match_reference_and_stream():
     # comb_min_window >= comb_window: no growing frames (the earlier behaviour)
     idx2, _ = grid.evidence(dataclasses.replace(cfg, comb_min_window=1.0), y)
     np.testing.assert_array_equal(idx2, full)
+
+
+def test_short_start_frame_scores_a_clean_comb_in_full():
+    """A 1 s start frame's Hann main lobe is 4 Hz wide: with a 2 Hz background the line
+    would fill the running median and whiten itself away (each harmonic then scores ~0 instead
+    of the cap). The background is at least 1.5 main lobes, so a clean comb scores every
+    harmonic at the cap, exactly where it is."""
+    cfg = grid.Config()
+    rng = np.random.default_rng(8)
+    t = np.arange(100) * 0.01  # 1 s: the first growing frame
+    fr = (np.sin(50 * t) + 0.7 * np.sin(100 * t + 1) + 0.5 * np.sin(150 * t + 2)
+          + 0.05 * rng.normal(size=t.size))
+    E = grid.frame_evidence(cfg, fr[None, :])[0, :-1]
+    g = cfg.tracker.grid
+    assert abs(g[np.argmax(E)] - 50.0) < 1.0
+    # every harmonic at the cap; the warped rates (which smear a steady comb) cost at most
+    # log p0 in the rate average
+    full = cfg.comb_weight * (cfg.tracker.model.M * cfg.comb_cap + np.log(cfg.comb_rate_p0))
+    assert E[np.argmin(abs(g - 50.0))] >= full - 0.05
 
 
 def test_warped_evidence_scores_an_accelerating_comb_at_its_current_frequency():

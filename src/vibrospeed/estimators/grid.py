@@ -14,8 +14,11 @@ harmonic) is as good as a wheel's comb: omega locks on the line, on line/2 or li
 the cart at 28 rad/s = 3 x truth; the car on the engine line below ~30 rad/s). A wheel,
 however, produces M harmonics whose amplitudes vary slowly together; an interfering line is one
 line. The comb evidence scores that structure on the whitened spectrum of the last ``W`` s
-(Hann window, 4x zero padding; background = running median over +-``comb_bg``/2 Hz divided by
-ln 2, the median of an exponential; so ``S(f) ~ Exp(1)`` where there is no line). Per harmonic
+(Hann window, 4x zero padding; background = running median over ``comb_bg`` Hz divided by
+ln 2, the median of an exponential; so ``S(f) ~ Exp(1)`` where there is no line). The
+background spans at least 1.5 Hann main lobes (``6 / w`` Hz for a frame of ``w`` s: a short
+start-up frame's line would otherwise fill the median's window and whiten itself away;
+docs/trackers.md follow-up 4). Per harmonic
 k, with the line modelled as a complex Gaussian of SNR ``a`` (``comb_snr``) against the
 background, the log likelihood ratio "line at k omega" vs "background" is::
 
@@ -110,7 +113,10 @@ class Config:
     comb_window, comb_hop : s, frame length and spacing of the spectrum.
     comb_snr : SNR ``a`` of a harmonic in the per-harmonic likelihood ratio (module docstring).
     comb_cap : nats, largest evidence one harmonic can contribute.
-    comb_bg : Hz, width of the running-median background of the spectrum.
+    comb_bg : Hz, width of the running-median background of the spectrum; a frame of ``w`` s
+        uses at least ``6 / w`` Hz (1.5 Hann main lobes, :meth:`background_hz`): with a
+        narrower window a line fills the median and whitens itself away (a 1 s start frame's
+        main lobe is 4 Hz wide).
     comb_lead : nats, largest lead of the best harmonic's term over the second best (M >= 2):
         ``E = sum_k l_k - l_(1) + min(l_(1), l_(2) + comb_lead)``, so that a hypothesis needs
         at least two harmonics to score; ``inf``: no such limit.
@@ -171,6 +177,11 @@ class Config:
             return np.ones(1)
         return np.r_[self.comb_rate_p0,
                      np.full(rates.size - 1, (1.0 - self.comb_rate_p0) / (rates.size - 1))]
+
+    def background_hz(self, L: int) -> float:
+        """Hz, running-median width for an ``L``-sample frame: ``comb_bg``, but at least 1.5
+        Hann main lobes (``6 / w`` Hz for a frame of ``w`` s)."""
+        return max(self.comb_bg, 6.0 / (L * self.tracker.model.dt))
 
     @property
     def min_frame_len(self) -> int:
@@ -286,7 +297,8 @@ def _comb_terms(config: Config, x: np.ndarray, dt: float) -> np.ndarray:
     nfft = 1 << int(np.ceil(np.log2(4 * L)))
     P = np.abs(np.fft.rfft(x * np.hanning(L), nfft, axis=1)) ** 2
     f = 2 * np.pi * np.fft.rfftfreq(nfft, dt)
-    medw = max(3, int(round(config.comb_bg / (1.0 / (dt * nfft)))) | 1)
+    bg_hz = config.background_hz(L)  # >= 1.5 main lobes: a line never fills the window
+    medw = max(3, int(round(bg_hz / (1.0 / (dt * nfft)))) | 1)
     bg = running_median(P, medw) / np.log(2.0)
     S = P / np.maximum(bg, 1e-300 + 1e-12 * np.max(bg, axis=1, keepdims=True))
     a = config.comb_snr
