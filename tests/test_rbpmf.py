@@ -402,3 +402,26 @@ def test_mixture_off_reproduces_the_single_walk():
         rbpmf.Config(p_fast=1.5)
     with pytest.raises(ParameterError, match="q_omega_fast"):
         rbpmf.Config(q_omega_fast=-1.0)
+
+
+def test_temper_fs_makes_the_tempering_per_second():
+    """``temper_fs``: the power holds at that rate; at fs it is ``temper * temper_fs / fs`` per
+    sample (capped at 1), i.e. the same filter as the per-sample power written out."""
+    rng = np.random.default_rng(11)
+    t = np.arange(0, 4, 1 / 200)
+    y = np.sin(40 * t) + 0.5 * np.sin(80 * t) + 0.3 * rng.normal(size=t.size)
+    model = HarmonicModel.from_paper_table1(1 / 200)
+    base = dict(model=model, n_grid=40, omega_min=20.0, omega_max=60.0, jump_rate=0.05)
+    per_second = rbpmf.Config(**base, temper=0.2, temper_fs=100.0)
+    per_sample = rbpmf.Config(**base, temper=0.1)
+    assert per_second.temper_step == pytest.approx(0.1, rel=1e-15)
+    a = rbpmf.run(per_second, y)
+    b = rbpmf.run(per_sample, y)
+    np.testing.assert_array_equal(a.omega, b.omega)
+    np.testing.assert_array_equal(a.loglik, b.loglik)
+    slow = dataclasses.replace(per_second, model=HarmonicModel.from_paper_table1(1 / 25))
+    assert slow.temper_step == 0.8  # 0.2 at 100 Hz -> 0.8 per sample at 25 Hz
+    assert dataclasses.replace(per_second, temper=0.5, model=slow.model).temper_step == 1.0
+    assert rbpmf.Config(temper=0.3).temper_step == 0.3  # None: per sample
+    with pytest.raises(ParameterError, match="temper_fs"):
+        rbpmf.Config(temper_fs=0.0)

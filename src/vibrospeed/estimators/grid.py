@@ -84,7 +84,9 @@ from vibrospeed.types import Recording, Track
 #: tracker settings of the product on top of the paper's Config (docs/beyond.md, "grid"):
 #: jumps 0.05/s, "no line" in 0.01/s out 0.5/s, noise from the marginal-likelihood fits
 #: (r 0.15, q_amp 0.002; q_omega 16 (rad/s)^2/s follows car accelerations of ~8 rad/s^2),
-#: likelihood tempered to 0.2, the thesis high-pass (4 rad/s) instead of the paper's 8 Hz
+#: likelihood tempered to 0.2 per 0.01 s of data (``temper_fs`` 100 Hz: 0.05 per sample at
+#: 400 Hz, so the time-domain evidence per second does not grow with the sample rate), the
+#: thesis high-pass (4 rad/s) instead of the paper's 8 Hz
 #: (which removes a slow wheel's fundamental: the cart failure of issue 7).
 #: The "no line" state's time-domain emission is the signal part's predictive mixture
 #: (``null_model="mixture"``): only the comb evidence decides whether a wheel comb is there.
@@ -93,8 +95,8 @@ from vibrospeed.types import Recording, Track
 #: (in ``extras["omega_mean"]``) is the MMSE choice but lies between the lines.
 GRID_DEFAULTS = {
     "jump_rate": 0.05, "off_rate": 0.01, "on_rate": 0.5, "r": 0.15, "q_amp": 0.002,
-    "q_omega": 16.0, "temper": 0.2, "prefilter": "thesis-hp", "smooth": "fb",
-    "null_model": "mixture", "point": "mode",
+    "q_omega": 16.0, "temper": 0.2, "temper_fs": 100.0, "prefilter": "thesis-hp",
+    "smooth": "fb", "null_model": "mixture", "point": "mode",
 }
 
 

@@ -125,6 +125,12 @@ class Config:
         and interfering lines make the per-sample evidence over-confident): the posterior then
         moves as if it had seen ``c`` times the samples, leaving room for other evidence
         (:mod:`vibrospeed.estimators.grid`).
+    temper_fs : Hz or None (default: ``temper`` is per sample). Set, ``temper`` is the power
+        at this sample rate and a recording sampled at ``fs`` uses ``min(1, temper *
+        temper_fs / fs)`` per sample (:attr:`temper_step`): the tempered evidence *per second*
+        and its balance with per-second evidence (the grid's comb) then do not depend on the
+        sample rate (simulated car at 400 Hz, 3 seeds, grid smoother: 76.7 % within tolerance
+        with 0.2 per sample, 90.3 % with 0.2 at 100 Hz; docs/beyond.md update 4).
     null_model : time-domain emission of the "no line" state. ``"white"`` (default):
         ``y ~ N(0, null_var)``. ``"mixture"``: the signal part's own one-step predictive
         density, ``p0(y_k) = sum_j p(omega_j | y_1..k-1, line) p(y_k | omega_j, y_1..k-1)``
@@ -181,6 +187,7 @@ class Config:
     lag: float = 2.0
     fit: str = ""
     temper: float = 1.0
+    temper_fs: float | None = None
     null_model: str = "white"
     point: str = "mean"
     mode_share: float = 0.9
@@ -228,6 +235,8 @@ class Config:
                                  f"'{self.null_model}'")
         if not 0 < self.temper <= 1:
             raise ParameterError(f"temper must be in (0, 1], got {self.temper}")
+        if self.temper_fs is not None and not self.temper_fs > 0:
+            raise ParameterError(f"temper_fs must be > 0 Hz (or None), got {self.temper_fs}")
         if self.point not in ("mean", "mode"):
             raise ParameterError(f"point must be 'mean' or 'mode', got '{self.point}'")
         if not self.q_omega_fast >= 0:
@@ -272,6 +281,14 @@ class Config:
         """Paper Table I / IV-B: M = 3, var(v^omega) = 4, var(v^a,b) = 0.001, var(a_0) = 0.1,
         N = 200 linear on [10, 120] rad/s, HP order 2 at 8 Hz; ``r`` = :data:`DEFAULT_R`."""
         return cls(model=_paper_model(dt), n_grid=200, omega_min=10.0, omega_max=120.0, **kw)
+
+    @property
+    def temper_step(self) -> float:
+        """Power on each sample's predictive likelihood: ``temper``, or with ``temper_fs``
+        ``min(1, temper * temper_fs * dt)``."""
+        if self.temper_fs is None:
+            return float(self.temper)
+        return min(1.0, float(self.temper) * (float(self.temper_fs) * self.model.dt))
 
     @cached_property
     def kern(self) -> Kernel:
@@ -982,7 +999,7 @@ def _args(config: Config) -> tuple:
     eps, p_off, p_on, nv = config.rates()
     return (float(m.r), cs, float(m.dt * m.q_amp), k.kb, int(k.B), k.grid, k.edges, u,
             float(config.log_floor), q, 1.0 - q, eps, p_off, p_on, nv, float(m.p0_amp),
-            float(config.amb_rel), float(config.amb_abs), float(config.temper),
+            float(config.amb_rel), float(config.amb_abs), config.temper_step,
             config.null_model == "mixture")
 
 
