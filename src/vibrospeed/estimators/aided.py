@@ -100,13 +100,23 @@ class Config:
     q_omega_accel : omega random-walk intensity (rad/s)^2/s in acceleration mode, when the
         integrated acceleration drives omega (None: the model's q_omega).
     standstill : 'window' (thesis 3.1), 'cusum' (thesis 4.2.3) or 'none'.
-    ss_n, ss_mu : window length and threshold (m/s^2) of the window test (20, 0.019).
+    ss_window, ss_mu : window length (s) and threshold (m/s^2) of the window test (thesis: 20
+        samples at 100 Hz = 0.2 s, 0.019); ``ss_n`` (samples) overrides the length when set.
+        In seconds, so a 400 Hz log looks at the same 0.2 s: 20 samples there (0.05 s) read a
+        slow wheel's vibration as flat, i.e. standstill while driving (cart at 400 Hz: RMSE
+        8.3 instead of 0.48 rad/s).
     r_ss : variance of the virtual standstill measurement omega = 0 (thesis: 1).
     cusum_sigma : residual level (m/s^2) separating quiet from moving; cusum_nu, cusum_h :
         drift and threshold of the CUSUM on ``eps = 1 - (e / sigma)^2``; the standstill flag is
         held for :func:`vibrospeed.signal.detectors.cusum_hold` samples after an alarm.
-    mode_n, mode_mu : window length and threshold (m/s^2) of the mode detector (20, 0.20).
-    boost : apply the boost of eq. 3.15 (``mode_n`` T ubar / r) when acceleration mode starts.
+    cusum_fs : Hz, the sample rate at which ``cusum_h`` holds (the thesis' 100 Hz); a log at fs
+        uses the threshold ``cusum_h fs / cusum_fs`` (:attr:`cusum_threshold`) and so the same
+        detection delay and hold in seconds (with 10 at 400 Hz the CUSUM alarmed within 0.05 s
+        of quiet residuals while driving: cart RMSE 8.4 instead of 0.48 rad/s). None: per
+        sample, as written in the thesis.
+    mode_window, mode_mu : window length (s) and threshold (m/s^2) of the mode detector
+        (0.2 s = the thesis' 20 samples at 100 Hz, 0.20); ``mode_n`` (samples) overrides.
+    boost : apply the boost of eq. 3.15 (``N_mode`` T ubar / r) when acceleration mode starts.
     aid_always : integrate u in vibration mode too (variant, see the module docstring).
     omega_max : upper clip (rad/s); None: 0.98 pi fs / M.
     line_min : gate on the explained power share (see the module docstring; 0 = off).
@@ -126,13 +136,16 @@ class Config:
     p0_bias: float = 0.01
     q_omega_accel: float | None = 1.0
     standstill: str = "window"
-    ss_n: int = det.WINDOW_N
+    ss_n: int | None = None
+    ss_window: float = det.WINDOW_S
     ss_mu: float = det.WINDOW_MU
     r_ss: float = 1.0
     cusum_sigma: float = 0.015
     cusum_nu: float = 0.5
     cusum_h: float = 10.0
-    mode_n: int = det.MODE_N
+    cusum_fs: float | None = 100.0
+    mode_n: int | None = None
+    mode_window: float = det.MODE_S
     mode_mu: float = det.MODE_MU
     boost: bool = True
     aid_always: bool = False
@@ -163,8 +176,30 @@ class Config:
             raise ParameterError(f"q_omega_accel must be >= 0, got {self.q_omega_accel}")
         for name in ("ss_n", "mode_n"):
             v = getattr(self, name)
-            if int(v) != v or v < 1:
+            if v is not None and (int(v) != v or v < 1):
                 raise ParameterError(f"{name} must be a positive integer, got {v}")
+        if self.cusum_fs is not None and not self.cusum_fs > 0:
+            raise ParameterError(f"cusum_fs must be > 0 Hz (or None), got {self.cusum_fs}")
+        for name in ("ss_window", "mode_window"):
+            if not getattr(self, name) > 0:
+                raise ParameterError(f"{name} must be > 0 s, got {getattr(self, name)}")
+
+    @property
+    def cusum_threshold(self) -> float:
+        """CUSUM alarm threshold per sample: ``cusum_h``, scaled by ``fs / cusum_fs``."""
+        if self.cusum_fs is None:
+            return float(self.cusum_h)
+        return float(self.cusum_h) / (float(self.cusum_fs) * self.model.dt)
+
+    @property
+    def ss_len(self) -> int:
+        """Samples in the standstill window: ``ss_n``, else ``ss_window`` s."""
+        return det.window_samples(self.ss_n, self.ss_window, self.model.dt)
+
+    @property
+    def mode_len(self) -> int:
+        """Samples in the mode-detector window: ``mode_n``, else ``mode_window`` s."""
+        return det.window_samples(self.mode_n, self.mode_window, self.model.dt)
 
     @property
     def omega_limit(self) -> float:
@@ -225,7 +260,8 @@ def init(config: Config) -> State:
     P[0, 0] = config.p0_omega
     P[-1, -1] = config.p0_bias
     line = np.array([0.0, 0.0, 0.0 if config.init_ref else 1.0, 0.0])
-    return State(x, P, det.window_init(config.ss_n), det.cusum_init(), det.mode_init(config.mode_n),
+    return State(x, P, det.window_init(config.ss_len), det.cusum_init(),
+                 det.mode_init(config.mode_len),
                  line)
 
 
@@ -387,12 +423,12 @@ def _args(config: Config) -> tuple:
     q_acc = m.q_omega if config.q_omega_accel is None else config.q_omega_accel
     fp = np.array([m.dt, m.q_omega, q_acc, m.q_amp, m.r, config.wheel_radius, config.q_bias,
                    config.omega_limit, config.ss_mu, config.r_ss, config.cusum_sigma,
-                   config.cusum_nu, config.cusum_h, config.mode_mu, config.line_min,
+                   config.cusum_nu, config.cusum_threshold, config.mode_mu, config.line_min,
                    config.line_tau, config.line_omega_min])
     boost_on = 1 if (config.boost and not config.aid_always) else 0
     flags = np.array([boost_on, 1 if config.aid_always else 0,
-                      det.cusum_hold(config.cusum_h, config.cusum_nu)], dtype=np.int64)
-    return (m.M, STANDSTILL_KINDS[config.standstill], float(config.mode_n), flags, fp)
+                      det.cusum_hold(config.cusum_threshold, config.cusum_nu)], dtype=np.int64)
+    return (m.M, STANDSTILL_KINDS[config.standstill], float(config.mode_len), flags, fp)
 
 
 def _unpack(state: State) -> list:
@@ -670,8 +706,11 @@ def estimate(
     )
     out_params = {**model.to_dict(), **{k: getattr(config, k) for k in (
         "omega0", "p0_omega", "amp0", "q_bias", "p0_bias", "q_omega_accel", "standstill",
-        "ss_n", "ss_mu", "r_ss", "cusum_sigma", "cusum_nu", "cusum_h", "mode_n", "mode_mu",
+        "ss_window", "ss_mu", "r_ss", "cusum_sigma", "cusum_nu", "cusum_h", "cusum_fs",
+        "mode_window",
+        "mode_mu",
         "boost", "aid_always", "line_min", "line_tau", "line_omega_min", "init_ref")},
+        "ss_n": config.ss_len, "mode_n": config.mode_len,
         "omega_max": config.omega_limit, "wheel_radius": float(r),
         "prefilter": pre, "lp_cutoff": lp, "normalize_tau": tau, "accel_detrend": detrend,
         "axis": axis,

@@ -21,7 +21,7 @@ grid posterior of :mod:`vibrospeed.estimators.rbpmf` they become:
 * **mode detector and boost** (thesis 3.3, eq. 3.14-3.15): in acceleration mode the vibration
   update is skipped (the RBPMF step runs with a NaN sample: prediction only) and the omega
   random walk uses ``q_omega_accel``; on the switch into acceleration mode the posterior is
-  shifted by ``mode_n T ubar / r``.
+  shifted by ``N_mode T ubar / r`` (N_mode samples in the mode window).
 * **scalar omega measurements**: the standstill virtual measurement ``omega = 0`` with
   variance ``R_ss`` (thesis eq. 3.4-3.6) and reference-speed fixes multiply the grid weights by
   ``N(z; omega_j + offset, R)``. Multiplying the prior before the RBPMF step equals multiplying
@@ -100,9 +100,10 @@ class Config:
     q_omega_accel : omega random walk (rad/s)^2/s in acceleration mode (None: the tracker's).
     q_omega_still : omega random walk while the standstill flag is up (default 0).
     accel_bias : fixed offset b (m/s^2) added to u (no bias state, see module docstring).
-    standstill : 'window' (thesis 3.1) or 'none'. ss_n, ss_mu, r_ss : as in
+    standstill : 'window' (thesis 3.1) or 'none'. ss_window (s) / ss_n, ss_mu, r_ss : as in
         :class:`vibrospeed.estimators.aided.Config`.
-    mode_n, mode_mu, boost : mode detector (thesis 3.3) and the boost of eq. 3.15.
+    mode_window (s) / mode_n, mode_mu, boost : mode detector (thesis 3.3) and the boost of
+        eq. 3.15.
     comb : harmonic-comb evidence (:class:`vibrospeed.estimators.grid.Config`, its ``tracker``
         must have this tracker's grid and ``dt``) or None (none; the default).
     comb_in_accel : also apply the comb evidence in acceleration mode (default False).
@@ -114,10 +115,12 @@ class Config:
     q_omega_still: float = 0.0
     accel_bias: float = 0.0
     standstill: str = "window"
-    ss_n: int = det.WINDOW_N
+    ss_n: int | None = None
+    ss_window: float = det.WINDOW_S
     ss_mu: float = det.WINDOW_MU
     r_ss: float = 1.0
-    mode_n: int = det.MODE_N
+    mode_n: int | None = None
+    mode_window: float = det.MODE_S
     mode_mu: float = det.MODE_MU
     boost: bool = True
     comb: gridmod.Config | None = None
@@ -149,14 +152,27 @@ class Config:
             raise ParameterError(f"accel_bias must be finite, got {self.accel_bias}")
         for name in ("ss_n", "mode_n"):
             v = getattr(self, name)
-            if int(v) != v or v < 1:
+            if v is not None and (int(v) != v or v < 1):
                 raise ParameterError(f"{name} must be a positive integer, got {v}")
+        for name in ("ss_window", "mode_window"):
+            if not getattr(self, name) > 0:
+                raise ParameterError(f"{name} must be > 0 s, got {getattr(self, name)}")
         if self.comb is not None:
             ct = self.comb.tracker
             if (ct.n_grid != tr.n_grid or not np.array_equal(ct.grid, tr.grid)
                     or ct.model.dt != tr.model.dt or ct.model.M != tr.model.M):
                 raise ParameterError("comb: its tracker must have the aided tracker's grid, dt "
                                      "and M")
+
+    @property
+    def ss_len(self) -> int:
+        """Samples in the standstill window: ``ss_n``, else ``ss_window`` s."""
+        return det.window_samples(self.ss_n, self.ss_window, self.tracker.model.dt)
+
+    @property
+    def mode_len(self) -> int:
+        """Samples in the mode-detector window: ``mode_n``, else ``mode_window`` s."""
+        return det.window_samples(self.mode_n, self.mode_window, self.tracker.model.dt)
 
     def _with_q(self, q: float | None) -> rbpmf.Config:
         if q is None or q == self.tracker.model.q_omega:
@@ -216,8 +232,8 @@ def init(config: Config) -> State:
     """RBPMF prior of the tracker config (uniform over the grid unless its ``omega0`` is set),
     no offset, empty detectors (and an empty comb frame buffer)."""
     buf = None if config.comb is None else np.zeros(config.comb.frame_len)
-    return State(rbpmf.init(config.tracker), 0.0, det.window_init(config.ss_n),
-                 det.mode_init(config.mode_n), buf, 0)
+    return State(rbpmf.init(config.tracker), 0.0, det.window_init(config.ss_len),
+                 det.mode_init(config.mode_len), buf, 0)
 
 
 def _push(buf: np.ndarray, count: int, y: np.ndarray) -> np.ndarray:
@@ -328,7 +344,7 @@ def _core(config: Config, g: rbpmf.State, offset: float, y: float, u: float, gai
     T = config.tracker.model.dt
     r = config.wheel_radius
     if boost and config.boost:
-        offset = _move(config, g, offset, config.mode_n * T * ubar / r)
+        offset = _move(config, g, offset, config.mode_len * T * ubar / r)
     if not acc:
         offset = _resolve(config, g, offset)
     ll = None
@@ -582,6 +598,7 @@ def estimate(
                                           for f in dataclasses.fields(Config)
                                           if f.name not in ("tracker", "comb")},
                   **({k: getattr(comb, k) for k in COMB_PARAMS} if comb is not None else {}),
+                  "ss_n": config.ss_len, "mode_n": config.mode_len,
                   "tracker": kind, "axis": axis, "lp_cutoff": lp,
                   **{k: inp.get(k) for k in INPUT_PARAMS if k != "lp_cutoff"}}
     return Track.from_omega(recording.t, res.omega, res.omega_std, lo=res.omega_lo,

@@ -29,11 +29,24 @@ from numba import njit
 
 from vibrospeed.errors import ParameterError
 
-#: thesis values (3.1, 3.3)
+#: thesis values (3.1, 3.3): windows of 20 samples at the thesis' 100 Hz
 WINDOW_N = 20
 WINDOW_MU = 0.019  # m/s^2
 MODE_N = 20
 MODE_MU = 0.20  # m/s^2
+#: s, the thesis windows in time (20 samples at 100 Hz): the estimators' defaults, so a log at
+#: 400 Hz looks at the same 0.2 s and not at 0.05 s (in which a slow wheel's vibration is flat
+#: and reads as standstill)
+WINDOW_S = 0.2
+MODE_S = 0.2
+
+
+def window_samples(n: int | None, seconds: float, dt: float) -> int:
+    """Window length in samples: ``n`` if given, else ``seconds`` at sample period ``dt``
+    (at least 2)."""
+    if n is not None:
+        return int(n)
+    return max(2, int(round(seconds / dt)))
 
 
 # ---------------------------------------------------------------------------------------------
