@@ -456,10 +456,21 @@ def main(argv: list[str] | None = None) -> None:
             print(body[-1])
             print(f"({part}: {time.time() - t0:.0f} s wall)", flush=True)
     text = INTRO.format(versions="; ".join(versions), conf=CONFIDENT) + "\n" + "\n".join(body)
-    text += "\n" + READING
+    text += "\n" + _reading()
     if not a.no_write and len(a.parts) == 3:
         DOC.write_text(text)
         print(f"wrote {DOC.relative_to(ROOT)}")
+
+
+def _reading() -> str:
+    """The "## Reading" section of the existing doc (written by hand after a run, so a rerun
+    keeps it), or the template below for a first run."""
+    if DOC.exists():
+        old = DOC.read_text()
+        i = old.find("## Reading")
+        if i >= 0:
+            return old[i:]
+    return READING
 
 
 READING = """## Reading
