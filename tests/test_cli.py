@@ -159,3 +159,26 @@ def test_gps_riss_paper_preset(tmp_path):
     assert side["params"]["r_gps_slope"] == 72.0 and side["params"]["error_mode"] == "kf2"
     assert "preset" in _err(_run("estimate", rec_path, "-m", "gps-riss", "-p", "preset=x",
                                  "-o", est))
+
+
+def test_a_log_with_one_accelerometer_axis_uses_it(tmp_path):
+    """Without --axis the vibration axis is y; a log that has only az uses az (and says so);
+    two axes without y still need --axis."""
+    t = np.arange(0, 20, 0.01)
+    rng = np.random.default_rng(0)
+    az = np.sin(50 * t) + 0.5 * np.sin(100 * t) + 0.3 * np.sin(150 * t) + 0.3 * rng.normal(
+        size=t.size)
+    path = tmp_path / "onlyz.csv"
+    np.savetxt(path, np.c_[t, az], delimiter=",", header="t,az", comments="")
+    est = tmp_path / "est.csv"
+    res = _run("estimate", path, "-o", est)
+    assert res.exit_code == 0, res.output
+    assert "only accelerometer axis 'az'" in res.output
+    side = json.loads(est.with_name(est.name + ".json").read_text())
+    assert side["meta"]["axis"] == "z" and side["notes"][0].startswith("no 'ay'")
+    omega = np.loadtxt(est, delimiter=",", skiprows=1, usecols=1)
+    assert abs(np.median(omega[500:]) - 50.0) < 1.0
+    two = tmp_path / "xz.csv"
+    np.savetxt(two, np.c_[t, az, az], delimiter=",", header="t,ax,az", comments="")
+    res = _run("estimate", two, "-o", tmp_path / "e2.csv")
+    assert res.exit_code == 2 and "'ay' is missing" in res.output

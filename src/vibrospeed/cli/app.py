@@ -204,10 +204,20 @@ def estimate(
     extra_kw = {}
     if plot is not None and "return_posterior" in inspect.signature(mod.estimate).parameters:
         extra_kw["return_posterior"] = True
+    axis_note = None
+    if axis is None and method not in ("gps-riss", "algebraic") and "ay" not in rec:
+        # the default vibration axis y is missing: a log with one accelerometer axis uses it
+        have = [c for c in ("ax", "az") if c in rec]
+        if len(have) == 1:
+            axis = have[0][1]
+            axis_note = (f"no 'ay' in the recording: using its only accelerometer axis "
+                         f"'{have[0]}' (--axis to choose)")
     if axis is not None:
         extra_kw["axis"] = axis
     track = mod.estimate(rec, wheel_radius=wheel_radius, params=params,
                          progress=sys.stderr.isatty(), **extra_kw)
+    if axis_note:
+        track.notes.insert(0, axis_note)
     used = track.params.get("axis")  # the axis the estimator chose when --axis was not given
     axis = used if isinstance(used, str) else axis
     # per-sample columns go to the CSV; a grid posterior (n, N) only to the plot
