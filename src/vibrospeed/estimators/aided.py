@@ -261,8 +261,7 @@ def init(config: Config) -> State:
     P[-1, -1] = config.p0_bias
     line = np.array([0.0, 0.0, 0.0 if config.init_ref else 1.0, 0.0])
     return State(x, P, det.window_init(config.ss_len), det.cusum_init(),
-                 det.mode_init(config.mode_len),
-                 line)
+                 det.mode_init(config.mode_len), line)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -707,9 +706,8 @@ def estimate(
     out_params = {**model.to_dict(), **{k: getattr(config, k) for k in (
         "omega0", "p0_omega", "amp0", "q_bias", "p0_bias", "q_omega_accel", "standstill",
         "ss_window", "ss_mu", "r_ss", "cusum_sigma", "cusum_nu", "cusum_h", "cusum_fs",
-        "mode_window",
-        "mode_mu",
-        "boost", "aid_always", "line_min", "line_tau", "line_omega_min", "init_ref")},
+        "mode_window", "mode_mu", "boost", "aid_always", "line_min", "line_tau",
+        "line_omega_min", "init_ref")},
         "ss_n": config.ss_len, "mode_n": config.mode_len,
         "omega_max": config.omega_limit, "wheel_radius": float(r),
         "prefilter": pre, "lp_cutoff": lp, "normalize_tau": tau, "accel_detrend": detrend,
