@@ -168,6 +168,10 @@ def estimate(
 
       vibrospeed estimate drive.csv -o est.csv --plot est.png        (grid tracker)
 
+      vibrospeed estimate cart.csv -p omega_min=2 -p omega_max=30 -o est.csv
+      (the grid covers 10-120 rad/s, a car's wheel; a cart or forklift turns slower: give
+      its range, v / r for its speeds and wheel radius)
+
       vibrospeed estimate drive.csv --method ekf --init-omega 10 -o est.csv
 
       vibrospeed estimate rsq_q2_00/ --format phyphox --axis y -o est.csv
