@@ -169,8 +169,8 @@ def estimate(
       vibrospeed estimate drive.csv -o est.csv --plot est.png        (grid tracker)
 
       vibrospeed estimate cart.csv -p omega_min=2 -p omega_max=30 -o est.csv
-      (the grid covers 10-120 rad/s, a car's wheel; a cart or forklift turns slower: give
-      its range, v / r for its speeds and wheel radius)
+
+      (the grid covers 10-120 rad/s, a car's wheels; give a slow vehicle's range, v / r)
 
       vibrospeed estimate drive.csv --method ekf --init-omega 10 -o est.csv
 
@@ -180,8 +180,8 @@ def estimate(
 
       vibrospeed estimate kart.csv --columns ax=c1,ay=c2,az=c3 --rate 198.4 --axis z
       -p omega_min=60 -p omega_max=300 -p prefilter=paper-hp -p M=2 -o est.csv
-      (the grid range where the wheel line can be: v / r for your speeds and radius; M the
-      harmonics the vehicle shows: the kart's line has at most a weak 2nd)
+
+      (range: v / r for the kart's speeds and radius; M = 2: its line has a weak 2nd only)
 
       vibrospeed estimate drive.csv -p smooth=none -o est.csv   (causal grid filter, online)
 
