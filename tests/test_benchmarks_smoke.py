@@ -132,3 +132,11 @@ def test_lock_after_hand_computed():
     est3 = truth.copy()
     est3[-30:] = np.nan  # an unfinished last batch is dropped
     assert trackers.lock_after(t, est3, truth)["lock_s"] == 0.0
+
+
+def test_real_recordings_rerun_keeps_the_hand_written_reading(tmp_path, monkeypatch):
+    doc = tmp_path / "real.md"
+    monkeypatch.setattr(real, "DOC", doc)
+    assert real._reading() == real.READING  # first run: the template
+    doc.write_text("# tables\n\n| a |\n\n## Reading\n\nhand-written text\n")
+    assert real._reading() == "## Reading\n\nhand-written text\n"
