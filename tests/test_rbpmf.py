@@ -425,3 +425,15 @@ def test_temper_fs_makes_the_tempering_per_second():
     assert rbpmf.Config(temper=0.3).temper_step == 0.3  # None: per sample
     with pytest.raises(ParameterError, match="temper_fs"):
         rbpmf.Config(temper_fs=0.0)
+
+
+def test_p_null0_sets_the_start_prior_of_the_no_line_state():
+    cfg = rbpmf.Config(off_rate=0.01, on_rate=0.5)
+    st = rbpmf.init(cfg)
+    assert np.exp(st.log_w_null) == pytest.approx(0.01 / 0.51)  # stationary share
+    half = rbpmf.init(dataclasses.replace(cfg, p_null0=0.5))
+    assert np.exp(half.log_w_null) == pytest.approx(0.5)
+    assert np.exp(np.logaddexp.reduce(half.log_w)) == pytest.approx(0.5)
+    np.testing.assert_allclose(np.diff(half.log_w), np.diff(st.log_w))  # same shape over omega
+    with pytest.raises(ParameterError, match="p_null0"):
+        rbpmf.Config(p_null0=1.0)
