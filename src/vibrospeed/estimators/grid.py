@@ -90,15 +90,13 @@ from vibrospeed.types import Recording, Track
 #: (which removes a slow wheel's fundamental: the cart failure of issue 7).
 #: The "no line" state's time-domain emission is the signal part's predictive mixture
 #: (``null_model="mixture"``): only the comb evidence decides whether a wheel comb is there.
-#: The "no line" state starts at 0.5 (``p_null0``; not the chain's stationary 2 %): before any
-#: comb evidence it is not known whether a wheel turns.
 #: The reported omega is the mean of the MAP mode (``point="mode"``, issue 3 follow-up): on a
 #: line where the posterior is split (acquisition, an interfering line), the posterior mean
 #: (in ``extras["omega_mean"]``) is the MMSE choice but lies between the lines.
 GRID_DEFAULTS = {
     "jump_rate": 0.05, "off_rate": 0.01, "on_rate": 0.5, "r": 0.15, "q_amp": 0.002,
     "q_omega": 16.0, "temper": 0.2, "temper_fs": 100.0, "prefilter": "thesis-hp",
-    "smooth": "fb", "null_model": "mixture", "point": "mode", "p_null0": 0.5,
+    "smooth": "fb", "null_model": "mixture", "point": "mode",
 }
 
 

@@ -113,10 +113,12 @@ class Config:
         reported as ``p_null``; the band spreads it uniformly over the grid (honest "no signal").
     p_null0 : prior mass of the "no line" state at the first sample; None (default): the
         switching chain's stationary share ``off_rate / (off_rate + on_rate)`` (2 % for the
-        grid's rates, i.e. "a wheel line is there" before any data). The grid starts at 0.5
-        ("not known yet"): a recording that starts standing with an idling engine then reads
-        "no line" sooner (causal grid, 5 seeds, has_signal while standing in the first 8 s:
-        car 68 -> 48 %, cart 64 -> 31 %; moving accuracy unchanged; docs/beyond.md update 4).
+        grid's rates, i.e. "a wheel line is there" before any data). 0.5 ("not known yet")
+        suits a device switched on at standstill: an idling engine then reads "no line"
+        sooner (causal grid, 5 seeds, has_signal while standing in the first 8 s: car 68 ->
+        48 %, cart 64 -> 31 %), but a start while driving locks later (the "no line" mass
+        re-enters the grid uniformly: car, lock < 2 s 83 -> 78 % of 175 starts; docs/beyond.md
+        update 4).
     amb_rel, amb_abs : half-width ``max(amb_abs, amb_rel * x)`` of the window around ``x =
         MAP/2`` and ``2 MAP`` in which the posterior mass ``p_half``, ``p_double`` is reported;
         the same window defines the mode (``point``).
