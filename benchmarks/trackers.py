@@ -159,6 +159,10 @@ def transient_methods(rbpf_seeds: int, particles: int):
         ("grid (filter, smooth=none)", "grid", {"smooth": "none"}, None),
         ("grid (filter, q_omega 4, point=mode)", "grid",
          {"smooth": "none", "q_omega": 4.0, "point": "mode"}, None),
+        # all three accelerometer axes in the comb evidence (grid.Config.comb_axes)
+        ("grid (filter, comb_axes xyz)", "grid", {"smooth": "none", "comb_axes": "xyz"}, None),
+        ("grid (filter, q_omega 4, point=mode, comb_axes xyz)", "grid",
+         {"smooth": "none", "q_omega": 4.0, "point": "mode", "comb_axes": "xyz"}, None),
         # two-component omega walk (rbpmf.Config.q_omega_fast / p_fast; issue 3 follow-up)
         *[(f"RBPMF (walk mix q {qs:g} / {qf:g}, p_fast {pf_:g}, thesis-hp)", "rbpmf",
            {"prefilter": "thesis-hp", **_mix(qs, qf, pf_)}, None) for qs, qf, pf_ in WALK_MIX],
@@ -282,6 +286,10 @@ def accuracy_methods(scen: str, rbpf_seeds: int, particles: int):
         (f"RBPF K={particles}", "rbpf", {**p, "n_particles": particles}, rbpf_seeds),
         ("grid (smoother, offline)", "grid", GRID_PARAMS[scen], None),
         ("grid (filter, causal)", "grid", {**GRID_PARAMS[scen], "smooth": "none"}, None),
+        ("grid (smoother, comb_axes xyz)", "grid", {**GRID_PARAMS[scen], "comb_axes": "xyz"},
+         None),
+        ("grid (filter, comb_axes xyz)", "grid",
+         {**GRID_PARAMS[scen], "smooth": "none", "comb_axes": "xyz"}, None),
         ("SHS", "shs", SHS_PARAMS[scen], None),
         ("EKF", "ekf", {}, None),
     ]

@@ -171,6 +171,9 @@ def test_errors():
     with pytest.raises(ParameterError, match="comb"):
         cfg = _small_grid()
         aided_grid.Config(tracker=dataclasses.replace(cfg.tracker, n_grid=41), comb=cfg.comb)
+    with pytest.raises(ParameterError, match="comb_axes"):
+        cfg = _small_grid()
+        dataclasses.replace(cfg, comb=dataclasses.replace(cfg.comb, comb_axes="xyz"))
 
 
 # --- tracker=grid: "no line" state, comb evidence (issue 4 follow-up) -------------------------

@@ -1,6 +1,7 @@
 """The online pipeline gives the batch estimate() numbers sample by sample."""
 
 import numpy as np
+import pytest
 
 from vibrospeed.estimators import ekf
 from vibrospeed.estimators.online import OnlineTracker
@@ -81,3 +82,26 @@ def test_online_grid_trackers_equal_their_causal_estimate():
         trk = OnlineTracker(mod, cfg, level=start_level(ay, 0.01))
         om = np.array([trk.update(v).omega for v in ay])
         np.testing.assert_allclose(om, track.omega, rtol=0, atol=1e-9)
+
+
+def test_online_grid_with_several_comb_axes_equals_its_causal_estimate():
+    from vibrospeed.estimators import grid
+    from vibrospeed.estimators.common import start_level
+
+    rng = np.random.default_rng(8)
+    n = 600
+    t = np.arange(n) / 100.0
+    ay = 0.2 * np.cos(30.0 * t) + 0.05 * rng.normal(size=n) + 0.3
+    az = 0.1 * np.cos(60.0 * t) + 0.1 * np.cos(90.0 * t) + 0.05 * rng.normal(size=n) + 9.8
+    ax = 0.05 * rng.normal(size=n)
+    rec = Recording(t, {"ax": ax, "ay": ay, "az": az})
+    params = {"n_grid": 40, "smooth": "none", "comb_window": 1.0, "comb_axes": "all"}
+    track = grid.estimate(rec, axis="z", params=params)
+    cfg = grid.config_for(rec, axis="z", params=params)
+    assert cfg.comb_axes == ("az", "ax", "ay")  # the tracked axis first
+    cols = [rec[c] for c in cfg.comb_axes]
+    trk = OnlineTracker(grid, cfg, level=[start_level(c, 0.01) for c in cols])
+    om = np.array([trk.update(s).omega for s in np.column_stack(cols)])
+    np.testing.assert_allclose(om, track.omega, rtol=0, atol=1e-9)
+    with pytest.raises(ValueError, match="3 sample"):
+        trk.update(1.0)

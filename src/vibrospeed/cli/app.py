@@ -172,6 +172,10 @@ def estimate(
 
       (the grid covers 10-120 rad/s, a car's wheels; give a slow vehicle's range, v / r)
 
+      vibrospeed estimate drive.csv -p comb_axes=all -o est.csv
+
+      (comb evidence from ax, ay and az together; tracking stays on --axis)
+
       vibrospeed estimate drive.csv --method ekf --init-omega 10 -o est.csv
 
       vibrospeed estimate rsq_q2_00/ --format phyphox --axis y -o est.csv

@@ -163,6 +163,9 @@ class Config:
                     or ct.model.dt != tr.model.dt or ct.model.M != tr.model.M):
                 raise ParameterError("comb: its tracker must have the aided tracker's grid, dt "
                                      "and M")
+            if self.comb.comb_axes:
+                raise ParameterError("comb_axes: the aided tracker reads one vibration axis "
+                                     "(-m grid takes several)")
 
     @property
     def ss_len(self) -> int:

@@ -44,7 +44,7 @@ class OnlineTracker:
         RMS the normalised signal is scaled to.
     level : resting level of the raw signal (e.g. the mean of a first second buffered on the
         device; :func:`vibrospeed.estimators.common.start_level` computes it as ``estimate()``
-        does); None = the first sample.
+        does), one per axis with several comb axes; None = the first sample.
 
     Examples
     --------
@@ -70,15 +70,31 @@ class OnlineTracker:
         self.sos = pf.design(prefilter or pre, 1.0 / model.dt, M=model.M)
         self.tau = (tau if normalize_tau is True else normalize_tau) or None
         self.target = target if target_rms is None else target_rms
-        self.state = (pf.init(self.sos, level), nz.init(), estimator.init(config))
+        self.n_axes = int(getattr(config, "n_axes", 1))
+        levels = np.broadcast_to(np.asarray(np.nan if level is None else level, float),
+                                 (self.n_axes,))
+        front = tuple((pf.init(self.sos, None if np.isnan(lv) else float(lv)), nz.init())
+                      for lv in levels)
+        self.state = (front, estimator.init(config))
 
-    def update(self, sample: float) -> Any:
-        """Process one raw sample (NaN = missing); returns the estimator's estimate."""
-        fs, ns, es = self.state
+    def _front(self, st: tuple, sample: float) -> tuple[tuple, float]:
+        fs, ns = st
         fs, y = pf.step(self.sos, fs, float(sample))
         if self.tau:
             ns, y = nz.step(ns, y, self.dt, self.tau)
             y = self.target * y
-        es, est = self.estimator.step(self.config, es, y if np.isfinite(y) else np.nan)
-        self.state = (fs, ns, es)
+        return (fs, ns), (y if np.isfinite(y) else np.nan)
+
+    def update(self, sample) -> Any:
+        """Process one raw sample (NaN = missing), or with a grid config of several
+        ``comb_axes`` one sample per axis in ``config.comb_axes`` order; returns the
+        estimator's estimate."""
+        front, es = self.state
+        xs = np.atleast_1d(np.asarray(sample, dtype=np.float64))
+        if xs.size != self.n_axes:
+            raise ValueError(f"expected {self.n_axes} sample(s) per update, got {xs.size}")
+        out = [self._front(st, x) for st, x in zip(front, xs, strict=True)]
+        ys = [y for _, y in out]
+        es, est = self.estimator.step(self.config, es, ys[0] if self.n_axes == 1 else ys)
+        self.state = (tuple(st for st, _ in out), es)
         return est
