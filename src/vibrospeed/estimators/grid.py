@@ -92,6 +92,10 @@ from vibrospeed.estimators import rbpmf as _rb
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Recording, Track
 
+#: with several ``comb_axes`` the summed comb evidence is weighted ``A ** -AXES_EXPONENT``
+#: (3 axes: 0.4; simulated car, docs/trackers.md follow-up 5)
+AXES_EXPONENT = 0.834
+
 #: tracker settings of the product on top of the paper's Config (docs/beyond.md, "grid"):
 #: jumps 0.05/s, "no line" in 0.01/s out 0.5/s, noise from the marginal-likelihood fits
 #: (r 0.15, q_amp 0.002; q_omega 16 (rad/s)^2/s follows car accelerations of ~8 rad/s^2),
@@ -104,10 +108,6 @@ from vibrospeed.types import Recording, Track
 #: The reported omega is the mean of the MAP mode (``point="mode"``, issue 3 follow-up): on a
 #: line where the posterior is split (acquisition, an interfering line), the posterior mean
 #: (in ``extras["omega_mean"]``) is the MMSE choice but lies between the lines.
-#: with several ``comb_axes`` the summed comb evidence is weighted ``A ** -AXES_EXPONENT``
-#: (3 axes: 0.4; simulated car, docs/trackers.md follow-up 5)
-AXES_EXPONENT = 0.834
-
 GRID_DEFAULTS = {
     "jump_rate": 0.05, "off_rate": 0.01, "on_rate": 0.5, "r": 0.15, "q_amp": 0.002,
     "q_omega": 16.0, "temper": 0.2, "temper_fs": 100.0, "prefilter": "thesis-hp",
