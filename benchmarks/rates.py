@@ -2,7 +2,7 @@
 
 Usage (by hand, from the repository root; ~15 min on one core)::
 
-    PYTHONPATH=src .venv/bin/python benchmarks/rates.py [grid] [aided] [--seeds 3]
+    PYTHONPATH=src .venv/bin/python benchmarks/rates.py [grid] [aided] [aided_grid] [--seeds 3]
 
 * grid: the simulator's ``car`` and ``cart`` (range [2, 30]) drawn at 50 / 100 / 200 / 400 Hz
   (``sim.simulate(..., fs=)``), the grid smoother and causal filter with the defaults
@@ -11,6 +11,9 @@ Usage (by hand, from the repository root; ~15 min on one core)::
 * aided: ``stop_and_go`` (cart, 120 s, seed 1) at the same rates, aided EKF with the window
   test and with the CUSUM: RMSE (rad/s) with the defaults (windows of 0.2 s, CUSUM threshold
   per 100 Hz) and with the thesis' per-sample values (20-sample windows, threshold 10).
+* aided_grid: ``stop_and_go`` seeds 1..seeds at 100-400 Hz, the aided grid trackers
+  (``tracker=grid`` / ``rbpmf``) with the sampled random-walk kernel and the earlier q values
+  vs the variance-matched kernel (the defaults): mean RMSE (docs/aided.md; ``--seeds 8``).
 """
 
 from __future__ import annotations
@@ -68,9 +71,31 @@ def aided_rates() -> None:
         print(f"| {fs:g} | {cells[0]} | {cells[1]} |", flush=True)
 
 
+def aided_grid_rates(seeds: int) -> None:
+    """Aided grid trackers, the paper's sampled kernel with the earlier q values (0.5, accel
+    1) vs the variance-matched kernel with their effective values (the defaults)."""
+    print("| fs Hz | tracker | sampled, q 0.5 / accel 1 | matched, q 0.025 / accel 0.5 "
+          "(default) |")
+    print("|---|---|---|---|")
+    old = {"kernel_var": "sampled", "q_omega": 0.5, "q_omega_accel": 1.0}
+    for fs in (100.0, 200.0, 300.0, 400.0):
+        for kind in ("grid", "rbpmf"):
+            cells = []
+            for extra in (old, {}):
+                rmse = []
+                for seed in range(1, 1 + seeds):
+                    rec = AIDED["stop_and_go"](seed=seed, duration=120, fs=fs)
+                    tr = get("aided").estimate(rec, axis="y",
+                                               params={"tracker": kind, **extra})
+                    rmse.append(np.sqrt(np.mean((tr.omega - rec["omega_true"]) ** 2)))
+                cells.append(f"{np.mean(rmse):.3f}")
+            print(f"| {fs:g} | {kind} | {cells[0]} | {cells[1]} |", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("parts", nargs="*", default=["grid", "aided"], choices=["grid", "aided"])
+    ap.add_argument("parts", nargs="*", default=["grid", "aided"],
+                    choices=["grid", "aided", "aided_grid"])
     ap.add_argument("--seeds", type=int, default=3)
     a = ap.parse_args()
     warnings.simplefilter("ignore")
@@ -78,6 +103,8 @@ def main() -> None:
         grid_rates(a.seeds)
     if "aided" in a.parts:
         aided_rates()
+    if "aided_grid" in a.parts:
+        aided_grid_rates(a.seeds)
 
 
 if __name__ == "__main__":

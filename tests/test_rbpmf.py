@@ -437,3 +437,71 @@ def test_p_null0_sets_the_start_prior_of_the_no_line_state():
     np.testing.assert_allclose(np.diff(half.log_w), np.diff(st.log_w))  # same shape over omega
     with pytest.raises(ParameterError, match="p_null0"):
         rbpmf.Config(p_null0=1.0)
+
+
+# ------------------------------------------------------------------------------------------
+# kernel_var: the random walk's variance on the grid
+# ------------------------------------------------------------------------------------------
+def _interior_row_variance(cfg):
+    k = cfg.kern
+    N, B = k.grid.size, k.B
+    i = N // 2
+    js = np.arange(max(0, i - B), min(N - 1, i + B) + 1)  # row i's targets
+    d = k.grid[js] - k.grid[i]
+    w = np.array([k.kb[j, i - j + B] for j in js])
+    return float(np.sum(w * d * d) / np.sum(w)), float(np.sum(w))
+
+
+@pytest.mark.parametrize("r", [0.1, 0.2, 0.36, 0.73, 1.0, 2.0])
+def test_matched_kernel_has_the_walks_variance_on_the_grid(r):
+    """Sampled: the Gaussian density at the grid points, whose variance on the grid is far
+    below sigma^2 once sigma < spacing (analytic sum); matched: exactly sigma^2."""
+    dx = 0.25
+    q = (r * dx) ** 2 / 0.01  # (rad/s)^2/s at dt = 0.01: sigma = r dx
+    model = HarmonicModel(M=1, dt=0.01, q_omega=q, q_amp=0.001, r=0.1, p0_amp=0.1)
+    base = dict(model=model, n_grid=161, omega_min=0.0, omega_max=40.0, kernel="exact")
+    var_s, tot = _interior_row_variance(rbpmf.Config(**base))
+    var_m, _ = _interior_row_variance(rbpmf.Config(**base, kernel_var="matched"))
+    kk = np.arange(-200, 201)
+    e = np.exp(-0.5 * (kk / r) ** 2)
+    analytic = dx * dx * np.sum(e * kk * kk) / np.sum(e)
+    assert tot == pytest.approx(1.0, abs=1e-12)
+    assert var_s == pytest.approx(analytic, rel=1e-9)
+    assert var_m == pytest.approx((r * dx) ** 2, rel=1e-6)
+    if r >= 1.2:
+        assert var_s == pytest.approx(var_m, rel=1e-6)
+    elif r <= 0.36:
+        assert var_s < 0.35 * (r * dx) ** 2  # the sampled walk nearly freezes
+
+
+def test_matched_kernel_means_the_same_at_any_sample_rate():
+    """Four steps at 400 Hz spread a point mass as much as one step at 100 Hz (interior, the
+    walk's variances add), with the matched kernel; the sampled one freezes at 400 Hz."""
+    out = {}
+    for kv in ("sampled", "matched"):
+        var = {}
+        for dt, steps in ((0.01, 1), (0.0025, 4)):
+            model = HarmonicModel(M=1, dt=dt, q_omega=0.5, q_amp=0.001, r=0.1, p0_amp=0.1)
+            cfg = rbpmf.Config(model=model, n_grid=161, omega_min=0.0, omega_max=40.0,
+                               kernel="exact", kernel_var=kv)
+            k = cfg.kern
+            K = np.zeros((161, 161))
+            for j in range(161):
+                for c in range(2 * k.B + 1):
+                    i = j + c - k.B
+                    if 0 <= i < 161:
+                        K[i, j] = k.kb[j, c]
+            p = np.zeros(161)
+            p[80] = 1.0
+            for _ in range(steps):
+                p = p @ K
+            var[dt] = float(np.sum(p * (k.grid - k.grid[80]) ** 2))
+        out[kv] = var
+    assert out["matched"][0.0025] == pytest.approx(out["matched"][0.01], rel=1e-6)
+    assert out["matched"][0.01] == pytest.approx(0.005, rel=1e-6)
+    assert out["sampled"][0.0025] < 1e-8 < out["sampled"][0.01] < 0.1 * 0.005
+
+
+def test_kernel_var_parameter():
+    with pytest.raises(ParameterError, match="kernel_var"):
+        rbpmf.Config(kernel_var="exact")

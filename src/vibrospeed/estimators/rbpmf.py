@@ -90,6 +90,14 @@ class Config:
         relative resolution).
     kernel : "banded" (default) or "exact" (full rows, reference). ``kernel_tol``: largest
         discarded mass per kernel row (see module docstring).
+    kernel_var : "sampled" (default, the paper's) or "matched": how the random walk's
+        variance ``T q_omega`` reaches the grid. The sampled density ``N(omega_j; omega_i,
+        sigma^2) Delta_j`` has a variance on the grid well below ``sigma^2`` once ``sigma`` is
+        smaller than the spacing (sigma / Delta = 0.36: 33 %; 0.14: 1e-10), so the walk's
+        effective q_omega shrinks with the sample rate; "matched" widens each row's Gaussian
+        (:func:`matched_sigmas`) until its variance on a grid of that row's spacing is
+        ``sigma^2``, so q_omega means the same at any sample rate (equal to "sampled" within
+        1e-6 for sigma >= 1.2 Delta).
     omega0, omega0_std : Gaussian prior on omega in rad/s; ``omega0=None`` (default) is the
         paper's "unknown initial angular velocity", a prior uniform in omega.
     log_floor : weights kept within this many nats of the best grid point.
@@ -176,6 +184,7 @@ class Config:
     spacing: str = "linear"
     kernel: str = "banded"
     kernel_tol: float = 1e-9
+    kernel_var: str = "sampled"
     omega0: float | None = None
     omega0_std: float = 2.0
     log_floor: float = 600.0
@@ -218,6 +227,9 @@ class Config:
             raise ParameterError("spacing='log' needs omega_min > 0")
         if self.kernel not in ("banded", "exact"):
             raise ParameterError(f"kernel must be 'banded' or 'exact', got '{self.kernel}'")
+        if self.kernel_var not in ("sampled", "matched"):
+            raise ParameterError(f"kernel_var must be 'sampled' or 'matched', got "
+                                 f"'{self.kernel_var}'")
         if not 0 < self.kernel_tol < 0.5:
             raise ParameterError(f"kernel_tol must be in (0, 0.5), got {self.kernel_tol}")
         if not 0 < self.level < 1:
@@ -350,9 +362,44 @@ def cell_edges(grid: np.ndarray) -> np.ndarray:
     return np.concatenate([[grid[0] - (mid[0] - grid[0])], mid, [grid[-1] + (grid[-1] - mid[-1])]])
 
 
+def _grid_variance(r: np.ndarray) -> np.ndarray:
+    """Variance, in units of the spacing squared, of ``exp(-k^2 / (2 r^2))`` on the integers
+    (the sampled Gaussian kernel on an infinite uniform grid, ``r = sigma / Delta``)."""
+    k = np.arange(-40, 41, dtype=np.float64)
+    e = np.exp(-0.5 * (k[None, :] / np.maximum(r, 1e-300)[:, None]) ** 2)
+    return (e * k * k).sum(axis=1) / e.sum(axis=1)
+
+
+def matched_sigmas(sigma: float, widths: np.ndarray) -> np.ndarray:
+    """(N,) per-row sigma whose sampled Gaussian has variance ``sigma^2`` on a uniform grid of
+    that row's cell width (``kernel_var="matched"``): ``g(s / Delta) = (sigma / Delta)^2`` with
+    :func:`_grid_variance` ``g``, solved by bisection on ``[0, max(r, 1.5)]`` (``g`` increases;
+    ``g(r) = r^2`` within 1e-6 from r = 1.2 on, where ``s = sigma``)."""
+    r = sigma / widths
+    out = r.copy()
+    small = r < 1.2
+    if small.any():
+        target = r[small] ** 2
+        lo, hi = np.zeros(target.size), np.full(target.size, 1.5)
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            low = _grid_variance(mid) < target
+            lo, hi = np.where(low, mid, lo), np.where(low, hi, mid)
+        out[small] = 0.5 * (lo + hi)
+    return out * widths
+
+
+def row_sigmas(config: Config, sigma: float, widths: np.ndarray) -> np.ndarray:
+    """(N,) the random walk's per-row sigma for ``config.kernel_var``."""
+    if config.kernel_var == "matched" and sigma > 0.0:
+        return matched_sigmas(sigma, widths)
+    return np.full(widths.size, sigma)
+
+
 @njit(cache=True)
-def _band_tails(grid, widths, sigma):
-    """max_i (discarded mass of row i) for every band half-width B = 0..N-1, O(N) memory."""
+def _band_tails(grid, widths, sigmas):
+    """max_i (discarded mass of row i) for every band half-width B = 0..N-1, O(N) memory
+    (row i a Gaussian of sigma ``sigmas[i]``)."""
     N = grid.size
     maxtail = np.zeros(N)
     row = np.empty(N)
@@ -360,7 +407,7 @@ def _band_tails(grid, widths, sigma):
     for i in range(N):
         tot = 0.0
         for j in range(N):
-            z = (grid[j] - grid[i]) / sigma
+            z = (grid[j] - grid[i]) / sigmas[i]
             row[j] = np.exp(-0.5 * z * z) * widths[j]
             tot += row[j]
         for d in range(N):
@@ -377,8 +424,9 @@ def _band_tails(grid, widths, sigma):
 
 
 @njit(cache=True)
-def _band_kernel(grid, widths, sigma, B):
-    """(N, 2B+1) row-normalised (over the band) kernel, indexed by target."""
+def _band_kernel(grid, widths, sigmas, B):
+    """(N, 2B+1) row-normalised (over the band) kernel, indexed by target; row i a Gaussian
+    of sigma ``sigmas[i]`` (0: stays at i)."""
     N = grid.size
     kb = np.zeros((N, 2 * B + 1))
     for i in range(N):
@@ -386,8 +434,8 @@ def _band_kernel(grid, widths, sigma, B):
         hi = min(N - 1, i + B)
         tot = 0.0
         for j in range(lo, hi + 1):
-            if sigma > 0.0:
-                z = (grid[j] - grid[i]) / sigma
+            if sigmas[i] > 0.0:
+                z = (grid[j] - grid[i]) / sigmas[i]
                 v = np.exp(-0.5 * z * z) * widths[j]
             else:
                 v = 1.0 if j == i else 0.0
@@ -401,24 +449,25 @@ def _band_kernel(grid, widths, sigma, B):
 @njit(cache=True)
 def _mix_row(grid, widths, sigmas, probs, i, row):
     """Row i of the mixture kernel ``sum_c probs[c] K_c(i, .)`` into ``row`` (N,), each
-    component ``K_c(i, j) ~ N(grid_j; grid_i, sigmas[c]^2) widths_j`` normalised over the grid
-    (``sigmas[c] = 0``: stays at i)."""
+    component ``K_c(i, j) ~ N(grid_j; grid_i, sigmas[c, i]^2) widths_j`` normalised over the
+    grid (``sigmas[c, i] = 0``: stays at i)."""
     N = grid.size
     for j in range(N):
         row[j] = 0.0
-    for c in range(sigmas.size):
+    for c in range(sigmas.shape[0]):
         if probs[c] == 0.0:
             continue
-        if sigmas[c] == 0.0:
+        sg = sigmas[c, i]
+        if sg == 0.0:
             row[i] += probs[c]
             continue
         tot = 0.0
         for j in range(N):
-            z = (grid[j] - grid[i]) / sigmas[c]
+            z = (grid[j] - grid[i]) / sg
             tot += np.exp(-0.5 * z * z) * widths[j]
         f = probs[c] / tot
         for j in range(N):
-            z = (grid[j] - grid[i]) / sigmas[c]
+            z = (grid[j] - grid[i]) / sg
             row[j] += np.exp(-0.5 * z * z) * widths[j] * f
 
 
@@ -468,10 +517,11 @@ def _build_mix(config: Config, grid: np.ndarray, widths: np.ndarray) -> tuple:
     """(kb, B, tail) of the two-component random walk (``Config.q_omega_fast``, ``p_fast``)."""
     model = config.model
     T = model.dt
-    sigmas = np.sqrt(np.array([model.q_omega_step, T * config.q_omega_fast], dtype=np.float64))
+    sig = np.sqrt(np.array([model.q_omega_step, T * config.q_omega_fast], dtype=np.float64))
     probs = np.array([1.0 - config.p_fast, config.p_fast], dtype=np.float64)
+    sigmas = np.stack([row_sigmas(config, float(x), widths) for x in sig])
     N = grid.size
-    if N == 1 or not np.any(sigmas * (probs > 0) > 0):
+    if N == 1 or not np.any(sig * (probs > 0) > 0):
         B, tail = 0, 0.0
     elif config.kernel == "exact":
         B, tail = N - 1, 0.0
@@ -495,16 +545,17 @@ def build_kernel(config: Config) -> Kernel:
         kb, B, tail = _build_mix(config, grid, widths)
         blocks = np.ascontiguousarray(blocks_from_F(model.F(grid)))
         return Kernel(grid, edges, widths, kb, B, tail, blocks)
+    sigmas = row_sigmas(config, sigma, widths)
     if sigma == 0.0 or N == 1:
         B, tail = 0, 0.0
     elif config.kernel == "exact":
         B, tail = N - 1, 0.0
     else:
-        tails = _band_tails(grid, widths, sigma)
+        tails = _band_tails(grid, widths, sigmas)
         ok = np.flatnonzero(tails <= config.kernel_tol)
         B = int(ok[0]) if ok.size else N - 1
         tail = float(tails[B])
-    kb = _band_kernel(grid, widths, sigma, B)
+    kb = _band_kernel(grid, widths, sigmas, B)
     blocks = np.ascontiguousarray(blocks_from_F(model.F(grid)))
     return Kernel(grid, edges, widths, kb, B, tail, blocks)
 
