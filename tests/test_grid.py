@@ -548,3 +548,27 @@ def test_comb_axes_improve_the_simulated_car_where_one_axis_fades():
         still[name] = np.mean(np.asarray(tr.extras["has_signal"], bool)[~moving])
     assert ok["xyz"] >= ok["y"] + 0.005  # measured 87.8 -> 89.3 %
     assert still["xyz"] < 0.75 * still["y"]  # measured 63 -> 35 % of the standing samples
+
+
+def test_a_dead_or_gappy_axis_drops_out_of_the_comb_evidence():
+    """An axis whose frame is more than half NaN (a dead channel, a dropout on one axis) gives
+    no evidence and does not count among the axes: the evidence is that of the others."""
+    cfg = _small(comb_rates=(0.1,))
+    rng = np.random.default_rng(14)
+    t = np.arange(cfg.frame_len) * 0.01
+    y = (0.5 * np.sin(35 * t) + 0.3 * np.sin(70 * t + 1) + 0.2 * rng.normal(size=t.size))
+    z = 0.3 * np.sin(35 * t + 2) + 0.2 * rng.normal(size=t.size)
+    dead = np.full(t.size, np.nan)
+    gappy = z.copy()
+    gappy[: t.size // 2 + 2] = np.nan
+    one = grid.frame_evidence(cfg, y[None, :])
+    two = grid.frame_evidence(cfg, np.stack([y[None, :], z[None, :]]))
+    np.testing.assert_array_equal(grid.frame_evidence(cfg, np.stack([y[None, :], dead[None, :]])),
+                                  one)
+    np.testing.assert_array_equal(
+        grid.frame_evidence(cfg, np.stack([y[None, :], gappy[None, :]])), one)
+    np.testing.assert_array_equal(
+        grid.frame_evidence(cfg, np.stack([dead[None, :], z[None, :], y[None, :]])),
+        grid.frame_evidence(cfg, np.stack([z[None, :], y[None, :]])))
+    assert not np.array_equal(two, one)
+    assert np.all(grid.frame_evidence(cfg, np.stack([dead[None, :]] * 2)) == 0.0)

@@ -214,7 +214,7 @@ class Config:
     def axes_weight(self, A: int) -> float:
         """Weight of the comb evidence summed over ``A`` axes: ``A ** -AXES_EXPONENT``
         (1 for one axis; between independent axes, 1, and one signal seen A times, 1 / A)."""
-        return 1.0 if A == 1 else float(A) ** -AXES_EXPONENT
+        return 1.0 if A <= 1 else float(A) ** -AXES_EXPONENT
 
     def background_hz(self, L: int) -> float:
         """Hz, running-median width for an ``L``-sample frame: ``comb_bg``, but at least 1.5
@@ -346,10 +346,12 @@ def running_median(P: np.ndarray, width: int) -> np.ndarray:
     return med[:, j] * (1.0 - fr) + med[:, j + 1] * fr
 
 
-def _comb_terms(config: Config, x: np.ndarray, dt: float) -> np.ndarray:
+def _comb_terms(config: Config, x: np.ndarray, dt: float,
+                good: np.ndarray | None = None) -> np.ndarray:
     """(M, F, N) capped per-harmonic log likelihood ratios of the (A, F, L) zero-mean frames
-    of A axes sampled every ``dt`` (their tau spacing when warped); the axes' terms are summed
-    per harmonic before the cap ``A comb_cap``."""
+    of A axes sampled every ``dt`` (their tau spacing when warped); the terms of the axes
+    ``good`` (A, F) (default: all) are summed per harmonic before the cap ``A_f comb_cap``,
+    ``A_f`` the frame's number of good axes."""
     tr = config.tracker
     fs = 1.0 / tr.model.dt
     A, F, L = x.shape
@@ -373,7 +375,12 @@ def _comb_terms(config: Config, x: np.ndarray, dt: float) -> np.ndarray:
         fr = pos - i0
         s = S[:, i0] * (1 - fr) + S[:, i0 + 1] * fr
         terms = (s * (a / (1 + a)) - la).reshape(A, F, grid.size)
-        lk[k - 1] = np.minimum(terms[0] if A == 1 else terms.sum(axis=0), A * config.comb_cap)
+        if A == 1:
+            lk[k - 1] = np.minimum(terms[0], config.comb_cap)
+        else:
+            g = np.ones((A, F), bool) if good is None else good
+            cap = g.sum(axis=0)[:, None] * config.comb_cap
+            lk[k - 1] = np.minimum(np.where(g[:, :, None], terms, 0.0).sum(axis=0), cap)
     return lk
 
 
@@ -396,22 +403,25 @@ def frame_evidence(config: Config, frames: np.ndarray, centre: bool = False) -> 
     out = np.zeros((F, N + 1))
     if F == 0:
         return out
-    bad = np.mean(~np.isfinite(frames), axis=(0, 2)) > 0.5
+    good = np.mean(~np.isfinite(frames), axis=2) <= 0.5  # (A, F): an axis' frame is usable
+    n_good = good.sum(axis=0)  # (F,) axes per frame (a dead or gappy axis drops out)
+    bad = n_good == 0
     x = np.nan_to_num(frames)
     x = x - x.mean(axis=2, keepdims=True)
     rates = config.rates_in_frame(L, centre)
     logp = np.log(config.rate_prior(rates))
-    lead = A * config.comb_lead
+    lead = (n_good * config.comb_lead)[:, None]  # (F, 1)
+    weight = np.array([config.axes_weight(int(a)) for a in n_good])[:, None]
     E = np.empty((rates.size, F, N))
     for b, beta in enumerate(rates):
         i0, fr, dtau = _warp(L, dt, float(beta), centre)
         xb = x if i0 is None else x[:, :, i0] * (1 - fr) + x[:, :, i0 + 1] * fr
-        lk = _comb_terms(config, xb, dtau)
+        lk = _comb_terms(config, xb, dtau, good)
         e = lk.sum(axis=0)
-        if M >= 2 and np.isfinite(lead):
+        if M >= 2 and np.isfinite(config.comb_lead):
             top2 = -np.partition(-lk, 1, axis=0)[:2]  # best, second best per (frame, point)
             e += np.minimum(top2[0], top2[1] + lead) - top2[0]
-        E[b] = (e if A == 1 else e * config.axes_weight(A)) + logp[b]
+        E[b] = (e if A == 1 else e * weight) + logp[b]
     mx = E.max(axis=0)  # (one rate: log p = 0 and this is E[0] exactly)
     out[:, :N] = mx + np.log(np.exp(E - mx).sum(axis=0))
     out[:, :N] *= config.comb_weight
