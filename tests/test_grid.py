@@ -572,3 +572,16 @@ def test_a_dead_or_gappy_axis_drops_out_of_the_comb_evidence():
         grid.frame_evidence(cfg, np.stack([z[None, :], y[None, :]])))
     assert not np.array_equal(two, one)
     assert np.all(grid.frame_evidence(cfg, np.stack([dead[None, :]] * 2)) == 0.0)
+
+
+def test_comb_axes_all_leaves_an_all_nan_axis_out_and_says_so():
+    rng = np.random.default_rng(15)
+    t = np.arange(400) * 0.01
+    ay = 0.5 * np.sin(35 * t) + 0.2 * rng.normal(size=t.size)
+    ax = 0.3 * np.sin(70 * t) + 0.2 * rng.normal(size=t.size)
+    p = {"n_grid": 40, "omega_min": 10, "omega_max": 60, "smooth": "none", "comb_axes": "all"}
+    with_dead = grid.estimate(Recording(t, {"ax": ax, "ay": ay, "az": np.full(t.size, np.nan)}),
+                              axis="y", params=p)
+    without = grid.estimate(Recording(t, {"ax": ax, "ay": ay}), axis="y", params=p)
+    np.testing.assert_array_equal(with_dead.omega, without.omega)
+    assert "comb_axes=all: az all NaN, left out" in with_dead.notes

@@ -590,14 +590,16 @@ def _grid_model(dt: float) -> HarmonicModel:
 
 def comb_channels(recording: Recording, axis: str, names: tuple[str, ...]) -> tuple[str, ...]:
     """The channels of ``comb_axes`` ``names`` in ``recording``, the tracked ``axis`` first
-    (``"all"``: every accelerometer axis ``ax ay az`` present); empty ``names``: ``()``."""
+    (``"all"``: every accelerometer axis ``ax ay az`` present with at least one finite sample);
+    empty ``names``: ``()``."""
     from vibrospeed.estimators.common import axis_channel
 
     if not names:
         return ()
     tracked = axis_channel(axis)
     if names == ("all",):
-        chans = [c for c in ("ax", "ay", "az") if c in recording]
+        chans = [c for c in ("ax", "ay", "az")
+                 if c in recording and np.isfinite(recording.channel(c)).any()]
     else:
         chans = [axis_channel(a) for a in names]
         for c in chans:
@@ -619,6 +621,10 @@ def _prepare(recording: Recording, axis: str, params: dict | None):
     config_t, y, rms, notes = _rb.prepare(recording, axis, _rb.Config, params, _grid_model)
     config = config_from_params(Config, comb_kw, tracker=config_t)
     chans = comb_channels(recording, axis, config.comb_axes)
+    if config.comb_axes == ("all",):
+        left = [c for c in ("ax", "ay", "az") if c in recording and c not in chans]
+        if left:
+            notes.append(f"comb_axes=all: {', '.join(left)} all NaN, left out")
     config = dataclasses.replace(config, comb_axes=chans if len(chans) > 1 else ())
     if len(chans) > 1:
         # each axis pre-filtered and normalised as the tracked one (same parameters)
