@@ -29,3 +29,22 @@ def check_mode(w, g, rel, ab, omega_mode, p_mode, tol=1e-9):
         b += 1
     cover = (g >= g[a] - hw[a]) & (g <= g[b] + hw[b])
     assert abs(w[cover].sum() / w.sum() - p_mode) < tol
+
+
+def held_modes(posts, g, rel, ab, hold):
+    """Mode with hysteresis (``mode_hold``), brute force over stored posteriors (n, N): keep
+    the current window, re-centred on its best window within its half-width, unless the best
+    window holds more than ``hold`` times its mass; returns the windows' means."""
+    out, cur = [], -1
+    for w in np.asarray(posts, np.float64):
+        m, hw = window_masses(w, g, rel, ab)
+        jb = int(np.argmax(m))
+        if cur >= 0:
+            near = np.flatnonzero(np.abs(g - g[cur]) <= hw[cur])
+            jc = int(near[np.argmax(m[near])]) if m[near].max() > m[cur] else cur
+            if not m[jb] > hold * m[jc]:
+                jb = jc
+        cur = jb
+        inw = np.abs(g - g[jb]) <= hw[jb]
+        out.append(w[inw] @ g[inw] / m[jb])
+    return np.array(out)

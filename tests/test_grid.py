@@ -185,7 +185,7 @@ def test_third_and_triple_masses():
     out = np.zeros(rbpmf.N_OUT_FIXED)
     k = cfg.kern
     rbpmf._summary(w, 0.0, k.widths / k.widths.sum(), g, k.edges, 0.01, 0.99, 0.05, 1.5,
-                   np.empty(g.size), out)
+                   np.empty(g.size), out, 1.0, np.full(1, -1, np.int64))
     assert out[2] == g[j30]
     assert out[9] == pytest.approx(0.25) and out[10] == pytest.approx(0.15)
     assert out[7] == 0.0 and out[8] == 0.0

@@ -505,3 +505,36 @@ def test_matched_kernel_means_the_same_at_any_sample_rate():
 def test_kernel_var_parameter():
     with pytest.raises(ParameterError, match="kernel_var"):
         rbpmf.Config(kernel_var="exact")
+
+
+def test_mode_hold_matches_brute_force_and_streams():
+    """Two lines of equal strength and re-acquisition jumps: the stateless mode hops between
+    them (dozens of times in 15 s); with mode_hold 4 it stays on one unless the other holds 4x
+    its mass. The filter's points equal a brute-force hysteresis over its own posteriors, and
+    step == run (the held window is part of the state)."""
+    from mode_reference import held_modes
+
+    model = HarmonicModel(M=1, dt=0.01, q_omega=1.0, q_amp=0.001, r=0.1, p0_amp=0.1)
+    rng = np.random.default_rng(21)
+    t = np.arange(1500) * 0.01
+    y = 0.6 * np.sin(30 * t) + 0.6 * np.sin(45 * t + 1) + 0.5 * rng.normal(size=t.size)
+    base = rbpmf.Config(model=model, n_grid=60, omega_min=20.0, omega_max=55.0, point="mode",
+                        temper=0.05, jump_rate=0.5,
+                        omega0=30.0, omega0_std=3.0)  # no flat start: no ties
+    free = rbpmf.run(base, y, return_posterior=True)
+    cfg = dataclasses.replace(base, mode_hold=4.0)
+    held = rbpmf.run(cfg, y, return_posterior=True)
+    np.testing.assert_array_equal(held.posterior, free.posterior)  # the point only
+    ref = held_modes(held.posterior, cfg.grid, cfg.amb_rel, cfg.amb_abs, 4.0)
+    np.testing.assert_allclose(held.omega, ref, rtol=1e-6)
+    hops = lambda om: int(np.sum(np.abs(np.diff(om)) > 5.0))  # noqa: E731
+    assert hops(free.omega) > 20 and hops(held.omega) <= 1
+    st = rbpmf.init(cfg)
+    for k, v in enumerate(y[:400]):
+        st, est = rbpmf.step(cfg, st, v)
+        assert est.omega == held.omega[k]
+    a_ = rbpmf.run(cfg, y[:700])
+    b_ = rbpmf.run(cfg, y[700:], a_.final)
+    np.testing.assert_array_equal(np.r_[a_.omega, b_.omega], held.omega)
+    with pytest.raises(ParameterError, match="mode_hold"):
+        rbpmf.Config(mode_hold=0.5)

@@ -315,7 +315,7 @@ def _shift(lw, mean, cov, s, p0):
 
 def _copy_grid(g: rbpmf.State) -> rbpmf.State:
     return rbpmf.State(np.array(g.log_w, dtype=np.float64), np.array(g.mean, dtype=np.float64),
-                       np.array(g.cov, dtype=np.float64), float(g.log_w_null))
+                       np.array(g.cov, dtype=np.float64), float(g.log_w_null), int(g.mode_j))
 
 
 def _move(config: Config, g: rbpmf.State, offset: float, delta: float) -> float:
@@ -368,7 +368,7 @@ def _core(config: Config, g: rbpmf.State, offset: float, y: float, u: float, gai
         if np.isfinite(ll0):  # "no line": omega uniform on the (linear) grid
             mx = np.max(ll)
             ll0 = ll0 + mx + np.log(np.mean(np.exp(ll - mx)))
-        g = rbpmf.State(g.log_w + ll, g.mean, g.cov, ll0)
+        g = rbpmf.State(g.log_w + ll, g.mean, g.cov, ll0, g.mode_j)
     vib, accel, still = config.trackers
     cfg = accel if acc else (still if ss else vib)
     yin = np.nan if acc else y * gain

@@ -192,7 +192,8 @@ def _emit(alpha_t, beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, row
             s += g[j]
     for j in range(N + 1):
         g[j] /= s
-    jmap = _summary(g[:N], g[N], u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, row)
+    jmap = _summary(g[:N], g[N], u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, row, 1.0,
+                    np.full(1, -1, np.int64))  # the stateless mode (no hysteresis)
     row[5] = 0.0
     if post_row.size == N:
         for j in range(N):

@@ -167,6 +167,11 @@ class Config:
         on no line, while the mode mean stays on the most probable one. Both are always in
         the outputs (``omega`` and ``omega_mode``, with the basin's share ``p_mode`` of the
         signal mass); samples with ``p_mode < mode_share`` are flagged ``multimodal``.
+    mode_hold : hysteresis of the mode in the causal filter (``step`` / ``run``; 1: none): the
+        current mode window, re-centred on its best window within its half-width, is kept
+        unless another window holds more than ``mode_hold`` times its mass, so a second line
+        that briefly draws level does not make the point estimate hop (issue 3 follow-up 5).
+        The smoothers report the stateless mode.
         ``step``/``run`` report the chosen one as ``omega`` (and the mean as ``omega_mean``).
     q_omega_fast, p_fast : two-component ("slow cruise / fast acceleration") omega random
         walk (issue 3 follow-up; off by default, ``p_fast = 0`` is the paper's kernel): each
@@ -209,6 +214,7 @@ class Config:
     null_model: str = "white"
     point: str = "mean"
     mode_share: float = 0.9
+    mode_hold: float = 1.0
     q_omega_fast: float = 0.0
     p_fast: float = 0.0
 
@@ -268,6 +274,8 @@ class Config:
             raise ParameterError(f"p_fast must be in [0, 1], got {self.p_fast}")
         if not 0 < self.mode_share <= 1:
             raise ParameterError(f"mode_share must be in (0, 1], got {self.mode_share}")
+        if not self.mode_hold >= 1:
+            raise ParameterError(f"mode_hold must be >= 1, got {self.mode_hold}")
         if not self.lag > 0:
             raise ParameterError(f"lag must be > 0 s, got {self.lag}")
         bad = [p for p in self.fit_names if p not in ("q_omega", "q_amp", "r")]
@@ -590,6 +598,7 @@ class State(NamedTuple):
     mean: np.ndarray
     cov: np.ndarray
     log_w_null: float = -np.inf
+    mode_j: int = -1
 
 
 class Estimate(NamedTuple):
@@ -706,7 +715,7 @@ def _mass_near(w, grid, x, rel, ab):
 
 
 @njit(cache=True)
-def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out):
+def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, cur):
     """Outputs 0-4, 6-10 from grid weights ``w`` (signal, sum 1 - w0) and null mass ``w0``:
     omega is the mean given a line (grid part renormalised); std and band are of the mixture
     ``v_j = w_j + w0 u_j`` (the null's omega is unknown: uniform on the grid);
@@ -751,6 +760,18 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out):
         v[j] = s
         if s > v[jb]:
             jb = j
+    # hysteresis (mode_hold > 1): keep the current window, re-centred on its best window
+    # within its half-width, unless the best window holds more than hold x its mass
+    if hold > 1.0 and cur[0] >= 0:
+        c = cur[0]
+        hwc = max(amb_abs, amb_rel * grid[c])
+        jc = c
+        for j in range(N):
+            if abs(grid[j] - grid[c]) <= hwc and v[j] > v[jc]:
+                jc = j
+        if not v[jb] > hold * v[jc]:
+            jb = jc
+    cur[0] = jb
     hw = max(amb_abs, amb_rel * grid[jb])
     sb = 0.0
     mb = 0.0
@@ -792,8 +813,8 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out):
 
 @njit(cache=True)
 def _step(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo, q_hi,
-          eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, ex, w, v, X, acc,
-          out, post, gll):
+          eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, hold, cur, ex, w,
+          v, X, acc, out, post, gll):
     """One RBPMF iteration in place on (lw, lw0[0], mean, cov); writes ``out``, ``post`` (N,)
     and ``gll`` (N + 1,) per-point log-emissions (if sized): ``temper`` times the predictive
     log-likelihood plus ``ex`` (N + 1,) extra log-evidence for this sample (if sized; last entry
@@ -903,7 +924,7 @@ def _step(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_
         w[j] *= inv_s
     w0 *= inv_s
     # ---- 2. outputs ---------------------------------------------------------------------
-    jmap = _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out)
+    jmap = _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, cur)
     out[5] = pred_ll if finite else 0.0
     for a in range(M):
         al = mean[jmap, 2 * a]
@@ -1011,8 +1032,8 @@ def _step(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_
 
 @njit(cache=True)
 def _run(ys, lw, lw0, mean, cov, r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo, q_hi,
-         eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, ex_idx, ex_val,
-         want_post, want_gll):
+         eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, hold, cur, ex_idx,
+         ex_val, want_post, want_gll):
     n_s = ys.size
     N = grid.size
     n = mean.shape[1]
@@ -1035,8 +1056,8 @@ def _run(ys, lw, lw0, mean, cov, r, cs, qd, kb, B, grid, edges, u, log_floor, q_
             f += 1
         ex = ex_val[f] if (f < n_ex and ex_idx[f] == k) else no_ex
         _step(lw, lw0, mean, cov, ys[k], r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo,
-              q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, ex, w, v,
-              X, acc, outs[k], post, gll)
+              q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, hold,
+              cur, ex, w, v, X, acc, outs[k], post, gll)
         if want_post:
             for j in range(N):
                 posts[k, j] = post[j]
@@ -1063,7 +1084,7 @@ def _args(config: Config) -> tuple:
     return (float(m.r), cs, float(m.dt * m.q_amp), k.kb, int(k.B), k.grid, k.edges, u,
             float(config.log_floor), q, 1.0 - q, eps, p_off, p_on, nv, float(m.p0_amp),
             float(config.amb_rel), float(config.amb_abs), config.temper_step,
-            config.null_model == "mixture")
+            config.null_model == "mixture", float(config.mode_hold))
 
 
 def _extra_vec(config: Config, ex) -> np.ndarray:
@@ -1091,12 +1112,13 @@ def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Est
     post = np.empty(N)
     L = n + n * (n + 1) // 2
     ex = np.empty(0) if extra is None else _extra_vec(config, extra)
-    _step(lw, lw0, mean, cov, float(y), *_args(config), ex, np.empty(N), np.empty(N),
+    cur = np.array([state.mode_j], dtype=np.int64)
+    _step(lw, lw0, mean, cov, float(y), *_args(config), cur, ex, np.empty(N), np.empty(N),
           np.empty((N, L)), np.empty(L), out, post, np.empty(0))
     om = out[11] if config.point == "mode" else out[0]
     est = Estimate(om, *out[1:5], out[5], out[6], out[7], out[8], out[N_OUT_FIXED:].copy(),
                    post, out[9], out[10], out[11], out[12], out[0])
-    return State(lw, mean, cov, float(lw0[0])), est
+    return State(lw, mean, cov, float(lw0[0]), int(cur[0])), est
 
 
 def run(
@@ -1133,13 +1155,14 @@ def run(
                                  f"got {ex_val.shape}")
         if ex_idx.size > 1 and np.any(np.diff(ex_idx) <= 0):
             raise ParameterError("extra evidence indices must be strictly increasing")
-    outs, posts, glls = _run(ys, lw, lw0, mean, cov, *_args(config), ex_idx, ex_val,
+    cur = np.array([st.mode_j], dtype=np.int64)
+    outs, posts, glls = _run(ys, lw, lw0, mean, cov, *_args(config), cur, ex_idx, ex_val,
                              bool(return_posterior), bool(return_grid_loglik))
     om = outs[:, 11] if config.point == "mode" else outs[:, 0]
     return Result(om, *(outs[:, c] for c in range(1, 9)), outs[:, N_OUT_FIXED:],
                   posts if return_posterior else None, glls if return_grid_loglik else None,
-                  State(lw, mean, cov, float(lw0[0])), outs[:, 9], outs[:, 10], outs[:, 11],
-                  outs[:, 12], outs[:, 0])
+                  State(lw, mean, cov, float(lw0[0]), int(cur[0])), outs[:, 9], outs[:, 10],
+                  outs[:, 11], outs[:, 12], outs[:, 0])
 
 
 def improved(config: Config | None = None, **kw) -> Config:
