@@ -167,12 +167,12 @@ class Config:
         on no line, while the mode mean stays on the most probable one. Both are always in
         the outputs (``omega`` and ``omega_mode``, with the basin's share ``p_mode`` of the
         signal mass); samples with ``p_mode < mode_share`` are flagged ``multimodal``.
+        ``step``/``run`` report the chosen one as ``omega`` (and the mean as ``omega_mean``).
     mode_hold : hysteresis of the mode in the causal filter (``step`` / ``run``; 1: none): the
         current mode window, re-centred on its best window within its half-width, is kept
         unless another window holds more than ``mode_hold`` times its mass, so a second line
         that briefly draws level does not make the point estimate hop (issue 3 follow-up 5).
         The smoothers report the stateless mode.
-        ``step``/``run`` report the chosen one as ``omega`` (and the mean as ``omega_mean``).
     q_omega_fast, p_fast : two-component ("slow cruise / fast acceleration") omega random
         walk (issue 3 follow-up; off by default, ``p_fast = 0`` is the paper's kernel): each
         step's increment is drawn from ``(1 - p_fast) N(0, T q_omega) + p_fast N(0, T
@@ -381,7 +381,7 @@ def _grid_variance(r: np.ndarray) -> np.ndarray:
 def matched_sigmas(sigma: float, widths: np.ndarray) -> np.ndarray:
     """(N,) per-row sigma whose sampled Gaussian has variance ``sigma^2`` on a uniform grid of
     that row's cell width (``kernel_var="matched"``): ``g(s / Delta) = (sigma / Delta)^2`` with
-    :func:`_grid_variance` ``g``, solved by bisection on ``[0, max(r, 1.5)]`` (``g`` increases;
+    :func:`_grid_variance` ``g``, solved by bisection on ``[0, 1.5]`` (``g`` increases;
     ``g(r) = r^2`` within 1e-6 from r = 1.2 on, where ``s = sigma``)."""
     r = sigma / widths
     out = r.copy()
