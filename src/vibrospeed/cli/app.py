@@ -176,6 +176,11 @@ def estimate(
 
       (comb evidence from ax, ay and az together; tracking stays on --axis)
 
+      vibrospeed estimate drive.csv -p smooth=none -p comb_axes=all -p q_omega=4
+      -p amb_rel=0.02 -p amb_abs=1 -p mode_hold=4 -o est.csv
+
+      (the lock recipe: a causal tracker switched on while the vehicle moves)
+
       vibrospeed estimate drive.csv --method ekf --init-omega 10 -o est.csv
 
       vibrospeed estimate rsq_q2_00/ --format phyphox --axis y -o est.csv
