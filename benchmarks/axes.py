@@ -4,11 +4,13 @@ follow-up 5). The lock from an unknown start and the 15-seed accuracy are in ``t
 
 Usage (by hand, from the repository root; ~10 min on one core)::
 
-    PYTHONPATH=src .venv/bin/python benchmarks/axes.py [sim] [kart] [noline] [--seeds 3]
+    PYTHONPATH=src .venv/bin/python benchmarks/axes.py [sim] [tracked] [kart] [noline] [--seeds 3]
 
 * sim: simulated ``car`` and ``cart`` (range [2, 30]), grid smoother and causal filter with
   axis y alone and with ``comb_axes=xyz``: share of the moving time within max(2 rad/s, 10 %)
   and has_signal while standing (omega_true <= 5 rad/s).
+* tracked: the same with the time-domain (tracked) axis x or z instead of y: what a wrong
+  axis choice (a phone of unknown orientation) costs with one axis and with all three.
 * kart: GoPro kart, tracked axis z, range [60, 300], paper-hp, M = 2 (docs/beyond.md): k fitted
   to the GPS speed, share within 5 % / 10 % of k v (and 5 % two-fold).
 * noline: Hungary drives (az tracked) and the comma2k19 phone (each axis tracked), where no
@@ -57,6 +59,25 @@ def simulated(seeds: int) -> None:
                   f"{100 * np.mean(still['none']):.1f} |", flush=True)
 
 
+def tracked_axis(seeds: int) -> None:
+    """The tracked (time-domain) axis x or z instead of y, one axis vs all three in the comb
+    evidence: how much a wrong axis choice (a phone of unknown orientation) costs."""
+    print("| scenario | tracked axis | comb axes | smoothed % | causal % |")
+    print("|---|---|---|---|---|")
+    for scen in ("car", "cart"):
+        for ax in "xz":
+            for label, extra in (("that axis only", {}), ("all", {"comb_axes": "all"})):
+                ok = {"fb": [], "none": []}
+                for seed in range(seeds):
+                    rec = sim.simulate(scen, seed=seed)
+                    for sm in ok:
+                        tr = get("grid").estimate(rec, axis=ax,
+                                                  params={**SCEN[scen], **extra, "smooth": sm})
+                        ok[sm].append(metrics(rec.t, tr.omega, rec["omega_true"])["ok_moving"])
+                print(f"| {scen} | {ax} | {label} | {100 * np.mean(ok['fb']):.1f} | "
+                      f"{100 * np.mean(ok['none']):.1f} |", flush=True)
+
+
 def kart() -> None:
     rec = io.read(R.KART / "GX030410_accl_raw.csv", columns="ax=c1,ay=c2,az=c3", rate=198.4)
     gps = pd.read_csv(R.KART / "GX030410_gps_speed.csv")
@@ -95,11 +116,13 @@ def noline() -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("parts", nargs="*", default=["sim", "kart", "noline"])
+    ap.add_argument("parts", nargs="*", default=["sim", "tracked", "kart", "noline"])
     ap.add_argument("--seeds", type=int, default=3)
     a = ap.parse_args()
     if "sim" in a.parts:
         simulated(a.seeds)
+    if "tracked" in a.parts:
+        tracked_axis(a.seeds)
     if "kart" in a.parts:
         kart()
     if "noline" in a.parts:
