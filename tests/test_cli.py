@@ -146,6 +146,7 @@ def test_info_describes_channels(drive):
     res = _run("info", drive)
     assert res.exit_code == 0, res.output
     assert "omega_true" in res.output and "rad/s" in res.output and "can feed" in res.output
+    assert "comb_axes=all reads ax, ay, az together" in " ".join(res.output.split())
 
 
 def test_gps_riss_paper_preset(tmp_path):

@@ -439,7 +439,9 @@ def info(
     if ch & {"ax", "ay", "az"}:
         top = np.pi * rec.fs / 2  # highest omega with M = 2 harmonics below Nyquist
         limit = "" if top >= 120 else f"; only up to omega = {top:.0f} rad/s at this rate, M = 2"
-        uses.append(f"ekf, rbpmf, grid, rbpf, shs (vibrations{limit})")
+        axes = sorted(ch & {"ax", "ay", "az"})
+        both = f"; grid -p comb_axes=all reads {', '.join(axes)} together" if len(axes) > 1 else ""
+        uses.append(f"ekf, rbpmf, grid, rbpf, shs (vibrations{limit}{both})")
     if "ax" in ch or "ay" in ch:
         uses.append("aided (with a longitudinal axis and the wheel radius)")
     if "gps_speed" in ch:
