@@ -411,7 +411,8 @@ def frame_evidence(config: Config, frames: np.ndarray, centre: bool = False) -> 
     rates = config.rates_in_frame(L, centre)
     logp = np.log(config.rate_prior(rates))
     lead = (n_good * config.comb_lead)[:, None]  # (F, 1)
-    weight = np.array([config.axes_weight(int(a)) for a in n_good])[:, None]
+    weight = (np.array([config.axes_weight(int(a)) for a in n_good])[:, None] if A > 1
+              else None)
     E = np.empty((rates.size, F, N))
     for b, beta in enumerate(rates):
         i0, fr, dtau = _warp(L, dt, float(beta), centre)

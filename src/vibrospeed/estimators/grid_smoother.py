@@ -179,7 +179,8 @@ def _backstep(beta, gll_next, kb, B, u, eps, p_off, p_on, has_null, e, out):
 
 
 @njit(cache=True)
-def _emit(alpha_t, beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, row, post_row):
+def _emit(alpha_t, beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, row, post_row,
+          cur):
     N = grid.size
     s = 0.0
     for j in range(N + 1):
@@ -192,8 +193,8 @@ def _emit(alpha_t, beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, row
             s += g[j]
     for j in range(N + 1):
         g[j] /= s
-    jmap = _summary(g[:N], g[N], u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, row, 1.0,
-                    np.full(1, -1, np.int64))  # the stateless mode (no hysteresis)
+    # hold 1: the stateless mode (no hysteresis); cur is only written
+    jmap = _summary(g[:N], g[N], u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, row, 1.0, cur)
     row[5] = 0.0
     if post_row.size == N:
         for j in range(N):
@@ -212,6 +213,7 @@ def _smooth_range(alpha, gll, t_end, t_lo, t_hi, kb, B, grid, edges, u, eps, p_o
     g = np.empty(N + 1)
     v = np.empty(N)
     empty = np.empty(0, dtype=np.float32)
+    cur = np.full(1, -1, np.int64)
     for t in range(t_end, t_lo - 1, -1):
         if t < t_end:
             _backstep(beta, gll[t + 1], kb, B, u, eps, p_off, p_on, has_null, e, nb)
@@ -220,7 +222,7 @@ def _smooth_range(alpha, gll, t_end, t_lo, t_hi, kb, B, grid, edges, u, eps, p_o
         if t < t_hi:
             pr = posts[t] if want_post else empty
             _emit(alpha[t], beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, outs[t],
-                  pr)
+                  pr, cur)
 
 
 def _result(outs: np.ndarray, posts: np.ndarray | None) -> Smoothed:
