@@ -46,6 +46,7 @@ from vibrospeed.sim.sensors import (
     WheelConfig,
     gps_with_lag,
 )
+from vibrospeed.sim import family  # noqa: F401  (registers the "random" scenario)
 from vibrospeed.sim.validation import ValidationSignal, validation_signal
 from vibrospeed.sim.vibration import EngineConfig, VibrationConfig
 

@@ -32,7 +32,9 @@ from vibrospeed.sim.sensors import (
     TickConfig,
     WheelConfig,
     cog_ticks,
+    digitise,
     draw_biases,
+    mount_matrix,
     simple_gps,
     wheel_speeds,
 )
@@ -110,8 +112,13 @@ def simulate_drive(
     gr = np.zeros(n) if grade is None else np.asarray(grade(t), dtype=np.float64)
     pitch_rate = np.gradient(gr, t) if grade is not None else np.zeros(n)
     base_a = np.stack([acc + G0 * np.sin(gr), v * yaw, G0 * np.cos(gr)])
-    accel = base_a + vib.accel + ab[:, None] + noise_a
-    gyro = np.stack([np.zeros(n), -pitch_rate, yaw]) + gb[:, None] + noise_g
+    accel = base_a + vib.accel
+    gyro = np.stack([np.zeros(n), -pitch_rate, yaw])
+    if any(imu.mount):
+        rot = mount_matrix(imu.mount)
+        accel, gyro = rot @ accel, rot @ gyro
+    accel = digitise(accel + ab[:, None] + noise_a, imu.accel_lsb, imu.accel_range)
+    gyro = gyro + gb[:, None] + noise_g
 
     channels: dict[str, np.ndarray] = {
         "ax": accel[0], "ay": accel[1], "az": accel[2],
@@ -124,6 +131,7 @@ def simulate_drive(
         "gyro_bias": gb.tolist(),
         "fades": vib.fades,
         "harmonics": M,
+        "clipped_share": float(np.mean(np.abs(accel) >= imu.accel_range)),
         "vibration_law": "A_m = a_m g_axis (omega/omega_ref)^gamma exp(OU) fade H_aa(m omega)",
     }
     if vibration_cfg.engine is not None:

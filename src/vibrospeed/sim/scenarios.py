@@ -122,12 +122,13 @@ def register(name: str, config_cls: type) -> Callable[[Builder], Builder]:
             *,
             seed: int = 0,
             duration: float | None = None,
-            fs: float = 100.0,
+            fs: float | None = None,
             gps_model: GpsModel | None = None,
             **overrides: Any,
         ) -> Recording:
             params = dict(overrides)
-            params["fs"] = fs
+            if fs is not None:
+                params["fs"] = fs
             if duration is not None:
                 params["duration"] = duration
             cfg = make_config(config_cls, params)

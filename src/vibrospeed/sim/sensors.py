@@ -50,6 +50,13 @@ class ImuConfig:
     """rad/s, fixed bias (x, y, z); None draws each from N(0, gyro_bias_std^2)."""
     gyro_bias_std: float = 0.002
     """rad/s, std of the drawn gyro biases."""
+    mount: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """rad, roll, pitch, yaw of the sensor against the vehicle (x-y-z Euler angles): a phone of
+    unknown orientation sees every vehicle axis mixed into each of its own."""
+    accel_lsb: float = 0.0
+    """m/s^2, accelerometer resolution (quantisation step); 0: none."""
+    accel_range: float = float("inf")
+    """m/s^2, accelerometer full scale: readings are clipped to +-accel_range."""
 
 
 @dataclass(frozen=True)
@@ -131,6 +138,25 @@ def draw_biases(cfg: ImuConfig, rng: np.random.Generator) -> tuple[np.ndarray, n
     if cfg.gyro_bias is not None:
         gb = np.asarray(cfg.gyro_bias, dtype=np.float64)
     return ab, gb
+
+
+def mount_matrix(mount: tuple[float, float, float]) -> np.ndarray:
+    """(3, 3) rotation taking vehicle-frame vectors to the sensor frame, ``R^T`` of
+    ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (the sensor's axes in vehicle coordinates)."""
+    r, p, y = mount
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    return (rz @ ry @ rx).T
+
+
+def digitise(a: np.ndarray, lsb: float, full_scale: float) -> np.ndarray:
+    """Readings clipped to ``+-full_scale`` and rounded to multiples of ``lsb`` (0: no rounding)."""
+    out = np.clip(a, -full_scale, full_scale)
+    if lsb > 0:
+        out = np.round(out / lsb) * lsb
+    return out
 
 
 # -- wheels ------------------------------------------------------------------------------------

@@ -6,6 +6,7 @@ Per accelerometer axis ``j`` (x, y, z) the vibration is (all terms in m/s^2)::
            + E_j(t) cos(k_e theta_e(t) + phi_ej)              engine order k_e
            + sum_i g_j B_i(t)                                 body resonances (narrow-band noise)
            + g_j N(t)                                         broadband road noise
+           + D_j(t)                                           body motion below ~2 Hz
 
 * ``theta(t) = x(t) / r`` is the exact wheel angle (``int omega dt``), so the instantaneous
   frequency of harmonic m is exactly ``m omega(t)``.
@@ -30,6 +31,16 @@ Per accelerometer axis ``j`` (x, y, z) the vibration is (all terms in m/s^2)::
   ``resonance_q``) at fixed frequencies, normalised to unit variance and scaled by the road
   excitation level ``ell(v) = (v / v_ref)^road_gamma + floor``.
 * Road noise: white Gaussian, standard deviation ``road_noise * (v / v_ref)^road_gamma``.
+* Phase jitter (``phase_jitter`` D, rad^2/s): each harmonic's phase is a random walk,
+  ``phi_m(t) = phi_m0 + sqrt(D) W(t)``, so its line has a Lorentzian width of ``D / 2`` rad/s
+  (a tyre that slips a little, a mount that is not rigid).
+* Body motion (``lowfreq_std`` per axis): pitch, roll, bounce and the driver's corrections
+  that a real car adds to turns and braking: white noise through a Butterworth low-pass of
+  order 2 at ``lowfreq_cutoff`` Hz, scaled to ``lowfreq_std`` m/s^2 at ``v >= lowfreq_v`` and
+  faded in linearly below it. Measured on a phone in a car at 20-30 m/s: 0.2-1.5 m/s^2 std
+  below 2 Hz on the horizontal axes (issue 13), 10-20x a wheel harmonic.
+* Extra engine orders (``EngineConfig.extra_orders``): ``(order, relative amplitude)`` pairs
+  added to the main order line, e.g. the firing order 2 of a four-cylinder engine.
 """
 
 from __future__ import annotations
@@ -65,6 +76,8 @@ class EngineConfig:
     """Amplitude at idle (m/s^2) on an axis of gain 1."""
     gamma: float = 1.0
     """Amplitude grows as (omega_engine / omega_idle)^gamma."""
+    extra_orders: tuple[tuple[float, float], ...] = ()
+    """Further engine-order lines as ``(order, amplitude relative to amp)`` pairs."""
 
 
 @dataclass(frozen=True)
@@ -113,16 +126,28 @@ class VibrationConfig:
     """Anti-alias low-pass cut-off as a fraction of fs (sensor bandwidth)."""
     aa_order: int = 4
     """Butterworth order of the anti-alias magnitude response; 0 disables it."""
+    phase_jitter: float = 0.0
+    """rad^2/s, diffusion of each harmonic's phase (random walk); 0: rigid phase."""
+    lowfreq_std: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """m/s^2, std of the body motion below ``lowfreq_cutoff`` on x, y, z (not axis-gained)."""
+    lowfreq_cutoff: float = 1.0
+    """Hz, cut-off of the body motion's low-pass (Butterworth order 2)."""
+    lowfreq_v: float = 5.0
+    """m/s, speed from which the body motion has its full level (linear below, 0 at rest)."""
 
     def __post_init__(self) -> None:
         if len(self.harmonic_amps) < 1:
             raise ParameterError("vibration.harmonic_amps: need at least one harmonic")
         if len(self.axis_gain) != 3:
             raise ParameterError("vibration.axis_gain: need three gains (x, y, z)")
-        for name in ("omega_ref", "amp_tau", "v_ref", "resonance_q", "fade_ramp"):
+        if len(self.lowfreq_std) != 3:
+            raise ParameterError("vibration.lowfreq_std: need three values (x, y, z)")
+        for name in ("omega_ref", "amp_tau", "v_ref", "resonance_q", "fade_ramp",
+                     "lowfreq_cutoff", "lowfreq_v"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"vibration.{name} must be > 0, got {getattr(self, name)}")
-        for name in ("gamma", "road_gamma", "amp_log_std", "resonance_amp", "road_noise"):
+        for name in ("gamma", "road_gamma", "amp_log_std", "resonance_amp", "road_noise",
+                     "phase_jitter"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"vibration.{name} must be >= 0, got {getattr(self, name)}")
         lo, hi = self.fade_duration
@@ -241,7 +266,7 @@ def vibration(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, speed: np.nda
     M = cfg.M
     gains = np.asarray(cfg.axis_gain, dtype=np.float64)
     moving = float(np.sum(speed > 0) * dt)
-    streams = rng.spawn(5)
+    streams = rng.spawn(7)
 
     # wheel harmonics -----------------------------------------------------------------------
     m = np.arange(1, M + 1, dtype=np.float64)
@@ -258,7 +283,11 @@ def vibration(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, speed: np.nda
     amp = (np.asarray(cfg.harmonic_amps)[:, None, None] * gains[None, :, None]
            * (law * f * aa)[:, None, :] * np.exp(u))
     phi0 = streams[2].uniform(0, 2 * np.pi, (M, 3))
-    acc = np.sum(amp * np.cos(m[:, None, None] * theta[None, None, :] + phi0[:, :, None]), axis=0)
+    phase = m[:, None, None] * theta[None, None, :] + phi0[:, :, None]
+    if cfg.phase_jitter > 0:  # one random walk per harmonic, shared by the axes
+        walk = np.cumsum(streams[5].normal(0.0, np.sqrt(cfg.phase_jitter * dt), (M, n)), axis=1)
+        phase = phase + walk[:, None, :]
+    acc = np.sum(amp * np.cos(phase), axis=0)
 
     # engine order line ---------------------------------------------------------------------
     if cfg.engine is not None:
@@ -273,6 +302,11 @@ def vibration(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, speed: np.nda
             eng.order * w_eng / (2 * np.pi), fs, cfg)
         ph = streams[3].uniform(0, 2 * np.pi, 3)
         acc += gains[:, None] * e_amp[None, :] * np.cos(eng.order * th_e[None, :] + ph[:, None])
+        for order, rel in eng.extra_orders:
+            e_k = rel * eng.amp * (w_eng / w_idle) ** eng.gamma * aa_gain(
+                order * w_eng / (2 * np.pi), fs, cfg)
+            ph = streams[3].uniform(0, 2 * np.pi, 3)
+            acc += gains[:, None] * e_k[None, :] * np.cos(order * th_e[None, :] + ph[:, None])
     else:
         gear = np.full(n, -1, dtype=np.int64)
         w_eng = np.full(n, np.nan)
@@ -289,5 +323,15 @@ def vibration(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, speed: np.nda
             acc += cfg.resonance_amp * gains[:, None] * res_level[None, :] * b
     if cfg.road_noise > 0:
         acc += cfg.road_noise * gains[:, None] * level[None, :] * rs.standard_normal((3, n))
+    lf = np.asarray(cfg.lowfreq_std, dtype=np.float64)
+    if np.any(lf > 0):
+        if not cfg.lowfreq_cutoff < fs / 2:
+            raise ParameterError(f"vibration.lowfreq_cutoff {cfg.lowfreq_cutoff} Hz >= fs/2")
+        sos = sps.butter(2, cfg.lowfreq_cutoff, fs=fs, output="sos")
+        burn = int(10 * fs / cfg.lowfreq_cutoff)
+        d = sps.sosfilt(sos, streams[6].standard_normal((3, n + burn)), axis=-1)[:, burn:]
+        d /= np.maximum(d.std(axis=-1, keepdims=True), 1e-12)
+        ramp = np.clip(np.maximum(speed, 0.0) / cfg.lowfreq_v, 0.0, 1.0)
+        acc += lf[:, None] * ramp[None, :] * d
     return VibrationOutput(accel=acc, harmonic_amp=amp, gear=gear, engine_omega=w_eng,
                            fades=fades)
