@@ -68,6 +68,7 @@ class Config:
     B: float = 10.0  # magic-formula stiffness factor (front tyres)
     B_rear: float = 14.0  # rear tyres stiffer per unit load: an understeering car
     C: float = 1.6  # magic-formula shape factor
+    tyre: str = "magic"  # "magic" (falls off to ~0.7 mu past the peak) or "brush" (saturates)
     CdA: float = 0.7  # m^2, drag area (rho = 1.2)
     v_eps: float = 1.0  # m/s, slip regularisation at low speed
     tau_load: float = 0.1  # s, lag of the load-transfer accelerations
@@ -95,6 +96,8 @@ class Config:
         for name in ("drive_front", "brake_front"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ParameterError(f"{name} must lie in [0, 1], got {getattr(self, name)}")
+        if self.tyre not in ("magic", "brush"):
+            raise ParameterError(f"tyre must be 'magic' or 'brush', got {self.tyre!r}")
         for name in ("sd_gz", "sd_acc", "sd_omega", "tau_load", "CdA", "h_cg"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
@@ -105,6 +108,7 @@ class Config:
             self.m, self.Iz, self.L1, self.L2, self.track, self.h_cg, self.R, self.Iw, self.mu,
             self.B, self.C, self.CdA, self.v_eps, self.tau_load, self.drive_front,
             self.brake_front, self.abs_slip, self.abs_rate, self.dt / self.substeps, self.B_rear,
+            1.0 if self.tyre == "brush" else 0.0,
         ])
 
 
@@ -146,6 +150,7 @@ def _substep(p, s, delta, t_drive, t_brake, out):
     m, Iz, L1, L2, tw, h, R, Iw, mu = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8]
     B, C, CdA, v_eps, tau_l = p[9], p[10], p[11], p[12], p[13]
     dfront, bfront, abs_slip, abs_rate, h_dt, B_rear = p[14], p[15], p[16], p[17], p[18], p[19]
+    brush = p[20] > 0.5
     vx, vy, wz = s[0], s[1], s[2]
     L = L1 + L2
     xw = np.array([L1, L1, -L2, -L2])
@@ -181,7 +186,11 @@ def _substep(p, s, delta, t_drive, t_brake, out):
         slip[i] = sx
         if sn > 1e-12:
             Bi = B if i < 2 else B_rear
-            F = mu * fzi * np.sin(C * np.arctan(Bi * sn))
+            if brush:  # parabolic-pressure brush, same small-slip stiffness B C mu Fz
+                th = Bi * C * sn / 3.0
+                F = mu * fzi * (3.0 * th - 3.0 * th * th + th * th * th) if th < 1.0 else mu * fzi
+            else:
+                F = mu * fzi * np.sin(C * np.arctan(Bi * sn))
             fl = F * sx / sn
             ft = -F * sy / sn
         else:
@@ -312,23 +321,43 @@ SCENARIOS = {
     "braking": "25 m/s cruise, hard braking with ABS slip 2-4.5 s, wheel-spin acceleration 7-9 s",
     "combined": "steering up to ~0.8 g with braking and acceleration in the turns (seed Fig. 4)",
     "slalom": "sinusoidal steering at 20 m/s with moderate torque changes",
+    "gradual": "25 m/s, brake torque ramped over 0.3 s to 0.8 mu g demand held 3 s (slip builds "
+               "up gradually to a steady 3-8 %, below the ABS threshold), then drive torque "
+               "ramped over 0.5 s to 0.4 mu g for 1.5 s",
+    "random": "seeded random drive (needs seed=): braking / acceleration / turn events of "
+              "random strength, torque ramps 0.1-1 s, 5-35 m/s (see random_config for the car)",
 }
 
 
-def scenario(name: str, config: Config) -> tuple[float, np.ndarray]:
+def scenario(name: str, config: Config, *, seed: int | None = None) -> tuple[float, np.ndarray]:
     """``(v0, controls (n, 3))`` of a named manoeuvre (:data:`SCENARIOS`).
 
     Torques are scaled with ``mu`` so that each manoeuvre demands more than the road can give
     (the wheels slip) at every friction level, as the seed's identical driver actions do.
+    ``"random"`` draws its events from ``seed`` (:func:`random_controls`).
     """
     dt = config.dt
     W = config.m * G * config.R  # torque giving 1 g without slip
+    if name == "random":
+        if seed is None:
+            raise ParameterError("scenario 'random' needs seed=")
+        return random_controls(config, seed)
     if name == "braking":
         T = 12.0
         knots = [
             (0.0, 0, 0, 0), (2.0, 0, 0, 0), (2.3, 0, 0, 1.3 * W), (4.5, 0, 0, 1.3 * W),
             (4.7, 0, 0, 0), (7.0, 0, 0, 0), (7.2, 0, 0.9 * W, 0), (9.0, 0, 0.9 * W, 0),
             (9.2, 0, 0.02 * W, 0), (T, 0, 0.02 * W, 0),
+        ]
+        v0 = 25.0
+    elif name == "gradual":
+        T = 10.0
+        Wm = W * config.mu
+        knots = [
+            (0.0, 0, 0.02 * W, 0), (1.9, 0, 0.02 * W, 0), (2.0, 0, 0, 0), (2.3, 0, 0, 0.8 * Wm),
+            (5.3, 0, 0, 0.8 * Wm), (5.6, 0, 0, 0), (6.0, 0, 0.02 * W, 0), (6.5, 0, 0.02 * W, 0),
+            (7.0, 0, 0.4 * Wm, 0), (8.5, 0, 0.4 * Wm, 0), (8.8, 0, 0.02 * W, 0),
+            (T, 0, 0.02 * W, 0),
         ]
         v0 = 25.0
     elif name == "combined":
@@ -357,6 +386,147 @@ def scenario(name: str, config: Config) -> tuple[float, np.ndarray]:
     return v0, _knots(t, knots)
 
 
+# -- randomised family ------------------------------------------------------------------------
+#: ranges of :func:`random_config` / :func:`random_controls` (uniform unless stated)
+RANDOM_RANGES = {
+    "mu": (0.3, 1.0), "B": (6.0, 16.0), "B_rear / B": (1.0, 1.5), "C": (1.3, 1.9),
+    "tyre": "magic or brush (1:1)", "ABS / traction control": "present with p = 0.6",
+    "abs_slip": "0.7-1.5 x the tyre's peak slip", "abs_rate 1/s": (5.0, 30.0),
+    "rate Hz": (50, 200), "sd_gz rad/s": (0.002, 0.02), "sd_acc m/s^2": (0.03, 0.3),
+    "sd_omega rad/s": (0.03, 0.3), "bias_ax, bias_ay m/s^2": "normal sd 0.05, clipped to 0.15",
+    "bias_gz rad/s": "normal sd 0.002", "m kg": (1100.0, 2300.0), "L1 m": (1.0, 1.5),
+    "drive": "rear, front or 50/50", "v0 m/s": (8.0, 33.0), "duration s": 20.0,
+    "torque ramp s": "log-uniform 0.1-1", "brake / drive demand": "0.2-1.6 x mu g",
+    "lateral demand": "0.2-0.8 x mu g", "engine power W/kg": (60.0, 150.0),
+}
+
+
+def random_config(seed: int) -> Config:
+    """A vehicle of the randomised family: tyre (magic formula or brush, stiffness and peak mu
+    0.3-1.0), ABS / traction control or none, sensor noise and biases of production size and a
+    sample rate of 50-200 Hz, all drawn from ``seed`` (:data:`RANDOM_RANGES`)."""
+    rng = np.random.default_rng([int(seed), 0])
+    u = rng.uniform
+    B = u(6.0, 16.0)
+    C = u(1.3, 1.9)
+    tyre = "brush" if rng.random() < 0.5 else "magic"
+    # slip at the force peak: brush 3 / (B C); magic formula tan(pi / 2C) / B
+    peak = 3.0 / (B * C) if tyre == "brush" else np.tan(np.pi / (2.0 * C)) / B
+    has_abs = rng.random() < 0.6
+    fs = int(round(u(50.0, 200.0)))
+    dt = 1.0 / fs
+    drive = float(rng.choice([0.0, 1.0, 0.5]))
+    L1 = u(1.0, 1.5)
+    return Config(
+        m=u(1100.0, 2300.0), L1=L1, L2=L1 * u(1.0, 1.4), mu=u(0.3, 1.0), B=B,
+        B_rear=B * u(1.0, 1.5), C=C, tyre=tyre, drive_front=drive,
+        abs_slip=peak * u(0.7, 1.5) if has_abs else 0.0, abs_rate=u(5.0, 30.0), dt=dt,
+        substeps=max(1, int(round(dt / 0.0005))),
+        sd_gz=u(0.002, 0.02), sd_acc=u(0.03, 0.3), sd_omega=u(0.03, 0.3),
+        bias_gz=float(np.clip(rng.normal(0.0, 0.002), -0.006, 0.006)),
+        bias_ax=float(np.clip(rng.normal(0.0, 0.05), -0.15, 0.15)),
+        bias_ay=float(np.clip(rng.normal(0.0, 0.05), -0.15, 0.15)),
+    )
+
+
+def random_controls(config: Config, seed: int, duration: float = 20.0,
+                    ) -> tuple[float, np.ndarray]:
+    """``(v0, controls)`` of a random drive for ``config`` drawn from ``seed``: cruising gaps
+    and events (brake, drive, turn, turn with brake or drive) of random strength (0.2-1.6 mu g
+    demand, enough to lock or spin a wheel without ABS), torque ramped up over 0.1-1 s
+    (log-uniform), held 0.5-3 s, released over 0.1-0.5 s; lateral demand 0.2-0.8 mu g. A
+    closed-loop driver (checked every 50 ms) releases the brake below 5 m/s and the throttle
+    above 33 m/s, and the engine's power (60-150 W/kg) limits the drive torque. A drive in
+    which the car spins (side slip over 0.15 Vx + 0.5 m/s) is drawn again (next sub-stream)."""
+    for attempt in range(50):
+        rng = np.random.default_rng([int(seed), 1, attempt])
+        v0, u, ok = _random_attempt(config, rng, duration)
+        if ok:
+            return v0, u
+    raise RuntimeError(f"random_controls: no stable drive for seed {seed}")  # pragma: no cover
+
+
+def _random_attempt(config: Config, rng: np.random.Generator, duration: float):
+    dt = config.dt
+    n = int(round(duration / dt))
+    W = config.m * G * config.R
+    Wm = W * config.mu
+    L = config.L1 + config.L2
+    v0 = rng.uniform(8.0, 33.0)
+    power = config.m * rng.uniform(60.0, 150.0)
+    # event plan: (start, kind, demand, ramp, hold, release, lateral demand, steer ramp, sign)
+    plan = []
+    t = rng.uniform(0.5, 2.0)
+    while t < duration - 1.0:
+        kind = rng.choice(["brake", "drive", "turn", "turn+brake", "turn+drive"],
+                          p=[0.3, 0.25, 0.15, 0.15, 0.15])
+        ramp = float(np.exp(rng.uniform(np.log(0.1), np.log(1.0))))
+        hold = rng.uniform(0.5, 3.0)
+        rel = rng.uniform(0.1, 0.5)
+        plan.append((t, str(kind), rng.uniform(0.2, 1.6), ramp, hold, rel,
+                     rng.uniform(0.2, 0.8), rng.uniform(0.3, 1.0), rng.choice([-1.0, 1.0])))
+        t += ramp + hold + rel + rng.uniform(0.5, 2.5)
+    chunk = max(1, int(round(0.05 / dt)))
+    u = np.zeros((n, 3))
+    p = config.params()
+    s = _pack(init(config, v0))
+    outs = np.zeros((chunk, _NO))
+    ev = 0
+    cut_brake = cut_drive = -1  # index of the event whose brake / throttle the driver released
+    cut_t = 0.0
+    ok = True
+    df = config.drive_front
+    for k0 in range(0, n, chunk):
+        k1 = min(n, k0 + chunk)
+        vx = s[0]
+        w_drive = df * 0.5 * (s[3] + s[4]) + (1.0 - df) * 0.5 * (s[5] + s[6])
+        t_max = power / max(abs(w_drive), 1.0)
+        while ev + 1 < len(plan) and k0 * dt >= plan[ev + 1][0]:
+            ev += 1
+        for k in range(k0, k1):
+            tt = k * dt
+            cruise = 0.5 * 1.2 * config.CdA * vx * abs(vx) * config.R + 0.01 * W
+            delta, td, tb = 0.0, cruise, 0.0
+            if plan and tt >= plan[ev][0]:
+                t0, kind, dem, ramp, hold, rel, lat, sramp, sgn = plan[ev]
+                x = tt - t0
+                end = ramp + hold + rel
+                if x < end:
+                    env = min(1.0, x / ramp) if x < ramp + hold else max(0.0, (end - x) / rel)
+                    if "brake" in kind:
+                        tb = dem * Wm * env
+                        td = 0.0
+                        if cut_brake == ev:
+                            tb *= max(0.0, 1.0 - (tt - cut_t) / 0.3)
+                    if "drive" in kind:
+                        td = max(cruise, dem * Wm * env)
+                        if cut_drive == ev:
+                            td = cruise + (td - cruise) * max(0.0, 1.0 - (tt - cut_t) / 0.3)
+                    if "turn" in kind:
+                        senv = min(1.0, x / sramp) if x < ramp + hold else max(0.0, (end - x) / rel)
+                        v = max(abs(vx), 5.0)
+                        delta = sgn * min(0.3, lat * config.mu * G * L / (v * v)) * senv
+            u[k] = (delta, min(td, t_max), tb)
+        _run(p, s, u[k0:k1], int(config.substeps), outs[: k1 - k0])
+        if np.any(np.abs(outs[: k1 - k0, 1]) > 0.15 * np.abs(outs[: k1 - k0, 0]) + 0.5):
+            ok = False
+            break
+        if plan and s[0] < 5.0 and cut_brake != ev:
+            cut_brake, cut_t = ev, k1 * dt
+        if plan and s[0] > 33.0 and cut_drive != ev:
+            cut_drive, cut_t = ev, k1 * dt
+    return float(v0), u, ok
+
+
+def simulate_random(seed: int, **overrides) -> Recording:
+    """One drive of the randomised family: :func:`random_config` (``overrides`` replace its
+    fields, e.g. ``mu=0.5``) driven by :func:`random_controls`; sensor noise from ``seed``."""
+    cfg = random_config(seed)
+    if overrides:
+        cfg = Config(**{**asdict(cfg), **overrides})
+    return simulate(cfg, np.random.default_rng([int(seed), 2]), name="random", seed=seed)
+
+
 def measure(config: Config, outs: np.ndarray, rng: np.random.Generator) -> dict[str, np.ndarray]:
     """Noisy sensor channels from the outputs of :func:`run` (white Gaussian noise, biases)."""
     n = outs.shape[0]
@@ -377,15 +547,17 @@ def simulate(
     name: str = "braking",
     controls: np.ndarray | None = None,
     v0: float | None = None,
+    seed: int | None = None,
 ) -> Recording:
     """Run a scenario (or explicit ``controls`` from ``v0``) and return a noisy :class:`Recording`.
 
     Sample ``k`` holds the state at ``t_k = (k + 1) dt`` after applying ``controls[k]``.
+    ``seed`` draws the events of ``name = "random"`` (:func:`simulate_random` also draws the car).
     """
     if not isinstance(rng, np.random.Generator):
         raise ParameterError("rng must be a numpy.random.Generator (np.random.default_rng(seed))")
     if controls is None:
-        v0_s, controls = scenario(name, config)
+        v0_s, controls = scenario(name, config, seed=seed)
         v0 = v0_s if v0 is None else v0
         source = f"sim.vehicle:{name}"
     else:
@@ -408,6 +580,7 @@ def simulate(
             "wheel_radius": config.R,
             "mu": config.mu,
             "scenario": name if source != "sim.vehicle:custom" else "custom",
+            "seed": seed,
             "config": asdict(config),
             "slip": outs[:, 9:13].copy(),
             "yaw_rate_true": outs[:, 2].copy(),
