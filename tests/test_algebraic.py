@@ -35,7 +35,7 @@ def _hand_built(n=600, dt=0.01, r=0.3):
 @pytest.mark.parametrize("backtrack", [0, 20])
 def test_switching_logic_on_hand_built_case(backtrack):
     cfg = A.Config(r=0.3, L1=1.2, dt=0.01, eps1=0.4, alpha=20, eps2=0.02, beta=15, reset_hold=0,
-                   backtrack=backtrack)
+                   backtrack=backtrack, detect="seed")
     t, Z = _hand_built()
     Z[:, 1] = np.where((t > 1.0) & (t < 1.4), -1.0, 0.0)  # the car decelerates a little
     _, out = A.run(cfg, Z)
@@ -167,7 +167,7 @@ def test_noise_estimates_and_wheel_mode_std():
     rng = np.random.default_rng(4)
     sd = np.array([0.01, 0.2, 0.3, 0.5])
     Z = np.array([0.0, 0.0, 0.0, 60.0]) + sd * rng.standard_normal((n, 4))
-    cfg = A.Config(r=r, dt=dt, eps1=50.0, slip_sd=0.0, noise_tau=100.0)
+    cfg = A.Config(r=r, dt=dt, eps1=50.0, slip_sd=0.0, noise_tau=100.0, detect="seed")
     _, out = A.run(cfg, Z)
     assert not out[:, OUT["slip_mode"]].any()
     for j, name in enumerate(("sd_gz", "sd_ax", "sd_ay", "sd_omega")):
@@ -182,7 +182,7 @@ def test_integration_std_matches_monte_carlo_random_walk():
     accelerometer noise plus a bias ramp; the reported sd must match its Monte-Carlo sd and the
     closed form var0 + n Ts^2 sd_a^2 + (b n Ts)^2."""
     n, dt, sd_a, b = 300, 0.01, 0.5, 0.05
-    cfg = A.Config(dt=dt, eps1=1e-12, slip_sd=0.0, acc_bias_sd=b, noise_tau=1e3)
+    cfg = A.Config(dt=dt, eps1=1e-12, slip_sd=0.0, acc_bias_sd=b, noise_tau=1e3, detect="seed")
     rng = np.random.default_rng(7)
     ends, stds = [], []
     for _ in range(200):
@@ -245,7 +245,7 @@ def test_backtracking_gain_at_low_friction():
         rec = sim.simulate(sim.Config(mu=0.5), np.random.default_rng(seed), name="combined")
         slip = np.abs(rec.meta["slip"]).max(axis=1) > 0.05
         for b in err:
-            tr = A.estimate(rec, params={"backtrack": b})
+            tr = A.estimate(rec, params={"backtrack": b, "detect": "seed"})
             err[b].append(np.sqrt(np.mean((tr.speed - rec["speed_true"])[slip] ** 2)))
     assert np.mean(err[None]) < 0.95 * np.mean(err[0])
 
@@ -255,7 +255,7 @@ def test_max_int_caps_the_integration_episode():
     Z = np.zeros((n, 4))
     Z[:, 3] = 50.0
     Z[:, 1] = 0.3  # a biased accelerometer with rolling wheels
-    cfg = A.Config(dt=dt, eps1=1e-12, max_int=0.5, reset_hold=0)
+    cfg = A.Config(dt=dt, eps1=1e-12, max_int=0.5, reset_hold=0, detect="seed")
     _, out = A.run(cfg, Z)
     slip = out[:, OUT["slip_mode"]] == 1
     runs = np.diff(np.flatnonzero(np.diff(np.r_[0, slip.astype(int), 0]) != 0))[::2]

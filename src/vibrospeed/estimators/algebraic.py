@@ -64,7 +64,8 @@ _MSQ = 25  # 4 values: running mean of the squared second differences
 _VX0, _VXRW, _TX, _VY0, _VYRW, _TY = 29, 30, 31, 32, 33, 34  # integration-mode variances
 _HX, _HY = 35, 36  # hand-over allowances (variances, decaying)
 _HPOS, _NSTEP, _VARX, _VARY = 37, 38, 39, 40
-_NS = 41
+_SLIP = 41  # window detection: 1 while integrating
+_NS = 42
 
 
 @dataclass(frozen=True)
@@ -123,10 +124,13 @@ class Config:
     handover_tau: float = 0.5
     noise_tau: float = 5.0
     max_int: float = float("inf")
+    detect: str = "window"
+    slip_tol: float = 0.3
+    slip_window: float = 0.5
 
     def __post_init__(self) -> None:
         for name in ("r", "L1", "dt", "window", "window_d", "eps1", "eps2", "handover_tau",
-                     "noise_tau", "max_int"):
+                     "noise_tau", "max_int", "slip_tol", "slip_window"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"algebraic: {name} must be > 0, got {getattr(self, name)}")
         for name in ("eps_k", "slip_sd", "acc_bias_sd", "gyro_bias_sd"):
@@ -138,14 +142,25 @@ class Config:
                 continue
             if int(v) != v or v < 0:
                 raise ParameterError(f"algebraic: {name} must be an integer >= 0, got {v}")
+        if self.detect not in ("window", "seed"):
+            raise ParameterError(f"algebraic: detect must be 'window' or 'seed', got "
+                                 f"{self.detect!r}")
         if self.N < 1:
             raise ParameterError(
                 f"algebraic: N must be >= 1 (derivatives are needed), got {self.N}")
         self.filters()  # validates the windows against N
 
     @property
+    def k_window(self) -> int:
+        """``slip_window`` in samples (at least 2)."""
+        return max(2, int(round(self.slip_window / self.dt)))
+
+    @property
     def n_back(self) -> int:
-        """Backtracking depth in samples (``backtrack``, default ``alpha``)."""
+        """Backtracking depth in samples: ``k_window`` for the window detection, else
+        ``backtrack`` (default ``alpha``)."""
+        if self.detect == "window":
+            return self.k_window
         return int(self.alpha if self.backtrack is None else self.backtrack)
 
     def filters(self) -> tuple[dif.Config, dif.Config]:
@@ -167,7 +182,9 @@ class Config:
                          self.reset_eps_x, self.reset_eps_y, self.reset_hold, self.vy0,
                          self.n_back, self.eps_k, self.slip_sd, self.acc_bias_sd,
                          self.gyro_bias_sd, self.handover_tau, self.noise_tau,
-                         float(np.linalg.norm(b0)), float(np.linalg.norm(b1)), self.max_int])
+                         float(np.linalg.norm(b0)), float(np.linalg.norm(b1)), self.max_int,
+                         1.0 if self.detect == "window" else 0.0, self.slip_tol,
+                         self.k_window])
 
 
 class State(NamedTuple):
@@ -194,7 +211,7 @@ def init(config: Config) -> State:
     L = config.taps()[0].size
     s = np.zeros(_NS)
     s[_LAST:_LAST + 4] = np.nan
-    return State(np.zeros((4, L)), np.zeros((3, config.n_back + 2)), s)
+    return State(np.zeros((4, L)), np.zeros((4, config.n_back + 2)), s)
 
 
 @njit(cache=True)
@@ -220,6 +237,7 @@ def _core(b0, b1, p, buf, hist, s, z, out):
     nback, eps_k, slip_sd, b_acc, b_gyro, h_tau, n_tau = (
         int(p[11]), p[12], p[13], p[14], p[15], p[16], p[17])
     g0, g1, max_int = p[18], p[19], p[20]
+    win, tol, kwin = p[21] > 0.5, p[22], int(p[23])
     L = b0.size
     K = hist.shape[1]
     first = s[_STARTED] == 0.0
@@ -234,7 +252,10 @@ def _core(b0, b1, p, buf, hist, s, z, out):
     # on-line noise statistics; the wheel-speed noise only in wheel mode (ABS cycles are no
     # noise) once 50 differences are known
     w_min = dt / n_tau
-    wheel_upd = s[_NX] >= alpha + 1.0 or s[_ND2 + 3] < 50.0
+    if win:
+        wheel_upd = s[_SLIP] == 0.0 or s[_ND2 + 3] < 50.0
+    else:
+        wheel_upd = s[_NX] >= alpha + 1.0 or s[_ND2 + 3] < 50.0
     for j in range(4):
         if np.isfinite(z[j]):
             _noise_update(s, j, z[j], w_min, j < 3 or wheel_upd)
@@ -253,6 +274,7 @@ def _core(b0, b1, p, buf, hist, s, z, out):
         s[_NX] = alpha + 1.0
         s[_NY] = 0.0
         s[_NRESET] = 0.0
+        s[_SLIP] = 0.0
         s[_STARTED] = 1.0
     # algebraic filters (Algorithm 1, line 1)
     f0 = np.zeros(4)
@@ -294,33 +316,93 @@ def _core(b0, b1, p, buf, hist, s, z, out):
     if eps_k > 0.0:
         e1 = max(eps1, eps_k * np.sqrt(g0 * g0 * sig2_ax + r * r * g1 * g1 * sig2_wm))
         e2 = max(eps2, eps_k * g0 * np.sqrt(sig2_gz))
+        # window residual: two filtered wheel speeds and kwin filtered accelerations
+        tol = max(tol, eps_k * g0 * np.sqrt(2.0 * r * r * sig2_wm + kwin * dt * dt * sig2_ax))
+    # no longitudinal force below the acceleration that moves the speed by tol in a window
+    a_free = tol / (kwin * dt)
     # window-held switching conditions (line 3 of Algorithms 1 and 2)
     nx_prev = s[_NX]
-    was_slip = nx_prev < alpha + 1.0
     was_turn = s[_NY] < beta + 1.0
-    s[_NX] = s[_NX] + 1.0 if abs(dgx) < e1 else 0.0
     s[_NY] = s[_NY] + 1.0 if abs(wz) < e2 else 0.0
     vx_prev = s[_VX]
     vy_prev = s[_VY]
     varx_prev = s[_VARX]
     vary_prev = s[_VARY]
-    slip = s[_NX] < alpha + 1.0
-    if slip and was_slip and s[_TX] + dt > max_int:  # integration episode too long
-        s[_NX] = alpha + 1.0
-        slip = False
     turn = s[_NY] < beta + 1.0
     # history of Vx and of the increments Ts (gamma_x + psi_dot Vy) for the backtracking
     hpos = int(s[_HPOS])
     inc = dt * (ax + wz * vy_prev)
     hist[2, hpos] = inc
+    if win:
+        # window detection: res = change of r omega_mean over the last kwin samples minus the
+        # dead-reckoned change (the increments); the wheels start to slip when |res| >= tol.
+        # Integrating, they are trusted again after kwin samples in which they agree with the
+        # integrated speed, or in which there is no longitudinal force (|a_x| < a_free: no
+        # force, no slip) and |res| < tol (the integrated speed has drifted, the wheels roll)
+        was_slip = s[_SLIP] == 1.0
+        vw = r * wm
+        nb0 = min(kwin, int(s[_NSTEP]))
+        res = 0.0
+        if nb0 > 0:
+            q = hpos - nb0
+            if q < 0:
+                q += K
+            res = vw - hist[3, q]
+            for _m in range(nb0):
+                q += 1
+                if q == K:
+                    q = 0
+                res -= hist[2, q]
+        if was_slip:
+            agree = abs(vw - (vx_prev + inc)) < tol or (abs(ax) < a_free and abs(res) < tol)
+            s[_NX] = s[_NX] + 1.0 if agree else 0.0
+            slip = s[_NX] < kwin
+        elif s[_NX] < 0.0:  # wheels trusted for a window after a capped episode
+            slip = False
+            s[_NX] += 1.0
+        else:
+            slip = nb0 > 0 and abs(res) >= tol
+            s[_NX] = 0.0
+        if slip and was_slip and s[_TX] + dt > max_int:  # integration episode too long
+            slip = False
+            s[_NX] = -float(kwin)
+        s[_SLIP] = 1.0 if slip else 0.0
+    else:
+        was_slip = nx_prev < alpha + 1.0
+        s[_NX] = s[_NX] + 1.0 if abs(dgx) < e1 else 0.0
+        slip = s[_NX] < alpha + 1.0
+        if slip and was_slip and s[_TX] + dt > max_int:  # integration episode too long
+            s[_NX] = alpha + 1.0
+            slip = False
     decay = np.exp(-2.0 * dt / h_tau)
     # Vx: Algorithm 1 with its standard deviation
     qx = dt * dt * (sig2_ax + vy_prev * vy_prev * sig2_gz + wz * wz * vary_prev)
     if slip:
         # never back into the previous integration episode (nx_prev - alpha samples of wheel
         # mode precede this one)
-        nb = min(nback, int(s[_NSTEP]) - 1, int(nx_prev - alpha) - 1)
-        if not was_slip and nb >= 0:
+        if win:
+            nb = -1
+        else:
+            nb = min(nback, int(s[_NSTEP]) - 1, int(nx_prev - alpha) - 1)
+        if win and not was_slip:
+            # slip onset: restart from the wheel speed kwin samples back plus the increments
+            q = hpos - nb0
+            if q < 0:
+                q += K
+            vx0 = hist[0, q]
+            for _m in range(nb0):
+                q += 1
+                if q == K:
+                    q = 0
+                vx0 += hist[2, q]
+            s[_VX] = vx0
+            q = hpos - nb0
+            if q < 0:
+                q += K
+            s[_VX0] = hist[1, q]
+            s[_VXRW] = nb0 * qx
+            s[_TX] = nb0 * dt
+        elif not was_slip and nb >= 0:
             # slip onset: restart from Vx(t_i - (nb + 1) Ts), re-integrate the nb + 1 increments
             q = hpos - nb - 1
             if q < 0:
@@ -377,6 +459,7 @@ def _core(b0, b1, p, buf, hist, s, z, out):
     s[_VARY] = vary
     hist[0, hpos] = s[_VX]
     hist[1, hpos] = varx
+    hist[3, hpos] = r * wm
     hpos += 1
     if hpos == K:
         hpos = 0

@@ -69,6 +69,7 @@ class Config:
     B_rear: float = 14.0  # rear tyres stiffer per unit load: an understeering car
     C: float = 1.6  # magic-formula shape factor
     tyre: str = "magic"  # "magic" (falls off to ~0.7 mu past the peak) or "brush" (saturates)
+    implicit_wheels: bool = False  # tyre force on the wheel linearly implicit (stiff tyres)
     CdA: float = 0.7  # m^2, drag area (rho = 1.2)
     v_eps: float = 1.0  # m/s, slip regularisation at low speed
     tau_load: float = 0.1  # s, lag of the load-transfer accelerations
@@ -108,7 +109,7 @@ class Config:
             self.m, self.Iz, self.L1, self.L2, self.track, self.h_cg, self.R, self.Iw, self.mu,
             self.B, self.C, self.CdA, self.v_eps, self.tau_load, self.drive_front,
             self.brake_front, self.abs_slip, self.abs_rate, self.dt / self.substeps, self.B_rear,
-            1.0 if self.tyre == "brush" else 0.0,
+            1.0 if self.tyre == "brush" else 0.0, 1.0 if self.implicit_wheels else 0.0,
         ])
 
 
@@ -151,6 +152,7 @@ def _substep(p, s, delta, t_drive, t_brake, out):
     B, C, CdA, v_eps, tau_l = p[9], p[10], p[11], p[12], p[13]
     dfront, bfront, abs_slip, abs_rate, h_dt, B_rear = p[14], p[15], p[16], p[17], p[18], p[19]
     brush = p[20] > 0.5
+    implicit = p[21] > 0.5
     vx, vy, wz = s[0], s[1], s[2]
     L = L1 + L2
     xw = np.array([L1, L1, -L2, -L2])
@@ -170,6 +172,7 @@ def _substep(p, s, delta, t_drive, t_brake, out):
     mz = 0.0
     slip = np.empty(4)
     fl_arr = np.empty(4)
+    kw = np.zeros(4)  # d(force)/d(omega) proxy: R (F / s) / den, for the implicit wheel update
     for i in range(4):
         fzi = max(fz[i], 50.0)
         vxw = vx - wz * yw[i]
@@ -193,9 +196,11 @@ def _substep(p, s, delta, t_drive, t_brake, out):
                 F = mu * fzi * np.sin(C * np.arctan(Bi * sn))
             fl = F * sx / sn
             ft = -F * sy / sn
+            kw[i] = R * F / sn / den
         else:
             fl = 0.0
             ft = 0.0
+            kw[i] = R * mu * fzi * (B if i < 2 else B_rear) * C / den
         fl_arr[i] = fl
         fxb = fl * cd - ft * sd
         fyb = fl * sd + ft * cd
@@ -216,7 +221,10 @@ def _substep(p, s, delta, t_drive, t_brake, out):
         f = s[9 + i]
         td = 0.5 * share_d * t_drive * f
         tb = 0.5 * share_b * t_brake * f
-        w = s[3 + i] + h_dt * (td - R * fl_arr[i]) / Iw
+        if implicit:  # linearly implicit in the tyre force: stable for stiff tyres
+            w = s[3 + i] + h_dt * (td - R * fl_arr[i]) / (Iw + h_dt * R * kw[i])
+        else:
+            w = s[3 + i] + h_dt * (td - R * fl_arr[i]) / Iw
         dw = h_dt * tb / Iw
         if w > dw:
             w -= dw
@@ -389,7 +397,8 @@ def scenario(name: str, config: Config, *, seed: int | None = None) -> tuple[flo
 # -- randomised family ------------------------------------------------------------------------
 #: ranges of :func:`random_config` / :func:`random_controls` (uniform unless stated)
 RANDOM_RANGES = {
-    "mu": (0.3, 1.0), "B": (6.0, 16.0), "B_rear / B": (1.0, 1.5), "C": (1.3, 1.9),
+    "mu": (0.3, 1.0), "peak slip (front)": (0.08, 0.2), "B_rear / B": (1.0, 1.5),
+    "C": (1.3, 1.9),
     "tyre": "magic or brush (1:1)", "ABS / traction control": "present with p = 0.6",
     "abs_slip": "0.7-1.5 x the tyre's peak slip", "abs_rate 1/s": (5.0, 30.0),
     "rate Hz": (50, 200), "sd_gz rad/s": (0.002, 0.02), "sd_acc m/s^2": (0.03, 0.3),
@@ -402,16 +411,15 @@ RANDOM_RANGES = {
 
 
 def random_config(seed: int) -> Config:
-    """A vehicle of the randomised family: tyre (magic formula or brush, stiffness and peak mu
-    0.3-1.0), ABS / traction control or none, sensor noise and biases of production size and a
+    """A vehicle of the randomised family: tyre (magic formula or brush, shape C, stiffness B
+    from a slip at the force peak of 8-20 %, peak mu 0.3-1.0), ABS / traction control or none, sensor noise and biases of production size and a
     sample rate of 50-200 Hz, all drawn from ``seed`` (:data:`RANDOM_RANGES`)."""
     rng = np.random.default_rng([int(seed), 0])
     u = rng.uniform
-    B = u(6.0, 16.0)
     C = u(1.3, 1.9)
     tyre = "brush" if rng.random() < 0.5 else "magic"
-    # slip at the force peak: brush 3 / (B C); magic formula tan(pi / 2C) / B
-    peak = 3.0 / (B * C) if tyre == "brush" else np.tan(np.pi / (2.0 * C)) / B
+    peak = u(0.08, 0.2)  # slip at the force peak: brush 3 / (B C), magic formula tan(pi / 2C) / B
+    B = 3.0 / (C * peak) if tyre == "brush" else np.tan(np.pi / (2.0 * C)) / peak
     has_abs = rng.random() < 0.6
     fs = int(round(u(50.0, 200.0)))
     dt = 1.0 / fs
@@ -419,7 +427,7 @@ def random_config(seed: int) -> Config:
     L1 = u(1.0, 1.5)
     return Config(
         m=u(1100.0, 2300.0), L1=L1, L2=L1 * u(1.0, 1.4), mu=u(0.3, 1.0), B=B,
-        B_rear=B * u(1.0, 1.5), C=C, tyre=tyre, drive_front=drive,
+        B_rear=B * u(1.0, 1.5), C=C, tyre=tyre, implicit_wheels=True, drive_front=drive,
         abs_slip=peak * u(0.7, 1.5) if has_abs else 0.0, abs_rate=u(5.0, 30.0), dt=dt,
         substeps=max(1, int(round(dt / 0.0005))),
         sd_gz=u(0.002, 0.02), sd_acc=u(0.03, 0.3), sd_omega=u(0.03, 0.3),
@@ -435,9 +443,10 @@ def random_controls(config: Config, seed: int, duration: float = 20.0,
     and events (brake, drive, turn, turn with brake or drive) of random strength (0.2-1.6 mu g
     demand, enough to lock or spin a wheel without ABS), torque ramped up over 0.1-1 s
     (log-uniform), held 0.5-3 s, released over 0.1-0.5 s; lateral demand 0.2-0.8 mu g. A
-    closed-loop driver (checked every 50 ms) releases the brake below 5 m/s and the throttle
-    above 33 m/s, and the engine's power (60-150 W/kg) limits the drive torque. A drive in
-    which the car spins (side slip over 0.15 Vx + 0.5 m/s) is drawn again (next sub-stream)."""
+    closed-loop driver (checked every 50 ms) releases the brakes below 5 m/s (until 8 m/s) and
+    the throttle above 33 m/s (until 30 m/s), and the engine's power (60-150 W/kg) limits the
+    drive torque. A drive in which the car spins (side slip over 0.15 Vx + 0.5 m/s) or slows
+    below 2 m/s is drawn again (next sub-stream)."""
     for attempt in range(50):
         rng = np.random.default_rng([int(seed), 1, attempt])
         v0, u, ok = _random_attempt(config, rng, duration)
@@ -472,19 +481,24 @@ def _random_attempt(config: Config, rng: np.random.Generator, duration: float):
     s = _pack(init(config, v0))
     outs = np.zeros((chunk, _NO))
     ev = 0
-    cut_brake = cut_drive = -1  # index of the event whose brake / throttle the driver released
-    cut_t = 0.0
     ok = True
     df = config.drive_front
+    fb = ft = 1.0  # driver's brake / throttle release factors
+    brake_ok = drive_ok = True
     for k0 in range(0, n, chunk):
         k1 = min(n, k0 + chunk)
         vx = s[0]
+        # brakes released below 5 m/s until 8 m/s, throttle above 33 m/s until 30 m/s
+        brake_ok = vx > 8.0 or (brake_ok and vx > 5.0)
+        drive_ok = vx < 30.0 or (drive_ok and vx < 33.0)
         w_drive = df * 0.5 * (s[3] + s[4]) + (1.0 - df) * 0.5 * (s[5] + s[6])
         t_max = power / max(abs(w_drive), 1.0)
         while ev + 1 < len(plan) and k0 * dt >= plan[ev + 1][0]:
             ev += 1
         for k in range(k0, k1):
             tt = k * dt
+            fb = min(1.0, fb + dt / 0.3) if brake_ok else max(0.0, fb - dt / 0.3)
+            ft = min(1.0, ft + dt / 0.3) if drive_ok else max(0.0, ft - dt / 0.3)
             cruise = 0.5 * 1.2 * config.CdA * vx * abs(vx) * config.R + 0.01 * W
             delta, td, tb = 0.0, cruise, 0.0
             if plan and tt >= plan[ev][0]:
@@ -494,27 +508,20 @@ def _random_attempt(config: Config, rng: np.random.Generator, duration: float):
                 if x < end:
                     env = min(1.0, x / ramp) if x < ramp + hold else max(0.0, (end - x) / rel)
                     if "brake" in kind:
-                        tb = dem * Wm * env
+                        tb = dem * Wm * env * fb
                         td = 0.0
-                        if cut_brake == ev:
-                            tb *= max(0.0, 1.0 - (tt - cut_t) / 0.3)
                     if "drive" in kind:
-                        td = max(cruise, dem * Wm * env)
-                        if cut_drive == ev:
-                            td = cruise + (td - cruise) * max(0.0, 1.0 - (tt - cut_t) / 0.3)
+                        td = cruise + max(0.0, dem * Wm * env - cruise) * ft
                     if "turn" in kind:
                         senv = min(1.0, x / sramp) if x < ramp + hold else max(0.0, (end - x) / rel)
                         v = max(abs(vx), 5.0)
                         delta = sgn * min(0.3, lat * config.mu * G * L / (v * v)) * senv
             u[k] = (delta, min(td, t_max), tb)
         _run(p, s, u[k0:k1], int(config.substeps), outs[: k1 - k0])
-        if np.any(np.abs(outs[: k1 - k0, 1]) > 0.15 * np.abs(outs[: k1 - k0, 0]) + 0.5):
+        o = outs[: k1 - k0]
+        if np.any(np.abs(o[:, 1]) > 0.15 * np.abs(o[:, 0]) + 0.5) or np.any(o[:, 0] < 2.0):
             ok = False
             break
-        if plan and s[0] < 5.0 and cut_brake != ev:
-            cut_brake, cut_t = ev, k1 * dt
-        if plan and s[0] > 33.0 and cut_drive != ev:
-            cut_drive, cut_t = ev, k1 * dt
     return float(v0), u, ok
 
 
