@@ -240,7 +240,7 @@ def bench_backtrack(seeds=range(10)) -> str:
                 rec = sim.simulate(cfg, np.random.default_rng(seed), name=name)
                 slip = np.abs(rec.meta["slip"]).max(axis=1) > 0.05
                 for b in depths:
-                    tr = A.estimate(rec, params={"backtrack": b})
+                    tr = A.estimate(rec, params={"backtrack": b, "detect": "seed"})
                     res[b].append((_rmse(tr.speed, rec["speed_true"]),
                                    _rmse(tr.speed, rec["speed_true"], slip)))
             cells = [f"{np.mean([a for a, _ in res[b]]):.3f} / "
@@ -249,19 +249,20 @@ def bench_backtrack(seeds=range(10)) -> str:
                          + " |")
     return (f"mu = 0.5, Vx RMSE all samples / slip samples (m/s), mean over seeds {list(seeds)}; "
             "the default is backtrack = alpha = 20 samples, limited to the preceding wheel-mode "
-            "run.\n\n" + "\n".join(lines))
+            "run (seed rule, `detect = 'seed'`; the window detection restarts a window back).\n\n"
+            + "\n".join(lines))
 
 
 def bench_f1tenth() -> str:
     tuned = {"eps_k": 3.0, "max_int": 0.5}
-    lines = ["| run | duration s | median rate Hz | Vx alg (default) | Vx alg (eps1 = 3, "
-             "eps2 = 0.2) | Vx alg (eps_k = 3, max_int = 0.5 s) | odometry | "
+    lines = ["| run | duration s | median rate Hz | Vx alg (default) | Vx alg (seed rule, "
+             "eps_k = 3, max_int = 0.5 s) | Vx alg (eps_k = 3, max_int = 0.5 s) | odometry | "
              "98 % coverage (eps_k, max_int) | integration fraction (default / eps_k, max_int) |",
              "|---|---|---|---|---|---|---|---|---|"]
     for ds in ("DS1", "DS2", "DS3", "DS4", "DS5"):
         rec = read_f1tenth(DATA / "f1tenth_frictionmaps" / ds)
         t0 = A.estimate(rec)
-        t1 = A.estimate(rec, params={"eps1": 3.0, "eps2": 0.2, "window": 0.3, "window_d": 0.5})
+        t1 = A.estimate(rec, params={"detect": "seed", **tuned})
         t2 = A.estimate(rec, params=tuned)
         v = rec["speed_true"]
         ok = np.isfinite(v) & np.isfinite(t2.speed)

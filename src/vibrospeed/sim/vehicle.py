@@ -221,11 +221,10 @@ def _substep(p, s, delta, t_drive, t_brake, out):
         f = s[9 + i]
         td = 0.5 * share_d * t_drive * f
         tb = 0.5 * share_b * t_brake * f
-        if implicit:  # linearly implicit in the tyre force: stable for stiff tyres
-            w = s[3 + i] + h_dt * (td - R * fl_arr[i]) / (Iw + h_dt * R * kw[i])
-        else:
-            w = s[3 + i] + h_dt * (td - R * fl_arr[i]) / Iw
-        dw = h_dt * tb / Iw
+        # linearly implicit in the tyre force (stable for stiff tyres) or explicit
+        iw = Iw + h_dt * R * kw[i] if implicit else Iw
+        w = s[3 + i] + h_dt * (td - R * fl_arr[i]) / iw
+        dw = h_dt * tb / iw
         if w > dw:
             w -= dw
         elif w < -dw:
