@@ -14,9 +14,15 @@ Per sample ``t_i`` (sample period ``Ts``):
    is integrated (explicit Euler at ``Ts``) from ``G(t0) = 0``;
    remark 4: ``G`` is reset to 0 when ``|r d(omega_mean)/dt| < reset_eps_x`` and
    ``|L1 psi_ddot| < reset_eps_y`` have held over the last ``reset_hold`` samples;
-3. Algorithm 1: if ``|dGx/dt| < eps1`` over ``[t_i - alpha Ts, t_i]``:
-   ``Vx = r omega_mean`` (wheels roll), else
-   ``Vx(t_i) = Vx(t_{i-1}) + Ts (gamma_x + psi_dot Vy)``;
+3. Algorithm 1: if the wheels roll ``Vx = r omega_mean``, else
+   ``Vx(t_i) = Vx(t_{i-1}) + Ts (gamma_x + psi_dot Vy)``. Default ``detect = "window"``: the
+   wheels start to slip when the change of ``r omega_mean`` over the last ``slip_window`` s
+   differs from the dead-reckoned change by ``slip_tol`` m/s or more (the integration restarts
+   a window back), and roll again after a window in which they agree with the integrated
+   ``Vx`` within ``slip_tol``, or in which ``|a_x| < slip_tol / slip_window`` (no force, no
+   slip) and the windowed changes agree. ``detect = "seed"``: the seed's rule, wheels roll iff
+   ``|dGx/dt| < eps1`` over ``[t_i - alpha Ts, t_i]`` (it only sees *changes* of slip: a slip
+   that builds up and stays is taken back as rolling);
 4. Algorithm 2: if ``|psi_dot| < eps2`` over ``[t_i - beta Ts, t_i]``: ``Vy = 0``, else
    ``Vy(t_i) = Vy(t_{i-1}) + Ts (gamma_y - psi_dot Vx)``.
 
@@ -97,6 +103,11 @@ class Config:
     allowance at a switch back; ``noise_tau`` s, memory of the on-line noise estimates.
     max_int : s, longest integration episode: after it the wheels are trusted again (the hold
         window restarts); ``inf`` (default) is the seed's rule.
+    detect : ``"window"`` (default) or ``"seed"`` (Algorithm 1 as published: ``eps1``,
+        ``alpha``, ``backtrack`` and the reset only act there).
+    slip_tol : m/s, window detection: largest disagreement between the wheel speed and the
+        dead-reckoned speed taken as rolling (raised to ``eps_k`` sd of the measured noise).
+    slip_window : s, window detection: the window of that comparison and of the hold.
     """
 
     r: float = 0.31
