@@ -585,3 +585,21 @@ def test_comb_axes_all_leaves_an_all_nan_axis_out_and_says_so():
     without = grid.estimate(Recording(t, {"ax": ax, "ay": ay}), axis="y", params=p)
     np.testing.assert_array_equal(with_dead.omega, without.omega)
     assert "comb_axes=all: az all NaN, left out" in with_dead.notes
+
+
+def test_standstill_is_a_state_of_the_default_tracker():
+    """Stops of a simulated car (random family) read as omega = 0 with ``standstill`` = 1."""
+    from vibrospeed import sim
+
+    rec = sim.simulate("random", seed=4, duration=60, fs=100.0, vehicle="car", level=3.0)
+    lo, hi = rec.meta["omega_range"]
+    tr = grid.estimate(rec, params={"omega_min": lo, "omega_max": hi})
+    st = tr.extras["standstill"] > 0.5
+    still = rec["omega_true"] <= 0
+    inner = np.convolve(still, np.ones(201), "same") >= 201  # 1 s away from motion
+    assert inner.sum() > 300
+    assert st[inner].mean() > 0.95
+    assert st[~still].mean() < 0.02
+    assert np.all(tr.omega[st] == 0) and np.all(tr.omega_hi[st] == 0)
+    assert np.all(tr.extras["has_signal"][st] == 0)
+    assert any("standstill on" in n for n in tr.notes)

@@ -68,10 +68,10 @@ def stft_harmonic_sum(y, dt, omega_min, omega_max, n_grid=300, M=3, win_s=3.0, h
     return np.interp(np.arange(n), centres, vals)
 
 
-def _run_method(name, rec, om_lo, om_hi):
+def _run_method(name, rec, om_lo, om_hi, extra=None):
     from vibrospeed.estimators import aided, grid, rbpmf
 
-    rng = {"omega_min": om_lo, "omega_max": om_hi}
+    rng = {"omega_min": om_lo, "omega_max": om_hi, **(extra or {})}
     if name == "grid":
         tr = grid.estimate(rec, params=rng)
     elif name == "grid-causal":
@@ -126,7 +126,7 @@ def score(rec, om, extras, om_lo, stft_ok=None):
     return out
 
 
-def one_seed(seed, methods, duration):
+def one_seed(seed, methods, duration, extra=None):
     from vibrospeed import sim
 
     rec = sim.simulate("random", seed=seed, duration=duration)
@@ -140,7 +140,8 @@ def one_seed(seed, methods, duration):
     for m in methods:
         t0 = time.process_time()
         try:
-            om, ex = (stft_om, {}) if m == "stft" else _run_method(m, rec, om_lo, om_hi)
+            om, ex = (stft_om, {}) if m == "stft" else _run_method(
+                m, rec, om_lo, om_hi, extra if m.startswith("grid") else None)
             row[m] = score(rec, om, ex, om_lo, stft_ok)
         except Exception as e:  # a crash is a result too
             row[m] = {"error": f"{type(e).__name__}: {e}"}
@@ -192,22 +193,25 @@ def main(argv=None):
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--duration", type=float, default=240.0)
+    ap.add_argument("--grid-params", default="", help="NAME=VALUE,... for the grid methods")
     ap.add_argument("--write", action="store_true", help="append the tables to RESULTS.md")
     ap.add_argument("--label", default="", help="heading of the written section")
     a = ap.parse_args(argv)
     methods = [m for m in a.methods.split(",") if m]
+    extra = dict(kv.split("=", 1) for kv in a.grid_params.split(",") if kv)
     seeds = range(a.seed0, a.seed0 + a.seeds)
     t0 = time.time()
     rows = []
     if a.jobs > 1:
         with ProcessPoolExecutor(a.jobs) as ex:
             for i, r in enumerate(ex.map(one_seed, seeds, [methods] * len(seeds),
-                                         [a.duration] * len(seeds))):
+                                         [a.duration] * len(seeds),
+                                         [extra] * len(seeds))):
                 rows.append(r)
                 print(f"\r{i + 1}/{len(seeds)} seeds", end="", file=sys.stderr)
     else:
         for i, s in enumerate(seeds):
-            rows.append(one_seed(s, methods, a.duration))
+            rows.append(one_seed(s, methods, a.duration, extra))
             print(f"\r{i + 1}/{len(seeds)} seeds", end="", file=sys.stderr)
     print(file=sys.stderr)
     out = [f"{len(rows)} seeds ({a.seed0}..{a.seed0 + a.seeds - 1}), {a.duration:g} s each, "

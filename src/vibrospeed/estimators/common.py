@@ -64,6 +64,7 @@ def prepare_axis(
     M: int = 3,
     omega_max: float | None = None,
     normalize_tau: float | None = 5.0,
+    omega_range: tuple[float, float] | None = None,
 ) -> tuple[np.ndarray, float, list[str]]:
     """Pre-filtered vibration signal of ``axis``, its sample period and notes on what was done."""
     name = axis_channel(axis)
@@ -80,7 +81,7 @@ def prepare_axis(
     n_nan = int(np.count_nonzero(~np.isfinite(x)))
     if n_nan:
         notes.append(f"{n_nan} NaN samples on '{name}': prediction only there")
-    sos = pf.design(prefilter, fs, M=M)
+    sos = pf.design(prefilter, fs, M=M, omega_range=omega_range)
     y = pf.apply(sos, x, level=start_level(x, dt))
     notes.append(f"pre-filter '{prefilter}' on '{name}' at fs = {fs:.4g} Hz")
     if normalize_tau:

@@ -700,7 +700,41 @@ def estimate(
                      f"{config.comb_snr:g}, cap {config.comb_cap:g} nats ({idx.size} frames; "
                      f"full {L}-sample frames, growing ones from {config.comb_min_window:g} s "
                      "before)")
-    return _rb.track(recording, config.tracker, y, rms, notes, axis=axis,
-                     wheel_radius=wheel_radius, progress=progress,
-                     return_posterior=return_posterior, method="grid", extra=(idx, vals),
-                     extra_params=comb)
+    tr = _rb.track(recording, config.tracker, y, rms, notes, axis=axis,
+                   wheel_radius=wheel_radius, progress=progress,
+                   return_posterior=return_posterior, method="grid", extra=(idx, vals),
+                   extra_params=comb)
+    return with_standstill(tr, recording, axis, config, causal=config.tracker.smooth == "none")
+
+
+def with_standstill(track: Track, recording: Recording, axis: str, config: Config, *,
+                    causal: bool) -> Track:
+    """``track`` with the vehicle's stops: where the broadband vibration sits at its floor
+    (:mod:`vibrospeed.signal.standstill`, on the tracked axis high-passed below the search
+    range), omega and its band are 0, ``has_signal`` 0 and the extra ``standstill`` 1; causal
+    filters use the causal detector. The tracker's "no line" state is not asked: an idling
+    engine's orders 1 and 2 make a comb at a standstill, and where the broadband level
+    misleads (a slow roll near the floor) the comb is as weak (family: no fewer false stops,
+    2.4 points fewer stops found)."""
+    from vibrospeed.estimators.common import axis_channel
+    from vibrospeed.signal import prefilter as pf
+    from vibrospeed.signal import standstill as ss
+
+    tr = config.tracker
+    fs = 1.0 / tr.model.dt
+    band = (tr.omega_min, min(tr.model.M * tr.omega_max, np.pi * fs))
+    x = recording.channel(axis_channel(axis))
+    sos = pf.design("range", fs, M=tr.model.M, omega_range=(tr.omega_min, tr.omega_max))
+    still = ss.standstill(pf.apply(sos, x), tr.model.dt, band, causal=causal)
+    track.extras["standstill"] = still.astype(np.float64)
+    if still.any():
+        for name in ("omega", "omega_std", "omega_lo", "omega_hi", "speed", "speed_std",
+                     "speed_lo", "speed_hi"):
+            arr = getattr(track, name)
+            arr[still & np.isfinite(arr)] = 0.0
+        track.extras["has_signal"][still] = 0.0
+        share = still.mean()
+        track.notes.append(f"standstill on {100 * share:.1f} % of the samples (broadband "
+                           f"vibration at its floor; {'causal' if causal else 'whole-log'} "
+                           "detector): omega = 0 there")
+    return track

@@ -20,14 +20,15 @@ from vibrospeed.signal import normalize as nz
 from vibrospeed.signal import prefilter as pf
 
 
-def _pipeline_of(config: Any) -> tuple[Any, str, float | None, float]:
-    """(harmonic model, pre-filter, normalisation tau, target RMS) that ``estimate()`` uses."""
+def _pipeline_of(config: Any) -> tuple[Any, str, float | None, float, tuple | None]:
+    """(harmonic model, pre-filter, normalisation tau, target RMS, search range) that
+    ``estimate()`` uses."""
     inner = getattr(config, "tracker", config)  # grid.Config wraps an rbpmf.Config
     model = inner.model
     if hasattr(inner, "signal_rms"):  # rbpmf / grid: their own pre-filter and scaling
         tau = inner.rms_tau if getattr(inner, "scaling", "rms") == "rms" else None
-        return model, inner.prefilter, tau, inner.signal_rms
-    return model, "thesis-hp", 5.0, 1.0  # ekf.estimate's defaults
+        return model, inner.prefilter, tau, inner.signal_rms, (inner.omega_min, inner.omega_max)
+    return model, "thesis-hp", 5.0, 1.0, None  # ekf.estimate's defaults
 
 
 class OnlineTracker:
@@ -63,11 +64,12 @@ class OnlineTracker:
         target_rms: float | None = None,
         level: float | None = None,
     ) -> None:
-        model, pre, tau, target = _pipeline_of(config)
+        model, pre, tau, target, omega_range = _pipeline_of(config)
         self.estimator = estimator
         self.config = config
         self.dt = model.dt
-        self.sos = pf.design(prefilter or pre, 1.0 / model.dt, M=model.M)
+        self.sos = pf.design(prefilter or pre, 1.0 / model.dt, M=model.M,
+                             omega_range=omega_range)
         self.tau = (tau if normalize_tau is True else normalize_tau) or None
         self.target = target if target_rms is None else target_rms
         self.n_axes = int(getattr(config, "n_axes", 1))

@@ -1206,7 +1206,8 @@ def prepare(recording: Recording, axis: str, config_cls, params: dict | None, de
     probe = config_from_params(config_cls, cfg_kw,
                                model=config_from_params(HarmonicModel, model_kw, dt=1.0, **base))
     y, dt, notes = prepare_axis(recording, axis, prefilter=probe.prefilter, M=probe.model.M,
-                                normalize_tau=None)
+                                normalize_tau=None,
+                                omega_range=(probe.omega_min, probe.omega_max))
     fs = 1.0 / dt
     src = recording.source or "recording"
     om_max = float(probe.omega_max)
@@ -1311,7 +1312,8 @@ def prefilter_note(config: Config, fs: float) -> str | None:
     from vibrospeed.signal import prefilter as pf
 
     try:
-        sos = pf.design(config.prefilter, fs, M=config.model.M)
+        sos = pf.design(config.prefilter, fs, M=config.model.M,
+                        omega_range=(config.omega_min, config.omega_max))
     except Exception:  # pragma: no cover - preset validated in prepare
         return None
     _, h = sosfreqz(sos, worN=[config.omega_min / (2 * np.pi)], fs=fs)

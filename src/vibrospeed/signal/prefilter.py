@@ -9,6 +9,9 @@ Presets (cut-offs in rad/s unless said otherwise, digital design with ``fs``):
 ``thesis-hplp`` high-pass order 2 at 4 rad/s + low-pass order 1 with a cut-off per M:
                 M = 1: 25, M = 2: 19, M = 3: 10 rad/s (thesis table 3.1; M >= 4 uses 10)
 ``paper-hp``    high-pass order 2 at 8 Hz (chassis-vibration paper, section IV)
+``range``       tied to the search range ``omega_min..omega_max``: high-pass order 4 at
+                ``RANGE_HP * omega_min``, low-pass order 4 at ``RANGE_LP * M * omega_max``
+                (left out when that is above ``0.4 fs``: the harmonics alias there)
 ``none``        identity
 =============== ===================================================================
 
@@ -34,8 +37,17 @@ PRESETS = {
     "thesis-bp": "Butterworth band-pass order 2, 4..50 rad/s (thesis eq. 2.7)",
     "thesis-hplp": "high-pass order 2 at 4 rad/s + low-pass order 1, cut-off per M (thesis 3.5)",
     "paper-hp": "Butterworth high-pass order 2 at 8 Hz (chassis-vibration paper IV)",
+    "range": "high-pass order 4 below omega_min, low-pass order 4 above M omega_max",
     "none": "no pre-filter",
 }
+
+
+#: ``range`` preset: high-pass corner as a fraction of omega_min, low-pass corner as a multiple
+#: of M omega_max. A vehicle's body motion and manoeuvres (0.2-1.5 m/s^2 below 2 Hz on a car,
+#: 10-20x a wheel harmonic) lie below the search range; what is left of them in it is what the
+#: tracker must live with, so everything below it goes.
+RANGE_HP = 0.7
+RANGE_LP = 1.3
 
 
 def _rad_to_hz(w: float) -> float:
@@ -63,6 +75,7 @@ def design(
     M: int = 3,
     lp_cutoff: float | None = None,
     hp_cutoff: float | None = None,
+    omega_range: tuple[float, float] | None = None,
 ) -> np.ndarray:
     """SOS array (n_sections, 6) of a named preset.
 
@@ -72,6 +85,7 @@ def design(
     fs : sample rate in Hz.
     M : number of harmonics tracked (chooses the ``thesis-hplp`` low-pass cut-off).
     lp_cutoff, hp_cutoff : override the preset's cut-offs, in rad/s (Hz for ``paper-hp``).
+    omega_range : rad/s, the tracker's search range (needed by ``range``).
 
     Examples
     --------
@@ -93,6 +107,15 @@ def design(
         return np.vstack([hp, butter_sos("lowpass", _rad_to_hz(lp), fs, 1)])
     if preset == "paper-hp":
         return butter_sos("highpass", hp_cutoff or 8.0, fs, 2)
+    if preset == "range":
+        if omega_range is None:
+            raise ParameterError("pre-filter 'range' needs the search range omega_min..omega_max")
+        lo, hi = (float(w) for w in omega_range)
+        sos = butter_sos("highpass", _rad_to_hz(hp_cutoff or RANGE_HP * lo), fs, 4)
+        lp = _rad_to_hz(lp_cutoff or RANGE_LP * M * hi)
+        if lp < 0.4 * fs:
+            sos = np.vstack([sos, butter_sos("lowpass", lp, fs, 4)])
+        return sos
     raise ParameterError(f"unknown pre-filter '{preset}' (choose from: {', '.join(PRESETS)})")
 
 

@@ -139,7 +139,7 @@ def draw(cfg: RandomConfig, rng: np.random.Generator) -> dict:
     d["mount"] = mount
     d["accel_lsb"] = float(rng.choice([0.0, 0.0006, 0.0024, 0.0096]))
     d["accel_range"] = float(rng.choice([2.0, 4.0, 8.0, 16.0])) * G0
-    d["accel_noise"] = float(_loguniform(rng, 0.003, 0.03))
+    d["accel_noise"] = float(_loguniform(rng, 0.002, 0.012))
     return d
 
 

@@ -1,0 +1,87 @@
+"""Standstill from the broadband level (:mod:`vibrospeed.signal.standstill`)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vibrospeed.signal import standstill as ss
+
+FS = 100.0
+DT = 1.0 / FS
+
+
+def drive(rng, pattern, still_std=0.005, move_std=0.1, line=0.0):
+    """White noise at ``still_std`` where ``pattern`` is 0 and ``move_std`` where it is 1
+    (one entry per second), plus an optional line at 84 rad/s throughout (an idling engine)."""
+    s = np.repeat(np.asarray(pattern, float), int(FS))
+    x = rng.normal(0, 1, s.size) * np.where(s > 0, move_std, still_std)
+    t = np.arange(s.size) * DT
+    return x + line * np.sin(84.0 * t), s == 0
+
+
+def test_level_of_white_noise_matches_its_spectrum():
+    rng = np.random.default_rng(0)
+    sigma = 0.05
+    _, lev = ss.broadband_level(rng.normal(0, sigma, 60_000), DT, (10.0, 300.0))
+    # amplitude spectrum of white noise over N samples: sigma sqrt(6 / N) rms, and the median
+    # of an exponential power is ln 2 times its mean
+    expect = sigma * np.sqrt(6.0 / FS) * np.sqrt(np.log(2.0))
+    assert np.median(lev) == pytest.approx(expect, rel=0.05)
+
+
+def test_a_line_does_not_raise_the_level():
+    rng = np.random.default_rng(1)
+    x = rng.normal(0, 0.01, 20_000)
+    t = np.arange(x.size) * DT
+    _, a = ss.broadband_level(x, DT, (10.0, 300.0))
+    _, b = ss.broadband_level(x + 0.2 * np.sin(84.0 * t), DT, (10.0, 300.0))  # 26 dB
+    assert np.median(b) == pytest.approx(np.median(a), rel=0.2)
+
+
+def test_stops_found_offline_and_causally():
+    rng = np.random.default_rng(2)
+    pattern = [0] * 8 + [1] * 40 + [0] * 10 + [1] * 60 + [0] * 6 + [1] * 30
+    x, truth = drive(rng, pattern, line=0.05)
+    for causal in (False, True):
+        got = ss.standstill(x, DT, (10.0, 300.0), causal=causal)
+        inner = truth & (np.convolve(truth, np.ones(201), "same") >= 201)  # 1 s from motion
+        moving = ~truth
+        assert got[moving].mean() < 0.01
+        if causal:  # the first stop has nothing to compare with; the later ones are found
+            later = inner & (np.arange(x.size) > 48 * FS)
+            assert got[later].mean() > 0.9
+        else:
+            assert got[inner].mean() > 0.95
+
+
+def test_no_stop_no_standstill():
+    rng = np.random.default_rng(3)
+    x, _ = drive(rng, [1] * 120, move_std=0.1)
+    x *= np.repeat(rng.uniform(0.5, 1.5, 120), int(FS))  # speed changes, no stop
+    assert not ss.standstill(x, DT, (10.0, 300.0)).any()
+    assert not ss.standstill(x, DT, (10.0, 300.0), causal=True).any()
+
+
+@settings(max_examples=15, deadline=None)
+@given(cut=st.integers(min_value=3000, max_value=15000), seed=st.integers(0, 100))
+def test_causal_decisions_do_not_use_later_data(cut, seed):
+    rng = np.random.default_rng(seed)
+    x, _ = drive(rng, [1] * 60 + [0] * 20 + [1] * 70)
+    whole = ss.standstill(x, DT, (10.0, 300.0), causal=True)
+    part = ss.standstill(x[:cut], DT, (10.0, 300.0), causal=True)
+    np.testing.assert_array_equal(whole[:cut], part)
+
+
+def test_nan_frames_repeat_the_last_decision():
+    rng = np.random.default_rng(4)
+    x, truth = drive(rng, [1] * 40 + [0] * 20 + [1] * 40)
+    y = x.copy()
+    y[4500:5000] = np.nan  # inside the stop
+    got = ss.standstill(y, DT, (10.0, 300.0))
+    assert got[4200:5800].all()
+    assert not got[~truth].any()
+
+
+def test_short_input():
+    assert not ss.standstill(np.zeros(10), DT, (10.0, 300.0)).any()
