@@ -43,6 +43,19 @@ The harmonic EKF of :mod:`vibrospeed.estimators.ekf` extended with
   bandwidth stays that of q_amp / r.
   The gate stays closed until ``line_tau`` s of samples are in the running power.
   ``line_min = 0`` (default) is the thesis' filter.
+* broadband standstill (``standstill='broadband'``, the default of :func:`estimate`; not the
+  thesis'): a per-sample flag computed before the loop by
+  :mod:`vibrospeed.signal.standstill` on the vibration axis (whole log offline, causal with
+  ``causal=True``) and passed in as the input ``still``; standing samples get the omega = 0
+  measurement and are never in acceleration mode. The thesis' window test (absolute
+  mu = 0.019 m/s^2) and the CUSUM (absolute sigma 0.015 m/s^2) read a signal whose level varies
+  100x across vehicles and sensors; the broadband level is compared with the log's own floor.
+* comb check (the input ``comb``, :func:`comb_fixes`; not the thesis'): the speed of the
+  strongest harmonic comb in the last 3 s. When ``comb_count`` steady candidates in a row
+  (outside acceleration mode) disagree with omega by more than ``comb_rel``, omega is measured
+  as the candidate: the acquisition after a start and the way out of a lock on half (or twice)
+  the wheel speed. :func:`estimate` also removes the accelerometer's offset (mean of ``u``
+  while standing: gravity through a tilted mount, bias) before the mode detector reads it.
 * ``init_ref``: omega is unknown until the first reference fix or standstill measurement (start
   with a large ``p0_omega``); until then vibration updates do not touch omega, so the first fix
   sets it (a Kalman update from a prior of variance ``p0_omega``).
@@ -75,7 +88,7 @@ from vibrospeed.signal import detectors as det
 from vibrospeed.signal.detectors import _cusum_core, _mode_core, _window_core
 from vibrospeed.types import Recording, Track
 
-STANDSTILL_KINDS = {"none": 0, "window": 1, "cusum": 2}
+STANDSTILL_KINDS = {"none": 0, "window": 1, "cusum": 2, "broadband": 3}
 
 
 def _thesis_model() -> HarmonicModel:
@@ -99,7 +112,8 @@ class Config:
     q_bias : random-walk intensity of b, (m/s^2)^2/s. p0_bias : initial variance of b.
     q_omega_accel : omega random-walk intensity (rad/s)^2/s in acceleration mode, when the
         integrated acceleration drives omega (None: the model's q_omega).
-    standstill : 'window' (thesis 3.1), 'cusum' (thesis 4.2.3) or 'none'.
+    standstill : 'window' (thesis 3.1), 'cusum' (thesis 4.2.3), 'broadband' (the per-sample
+        ``still`` input, :func:`standstill_flags`; :func:`estimate`'s default) or 'none'.
     ss_window, ss_mu : window length (s) and threshold (m/s^2) of the window test (thesis: 20
         samples at 100 Hz = 0.2 s, 0.019); ``ss_n`` (samples) overrides the length when set.
         In seconds, so a 400 Hz log looks at the same 0.2 s: 20 samples there (0.05 s) read a
@@ -125,6 +139,11 @@ class Config:
         rotating slowly tracks the low-frequency content left by the high-pass (turns, body
         sway) and would "explain" it, pinning omega near 0 (seen on the Hungary drives).
     init_ref : omega unknown until the first fix / standstill measurement (module docstring).
+    comb_count, comb_rel : comb check (the ``comb`` input, :func:`comb_fixes`): after
+        ``comb_count`` steady comb candidates in a row (outside acceleration mode) that differ
+        from omega by more than ``comb_rel`` of the candidate, omega is measured as the
+        candidate with std ``comb_rel / 2`` of it (acquisition, re-lock from half or twice the
+        wheel speed).
     """
 
     model: HarmonicModel = field(default_factory=_thesis_model)
@@ -154,6 +173,8 @@ class Config:
     line_tau: float = 2.0
     line_omega_min: float = 5.0
     init_ref: bool = False
+    comb_count: int = 2
+    comb_rel: float = 0.1
 
     def __post_init__(self) -> None:
         if not (self.wheel_radius and self.wheel_radius > 0):
@@ -169,6 +190,10 @@ class Config:
             raise ParameterError(f"line_min must be in [0, 1), got {self.line_min}")
         if not self.line_tau > 0:
             raise ParameterError(f"line_tau must be > 0 s, got {self.line_tau}")
+        if int(self.comb_count) != self.comb_count or self.comb_count < 1:
+            raise ParameterError(f"comb_count must be a positive integer, got {self.comb_count}")
+        if not self.comb_rel > 0:
+            raise ParameterError(f"comb_rel must be > 0, got {self.comb_rel}")
         for name in ("q_bias", "omega0"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
@@ -216,9 +241,9 @@ class State(NamedTuple):
     """Prior for the next sample plus the detectors' states.
 
     x (2+2M,) ``[omega, alpha_1, beta_1, ..., b]``, P (2+2M, 2+2M), window / cusum / mode:
-    detector states (:mod:`vibrospeed.signal.detectors`); line (4,): [running mean of the
+    detector states (:mod:`vibrospeed.signal.detectors`); line (6,): [running mean of the
     EKF input's square, samples in it, 1.0 once omega is known (``init_ref``), running mean
-    of the explained share].
+    of the explained share, comb candidates in a row disagreeing with omega, last candidate].
     """
 
     x: np.ndarray
@@ -259,7 +284,7 @@ def init(config: Config) -> State:
     P = np.eye(n) * m.p0_amp
     P[0, 0] = config.p0_omega
     P[-1, -1] = config.p0_bias
-    line = np.array([0.0, 0.0, 0.0 if config.init_ref else 1.0, 0.0])
+    line = np.array([0.0, 0.0, 0.0 if config.init_ref else 1.0, 0.0, 0.0, 0.0])
     return State(x, P, det.window_init(config.ss_len), det.cusum_init(),
                  det.mode_init(config.mode_len), line)
 
@@ -293,9 +318,12 @@ def _vib_update(x, P, y, M, r, lock):
 
 
 @njit(cache=True)
-def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc, mflag, line,
-                M, ss_kind, boost_n, flags, fp, out):
-    """One sample in place. ``flags`` int: [boost_on, aid_always, cusum_hold];
+def _aided_step(x, P, y, u, gain, ref, ref_var, still, comb, wbuf, wpc, wflag, cgs, mbuf, mpc,
+                mflag, line, M, ss_kind, boost_n, flags, fp, out):
+    """One sample in place. ``still``: the external standstill flag (> 0.5 standing; read with
+    ``ss_kind`` 3); ``comb``: the comb's omega candidate (NaN: none this sample), a fix when
+    omega has disagreed with it by more than ``fp[18]`` (relative) ``fp[17]`` candidates in a
+    row. ``flags`` int: [boost_on, aid_always, cusum_hold];
     ``fp``: [T, q_om, q_om_acc, q_amp, r, r_wheel, q_b, om_max, ss_mu, r_ss, c_sigma, c_nu,
     c_h, mode_mu, line_min, line_tau, line_omega_min]; ``line`` [power, count, known]."""
     T = fp[0]
@@ -313,6 +341,13 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
     ss = False
     if ss_kind == 1:
         ss = _window_core(wbuf, wpc, wflag, y, fp[8])
+    ext = ss_kind == 3 and still > 0.5  # NaN: no decision, moving
+    if ext:
+        # a vehicle whose broadband vibration sits at its floor stands: what the mode detector
+        # reads then is the accelerometer's offset, not a speed change
+        ss = True
+        acc = False
+        boost = False
     # ---- boost (thesis eq. 3.15) -------------------------------------------------------------
     if boost and flags[0] == 1:
         x[0] += boost_n * T * ubar / rw
@@ -354,10 +389,24 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
         _cusum_core(cgs, eps, fp[11], fp[12])
         ss = cgs[1] <= flags[2]
     # ---- virtual standstill measurement omega = 0 (thesis eq. 3.4-3.6) ----------------------
-    ss = ss and not acc  # a vehicle in acceleration mode is not standing still
+    ss = ss and not acc  # a vehicle in acceleration mode is not standing still (thesis tests)
     if ss:
         _scalar_update(x, P, 0, 0.0, fp[9])
         line[2] = 1.0
+    # ---- comb check: re-lock where omega has left the wheel's comb ---------------------------
+    if np.isfinite(comb) and comb > 0.0 and not ss:
+        # a candidate counts when it is steady (agrees with the previous one) and the vehicle
+        # is not in acceleration mode (a 3 s frame lags a speed change)
+        steady = abs(comb - line[5]) <= 0.5 * fp[18] * comb
+        line[5] = comb
+        if abs(x[0] - comb) > fp[18] * comb and steady and not acc:
+            line[4] += 1.0
+        else:
+            line[4] = 0.0
+        if line[4] >= fp[17]:
+            _scalar_update(x, P, 0, comb, (0.5 * fp[18] * comb) ** 2)
+            line[2] = 1.0
+            line[4] = 0.0
     # ---- reference-speed fix (thesis 4.2.4) ------------------------------------------------
     if np.isfinite(ref) and np.isfinite(ref_var) and ref_var > 0.0:
         _scalar_update(x, P, 0, ref, ref_var)
@@ -405,14 +454,15 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, wbuf, wpc, wflag, cgs, mbuf, mpc
 
 
 @njit(cache=True)
-def _aided_run(ys, us, gains, refs, ref_vars, x, P, wbuf, wpc, wflag, cgs, mbuf, mpc, mflag,
-               line, M, ss_kind, boost_n, flags, fp):
+def _aided_run(ys, us, gains, refs, ref_vars, stills, combs, x, P, wbuf, wpc, wflag, cgs, mbuf,
+               mpc, mflag, line, M, ss_kind, boost_n, flags, fp):
     n_s = ys.size
     outs = np.empty((n_s, N_OUT + M))
     out = np.empty(N_OUT + M)
     for k in range(n_s):
-        _aided_step(x, P, ys[k], us[k], gains[k], refs[k], ref_vars[k], wbuf, wpc, wflag, cgs,
-                    mbuf, mpc, mflag, line, M, ss_kind, boost_n, flags, fp, out)
+        _aided_step(x, P, ys[k], us[k], gains[k], refs[k], ref_vars[k], stills[k], combs[k],
+                    wbuf, wpc,
+                    wflag, cgs, mbuf, mpc, mflag, line, M, ss_kind, boost_n, flags, fp, out)
         outs[k] = out
     return outs
 
@@ -423,7 +473,8 @@ def _args(config: Config) -> tuple:
     fp = np.array([m.dt, m.q_omega, q_acc, m.q_amp, m.r, config.wheel_radius, config.q_bias,
                    config.omega_limit, config.ss_mu, config.r_ss, config.cusum_sigma,
                    config.cusum_nu, config.cusum_threshold, config.mode_mu, config.line_min,
-                   config.line_tau, config.line_omega_min])
+                   config.line_tau, config.line_omega_min, config.comb_count,
+                   config.comb_rel])
     boost_on = 1 if (config.boost and not config.aid_always) else 0
     flags = np.array([boost_on, 1 if config.aid_always else 0,
                       det.cusum_hold(config.cusum_threshold, config.cusum_nu)], dtype=np.int64)
@@ -452,6 +503,8 @@ def step(
     gain: float = 1.0,
     ref: float = np.nan,
     ref_var: float = np.nan,
+    still: float = np.nan,
+    comb: float = np.nan,
 ) -> tuple[State, Estimate]:
     """Process one sample.
 
@@ -459,11 +512,16 @@ def step(
     u : longitudinal acceleration a_x in m/s^2 (NaN: no aiding on this sample).
     gain : factor applied to ``y`` before the EKF update (running-RMS normalisation; 1 = off).
     ref, ref_var : an omega fix (rad/s) and its variance ((rad/s)^2); NaN: none.
+    still : the standstill decision for this sample (1 standing, 0 or NaN moving), read with
+        ``standstill='broadband'`` (:func:`standstill_flags` computes it).
+    comb : the harmonic comb's omega candidate (rad/s; NaN: none), :func:`comb_fixes`; after
+        ``comb_count`` candidates in a row that disagree with omega by more than ``comb_rel``
+        of the candidate, omega is measured as the candidate (std ``comb_rel / 2`` of it).
     """
     a = _unpack(state)
     out = np.empty(N_OUT + config.model.M)
-    _aided_step(a[0], a[1], float(y), float(u), float(gain), float(ref), float(ref_var), *a[2:],
-                *_args(config), out)
+    _aided_step(a[0], a[1], float(y), float(u), float(gain), float(ref), float(ref_var),
+                float(still), float(comb), *a[2:], *_args(config), out)
     return _pack(a), _estimate(out)
 
 
@@ -515,16 +573,150 @@ def run(
     gain: np.ndarray | None = None,
     ref: np.ndarray | None = None,
     ref_var: np.ndarray | None = None,
+    still: np.ndarray | None = None,
+    comb: np.ndarray | None = None,
     state: State | None = None,
 ) -> Result:
     """Run over whole signals (see :func:`step` for the inputs); identical to repeated step."""
     y = np.ascontiguousarray(y, dtype=np.float64)
     n = y.size
     u, gain, ref, ref_var = input_arrays(n, u, gain, ref, ref_var)
+    extra = []
+    for name, v in (("still", still), ("comb", comb)):
+        v = np.full(n, np.nan) if v is None else np.ascontiguousarray(v, dtype=np.float64)
+        if v.shape != (n,):
+            raise InputError(f"aided.run: '{name}' has shape {v.shape}, expected ({n},) like y")
+        extra.append(v)
     a = _unpack(init(config) if state is None else state)
-    o = _aided_run(y, u, gain, ref, ref_var, *a, *_args(config))
+    o = _aided_run(y, u, gain, ref, ref_var, *extra, *a, *_args(config))
     return Result(o[:, 0], o[:, 1], o[:, 2], o[:, 3] > 0.5, o[:, 4] > 0.5, o[:, 5] > 0.5,
                   o[:, 6], o[:, 7], o[:, 8], o[:, 9], o[:, 10] > 0.5, o[:, N_OUT:], _pack(a))
+
+
+
+# ---------------------------------------------------------------------------------------------
+#: rad/s, lower edge of the broadband standstill band when no search range is given (2 Hz: the
+#: body motion and manoeuvres of a vehicle lie below, the road's broadband vibration above)
+BROADBAND_LO = 4.0 * np.pi
+
+
+def standstill_band(dt: float, M: int, omega_min: float | None = None,
+                    omega_max: float | None = None) -> tuple[float, float]:
+    """rad/s band of the broadband standstill level: the search range ``omega_min`` up to
+    ``M omega_max`` (each clipped to Nyquist); without a range, 2 Hz up to Nyquist."""
+    del M, omega_min, omega_max  # the road's broadband level, not the wheel's band
+    nyq = np.pi / dt
+    return min(BROADBAND_LO, 0.5 * nyq), nyq
+
+
+def standstill_flags(x: np.ndarray, dt: float, band: tuple[float, float], *,
+                     causal: bool = False) -> np.ndarray:
+    """Per-sample standstill flags (float 0/1) of the raw vibration axis ``x``: the broadband
+    level of :mod:`vibrospeed.signal.standstill` on ``x`` high-passed below ``band`` (whole-log
+    decision by default, ``causal=True`` as a device would decide). Fed to :func:`run` as
+    ``still`` with ``standstill='broadband'``."""
+    from vibrospeed.signal import prefilter as pf
+    from vibrospeed.signal import standstill as ss
+
+    x = np.asarray(x, dtype=np.float64)
+    lo, hi = band
+    sos = pf.design("range", 1.0 / dt, M=1, omega_range=(lo, hi))
+    return ss.standstill(pf.apply(sos, x), dt, band, causal=causal).astype(np.float64)
+
+
+def standstill_offset(u: np.ndarray, still: np.ndarray, *, causal: bool = False) -> np.ndarray:
+    """Per-sample offset of the longitudinal accelerometer: its mean over the samples flagged
+    standing (gravity leaking in through a tilted mount, the sensor's bias). Offline one value,
+    the mean over every standing sample (over all samples when none stands); causally the
+    mean over the standing samples so far, and before the first one the mean of all samples so
+    far (a drive starts at rest more often than not). NaN samples are skipped."""
+    u = np.asarray(u, dtype=np.float64)
+    fin = np.isfinite(u)
+    st = (np.asarray(still) > 0.5) & fin
+    if not causal:
+        sel = st if st.any() else fin
+        val = float(np.mean(u[sel])) if sel.any() else 0.0
+        return np.full(u.size, val)
+    uz = np.where(fin, u, 0.0)
+    n_all = np.cumsum(fin)
+    m_all = np.cumsum(uz) / np.maximum(n_all, 1)
+    n_st = np.cumsum(st)
+    m_st = np.cumsum(np.where(st, uz, 0.0)) / np.maximum(n_st, 1)
+    return np.where(n_st > 0, m_st, np.where(n_all > 0, m_all, 0.0))
+
+
+
+#: comb check (acquisition and re-lock): frame length (s), hop (s), harmonics and their weights
+COMB_FRAME_S = 3.0
+COMB_HOP_S = 0.25
+COMB_M = 3
+COMB_DECAY = 0.84  # subharmonic-summation weight per harmonic (Hermes 1988)
+COMB_OMEGA_MIN = 2.0 * np.pi  # rad/s, lowest wheel speed the comb check looks for
+
+
+def comb_fixes(x: np.ndarray, dt: float, omega_range: tuple[float, float], *,
+               still: np.ndarray | None = None, clarity: float = 3.0,
+               rel_std: float = 0.05) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Omega fixes from the harmonic comb: ``(ref, ref_var, score)`` per sample (NaN: none).
+
+    Every ``COMB_HOP_S`` a ``COMB_FRAME_S`` Hann frame *ending* at that sample (causal) gets the
+    weighted harmonic sum ``S(w) = sum_m d^(m-1) |X(m w)|`` (m = 1..3, d = 0.84, harmonics
+    above Nyquist folded) on a log grid over ``omega_range``; where the best ``S`` is at least
+    ``clarity`` times its median over the range (a comb stands out of the floor: the ratio
+    does not depend on the signal's scale), the argmax is a fix with std ``rel_std`` of it.
+    The decaying weights make the wheel speed beat half of it (whose sum holds the fundamental
+    only at its 2nd place). No fixes in frames with a standing sample. ``score`` is the ratio.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    n = x.size
+    ref = np.full(n, np.nan)
+    var = np.full(n, np.nan)
+    score = np.full(n, np.nan)
+    L = int(round(COMB_FRAME_S / dt))
+    hop = max(1, int(round(COMB_HOP_S / dt)))
+    if n < L or L < 8:
+        return ref, var, score
+    lo, hi = (float(w) for w in omega_range)
+    nyq = np.pi / dt
+    hi = min(hi, nyq)
+    if not hi > lo > 0:
+        return ref, var, score
+    nfft = 1 << int(np.ceil(np.log2(4 * L)))
+    grid = np.exp(np.linspace(np.log(lo), np.log(hi), 400))
+    binw = 2 * np.pi / (nfft * dt)
+    ends = np.arange(L - 1, n, hop)
+    fin = np.isfinite(x)
+    xz = np.where(fin, x, 0.0)
+    win = np.hanning(L)
+    idx = []
+    wts = []
+    for m in range(1, COMB_M + 1):
+        w = np.abs((m * grid + nyq) % (2 * nyq) - nyq)
+        idx.append(w / binw)
+        wts.append(COMB_DECAY ** (m - 1))
+    st = np.zeros(n, bool) if still is None else np.asarray(still) > 0.5
+    st_cum = np.concatenate(([0], np.cumsum(st)))
+    fin_cum = np.concatenate(([0], np.cumsum(fin)))
+    for chunk in np.array_split(ends, max(1, ends.size // 256)):
+        if chunk.size == 0:
+            continue
+        frames = np.lib.stride_tricks.sliding_window_view(xz, L)[chunk - L + 1]
+        frames = frames - frames.mean(axis=1, keepdims=True)
+        mag = np.abs(np.fft.rfft(frames * win, nfft, axis=1))
+        S = np.zeros((chunk.size, grid.size))
+        for fi, wt in zip(idx, wts, strict=True):
+            i0 = np.minimum(np.floor(fi).astype(int), mag.shape[1] - 2)
+            fr = fi - i0
+            S += wt * (mag[:, i0] * (1 - fr) + mag[:, i0 + 1] * fr)
+        best = np.argmax(S, axis=1)
+        ratio = S[np.arange(chunk.size), best] / np.maximum(np.median(S, axis=1), 1e-300)
+        ok = ((st_cum[chunk + 1] - st_cum[chunk - L + 1]) == 0) & \
+             ((fin_cum[chunk + 1] - fin_cum[chunk - L + 1]) >= L // 2) & (ratio >= clarity)
+        om = grid[best]
+        score[chunk] = ratio
+        ref[chunk[ok]] = om[ok]
+        var[chunk[ok]] = (rel_std * om[ok]) ** 2
+    return ref, var, score
 
 
 def omega_shift(config: Config, u: float, bias: float, accelerating: bool) -> float:
@@ -538,6 +730,13 @@ def omega_shift(config: Config, u: float, bias: float, accelerating: bool) -> fl
 
 
 # ---------------------------------------------------------------------------------------------
+def _flag(v) -> bool:
+    """A boolean parameter given as bool, number or text ('true', '1', 'yes')."""
+    if isinstance(v, str):
+        return v.strip().lower() in ("1", "true", "yes", "on")
+    return bool(v)
+
+
 def _channel(recording: Recording, spec: str) -> np.ndarray:
     """'ax', 'x', '-ay' (negated)... -> channel values."""
     from vibrospeed.estimators.common import axis_channel
@@ -631,6 +830,13 @@ def estimate(
     harmonic-comb evidence); the grid trackers go to
     :func:`vibrospeed.estimators.aided_grid.estimate`.
 
+    Defaults not in the thesis (issue 13; docs/aided.md): ``standstill='broadband'`` (the
+    broadband-level detector on the vibration axis, whole-log; ``causal=True`` for the causal
+    detector, as a device would run it; 'window' / 'cusum' are the thesis' tests);
+    ``accel_offset='standstill'`` (the mean of a_x while standing is removed from it; 'none'
+    keeps a_x as it is); ``comb`` (default True: the comb check of :func:`comb_fixes` with
+    ``comb_clarity`` 3) over ``omega_min`` (rad/s, default 2 pi) .. ``omega_max``.
+
     The wheel radius comes from ``wheel_radius`` or ``recording.wheel_radius``.
     """
     from vibrospeed.estimators.common import axis_channel, check_uniform, split_params, start_level
@@ -664,6 +870,15 @@ def estimate(
     reference = str(cfg_kw.pop("reference", "none"))
     wheelbase = cfg_kw.pop("wheelbase", None)
     detrend = float(cfg_kw.pop("accel_detrend", 0.0))
+    causal = _flag(cfg_kw.pop("causal", False))
+    offset_kind = str(cfg_kw.pop("accel_offset", "standstill"))
+    if offset_kind not in ("standstill", "none"):
+        raise ParameterError(f"accel_offset must be 'standstill' or 'none', got '{offset_kind}'")
+    om_min = cfg_kw.pop("omega_min", None)
+    om_min = None if om_min in (None, "", "none") else float(om_min)
+    cfg_kw.setdefault("standstill", "broadband")
+    cfg_kw_comb = cfg_kw.pop("comb", True)
+    comb_clarity = float(cfg_kw.pop("comb_clarity", 3.0))
     dt = check_uniform(recording)
     defaults = _thesis_model().to_dict()
     if tau > 0:  # unit-power signal: the EKF's defaults for normalised input
@@ -680,18 +895,53 @@ def estimate(
     vib_name = axis_channel(axis)
     recording.require(vib_name)
     x = recording.channel(vib_name)
-    sos = pf.design(pre, 1.0 / dt, M=model.M, lp_cutoff=lp)
+    rng = None
+    if pre == "range":
+        if om_min is None or config.omega_max is None:
+            raise ParameterError("pre-filter 'range' needs omega_min and omega_max")
+        rng = (om_min, config.omega_max)
+    sos = pf.design(pre, 1.0 / dt, M=model.M, lp_cutoff=lp, omega_range=rng)
     y = pf.apply(sos, x, level=start_level(x, dt))
     u, ref, ref_var, more = aiding_inputs(recording, dt, float(r), accel_axis=accel_axis,
                                           detrend=detrend, reference=reference,
                                           wheelbase=wheelbase)
-    notes = [f"pre-filter '{pre}' on '{vib_name}' at fs = {1 / dt:.4g} Hz",
-             f"standstill test '{config.standstill}'", *more]
+    still = None
+    notes = [f"pre-filter '{pre}' on '{vib_name}' at fs = {1 / dt:.4g} Hz"]
+    if config.standstill == "broadband":
+        band = standstill_band(dt, model.M, om_min, config.omega_max)
+        still = standstill_flags(x, dt, band, causal=causal)
+        notes.append(f"standstill: broadband vibration level at its floor "
+                     f"({'causal' if causal else 'whole-log'} detector, band "
+                     f"{band[0]:.3g}-{band[1]:.3g} rad/s), on {100 * still.mean():.1f} % of "
+                     "the samples")
+    else:
+        notes.append(f"standstill test '{config.standstill}'")
+    notes += more
+    comb = _flag(cfg_kw_comb)
+    c_om = None
+    if comb:
+        # below 1 Hz the comb would pick the body's sway and the manoeuvres
+        c_rng = (max(om_min or 0.0, COMB_OMEGA_MIN), config.omega_limit)
+        band = standstill_band(dt, model.M, c_rng[0], c_rng[1])
+        sos_c = pf.design("range", 1.0 / dt, M=1, omega_range=band)
+        c_om, _, _ = comb_fixes(pf.apply(sos_c, x), dt, c_rng, still=still,
+                                clarity=comb_clarity)
+        notes.append(f"comb check: {np.isfinite(c_om).sum()} candidates from the harmonic comb "
+                     f"({COMB_FRAME_S:g} s frames every {COMB_HOP_S:g} s, clarity >= "
+                     f"{comb_clarity:g}, range {c_rng[0]:.3g}-{c_rng[1]:.3g} rad/s); omega is "
+                     f"reset to it after {config.comb_count} disagreeing by > "
+                     f"{100 * config.comb_rel:g} % in a row")
+    if offset_kind == "standstill":
+        flags = still if still is not None else np.zeros(u.size)
+        off = standstill_offset(u, flags, causal=causal)
+        u = u - off
+        notes.append(f"'{accel_axis}' offset removed: its mean while standing "
+                     f"({'running' if causal else 'whole log'}; {off[-1]:.3g} m/s^2 at the end)")
     gain = None
     if tau > 0:
         gain = running_gain(y, dt, tau)
         notes.append(f"EKF input normalised by a running RMS (tau = {tau:g} s)")
-    res = run(config, y, u, gain=gain, ref=ref, ref_var=ref_var)
+    res = run(config, y, u, gain=gain, ref=ref, ref_var=ref_var, still=still, comb=c_om)
     extras = {f"amp{m + 1}": res.amplitudes[:, m] for m in range(model.M)}
     extras.update(
         standstill=res.standstill.astype(np.float64),
@@ -711,6 +961,7 @@ def estimate(
         "ss_n": config.ss_len, "mode_n": config.mode_len,
         "omega_max": config.omega_limit, "wheel_radius": float(r),
         "prefilter": pre, "lp_cutoff": lp, "normalize_tau": tau, "accel_detrend": detrend,
+        "accel_offset": offset_kind, "causal": causal, "omega_min": om_min,
         "axis": axis,
         "accel_axis": accel_axis, "reference": reference, "tracker": "ekf"}
     return Track.from_omega(recording.t, res.omega, res.omega_std, wheel_radius=float(r),
