@@ -709,23 +709,24 @@ def estimate(
 
 def with_standstill(track: Track, recording: Recording, axis: str, config: Config, *,
                     causal: bool) -> Track:
-    """``track`` with the vehicle's stops: where the broadband vibration sits at its floor
-    (:mod:`vibrospeed.signal.standstill`, on the tracked axis high-passed below the search
-    range), omega and its band are 0, ``has_signal`` 0 and the extra ``standstill`` 1; causal
-    filters use the causal detector. The tracker's "no line" state is not asked: an idling
-    engine's orders 1 and 2 make a comb at a standstill, and where the broadband level
-    misleads (a slow roll near the floor) the comb is as weak (family: no fewer false stops,
-    2.4 points fewer stops found)."""
+    """``track`` with the vehicle's stops: where the broadband vibration and the body motion
+    sit at their floors on the tracked axis and on every other accelerometer axis of the
+    recording (:mod:`vibrospeed.signal.standstill`), omega and its band are 0, ``has_signal``
+    0 and the extra ``standstill`` 1; causal filters use the causal detector. The tracker's
+    "no line" state is not asked: an idling engine's orders 1 and 2 make a comb at a
+    standstill, and where the vibration misleads (a slow roll near the floor) the comb is as
+    weak."""
     from vibrospeed.estimators.common import axis_channel
-    from vibrospeed.signal import prefilter as pf
     from vibrospeed.signal import standstill as ss
 
     tr = config.tracker
     fs = 1.0 / tr.model.dt
     band = (tr.omega_min, min(tr.model.M * tr.omega_max, np.pi * fs))
-    x = recording.channel(axis_channel(axis))
-    sos = pf.design("range", fs, M=tr.model.M, omega_range=(tr.omega_min, tr.omega_max))
-    still = ss.standstill(pf.apply(sos, x), tr.model.dt, band, causal=causal)
+    chans = [axis_channel(axis)] + [c for c in ("ax", "ay", "az")
+                                    if c != axis_channel(axis) and c in recording
+                                    and np.isfinite(recording.channel(c)).any()]
+    X = np.column_stack([recording.channel(c) for c in chans])
+    still = ss.standstill(X, tr.model.dt, band, causal=causal)
     track.extras["standstill"] = still.astype(np.float64)
     if still.any():
         for name in ("omega", "omega_std", "omega_lo", "omega_hi", "speed", "speed_std",
@@ -734,7 +735,7 @@ def with_standstill(track: Track, recording: Recording, axis: str, config: Confi
             arr[still & np.isfinite(arr)] = 0.0
         track.extras["has_signal"][still] = 0.0
         share = still.mean()
-        track.notes.append(f"standstill on {100 * share:.1f} % of the samples (broadband "
-                           f"vibration at its floor; {'causal' if causal else 'whole-log'} "
-                           "detector): omega = 0 there")
+        track.notes.append(f"standstill on {100 * share:.1f} % of the samples (vibration and "
+                           f"body motion at their floors on {', '.join(chans)}; "
+                           f"{'causal' if causal else 'whole-log'} detector): omega = 0 there")
     return track

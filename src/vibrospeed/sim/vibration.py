@@ -120,6 +120,9 @@ class VibrationConfig:
     """Road excitation grows as (v/v_ref)^road_gamma."""
     road_floor: float = 0.0
     """Excitation of the body resonances at standstill (engine idling), in road-level units."""
+    idle_noise: float = 0.0
+    """m/s^2 std of broadband noise present whether moving or not (an idling engine's shaking)
+    on an axis of gain 1."""
     engine: EngineConfig | None = None
     """Engine-order line; None for vehicles without an engine (the cart)."""
     aa_cutoff: float = 0.45
@@ -147,7 +150,7 @@ class VibrationConfig:
             if not getattr(self, name) > 0:
                 raise ParameterError(f"vibration.{name} must be > 0, got {getattr(self, name)}")
         for name in ("gamma", "road_gamma", "amp_log_std", "resonance_amp", "road_noise",
-                     "phase_jitter"):
+                     "phase_jitter", "idle_noise"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"vibration.{name} must be >= 0, got {getattr(self, name)}")
         lo, hi = self.fade_duration
@@ -266,7 +269,7 @@ def vibration(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, speed: np.nda
     M = cfg.M
     gains = np.asarray(cfg.axis_gain, dtype=np.float64)
     moving = float(np.sum(speed > 0) * dt)
-    streams = rng.spawn(7)
+    streams = rng.spawn(8)
 
     # wheel harmonics -----------------------------------------------------------------------
     m = np.arange(1, M + 1, dtype=np.float64)
@@ -323,6 +326,8 @@ def vibration(t: np.ndarray, theta: np.ndarray, omega: np.ndarray, speed: np.nda
             acc += cfg.resonance_amp * gains[:, None] * res_level[None, :] * b
     if cfg.road_noise > 0:
         acc += cfg.road_noise * gains[:, None] * level[None, :] * rs.standard_normal((3, n))
+    if cfg.idle_noise > 0:
+        acc += cfg.idle_noise * gains[:, None] * streams[7].standard_normal((3, n))
     lf = np.asarray(cfg.lowfreq_std, dtype=np.float64)
     if np.any(lf > 0):
         if not cfg.lowfreq_cutoff < fs / 2:
