@@ -52,11 +52,15 @@ def _stop_latency(rec, omega, tol=0.1):
 
 NO_AID = {"standstill": "none", "mode_mu": 1e9, "boost": False, "q_bias": 0.0,
           "p0_bias": 1e-300}
+#: the thesis' tracker (the defaults of aided.estimate before issue 13: window test, a_x as
+#: recorded, no comb check)
+THESIS = {"standstill": "window", "accel_offset": "none", "comb": False}
 VARIANTS = {
-    "aided (window, thesis)": {},
-    "aided (CUSUM)": {"standstill": "cusum"},
-    "aided (window, aid_always)": {"aid_always": True},
-    "same kernel, no aiding": NO_AID,
+    "aided (window, thesis)": THESIS,
+    "aided (defaults: broadband standstill, a_x offset, comb check)": {},
+    "aided (CUSUM)": {**THESIS, "standstill": "cusum"},
+    "aided (window, aid_always)": {**THESIS, "aid_always": True},
+    "same kernel, no aiding": {**THESIS, **NO_AID},
     "aided RBPMF (window, -p tracker=rbpmf)": {"tracker": "rbpmf"},
     "aided grid (window, -p tracker=grid)": {"tracker": "grid"},
 }
@@ -138,11 +142,12 @@ def _gps_stats(t, v, gps):
 
 HUNGARY_BASE = {"normalize_tau": 5.0, "prefilter": "thesis-hp"}
 HUNGARY = {
-    "aided EKF (thesis scheme)": HUNGARY_BASE,
-    "aided EKF, detrended + turn fixes": {**HUNGARY_BASE, "accel_detrend": 60.0,
+    "aided EKF (thesis scheme)": {**HUNGARY_BASE, **THESIS},
+    "aided EKF (defaults: broadband standstill, a_x offset, comb check)": HUNGARY_BASE,
+    "aided EKF, detrended + turn fixes": {**HUNGARY_BASE, **THESIS, "accel_detrend": 60.0,
                                           "reference": "turn"},
     "aided EKF, detrended + turn fixes, init from 1st fix, line gate, aid_always": {
-        **HUNGARY_BASE, "accel_detrend": 60.0, "reference": "turn", "init_ref": True,
+        **HUNGARY_BASE, **THESIS, "accel_detrend": 60.0, "reference": "turn", "init_ref": True,
         "p0_omega": 1e4, "line_min": 0.5, "aid_always": True},
     "aided RBPMF, detrended + turn fixes": {
         "tracker": "rbpmf", "accel_detrend": 60.0, "reference": "turn", "prefilter": "thesis-hp",

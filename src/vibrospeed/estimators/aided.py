@@ -74,6 +74,7 @@ applies (see docs/aided.md).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -404,6 +405,14 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, still, comb, wbuf, wpc, wflag, c
         else:
             line[4] = 0.0
         if line[4] >= fp[17]:
+            # the phasors belong to the old rotation (at half the wheel speed the line sits
+            # in phasor 2 and would pull omega back): they restart, uncorrelated
+            for i in range(1, n - 1):
+                x[i] = 0.0
+                for j in range(n):
+                    P[i, j] = 0.0
+                    P[j, i] = 0.0
+                P[i, i] = fp[19]
             _scalar_update(x, P, 0, comb, (0.5 * fp[18] * comb) ** 2)
             line[2] = 1.0
             line[4] = 0.0
@@ -474,7 +483,7 @@ def _args(config: Config) -> tuple:
                    config.omega_limit, config.ss_mu, config.r_ss, config.cusum_sigma,
                    config.cusum_nu, config.cusum_threshold, config.mode_mu, config.line_min,
                    config.line_tau, config.line_omega_min, config.comb_count,
-                   config.comb_rel])
+                   config.comb_rel, m.p0_amp])
     boost_on = 1 if (config.boost and not config.aid_always) else 0
     flags = np.array([boost_on, 1 if config.aid_always else 0,
                       det.cusum_hold(config.cusum_threshold, config.cusum_nu)], dtype=np.int64)
@@ -595,33 +604,32 @@ def run(
 
 
 # ---------------------------------------------------------------------------------------------
-#: rad/s, lower edge of the broadband standstill band when no search range is given (2 Hz: the
-#: body motion and manoeuvres of a vehicle lie below, the road's broadband vibration above)
-BROADBAND_LO = 4.0 * np.pi
+#: rad/s, lower edge of the standstill detector's band when no search range is given (the
+#: lowest wheel speed of the family's slow vehicles)
+BROADBAND_LO = 2.0
 
 
 def standstill_band(dt: float, M: int, omega_min: float | None = None,
                     omega_max: float | None = None) -> tuple[float, float]:
-    """rad/s band of the broadband standstill level: the search range ``omega_min`` up to
-    ``M omega_max`` (each clipped to Nyquist); without a range, 2 Hz up to Nyquist."""
-    del M, omega_min, omega_max  # the road's broadband level, not the wheel's band
+    """rad/s band of the standstill detector (:func:`vibrospeed.signal.standstill.standstill`
+    reads it as the search band): ``omega_min`` (default 2 rad/s) up to ``M omega_max`` (default
+    Nyquist), clipped to Nyquist."""
     nyq = np.pi / dt
-    return min(BROADBAND_LO, 0.5 * nyq), nyq
+    lo = BROADBAND_LO if omega_min is None else float(omega_min)
+    hi = nyq if omega_max is None else min(nyq, M * float(omega_max))
+    return min(lo, 0.5 * hi), hi
 
 
 def standstill_flags(x: np.ndarray, dt: float, band: tuple[float, float], *,
                      causal: bool = False) -> np.ndarray:
-    """Per-sample standstill flags (float 0/1) of the raw vibration axis ``x``: the broadband
-    level of :mod:`vibrospeed.signal.standstill` on ``x`` high-passed below ``band`` (whole-log
-    decision by default, ``causal=True`` as a device would decide). Fed to :func:`run` as
-    ``still`` with ``standstill='broadband'``."""
-    from vibrospeed.signal import prefilter as pf
+    """Per-sample standstill flags (float 0/1) from the raw accelerometer axis ``x`` (n,) or
+    axes (n, A): :func:`vibrospeed.signal.standstill.standstill` (whole-log decision by
+    default, ``causal=True`` as a device would decide). Fed to :func:`run` as ``still`` with
+    ``standstill='broadband'``."""
     from vibrospeed.signal import standstill as ss
 
     x = np.asarray(x, dtype=np.float64)
-    lo, hi = band
-    sos = pf.design("range", 1.0 / dt, M=1, omega_range=(lo, hi))
-    return ss.standstill(pf.apply(sos, x), dt, band, causal=causal).astype(np.float64)
+    return ss.standstill(x, dt, band, causal=causal).astype(np.float64)
 
 
 def standstill_offset(u: np.ndarray, still: np.ndarray, *, causal: bool = False) -> np.ndarray:
@@ -890,6 +898,14 @@ def estimate(
     model = config_from_params(HarmonicModel, model_kw, **defaults)
     config = config_from_params(Config, cfg_kw, model=model, wheel_radius=float(r))
     src = recording.source or "recording"
+    nyq_note = None
+    if config.omega_max is not None and om_min is not None \
+            and model.M * config.omega_max >= np.pi / dt:
+        # a search range given with omega_min (as to the grid trackers): its top is clipped to
+        # what the sample rate allows instead of refused
+        nyq_note = (f"omega_max {config.omega_max:g} rad/s above what {1 / dt:g} Hz allows for "
+                    f"M = {model.M}: clipped to {model.omega_clip(None):.4g} rad/s")
+        config = dataclasses.replace(config, omega_max=None)
     if config.omega_max is not None:
         check_nyquist(1.0 / dt, model.M, config.omega_max, src)
     vib_name = axis_channel(axis)
@@ -909,7 +925,11 @@ def estimate(
     notes = [f"pre-filter '{pre}' on '{vib_name}' at fs = {1 / dt:.4g} Hz"]
     if config.standstill == "broadband":
         band = standstill_band(dt, model.M, om_min, config.omega_max)
-        still = standstill_flags(x, dt, band, causal=causal)
+        # the vibration axis and every other accelerometer axis (as the grid tracker does)
+        chans = [vib_name] + [c for c in ("ax", "ay", "az") if c != vib_name and c in recording
+                              and np.isfinite(recording.channel(c)).any()]
+        X = np.column_stack([recording.channel(c) for c in chans])
+        still = standstill_flags(X, dt, band, causal=causal)
         notes.append(f"standstill: broadband vibration level at its floor "
                      f"({'causal' if causal else 'whole-log'} detector, band "
                      f"{band[0]:.3g}-{band[1]:.3g} rad/s), on {100 * still.mean():.1f} % of "
@@ -917,13 +937,15 @@ def estimate(
     else:
         notes.append(f"standstill test '{config.standstill}'")
     notes += more
+    if nyq_note:
+        notes.append(nyq_note)
     comb = _flag(cfg_kw_comb)
     c_om = None
     if comb:
         # below 1 Hz the comb would pick the body's sway and the manoeuvres
         c_rng = (max(om_min or 0.0, COMB_OMEGA_MIN), config.omega_limit)
-        band = standstill_band(dt, model.M, c_rng[0], c_rng[1])
-        sos_c = pf.design("range", 1.0 / dt, M=1, omega_range=band)
+        c_band = (min(4 * np.pi, 0.25 * np.pi / dt), np.pi / dt)  # the road's band, 2 Hz up
+        sos_c = pf.design("range", 1.0 / dt, M=1, omega_range=c_band)
         c_om, _, _ = comb_fixes(pf.apply(sos_c, x), dt, c_rng, still=still,
                                 clarity=comb_clarity)
         notes.append(f"comb check: {np.isfinite(c_om).sum()} candidates from the harmonic comb "
