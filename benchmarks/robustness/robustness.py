@@ -79,7 +79,7 @@ def _run_method(name, rec, om_lo, om_hi, extra=None):
     elif name == "rbpmf":
         tr = rbpmf.estimate(rec, params=rng)
     elif name == "aided":
-        tr = aided.estimate(rec, params={})
+        tr = aided.estimate(rec, params={"omega_min": om_lo, "omega_max": om_hi})
     elif name.startswith("stft"):
         from vibrospeed.signal import prefilter as pf
 
