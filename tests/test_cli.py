@@ -183,3 +183,14 @@ def test_a_log_with_one_accelerometer_axis_uses_it(tmp_path):
     np.savetxt(two, np.c_[t, az, az], delimiter=",", header="t,ax,az", comments="")
     res = _run("estimate", two, "-o", tmp_path / "e2.csv")
     assert res.exit_code == 2 and "'ay' is missing" in res.output
+
+
+def test_simulate_list_needs_no_output_and_a_missing_output_is_a_clear_error():
+    from typer.testing import CliRunner
+
+    from vibrospeed.cli.app import app
+
+    r = CliRunner().invoke(app, ["simulate", "--list"])
+    assert r.exit_code == 0 and "random" in r.output
+    r = CliRunner().invoke(app, ["simulate", "--scenario", "cart"])
+    assert r.exit_code == 2

@@ -93,7 +93,8 @@ SortOpt = Annotated[bool, typer.Option("--sort", help="sort by time and drop dup
 @app.command()
 @_friendly
 def simulate(
-    output: Annotated[Path, typer.Option("-o", "--output", help="output file (.csv or .parquet)")],
+    output: Annotated[Path | None, typer.Option("-o", "--output",
+                                                help="output file (.csv or .parquet)")] = None,
     scenario: Annotated[str, typer.Option(help="scenario name (see --list)")] = "cart",
     seed: Annotated[int, typer.Option(help="random seed (same seed, same drive)")] = 0,
     duration: Annotated[float | None, typer.Option(help="length in s (scenario default)")] = None,
@@ -112,6 +113,10 @@ def simulate(
       vibrospeed simulate --scenario car --seed 3 --duration 120 -o car.parquet
 
       vibrospeed simulate --scenario car --set M=4 -o car.csv
+
+      vibrospeed simulate --scenario random --seed 7 -o drive7.csv   (the randomised family)
+
+      vibrospeed simulate --list
     """
     from vibrospeed import io, sim
     from vibrospeed.config import parse_params
@@ -120,6 +125,8 @@ def simulate(
         for name, desc in sim.describe().items():
             out.print(f"{name:14s} {desc}")
         return
+    if output is None:
+        raise ParameterError("simulate: missing -o / --output (the file to write)")
     kw = {} if fs is None else {"fs": fs}
     rec = sim.simulate(scenario, seed=seed, duration=duration, **kw, **parse_params(set_))
     io.write(rec, output)

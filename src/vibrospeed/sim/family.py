@@ -13,7 +13,7 @@
 * the sensor: sample rate 50-400 Hz, anti-alias filter or none (aliased engine orders and
   harmonics), mount orientation (near the vehicle frame or anywhere), quantisation, range.
 
-Calibration (issue 13; ``benchmarks/calibration``): a phone in a car at 20-30 m/s shows wheel
+Calibration (``benchmarks/calibration``, ``docs/robustness.md``): a phone in a car at 20-30 m/s shows wheel
 harmonic peaks of ~0.09, 0.05, 0.02 m/s^2 (harmonics 1-3), a local floor of ~0.01 m/s^2 in a
 4 s Hann spectrum and 0.2-1.5 m/s^2 std of body motion and manoeuvres below 2 Hz on the
 horizontal axes. Here the comb's level at the vehicle's typical speed is that figure times a
@@ -194,7 +194,7 @@ class _DriveKnobs:
 
 @register("random", RandomConfig)
 def _random(cfg: RandomConfig, rng: np.random.Generator, *, gps_model=None) -> Recording:
-    """Randomised family: vehicle, comb, road, mount and sensor drawn per seed (issue 13)."""
+    """Randomised family: vehicle, comb, road, mount and sensor drawn per seed."""
     draw_rng, seg_rng, drive_rng = rng.spawn(3)
     d = draw(cfg, draw_rng)
     car = d["vehicle"] == "car"
