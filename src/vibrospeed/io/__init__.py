@@ -11,6 +11,7 @@ Formats (:data:`FORMATS`)
 ``csv``          canonical CSV (``t`` first, canonical names), see :mod:`.canonical`
 ``mapped``       any CSV through a column mapping / TOML file, see :mod:`.mapped`
 ``phyphox``      phyphox export folder or zip, see :mod:`.phyphox`
+``sensorlogger`` Sensor Logger app export folder or zip, see :mod:`.sensorlogger`
 ``sensorfusion`` Sensor Fusion app log, see :mod:`.sensorfusion`
 ``parquet``      Parquet with canonical columns, see :mod:`.parquet`
 
@@ -98,6 +99,9 @@ def _entry(mod: str, read: str, detect: str | None, description: str) -> _Format
 #: Built-in formats in auto-detection order (lazily imported). Another module's reader is listed
 #: here by "module:function" and is offered only once the module exists.
 _BUILTIN: dict[str, _Format] = {
+    "sensorlogger": _entry("vibrospeed.io.sensorlogger", "read_sensorlogger", "detect",
+                           "Sensor Logger app export: folder or .zip of TotalAcceleration/"
+                           "Accelerometer/Gyroscope/Location.csv (time in ns)"),
     "phyphox": _entry("vibrospeed.io.phyphox", "read_phyphox", "is_phyphox",
                       "phyphox export: folder or .zip of Accelerometer/Gyroscope/Location.csv"),
     "parquet": _entry("vibrospeed.io.parquet", "read_parquet", None,
