@@ -13,6 +13,7 @@ Formats (:data:`FORMATS`)
 ``phyphox``      phyphox export folder or zip, see :mod:`.phyphox`
 ``sensorlogger`` Sensor Logger app export folder or zip, see :mod:`.sensorlogger`
 ``sensorfusion`` Sensor Fusion app log, see :mod:`.sensorfusion`
+``rosbag``       ROS 1 / ROS 2 bag (needs ``rosbags``), see :mod:`.rosbag`
 ``parquet``      Parquet with canonical columns, see :mod:`.parquet`
 
 Adding a reader
@@ -104,6 +105,9 @@ _BUILTIN: dict[str, _Format] = {
                            "Accelerometer/Gyroscope/Location.csv (time in ns)"),
     "phyphox": _entry("vibrospeed.io.phyphox", "read_phyphox", "is_phyphox",
                       "phyphox export: folder or .zip of Accelerometer/Gyroscope/Location.csv"),
+    "rosbag": _entry("vibrospeed.io.rosbag", "read_rosbag", "detect",
+                     "ROS 1 .bag or ROS 2 bag folder (needs rosbags): sensor_msgs/Imu, "
+                     "Odometry, TwistStamped, NavSatFix; --topic chooses the IMU"),
     "parquet": _entry("vibrospeed.io.parquet", "read_parquet", None,
                       "Parquet with canonical columns (needs pyarrow)"),
     "sensorfusion": _entry("vibrospeed.io.sensorfusion", "read_sensorfusion", "is_sensorfusion",
@@ -231,6 +235,7 @@ def read(
     sort: bool = False,
     resample: bool | float | None = None,
     require: Sequence[str] = (),
+    topic: str | None = None,
 ) -> Recording:
     """Read a recording in any supported format.
 
@@ -248,6 +253,7 @@ def read(
     resample : ``True`` -> uniform grid at the median rate, a number -> that rate in Hz (linear
         interpolation, :func:`resample_uniform`); ``None``/``False`` -> keep the file's times
     require : channel names that must be present and not all NaN
+    topic : ROS bags: the IMU topic to read (or a comma list of topics), see :mod:`.rosbag`
 
     Returns
     -------
@@ -260,7 +266,7 @@ def read(
         raise ReaderError(p, f"unknown format '{name}' (choose from: auto, {', '.join(FORMATS)})")
     reader = _resolve(_REGISTRY[name].reader)
     opts: dict[str, Any] = {"columns": columns, "mapping_file": mapping_file, "rate": rate,
-                            "sort": sort}
+                            "sort": sort, "topic": topic}
     params = inspect.signature(reader).parameters
     takes_kw = any(q.kind is inspect.Parameter.VAR_KEYWORD for q in params.values())
     kwargs = {}
