@@ -1,9 +1,8 @@
-"""The ``vibrospeed`` commands: simulate, estimate, evaluate, plot, methods."""
+"""The ``vibrospeed`` commands: simulate, estimate, batch, report, evaluate, plot, methods."""
 
 from __future__ import annotations
 
 import functools
-import inspect
 import json
 import os
 import sys
@@ -66,13 +65,9 @@ def _friendly(fn):
 
 def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate: float | None,
           sort: bool, uniform: bool = True):
-    from vibrospeed import io
-    from vibrospeed.io import timebase
+    from vibrospeed.batch import load_recording
 
-    rec = io.read(path, fmt, columns=columns, mapping_file=mapping, rate=rate, sort=sort)
-    if uniform and len(rec) > 2 and not rec.is_uniform(rtol=0.05):
-        rec = timebase.resample_uniform(rec)
-    return rec
+    return load_recording(path, fmt, columns, mapping, rate, sort, uniform)
 
 
 # ---- option types shared by commands ------------------------------------------------------
@@ -203,63 +198,175 @@ def estimate(
 
       vibrospeed estimate drive.csv --method rbpmf --smooth -p improved=true -o est.csv
     """
-    from vibrospeed import estimators, io
+    from vibrospeed.batch import EstimateOptions, estimate_recording, vibration_channel
     from vibrospeed.config import parse_params
 
-    params = parse_params(param)
-    if init_omega is not None:
-        params["omega0"] = str(init_omega)
-    if smooth or lag is not None or fit_params:
-        if method not in ("rbpmf", "grid"):
-            raise ParameterError("--smooth, --lag and --fit-params need --method rbpmf or grid")
-        if smooth:
-            params["smooth"] = "fb"
-        elif lag is not None:
-            params["smooth"] = "lag"
-            params["lag"] = str(lag)
-        if fit_params:
-            params["fit"] = "q_omega,q_amp,r"
-    mod = estimators.get(method)
-    rec = _load(input, fmt, columns, mapping, rate, sort)
-    extra_kw = {}
-    if plot is not None and "return_posterior" in inspect.signature(mod.estimate).parameters:
-        extra_kw["return_posterior"] = True
-    axis_note = None
-    if axis is None and method not in ("gps-riss", "algebraic") and "ay" not in rec:
-        # the default vibration axis y is missing: a log with one accelerometer axis uses it
-        have = [c for c in ("ax", "az") if c in rec]
-        if len(have) == 1:
-            axis = have[0][1]
-            axis_note = (f"no 'ay' in the recording: using its only accelerometer axis "
-                         f"'{have[0]}' (--axis to choose)")
-    if axis is not None:
-        extra_kw["axis"] = axis
-    track = mod.estimate(rec, wheel_radius=wheel_radius, params=params,
-                         progress=sys.stderr.isatty(), **extra_kw)
-    if axis_note:
-        track.notes.insert(0, axis_note)
-    used = track.params.get("axis")  # the axis the estimator chose when --axis was not given
-    axis = used if isinstance(used, str) else axis
-    # per-sample columns go to the CSV; a grid posterior (n, N) only to the plot
-    grids = {k: v for k, v in track.extras.items() if np.shape(v) != (len(track),)}
-    for k in grids:
-        del track.extras[k]
-    from vibrospeed import __version__
-
-    meta = {"version": __version__, "axis": axis, "recording_notes": rec.notes}
-    io.write_track(track, output, meta=meta, input_path=input)
+    opts = EstimateOptions(method=method, params=parse_params(param), axis=axis,
+                           wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
+                           lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
+                           mapping=mapping, rate=rate, sort=sort)
+    est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
+                             keep_posterior=plot is not None)
+    rec, track = est.recording, est.track
     for note in rec.notes + track.notes:
         err.print(f"note: {note}")
     err.print(f"wrote {output} ({len(track)} rows, method {method})")
     if plot is not None:
-        from vibrospeed.estimators.common import axis_channel
         from vibrospeed.eval.plot import plot_track
 
-        ch = axis_channel(axis or "y")
-        ch = ch if ch in rec.channels else next(iter(rec.channels))
-        plot_track(plot, rec, track, axis=ch, posterior=grids.get("posterior"),
-                   grid=grids.get("grid"))
+        plot_track(plot, rec, track, axis=vibration_channel(rec, est.axis),
+                   posterior=est.grids.get("posterior"), grid=est.grids.get("grid"))
         err.print(f"wrote {plot}")
+
+
+MethodOpt = Annotated[str, typer.Option("--method", "-m", help="estimator (see `vibrospeed "
+                      "methods`; default grid)")]
+AxisOpt = Annotated[str | None, typer.Option(help="vibration axis (x, y, z or a channel name; "
+                    "default y); for gps-riss the longitudinal axis (default x)")]
+RadiusOpt = Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]
+ParamOpt = Annotated[list[str] | None, typer.Option("--param", "-p", help="estimator parameter "
+                     "NAME=VALUE (repeatable)")]
+
+
+@app.command()
+@_friendly
+def batch(
+    inputs: Annotated[list[str], typer.Argument(help="recordings: files, folders (a folder "
+                      "that is a recording, e.g. a phyphox export, counts as one) and glob "
+                      "patterns ('logs/**/*.csv', quoted)")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="output folder: one estimate "
+                      "(.csv + .json) per recording, summary.csv and summary.parquet")],
+    method: MethodOpt = "grid",
+    axis: AxisOpt = None,
+    wheel_radius: RadiusOpt = None,
+    init_omega: Annotated[float | None, typer.Option(help="initial omega guess in rad/s")]
+    = None,
+    param: ParamOpt = None,
+    smooth: Annotated[bool, typer.Option("--smooth", help="as for estimate (rbpmf, grid)")]
+    = False,
+    lag: Annotated[float | None, typer.Option(help="as for estimate (rbpmf, grid)")] = None,
+    fit_params: Annotated[bool, typer.Option("--fit-params", help="as for estimate (rbpmf, "
+                          "grid)")] = False,
+    jobs: Annotated[int | None, typer.Option("--jobs", "-j", help="local worker processes "
+                    "(default min(4, CPU count); 1 runs in this process)")] = None,
+    scheduler: Annotated[str | None, typer.Option(help="run on a Dask cluster: its scheduler "
+                         "address, e.g. tcp://10.0.0.5:8786 (workers must see the same files)")]
+    = None,
+    report: Annotated[bool, typer.Option("--report", help="also one HTML report per recording "
+                      "and an index.html linking them")] = False,
+    force: Annotated[bool, typer.Option("--force", help="estimate again even where an "
+                     "up-to-date output exists")] = False,
+    fmt: FormatOpt = "auto",
+    columns: ColumnsOpt = None,
+    mapping: MappingOpt = None,
+    rate: RateOpt = None,
+    sort: SortOpt = False,
+) -> None:
+    """Estimate many recordings with the same options; write a summary table.
+
+    Each recording gets <name>_<method>.csv and .json in the output folder (two inputs with the
+    same name get a short hash added). summary.csv (and summary.parquet with pyarrow) has per
+    recording: file, format, duration, method, share with a wheel line, median speed,
+    distance, status (ok / skipped / error), the error in one line and the wall time. Run it
+    again and every recording whose output has the same input checksum, method, options and
+    vibrospeed version is skipped; a bad file is an error row, never the end of the batch (exit
+    status 2 when any recording failed).
+
+    Examples:
+
+      vibrospeed batch 'logs/*.csv' -o out -p omega_min=2 -p omega_max=30
+
+      vibrospeed batch phone_logs/ --format phyphox --axis y -o out --report
+
+      vibrospeed batch 'fleet/**/*.parquet' -o out --scheduler tcp://10.0.0.5:8786
+    """
+    from vibrospeed import batch as vb
+    from vibrospeed.config import parse_params
+
+    opts = vb.EstimateOptions(method=method, params=parse_params(param), axis=axis,
+                              wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
+                              lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
+                              mapping=str(mapping) if mapping is not None else None, rate=rate,
+                              sort=sort)
+    if jobs is not None and jobs < 1:
+        raise ParameterError(f"--jobs must be at least 1, got {jobs}")
+    df = vb.run(inputs, output, options=opts, scheduler=scheduler, jobs=jobs, report=report,
+                force=force, progress=True)
+    for _, r in df[df["status"] == "error"].iterrows():  # one line each, never wrapped
+        msg = r["error"] if str(r["file"]) in r["error"] else f"{r['file']}: {r['error']}"
+        print(f"vibrospeed: error: {msg}", file=sys.stderr)
+    counts = df["status"].value_counts()
+    said = ", ".join(f"{counts.get(k, 0)} {k}" for k in ("ok", "skipped", "error"))
+    extra = " + index.html and a report per recording" if report else ""
+    print(f"wrote {output / 'summary.csv'}{extra}: {len(df)} recordings ({said})",
+          file=sys.stderr)
+    if counts.get("error", 0):
+        raise typer.Exit(2)
+
+
+@app.command()
+@_friendly
+def report(
+    input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="HTML page to write")],
+    estimate_csv: Annotated[Path | None, typer.Option("--estimate", help="estimate CSV "
+                            "(from `estimate`); without it the recording is estimated first "
+                            "with --method and -p")] = None,
+    truth: Annotated[Path | None, typer.Option(help="truth recording (default: the input's "
+                     "omega_true / speed_true if any)")] = None,
+    method: MethodOpt = "grid",
+    axis: AxisOpt = None,
+    wheel_radius: RadiusOpt = None,
+    param: ParamOpt = None,
+    fmt: FormatOpt = "auto",
+    columns: ColumnsOpt = None,
+    mapping: MappingOpt = None,
+    rate: RateOpt = None,
+    sort: SortOpt = False,
+) -> None:
+    """One self-contained HTML page for a drive: spectrogram with the estimate, band and truth
+    or GPS, speed over time, where a wheel line was seen, notes, summary numbers.
+
+    Images are embedded in the page; it has no external links and no scripts.
+
+    Examples:
+
+      vibrospeed report drive.csv --estimate est.csv -o drive.html
+
+      vibrospeed report drive.csv -p omega_min=2 -p omega_max=30 -o drive.html
+    """
+    import tempfile
+
+    from vibrospeed import batch as vb
+    from vibrospeed import io
+    from vibrospeed.config import parse_params
+    from vibrospeed.eval.report import write_report
+
+    ref = io.read(truth) if truth else None
+    if estimate_csv is not None:
+        rec = _load(input, fmt, columns, mapping, rate, sort)
+        track = io.read_track(estimate_csv)
+        side_path = Path(f"{estimate_csv}.json")
+        meta = {}
+        if side_path.is_file():
+            try:
+                meta = json.loads(side_path.read_text(encoding="utf-8")).get("meta") or {}
+            except (OSError, ValueError):
+                meta = {}
+        used_axis = axis or meta.get("axis")
+        grids: dict = {}
+    else:
+        opts = vb.EstimateOptions(method=method, params=parse_params(param), axis=axis,
+                                  wheel_radius=wheel_radius, fmt=fmt, columns=columns,
+                                  mapping=mapping, rate=rate, sort=sort)
+        with tempfile.TemporaryDirectory(prefix="vibrospeed-") as d:
+            est = vb.estimate_recording(input, Path(d) / "estimate.csv", opts,
+                                        keep_posterior=True, progress=sys.stderr.isatty())
+        rec, track, used_axis, grids = est.recording, est.track, est.axis, est.grids
+    write_report(output, rec, track, axis=vb.vibration_channel(rec, used_axis), truth=ref,
+                 posterior=grids.get("posterior"), grid=grids.get("grid"),
+                 title=input.name or str(input), input_path=input, estimate_path=estimate_csv)
+    err.print(f"wrote {output}")
 
 
 @app.command()

@@ -1,0 +1,298 @@
+"""One self-contained HTML page per drive, and an index page for a batch.
+
+:func:`write_report` puts on one page: the summary numbers (duration, distance, median speed,
+share of the time with a wheel line, method, parameters; against the truth where the recording
+has one), the spectrogram with the estimate, its band and the truth or GPS
+(:func:`vibrospeed.eval.plot.plot_track`), the speed over time with the stretches where a wheel
+line was seen, and the notes of the recording and of the estimate. Images are PNGs embedded as
+``data:`` URIs; the page has no external URL and no script, so it can be mailed or archived as one
+file. :func:`write_index` lists a batch's recordings with links to their pages.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io as _io
+import math
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from vibrospeed.io.atomic import atomic_write_text  # noqa: E402
+from vibrospeed.types import Recording, Track  # noqa: E402
+
+__all__ = ["render_report", "signal_intervals", "write_index", "write_report"]
+
+_CSS = """
+body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;margin:2em auto;max-width:1100px;
+color:#222;padding:0 1em}
+h1{font-size:1.4em;word-break:break-all}h2{font-size:1.15em;margin-top:1.6em;
+border-bottom:1px solid #ddd}
+table{border-collapse:collapse;margin:.5em 0}td,th{padding:.2em .7em;border-bottom:1px solid #eee;
+text-align:left;vertical-align:top}th{background:#f5f5f5}td.num{text-align:right;
+font-variant-numeric:tabular-nums}
+img{max-width:100%;height:auto;border:1px solid #eee}
+.ok{color:#176c2c}.error{color:#b00020}.skipped{color:#666}
+details{margin:.5em 0}code{font-size:.95em}.muted{color:#666}
+"""
+
+
+def _esc(x: Any) -> str:
+    return html.escape(str(x), quote=True)
+
+
+def _num(x: float | None, fmt: str = ".3g", unit: str = "") -> str:
+    if x is None or not isinstance(x, (int, float)) or not math.isfinite(x):
+        return "–"
+    return f"{x:{fmt}}{(' ' + unit) if unit else ''}"
+
+
+def _png_uri(data: bytes) -> str:
+    return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
+
+
+def _fig_uri(fig) -> str:
+    buf = _io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return _png_uri(buf.getvalue())
+
+
+def signal_intervals(t: np.ndarray, has_signal: np.ndarray) -> list[tuple[float, float]]:
+    """The stretches ``(start, end)`` in s where ``has_signal`` is set."""
+    t = np.asarray(t, dtype=np.float64)
+    s = np.asarray(has_signal, dtype=np.float64) > 0.5
+    if not s.any():
+        return []
+    d = np.diff(np.r_[0, s.astype(np.int8), 0])
+    starts = np.flatnonzero(d == 1)
+    ends = np.flatnonzero(d == -1) - 1
+    return [(float(t[a]), float(t[b])) for a, b in zip(starts, ends, strict=True)]
+
+
+def _spectrogram_uri(rec: Recording, track: Track, axis: str, truth: Recording | None,
+                     posterior, grid, title: str) -> str:
+    from vibrospeed.eval.plot import plot_track
+
+    with tempfile.TemporaryDirectory(prefix="vibrospeed-report-") as d:
+        png = Path(d) / "spectrogram.png"
+        plot_track(png, rec, track, axis=axis, truth=truth, posterior=posterior, grid=grid,
+                   title=title)
+        return _png_uri(png.read_bytes())
+
+
+def _speed_uri(rec: Recording, track: Track, truth: Recording | None) -> str:
+    """Speed (m/s; omega in rad/s without a wheel radius) against time, with the band, the
+    truth and GPS, and the stretches with a wheel line shaded."""
+    r = track.wheel_radius
+    as_speed = np.isfinite(track.speed).any()
+    y, lo, hi = ((track.speed, track.speed_lo, track.speed_hi) if as_speed
+                 else (track.omega, track.omega_lo, track.omega_hi))
+    unit = "m/s" if as_speed else "rad/s"
+    fig, ax = plt.subplots(figsize=(11, 3.6))
+    sig = track.extras.get("has_signal")
+    if sig is not None:
+        for k, (a, b) in enumerate(signal_intervals(track.t, sig)):
+            ax.axvspan(a, b, color="tab:green", alpha=0.12, lw=0,
+                       label="wheel line seen" if k == 0 else None)
+    if np.isfinite(lo).any() and np.isfinite(hi).any():
+        ax.fill_between(track.t, lo, hi, color="tab:blue", alpha=0.25, lw=0,
+                        label=f"{track.level:.0%} band")
+    ax.plot(track.t, y, color="tab:blue", lw=1.0, label=f"estimate ({track.method or '?'})")
+    ref = truth if truth is not None else rec
+    if as_speed and "speed_true" in ref.channels:
+        ax.plot(ref.t, ref.channel("speed_true"), "k--", lw=0.9, label="truth")
+    elif not as_speed and "omega_true" in ref.channels:
+        ax.plot(ref.t, ref.channel("omega_true"), "k--", lw=0.9, label="truth")
+    if "gps_speed" in rec.channels:
+        g = rec.channel("gps_speed")
+        ok = np.isfinite(g)
+        scale = 1.0 if as_speed else (1.0 / r if r else None)
+        if ok.any() and scale is not None:
+            ax.plot(rec.t[ok], g[ok] * scale, ".", ms=3, color="tab:orange",
+                    label="GPS speed" + ("" if as_speed else " / r"))
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(f"{'speed' if as_speed else 'omega'} [{unit}]")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    return _fig_uri(fig)
+
+
+def _table(rows: Sequence[tuple[str, str]]) -> str:
+    body = "".join(f"<tr><th>{_esc(k)}</th><td>{_esc(v)}</td></tr>"
+                   for k, v in rows)
+    return f"<table>{body}</table>"
+
+
+def _truth_rows(track: Track, rec: Recording, truth: Recording | None) -> list[tuple[str, str]]:
+    ref = truth if truth is not None else rec
+    if not ({"omega_true", "speed_true"} & set(ref.channels)):
+        return []
+    from vibrospeed.eval.metrics import evaluate
+
+    try:
+        m = evaluate(track, ref)
+    except Exception:  # noqa: BLE001 - the comparison is a bonus, never a reason to fail
+        return []
+    rows = [("RMSE against the truth", _num(m.rmse, ".3f", m.unit)),
+            ("bias against the truth", _num(m.bias, "+.3f", m.unit)),
+            (f"coverage of the {m.level:.0%} band", _num(100 * m.coverage, ".1f", "%"))]
+    if m.unit != "m/s":
+        rows.append(("within max(2 rad/s, 10 %)", _num(100 * m.ok_share, ".1f", "%")))
+    return rows
+
+
+def render_report(
+    recording: Recording,
+    track: Track,
+    *,
+    axis: str = "ay",
+    truth: Recording | None = None,
+    posterior: np.ndarray | None = None,
+    grid: np.ndarray | None = None,
+    title: str | None = None,
+    input_path: str | os.PathLike[str] | None = None,
+    estimate_path: str | os.PathLike[str] | None = None,
+    recording_notes: Sequence[str] | None = None,
+) -> str:
+    """The HTML text of a drive's report (see :func:`write_report`)."""
+    from vibrospeed import __version__
+    from vibrospeed.batch import track_summary
+
+    rec = recording
+    title = title or rec.source or (os.fspath(input_path) if input_path else "recording")
+    s = track_summary(track)
+    notes_rec = list(recording_notes) if recording_notes is not None else list(rec.notes)
+    rows = [
+        ("recording", os.fspath(input_path) if input_path else (rec.source or "")),
+        ("duration", _num(rec.duration, ".1f", "s")),
+        ("samples", f"{len(rec)} at {rec.fs:.4g} Hz"),
+        ("method", track.method or "?"),
+        ("distance", _num(s["distance_m"], ".1f", "m")),
+        ("median speed", _num(s["median_speed"], ".2f", "m/s")
+         + (f" ({s['median_speed'] * 3.6:.1f} km/h)" if math.isfinite(s["median_speed"])
+            else "")),
+        ("median omega", _num(s["median_omega"], ".2f", "rad/s")),
+        ("share with a wheel line", _num(100 * s["signal_share"], ".1f", "%")
+         if math.isfinite(s["signal_share"]) else "– (the method has no line detector)"),
+        ("wheel radius", _num(track.wheel_radius, ".4g", "m")),
+    ]
+    if math.isfinite(s["fitted_radius"]):
+        rows.append(("fitted wheel radius", _num(s["fitted_radius"], ".4g", "m")))
+    if estimate_path:
+        rows.append(("estimate file", os.fspath(estimate_path)))
+    rows += _truth_rows(track, rec, truth)
+    spec = _spectrogram_uri(rec, track, axis, truth, posterior, grid, title)
+    speed = _speed_uri(rec, track, truth)
+    sig = track.extras.get("has_signal")
+    if sig is not None:
+        iv = signal_intervals(track.t, sig)
+        shown = iv[:40]
+        items = "".join(f"<li>{a:.1f} – {b:.1f} s</li>" for a, b in shown)
+        more = f"<p class=\"muted\">… and {len(iv) - len(shown)} more</p>" if len(iv) > 40 else ""
+        line = (f"<p>A wheel line was seen during {len(iv)} stretch(es), "
+                f"{_num(100 * s['signal_share'], '.1f', '%')} of the samples (green in the speed "
+                f"plot):</p><ul>{items}</ul>{more}" if iv else
+                "<p>No wheel line was seen in this drive: the estimate is a guess with a wide "
+                "band.</p>")
+    else:
+        line = (f"<p class=\"muted\">The method '{_esc(track.method)}' does not say where it sees a "
+                "wheel line.</p>")
+    params = "".join(f"<tr><th><code>{_esc(k)}</code></th><td><code>{_esc(v)}</code></td></tr>"
+                     for k, v in sorted(track.params.items(), key=lambda kv: str(kv[0])))
+
+    def notes_html(notes: Sequence[str]) -> str:
+        if not notes:
+            return "<p class=\"muted\">none</p>"
+        return "<ul>" + "".join(f"<li>{_esc(n)}</li>" for n in notes) + "</ul>"
+
+    parts = [
+        "<!DOCTYPE html>",
+        "<html lang=\"en\"><head><meta charset=\"utf-8\">",
+        f"<title>{_esc(title)} – vibrospeed report</title>",
+        f"<style>{_CSS}</style></head><body>",
+        f"<h1>{_esc(title)}</h1>",
+        "<h2>Summary</h2>",
+        _table(rows),
+        "<h2>Spectrogram with the estimate</h2>",
+        f"<img alt=\"spectrogram of {_esc(axis)} with the estimate, its band and the truth\" "
+        f"src=\"{spec}\">",
+        "<h2>Speed over time</h2>",
+        f"<img alt=\"speed over time\" src=\"{speed}\">",
+        "<h2>Where a wheel line was seen</h2>",
+        line,
+        "<h2>Notes</h2>",
+        "<h3>Recording</h3>",
+        notes_html(notes_rec),
+        "<h3>Estimate</h3>",
+        notes_html(track.notes),
+        "<h2>Parameters</h2>",
+        f"<details><summary>{len(track.params)} parameters of "
+        f"{_esc(track.method or 'the method')}</summary><table>{params}</table></details>",
+        f"<p class=\"muted\">vibrospeed {_esc(__version__)}</p>",
+        "</body></html>",
+    ]
+    return "\n".join(parts) + "\n"
+
+
+def write_report(path: str | os.PathLike[str], recording: Recording, track: Track,
+                 **kw: Any) -> Path:
+    """Write the drive's report to ``path`` (atomic); keywords as :func:`render_report`."""
+    p = Path(path)
+    atomic_write_text(p, render_report(recording, track, **kw))
+    return p
+
+
+def write_index(path: str | os.PathLike[str], summary, *, title: str = "vibrospeed batch") -> Path:
+    """A batch's summary page: one row per recording (status, numbers, error) linking to its
+    report; links are relative, so the output folder can be moved as a whole."""
+    p = Path(path)
+    df = summary
+    counts = df["status"].value_counts().to_dict()
+    head = ["file", "status", "duration", "distance", "median speed", "with a line", "method",
+            "error", "wall"]
+    rows = []
+    for _, r in df.iterrows():
+        name = _esc(r["file"])
+        rep = r.get("report")
+        if isinstance(rep, str) and rep:
+            name = f"<a href=\"{_esc(rep)}\">{name}</a>"
+        share = r.get("signal_share")
+        share = share if isinstance(share, (int, float)) and math.isfinite(share) else None
+        error = r.get("error")
+        error = error if isinstance(error, str) else ""
+        cells = [
+            f"<td>{name}</td>",
+            f"<td class=\"{_esc(r['status'])}\">{_esc(r['status'])}</td>",
+            f"<td class=\"num\">{_num(r['duration_s'], '.1f', 's')}</td>",
+            f"<td class=\"num\">{_num(r['distance_m'], '.1f', 'm')}</td>",
+            f"<td class=\"num\">{_num(r['median_speed'], '.2f', 'm/s')}</td>",
+            f"<td class=\"num\">{_num(None if share is None else 100 * share, '.1f', '%')}</td>",
+            f"<td>{_esc(r['method'])}</td>",
+            f"<td class=\"error\">{_esc(error)}</td>",
+            f"<td class=\"num\">{_num(r['wall_s'], '.1f', 's')}</td>",
+        ]
+        rows.append("<tr>" + "".join(cells) + "</tr>")
+    summary_line = ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
+    text = "\n".join([
+        "<!DOCTYPE html>",
+        "<html lang=\"en\"><head><meta charset=\"utf-8\">",
+        f"<title>{_esc(title)}</title><style>{_CSS}</style></head><body>",
+        f"<h1>{_esc(title)}</h1>",
+        f"<p>{_esc(summary_line)}. The table as <a href=\"summary.csv\">CSV</a>.</p>",
+        "<table><tr>" + "".join(f"<th>{_esc(h)}</th>" for h in head) + "</tr>",
+        *rows,
+        "</table></body></html>",
+    ]) + "\n"
+    atomic_write_text(p, text)
+    return p

@@ -1,0 +1,139 @@
+"""Batch runs: many recordings, resume, bad files as rows, local processes and Dask."""
+
+import json
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from vibrospeed import batch, io, sim
+from vibrospeed.cli.app import app
+
+
+def _broken(folder):
+    (folder / "empty.csv").write_text("")
+    (folder / "garbage.csv").write_bytes(bytes(range(256)) * 8)
+    (folder / "text_column.csv").write_text("t,ay\n0,1\n0.01,abc\n0.02,3\n")
+    return ["empty.csv", "garbage.csv", "text_column.csv"]
+
+
+@pytest.fixture(scope="module")
+def fleet(tmp_path_factory):
+    """50 short simulated drives (canonical CSV) and three broken files in one folder."""
+    d = tmp_path_factory.mktemp("fleet")
+    for i in range(50):
+        io.write(sim.simulate("cart", seed=i, duration=8), d / f"drive{i:02d}.csv")
+    broken = _broken(d)
+    return d, broken
+
+
+def _check_rows(df, d, broken, ok_status):
+    assert len(df) == 53
+    assert list(df["file"]) == sorted(df["file"])  # input order (the folder's, sorted)
+    bad = df[df["file"].map(lambda f: f.split("/")[-1] in broken)]
+    assert (bad["status"] == "error").all(), bad
+    for _, r in bad.iterrows():
+        assert r["file"] in r["error"] and "\n" not in r["error"]
+    good = df[df["status"] != "error"]
+    assert len(good) == 50 and (good["status"] == ok_status).all(), df[["file", "status",
+                                                                        "error"]]
+    assert (good["format"] == "csv").all() and np.allclose(good["duration_s"], 7.99)
+    assert (good["median_speed"] > 0).all() and (good["distance_m"] > 0).all()
+    assert "fitted_radius" not in df.columns  # no method here fits a radius
+
+
+def test_fifty_drives_on_dask_twice(fleet, tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    d, broken = fleet
+    out = tmp_path / "out"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        t0 = time.perf_counter()
+        df = batch.run([d], out, method="ekf", scheduler=cluster.scheduler_address)
+        first = time.perf_counter() - t0
+        _check_rows(df, d, broken, "ok")
+        assert df["signal_share"].isna().all()  # the EKF has no line detector
+        t0 = time.perf_counter()
+        again = batch.run([d], out, method="ekf", scheduler=cluster.scheduler_address)
+        second = time.perf_counter() - t0
+    _check_rows(again, d, broken, "skipped")
+    good = again["status"] == "skipped"
+    # the skipped rows carry the same numbers, read back from the outputs
+    pd.testing.assert_frame_equal(df.loc[good, ["file", "format", "median_speed", "distance_m"]],
+                                  again.loc[good, ["file", "format", "median_speed",
+                                                   "distance_m"]])
+    summary = pd.read_csv(out / "summary.csv")
+    assert list(summary["status"]) == list(again["status"])
+    pq = pd.read_parquet(out / "summary.parquet")
+    assert len(pq) == 53
+    print(f"50 drives + 3 broken on Dask: {first:.1f} s, resumed {second:.1f} s")
+
+
+def test_local_pool_resume_and_changes(tmp_path):
+    src = tmp_path / "in"
+    (src / "a").mkdir(parents=True)
+    (src / "b").mkdir()
+    for i, name in enumerate(["a/drive.csv", "b/drive.csv", "a/other.csv"]):
+        io.write(sim.simulate("cart", seed=i, duration=8), src / name)
+    (src / "a" / "empty.csv").write_text("")
+    inputs = [src / "a", str(src / "b" / "*.csv"), src / "missing.csv"]
+    out = tmp_path / "out"
+    params = {"omega_min": 2, "omega_max": 30}
+    df = batch.run(inputs, out, method="grid", params=params, jobs=2)
+    assert list(df["status"]) == ["ok", "error", "ok", "ok", "error"], df
+    names = list(df.loc[df["status"] == "ok", "output"])
+    assert len(set(names)) == 3 and all(n.endswith("_grid.csv") for n in names)
+    assert names[0].startswith("drive-") and names[2].startswith("drive-")  # same basename
+    assert df.loc[0, "signal_share"] > 0.3  # the grid tracker says where it sees a line
+    assert "file not found" in df.loc[4, "error"]
+    side = json.loads((out / f"{names[0]}.json").read_text())
+    assert side["meta"]["options"]["params"] == {"omega_max": "30", "omega_min": "2"}
+    # in this process: an unchanged recording is skipped, a changed one estimated again
+    io.write(sim.simulate("cart", seed=7, duration=8), src / "a" / "other.csv")
+    again = batch.run(inputs, out, method="grid", params=params, jobs=1)
+    assert list(again["status"]) == ["skipped", "error", "ok", "skipped", "error"], again
+    # other options: everything again
+    third = batch.run(inputs, out, method="grid", params={**params, "omega_max": 40}, jobs=1)
+    assert list(third["status"]) == ["ok", "error", "ok", "ok", "error"]
+
+
+def test_expand_inputs_and_names(tmp_path):
+    (tmp_path / "logs").mkdir()
+    for name in ("x.csv", "y.csv", ".hidden.csv", "x.csv.json", "plot.png"):
+        (tmp_path / "logs" / name).write_text("t,ay\n0,1\n")
+    (tmp_path / "logs" / "x.wss_ticks.csv").write_text("t\n0\n")  # event sidecar of x.csv
+    found = batch.expand_inputs([tmp_path / "logs", tmp_path / "logs" / "x.csv"])
+    assert [p.split("/")[-1] for p, _ in found] == ["x.csv", "y.csv"]
+    found = batch.expand_inputs([str(tmp_path / "logs" / "*.csv"), str(tmp_path / "no*.csv")])
+    assert [p.split("/")[-1] for p, _ in found] == ["x.csv", "y.csv", "no*.csv"]
+    assert found[-1][1] and "pattern" in found[-1][1]
+    names = batch.output_names(["a/d.csv", "b/d.csv", "c/e.csv"])
+    assert names[2] == "e" and names[0] != names[1] and names == batch.output_names(
+        ["a/d.csv", "b/d.csv", "c/e.csv"])
+
+
+def test_cli_batch_and_dask_scheduler_option(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    src = tmp_path / "in"
+    src.mkdir()
+    for i in range(2):
+        io.write(sim.simulate("cart", seed=i, duration=8), src / f"d{i}.csv")
+    runner = CliRunner()
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["batch", str(src), "-o", str(out), "-m", "shs", "-j", "1"])
+    assert res.exit_code == 0, res.output
+    assert "2 ok, 0 skipped, 0 error" in res.stderr
+    _broken(src)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        res = runner.invoke(app, ["batch", str(src), "-o", str(out), "-m", "shs",
+                                  "--scheduler", cluster.scheduler_address])
+    assert res.exit_code == 2, res.output
+    assert "0 ok, 2 skipped, 3 error" in res.stderr
+    errors = [ln for ln in res.stderr.splitlines() if "error:" in ln]
+    assert len(errors) == 3 and all("Traceback" not in ln for ln in errors)
+    assert "empty.csv: empty file" in res.stderr
+    res = runner.invoke(app, ["batch", str(src), "-o", str(out), "-m", "nope"])
+    assert res.exit_code == 2 and "unknown method" in res.stderr
