@@ -14,6 +14,7 @@ Formats (:data:`FORMATS`)
 ``sensorlogger`` Sensor Logger app export folder or zip, see :mod:`.sensorlogger`
 ``sensorfusion`` Sensor Fusion app log, see :mod:`.sensorfusion`
 ``rosbag``       ROS 1 / ROS 2 bag (needs ``rosbags``), see :mod:`.rosbag`
+``gopro``        GoPro MP4 with GPMF telemetry, see :mod:`.gopro`
 ``parquet``      Parquet with canonical columns, see :mod:`.parquet`
 
 Adding a reader
@@ -108,6 +109,8 @@ _BUILTIN: dict[str, _Format] = {
     "rosbag": _entry("vibrospeed.io.rosbag", "read_rosbag", "detect",
                      "ROS 1 .bag or ROS 2 bag folder (needs rosbags): sensor_msgs/Imu, "
                      "Odometry, TwistStamped, NavSatFix; --topic chooses the IMU"),
+    "gopro": _entry("vibrospeed.io.gopro", "read_gopro", "detect",
+                    "GoPro MP4 telemetry (GPMF gpmd track): ACCL, GYRO, GPS5/GPS9 speed"),
     "parquet": _entry("vibrospeed.io.parquet", "read_parquet", None,
                       "Parquet with canonical columns (needs pyarrow)"),
     "sensorfusion": _entry("vibrospeed.io.sensorfusion", "read_sensorfusion", "is_sensorfusion",
