@@ -27,6 +27,7 @@ demo: venv
 	$(BIN)/vibrospeed simulate --scenario car --seed 1 -o $(OUT)/car.csv
 	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method grid -o $(OUT)/car_grid.csv --plot $(OUT)/car_grid.png
 	$(BIN)/vibrospeed evaluate $(OUT)/car_grid.csv --truth $(OUT)/car.csv
+	$(BIN)/vibrospeed report $(OUT)/car.csv --estimate $(OUT)/car_grid.csv -o $(OUT)/car_report.html
 	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method rbpmf -o $(OUT)/car_rbpmf.csv
 	$(BIN)/vibrospeed evaluate $(OUT)/car_rbpmf.csv --truth $(OUT)/car.csv
 	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method gps-riss --axis x -o $(OUT)/car_gps.csv

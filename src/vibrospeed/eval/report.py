@@ -107,19 +107,26 @@ def _speed_uri(rec: Recording, track: Track, truth: Recording | None) -> str:
     if np.isfinite(lo).any() and np.isfinite(hi).any():
         ax.fill_between(track.t, lo, hi, color="tab:blue", alpha=0.25, lw=0,
                         label=f"{track.level:.0%} band")
-    ax.plot(track.t, y, color="tab:blue", lw=1.0, label=f"estimate ({track.method or '?'})")
-    ref = truth if truth is not None else rec
-    if as_speed and "speed_true" in ref.channels:
-        ax.plot(ref.t, ref.channel("speed_true"), "k--", lw=0.9, label="truth")
-    elif not as_speed and "omega_true" in ref.channels:
-        ax.plot(ref.t, ref.channel("omega_true"), "k--", lw=0.9, label="truth")
+    label = f"estimate ({track.method or '?'})"
+    if sig is not None:  # dim the estimate where the method sees no line
+        seen = np.asarray(sig, dtype=np.float64) > 0.5
+        ax.plot(track.t, np.where(seen, np.nan, y), color="tab:blue", lw=0.6, alpha=0.35,
+                label="estimate, no line seen")
+        ax.plot(track.t, np.where(seen, y, np.nan), color="tab:blue", lw=1.0, label=label)
+    else:
+        ax.plot(track.t, y, color="tab:blue", lw=1.0, label=label)
     if "gps_speed" in rec.channels:
         g = rec.channel("gps_speed")
         ok = np.isfinite(g)
         scale = 1.0 if as_speed else (1.0 / r if r else None)
         if ok.any() and scale is not None:
-            ax.plot(rec.t[ok], g[ok] * scale, ".", ms=3, color="tab:orange",
+            ax.plot(rec.t[ok], g[ok] * scale, ".", ms=2, alpha=0.6, color="tab:orange",
                     label="GPS speed" + ("" if as_speed else " / r"))
+    ref = truth if truth is not None else rec
+    if as_speed and "speed_true" in ref.channels:
+        ax.plot(ref.t, ref.channel("speed_true"), "k--", lw=0.9, label="truth")
+    elif not as_speed and "omega_true" in ref.channels:
+        ax.plot(ref.t, ref.channel("omega_true"), "k--", lw=0.9, label="truth")
     ax.set_xlabel("t [s]")
     ax.set_ylabel(f"{'speed' if as_speed else 'omega'} [{unit}]")
     ax.grid(alpha=0.3)
