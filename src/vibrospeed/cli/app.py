@@ -73,8 +73,10 @@ def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate:
 # ---- option types shared by commands ------------------------------------------------------
 FormatOpt = Annotated[str, typer.Option("--format", "-f", help="input format: auto (detect), "
                       "csv (canonical: header t,ax,ay,...), mapped (any CSV with --columns or "
-                      "--mapping), phyphox (folder or zip), sensorfusion (app log), parquet, "
-                      "androsensor, comma2k19, f1tenth")]
+                      "--mapping), phyphox (folder or zip), sensorlogger (Sensor Logger folder or "
+                      "zip), sensorfusion (app log), rosbag (ROS 1 .bag or ROS 2 folder), gopro "
+                      "(GoPro MP4 telemetry), parquet, androsensor, comma2k19, f1tenth; see "
+                      "docs/formats.md")]
 ColumnsOpt = Annotated[str | None, typer.Option(help="generic CSV column mapping, e.g. "
                        "'t=time,ay=acc_y:g' (name=column[:unit])")]
 MappingOpt = Annotated[Path | None, typer.Option("--mapping", help="TOML file with the column "
