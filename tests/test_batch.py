@@ -137,3 +137,9 @@ def test_cli_batch_and_dask_scheduler_option(tmp_path):
     assert "empty.csv: empty file" in res.stderr
     res = runner.invoke(app, ["batch", str(src), "-o", str(out), "-m", "nope"])
     assert res.exit_code == 2 and "unknown method" in res.stderr
+    import dask
+
+    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
+        res = runner.invoke(app, ["batch", str(src), "-o", str(out), "-m", "shs",
+                                  "--scheduler", "tcp://127.0.0.1:1"])
+    assert res.exit_code == 2 and "cannot reach the Dask scheduler" in res.stderr

@@ -496,7 +496,8 @@ def _progress_bar(total: int, enabled: bool):
     )
 
     return Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                    TimeElapsedColumn(), TimeRemainingColumn(), TextColumn("{task.fields[last]}"),
+                    TimeElapsedColumn(), TimeRemainingColumn(),
+                    TextColumn("{task.fields[last]}", markup=False),
                     console=Console(stderr=True), transient=False)
 
 
@@ -526,23 +527,47 @@ def _lost(job: dict[str, Any], why: str) -> dict[str, Any]:
             "error": why, "wall_s": math.nan, "report": None}
 
 
-def _run_dask(jobs_list, scheduler, done: Callable[[dict], None]) -> None:
+def _dask_client(scheduler):
+    """``(client, own)``: a Client for ``scheduler`` (an address or a Client); ``own``: made
+    here, to be closed here."""
     try:
-        from dask.distributed import Client, as_completed
+        from dask.distributed import Client
     except ImportError:
         raise ParameterError("--scheduler needs Dask: pip install 'vibrospeed[fleet]'") from None
-    own = not isinstance(scheduler, Client)
-    client = Client(scheduler) if own else scheduler
+    if isinstance(scheduler, Client):
+        return scheduler, False
     try:
-        futs = {client.submit(_work, job, pure=False): job for job in jobs_list}
-        for fut in as_completed(list(futs)):
-            try:
-                done(fut.result())
-            except Exception as exc:  # noqa: BLE001 - a lost worker, a cancelled task
-                done(_lost(futs[fut], "dask: " + _one_line(exc)))
-    finally:
-        if own:
-            client.close()
+        return Client(scheduler), True
+    except (OSError, ValueError, TypeError) as exc:
+        raise ParameterError(f"cannot reach the Dask scheduler at {scheduler}: "
+                             f"{' '.join(str(exc).split())}") from None
+
+
+def _run_dask(jobs_list, client, done: Callable[[dict], None]) -> None:
+    from dask.distributed import as_completed
+
+    futs = {client.submit(_work, job, pure=False): job for job in jobs_list}
+    for fut in as_completed(list(futs)):
+        try:
+            done(fut.result())
+        except Exception as exc:  # noqa: BLE001 - a lost worker, a cancelled task
+            done(_lost(futs[fut], "dask: " + _one_line(exc)))
+
+
+def _run_all(jobs_list, client, jobs: int | None, progress: bool,
+             rows: dict[str, dict[str, Any]]) -> None:
+    with _progress_bar(len(jobs_list), progress) as bar:
+        task = bar.add_task("estimating", total=len(jobs_list), last="") if bar else None
+
+        def done(row: dict[str, Any]) -> None:
+            rows[row["output"]] = row
+            if bar is not None:
+                bar.update(task, advance=1, last=f"{Path(row['file']).name}: {row['status']}")
+
+        if client is None:
+            _run_local(jobs_list, jobs or default_jobs(), done)
+        else:
+            _run_dask(jobs_list, client, done)
 
 
 def run(
@@ -600,22 +625,15 @@ def run(
             "options": opts, "force": force,
         })
     rows: dict[str, dict[str, Any]] = {}
-    with _progress_bar(len(jobs_list), progress) as bar:
-        task = bar.add_task("estimating", total=len(jobs_list), last="") if bar else None
-
-        def done(row: dict[str, Any]) -> None:
-            rows[row["output"]] = row
-            if bar is not None:
-                bar.update(task, advance=1, last=f"{Path(row['file']).name}: {row['status']}")
-
-        if scheduler is None:
-            _run_local(jobs_list, jobs or default_jobs(), done)
-        else:
-            _run_dask(jobs_list, scheduler, done)
+    client, own = _dask_client(scheduler) if scheduler is not None else (None, False)
+    try:
+        _run_all(jobs_list, client, jobs, progress, rows)
+    finally:
+        if own:
+            client.close()
     table = [rows[j["output"]] for j in jobs_list]
     df = pd.DataFrame(table, columns=list(SUMMARY_COLUMNS))
-    for col in ("file", "output"):  # relative to the output folder's parent is less useful
-        df[col] = df[col].astype(str)
+    df["file"] = df["file"].astype(str)
     if not df["fitted_radius"].notna().any():
         df = df.drop(columns="fitted_radius")
     if not report:
@@ -623,7 +641,8 @@ def run(
     else:
         df["report"] = [os.path.basename(r) if isinstance(r, str) else None
                         for r in df["report"]]
-    df["output"] = [os.path.relpath(p, out.absolute()) for p in df["output"]]
+    df["output"] = [None if st == "error" else os.path.relpath(p, out.absolute())
+                    for p, st in zip(df["output"], df["status"], strict=True)]
     write_summary(df, out)
     if report:
         from vibrospeed.eval.report import write_index

@@ -213,8 +213,8 @@ def render_report(
                 "<p>No wheel line was seen in this drive: the estimate is a guess with a wide "
                 "band.</p>")
     else:
-        line = (f"<p class=\"muted\">The method '{_esc(track.method)}' does not say where it sees a "
-                "wheel line.</p>")
+        line = (f"<p class=\"muted\">The method '{_esc(track.method)}' does not say where it "
+                "sees a wheel line.</p>")
     params = "".join(f"<tr><th><code>{_esc(k)}</code></th><td><code>{_esc(v)}</code></td></tr>"
                      for k, v in sorted(track.params.items(), key=lambda kv: str(kv[0])))
 
