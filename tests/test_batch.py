@@ -86,7 +86,7 @@ def test_local_pool_resume_and_changes(tmp_path):
     names = list(df.loc[df["status"] == "ok", "output"])
     assert len(set(names)) == 3 and all(n.endswith("_grid.csv") for n in names)
     assert names[0].startswith("drive-") and names[2].startswith("drive-")  # same basename
-    assert df.loc[0, "signal_share"] > 0.3  # the grid tracker says where it sees a line
+    assert df.loc[0, "signal_share"] > 0.2  # the grid tracker says where it sees a line
     assert "file not found" in df.loc[4, "error"]
     side = json.loads((out / f"{names[0]}.json").read_text())
     assert side["meta"]["options"]["params"] == {"omega_max": "30", "omega_min": "2"}

@@ -83,6 +83,10 @@ def prepare_axis(
         notes.append(f"{n_nan} NaN samples on '{name}': prediction only there")
     sos = pf.design(prefilter, fs, M=M, omega_range=omega_range)
     y = pf.apply(sos, x, level=start_level(x, dt))
+    if prefilter in pf.ADAPTIVE:
+        from vibrospeed.signal import whiten
+
+        y = whiten.apply(y, fs)
     notes.append(f"pre-filter '{prefilter}' on '{name}' at fs = {fs:.4g} Hz")
     if normalize_tau:
         y = running_rms_normalize(y, dt, normalize_tau)

@@ -114,7 +114,7 @@ AXES_EXPONENT = 0.834
 #: (in ``extras["omega_mean"]``) is the MMSE choice but lies between the lines.
 GRID_DEFAULTS = {
     "jump_rate": 0.05, "off_rate": 0.01, "on_rate": 0.5, "r": 0.15, "q_amp": 0.002,
-    "q_omega": 16.0, "temper": 0.05, "temper_fs": 100.0, "prefilter": "thesis-hp",
+    "q_omega": 16.0, "temper": 0.05, "temper_fs": 100.0, "prefilter": "whiten",
     "smooth": "fb", "null_model": "mixture", "point": "mode",
 }
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from vibrospeed.signal import normalize as nz
 from vibrospeed.signal import prefilter as pf
+from vibrospeed.signal import whiten as wh
 
 
 def _pipeline_of(config: Any) -> tuple[Any, str, float | None, float, tuple | None]:
@@ -70,22 +71,25 @@ class OnlineTracker:
         self.dt = model.dt
         self.sos = pf.design(prefilter or pre, 1.0 / model.dt, M=model.M,
                              omega_range=omega_range)
+        self.whiten = (prefilter or pre) in pf.ADAPTIVE
         self.tau = (tau if normalize_tau is True else normalize_tau) or None
         self.target = target if target_rms is None else target_rms
         self.n_axes = int(getattr(config, "n_axes", 1))
         levels = np.broadcast_to(np.asarray(np.nan if level is None else level, float),
                                  (self.n_axes,))
-        front = tuple((pf.init(self.sos, None if np.isnan(lv) else float(lv)), nz.init())
-                      for lv in levels)
+        front = tuple((pf.init(self.sos, None if np.isnan(lv) else float(lv)), nz.init(),
+                       wh.init()) for lv in levels)
         self.state = (front, estimator.init(config))
 
     def _front(self, st: tuple, sample: float) -> tuple[tuple, float]:
-        fs, ns = st
+        fs, ns, ws = st
         fs, y = pf.step(self.sos, fs, float(sample))
+        if self.whiten:
+            ws, y = wh.step(ws, y, 1.0 / self.dt)
         if self.tau:
             ns, y = nz.step(ns, y, self.dt, self.tau)
             y = self.target * y
-        return (fs, ns), (y if np.isfinite(y) else np.nan)
+        return (fs, ns, ws), (y if np.isfinite(y) else np.nan)
 
     def update(self, sample) -> Any:
         """Process one raw sample (NaN = missing), or with a grid config of several

@@ -12,6 +12,8 @@ Presets (cut-offs in rad/s unless said otherwise, digital design with ``fs``):
 ``range``       tied to the search range ``omega_min..omega_max``: high-pass order 4 at
                 ``RANGE_HP * omega_min``, low-pass order 4 at ``RANGE_LP * M * omega_max``
                 (left out when that is above ``0.4 fs``: the harmonics alias there)
+``whiten``      ``thesis-hp``, then adaptive pre-whitening (:mod:`vibrospeed.signal.whiten`):
+                the background spectrum, whatever its shape, divided out; lines kept
 ``none``        identity
 =============== ===================================================================
 
@@ -38,9 +40,13 @@ PRESETS = {
     "thesis-hplp": "high-pass order 2 at 4 rad/s + low-pass order 1, cut-off per M (thesis 3.5)",
     "paper-hp": "Butterworth high-pass order 2 at 8 Hz (chassis-vibration paper IV)",
     "range": "high-pass order 4 below omega_min, low-pass order 4 above M omega_max",
+    "whiten": "thesis-hp, then adaptive pre-whitening of the background (signal.whiten)",
     "none": "no pre-filter",
 }
 
+
+#: presets followed by the adaptive whitener (:mod:`vibrospeed.signal.whiten`) after their SOS
+ADAPTIVE = frozenset({"whiten"})
 
 #: ``range`` preset: high-pass corner as a fraction of omega_min, low-pass corner as a multiple
 #: of M omega_max. A vehicle's body motion and manoeuvres (0.2-1.5 m/s^2 below 2 Hz on a car,
@@ -95,7 +101,7 @@ def design(
     """
     if preset == "none":
         return np.array([[1.0, 0.0, 0.0, 1.0, 0.0, 0.0]])
-    if preset == "thesis-hp":
+    if preset in ("thesis-hp", "whiten"):
         return butter_sos("highpass", _rad_to_hz(hp_cutoff or 4.0), fs, 2)
     if preset == "thesis-bp":
         lo = hp_cutoff or 4.0
