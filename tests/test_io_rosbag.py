@@ -233,3 +233,21 @@ def test_cli_corrupt_bag_exit_2(tmp_path):
     _corrupt(p, 0.6)
     res = CliRunner().invoke(app, ["info", str(p)])
     assert res.exit_code == 2 and "c.bag" in res.output and "Traceback" not in res.output
+
+
+def test_cli_topic_option(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from vibrospeed.cli.app import app
+
+    p = _write(tmp_path / "b", imu2=True, gps=False)
+    out = tmp_path / "est.csv"
+    res = CliRunner().invoke(app, ["estimate", str(p), "--topic", "/cam/imu", "-m", "ekf",
+                                   "--init-omega", "10", "-p", "omega_max=30", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert sum(1 for _ in open(out)) - 1 == N // 4  # the camera IMU's samples
+    assert json.load(open(str(out) + ".json"))["method"] == "ekf"
+    res = CliRunner().invoke(app, ["estimate", str(p), "--topic", "/nope", "-o", str(out)])
+    assert res.exit_code == 2 and "topic /nope not found" in res.output

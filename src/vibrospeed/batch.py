@@ -101,6 +101,7 @@ class EstimateOptions:
     mapping: str | None = None
     rate: float | None = None
     sort: bool = False
+    topic: str | None = None
 
     def estimator_params(self) -> dict[str, Any]:
         """``params`` with the shortcuts folded in (as the CLI always did)."""
@@ -142,13 +143,15 @@ class Estimated:
 
 def load_recording(path: str | os.PathLike[str], fmt: str = "auto", columns: str | None = None,
                    mapping: str | os.PathLike[str] | None = None, rate: float | None = None,
-                   sort: bool = False, uniform: bool = True):
+                   sort: bool = False, uniform: bool = True, topic: str | None = None):
     """Read a recording as the CLI does: :func:`vibrospeed.io.read`, then non-uniform time
-    stamps resampled to the median rate (unless ``uniform`` is false)."""
+    stamps resampled to the median rate (unless ``uniform`` is false); ``topic``: a ROS
+    bag's IMU topic."""
     from vibrospeed import io
     from vibrospeed.io import timebase
 
-    rec = io.read(path, fmt, columns=columns, mapping_file=mapping, rate=rate, sort=sort)
+    rec = io.read(path, fmt, columns=columns, mapping_file=mapping, rate=rate, sort=sort,
+                  topic=topic)
     if uniform and len(rec) > 2 and not rec.is_uniform(rtol=0.05):
         rec = timebase.resample_uniform(rec)
     return rec
@@ -178,7 +181,7 @@ def estimate_recording(
     params = options.estimator_params()
     mod = estimators.get(method)
     rec = load_recording(input, options.fmt, options.columns, options.mapping, options.rate,
-                         options.sort)
+                         options.sort, topic=options.topic)
     extra_kw: dict[str, Any] = {}
     if keep_posterior and "return_posterior" in inspect.signature(mod.estimate).parameters:
         extra_kw["return_posterior"] = True
@@ -461,7 +464,7 @@ def _work(job: dict[str, Any]) -> dict[str, Any]:
 
             if rec is None:
                 rec = load_recording(job["input"], opts.fmt, opts.columns, opts.mapping,
-                                     opts.rate, opts.sort)
+                                     opts.rate, opts.sort, topic=opts.topic)
             write_report(report, rec, track, axis=vibration_channel(rec, axis),
                          posterior=grids.get("posterior"), grid=grids.get("grid"),
                          title=Path(job["file"]).name, input_path=job["file"],

@@ -77,6 +77,8 @@ FormatOpt = Annotated[str, typer.Option("--format", "-f", help="input format: au
                       "zip), sensorfusion (app log), rosbag (ROS 1 .bag or ROS 2 folder), gopro "
                       "(GoPro MP4 telemetry), parquet, androsensor, comma2k19, f1tenth; see "
                       "docs/formats.md")]
+TopicOpt = Annotated[str | None, typer.Option("--topic", help="ROS bags: the IMU topic to read "
+                     "(default: the busiest sensor_msgs/Imu topic)")]
 ColumnsOpt = Annotated[str | None, typer.Option(help="generic CSV column mapping, e.g. "
                        "'t=time,ay=acc_y:g' (name=column[:unit])")]
 MappingOpt = Annotated[Path | None, typer.Option("--mapping", help="TOML file with the column "
@@ -158,6 +160,7 @@ def estimate(
     fit_params: Annotated[bool, typer.Option("--fit-params", help="fit q_omega, q_amp and r to "
                           "this recording by marginal likelihood first (rbpmf, grid)")] = False,
     fmt: FormatOpt = "auto",
+    topic: TopicOpt = None,
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
     rate: RateOpt = None,
@@ -206,7 +209,7 @@ def estimate(
     opts = EstimateOptions(method=method, params=parse_params(param), axis=axis,
                            wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
                            lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
-                           mapping=mapping, rate=rate, sort=sort)
+                           mapping=mapping, rate=rate, sort=sort, topic=topic)
     est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
                              keep_posterior=plot is not None)
     rec, track = est.recording, est.track
@@ -259,6 +262,7 @@ def batch(
     force: Annotated[bool, typer.Option("--force", help="estimate again even where an "
                      "up-to-date output exists")] = False,
     fmt: FormatOpt = "auto",
+    topic: TopicOpt = None,
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
     rate: RateOpt = None,
@@ -289,7 +293,7 @@ def batch(
                               wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
                               lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
                               mapping=str(mapping) if mapping is not None else None, rate=rate,
-                              sort=sort)
+                              sort=sort, topic=topic)
     if jobs is not None and jobs < 1:
         raise ParameterError(f"--jobs must be at least 1, got {jobs}")
     df = vb.run(inputs, output, options=opts, scheduler=scheduler, jobs=jobs, report=report,
