@@ -86,6 +86,19 @@ from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators.ekf import harmonic_update, rotate_phasors, symmetrize_into
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
+from vibrospeed.signal.comb import (  # noqa: F401  (comb_fixes, COMB_*: re-exported)
+    COMB_COUNT,
+    COMB_DECAY,
+    COMB_FRAME_S,
+    COMB_HOP_S,
+    COMB_M,
+    COMB_OMEGA_MIN,
+    COMB_REL,
+    comb_candidates,
+    comb_fixes,
+    comb_vote,
+    restart_phasors,
+)
 from vibrospeed.signal.detectors import _cusum_core, _mode_core, _window_core
 from vibrospeed.types import Recording, Track
 
@@ -174,8 +187,8 @@ class Config:
     line_tau: float = 2.0
     line_omega_min: float = 5.0
     init_ref: bool = False
-    comb_count: int = 2
-    comb_rel: float = 0.1
+    comb_count: int = COMB_COUNT
+    comb_rel: float = COMB_REL
 
     def __post_init__(self) -> None:
         if not (self.wheel_radius and self.wheel_radius > 0):
@@ -398,24 +411,13 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, still, comb, wbuf, wpc, wflag, c
     if np.isfinite(comb) and comb > 0.0 and not ss:
         # a candidate counts when it is steady (agrees with the previous one) and the vehicle
         # is not in acceleration mode (a 3 s frame lags a speed change)
-        steady = abs(comb - line[5]) <= 0.5 * fp[18] * comb
-        line[5] = comb
-        if abs(x[0] - comb) > fp[18] * comb and steady and not acc:
-            line[4] += 1.0
-        else:
-            line[4] = 0.0
-        if line[4] >= fp[17]:
+        _, reset = comb_vote(line[4:6], comb, x[0], fp[18], fp[17], not acc)
+        if reset:
             # the phasors belong to the old rotation (at half the wheel speed the line sits
             # in phasor 2 and would pull omega back): they restart, uncorrelated
-            for i in range(1, n - 1):
-                x[i] = 0.0
-                for j in range(n):
-                    P[i, j] = 0.0
-                    P[j, i] = 0.0
-                P[i, i] = fp[19]
+            restart_phasors(x, P, 1, n - 1, fp[19])
             _scalar_update(x, P, 0, comb, (0.5 * fp[18] * comb) ** 2)
             line[2] = 1.0
-            line[4] = 0.0
     # ---- reference-speed fix (thesis 4.2.4) ------------------------------------------------
     if np.isfinite(ref) and np.isfinite(ref_var) and ref_var > 0.0:
         _scalar_update(x, P, 0, ref, ref_var)
@@ -653,80 +655,6 @@ def standstill_offset(u: np.ndarray, still: np.ndarray, *, causal: bool = False)
     return np.where(n_st > 0, m_st, np.where(n_all > 0, m_all, 0.0))
 
 
-
-#: comb check (acquisition and re-lock): frame length (s), hop (s), harmonics and their weights
-COMB_FRAME_S = 3.0
-COMB_HOP_S = 0.25
-COMB_M = 3
-COMB_DECAY = 0.84  # subharmonic-summation weight per harmonic (Hermes 1988)
-COMB_OMEGA_MIN = 2.0 * np.pi  # rad/s, lowest wheel speed the comb check looks for
-
-
-def comb_fixes(x: np.ndarray, dt: float, omega_range: tuple[float, float], *,
-               still: np.ndarray | None = None, clarity: float = 3.0,
-               rel_std: float = 0.05) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Omega fixes from the harmonic comb: ``(ref, ref_var, score)`` per sample (NaN: none).
-
-    Every ``COMB_HOP_S`` a ``COMB_FRAME_S`` Hann frame *ending* at that sample (causal) gets the
-    weighted harmonic sum ``S(w) = sum_m d^(m-1) |X(m w)|`` (m = 1..3, d = 0.84, harmonics
-    above Nyquist folded) on a log grid over ``omega_range``; where the best ``S`` is at least
-    ``clarity`` times its median over the range (a comb stands out of the floor: the ratio
-    does not depend on the signal's scale), the argmax is a fix with std ``rel_std`` of it.
-    The decaying weights make the wheel speed beat half of it (whose sum holds the fundamental
-    only at its 2nd place). No fixes in frames with a standing sample. ``score`` is the ratio.
-    """
-    x = np.asarray(x, dtype=np.float64)
-    n = x.size
-    ref = np.full(n, np.nan)
-    var = np.full(n, np.nan)
-    score = np.full(n, np.nan)
-    L = int(round(COMB_FRAME_S / dt))
-    hop = max(1, int(round(COMB_HOP_S / dt)))
-    if n < L or L < 8:
-        return ref, var, score
-    lo, hi = (float(w) for w in omega_range)
-    nyq = np.pi / dt
-    hi = min(hi, nyq)
-    if not hi > lo > 0:
-        return ref, var, score
-    nfft = 1 << int(np.ceil(np.log2(4 * L)))
-    grid = np.exp(np.linspace(np.log(lo), np.log(hi), 400))
-    binw = 2 * np.pi / (nfft * dt)
-    ends = np.arange(L - 1, n, hop)
-    fin = np.isfinite(x)
-    xz = np.where(fin, x, 0.0)
-    win = np.hanning(L)
-    idx = []
-    wts = []
-    for m in range(1, COMB_M + 1):
-        w = np.abs((m * grid + nyq) % (2 * nyq) - nyq)
-        idx.append(w / binw)
-        wts.append(COMB_DECAY ** (m - 1))
-    st = np.zeros(n, bool) if still is None else np.asarray(still) > 0.5
-    st_cum = np.concatenate(([0], np.cumsum(st)))
-    fin_cum = np.concatenate(([0], np.cumsum(fin)))
-    for chunk in np.array_split(ends, max(1, ends.size // 256)):
-        if chunk.size == 0:
-            continue
-        frames = np.lib.stride_tricks.sliding_window_view(xz, L)[chunk - L + 1]
-        frames = frames - frames.mean(axis=1, keepdims=True)
-        mag = np.abs(np.fft.rfft(frames * win, nfft, axis=1))
-        S = np.zeros((chunk.size, grid.size))
-        for fi, wt in zip(idx, wts, strict=True):
-            i0 = np.minimum(np.floor(fi).astype(int), mag.shape[1] - 2)
-            fr = fi - i0
-            S += wt * (mag[:, i0] * (1 - fr) + mag[:, i0 + 1] * fr)
-        best = np.argmax(S, axis=1)
-        ratio = S[np.arange(chunk.size), best] / np.maximum(np.median(S, axis=1), 1e-300)
-        ok = ((st_cum[chunk + 1] - st_cum[chunk - L + 1]) == 0) & \
-             ((fin_cum[chunk + 1] - fin_cum[chunk - L + 1]) >= L // 2) & (ratio >= clarity)
-        om = grid[best]
-        score[chunk] = ratio
-        ref[chunk[ok]] = om[ok]
-        var[chunk[ok]] = (rel_std * om[ok]) ** 2
-    return ref, var, score
-
-
 def omega_shift(config: Config, u: float, bias: float, accelerating: bool) -> float:
     """Omega increment (rad/s) the aiding adds in one time update: ``(T / r)(u_eff + b)``.
 
@@ -942,12 +870,8 @@ def estimate(
     comb = _flag(cfg_kw_comb)
     c_om = None
     if comb:
-        # below 1 Hz the comb would pick the body's sway and the manoeuvres
-        c_rng = (max(om_min or 0.0, COMB_OMEGA_MIN), config.omega_limit)
-        c_band = (min(4 * np.pi, 0.25 * np.pi / dt), np.pi / dt)  # the road's band, 2 Hz up
-        sos_c = pf.design("range", 1.0 / dt, M=1, omega_range=c_band)
-        c_om, _, _ = comb_fixes(pf.apply(sos_c, x), dt, c_rng, still=still,
-                                clarity=comb_clarity)
+        c_om, c_rng = comb_candidates(x, dt, om_min, config.omega_limit, still=still,
+                                      clarity=comb_clarity)
         notes.append(f"comb check: {np.isfinite(c_om).sum()} candidates from the harmonic comb "
                      f"({COMB_FRAME_S:g} s frames every {COMB_HOP_S:g} s, clarity >= "
                      f"{comb_clarity:g}, range {c_rng[0]:.3g}-{c_rng[1]:.3g} rad/s); omega is "
