@@ -16,6 +16,18 @@ NaN samples skip the update (prediction only). The model is symmetric under
 ``(omega, beta) -> (-omega, -beta)``; when an update drives omega below 0 the equivalent state
 with omega >= 0 is used (and P transformed alike). Omega is clipped to ``omega_max`` (default just
 below the Nyquist limit ``pi fs / M``).
+
+Comb check (issue 13; not the thesis'; :mod:`vibrospeed.signal.comb`, as in the aided tracker):
+an optional per-sample input ``comb``, the speed of the strongest weighted harmonic comb in the
+last 3 s (NaN between candidates). After ``COMB_COUNT`` = 2 steady candidates in a row that
+differ from omega by more than ``COMB_REL`` = 10 % of the candidate, omega is *reset* to the
+candidate (variance ``(COMB_REL / 2 * candidate)^2``) and the phasors restart at 0 with
+variance ``p0_amp``: the way out of a lock on half or twice the wheel speed (an EKF at half the
+wheel speed explains the wheel's fundamental with its 2nd phasor and stays there). With
+``Config.acquire`` the start value ``omega0`` is a placeholder: the first steady candidate sets
+omega (acquisition) whatever it is. Without the input (``comb`` NaN) the filter is the thesis'
+EKF exactly. The comb check's state (run length, last candidate, acquired flag) is part of
+:class:`State`, so ``step`` == ``run`` with the input too.
 """
 
 from __future__ import annotations
@@ -29,6 +41,7 @@ from numba import njit
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import ParameterError
 from vibrospeed.models.harmonic import HarmonicModel
+from vibrospeed.signal.comb import COMB_COUNT, COMB_REL, comb_vote, restart_phasors
 from vibrospeed.types import Recording, Track
 
 
@@ -45,6 +58,10 @@ class Config:
     omega_min : lower clip in rad/s (default 0). Below the pre-filter's high-pass corner a
         vibration line cannot be seen, and an EKF whose omega drifts there collapses onto slow
         phasors that absorb any low-frequency residue; :func:`estimate` clips at 2 rad/s.
+    acquire : ``omega0`` is a placeholder until the first steady comb candidate (the ``comb``
+        input of :func:`step` / :func:`run`), which sets omega whatever it is (default False:
+        ``omega0`` is trusted, the comb check only re-locks). :func:`estimate` sets it when no
+        ``omega0`` (``--init-omega``) is given.
     """
 
     model: HarmonicModel = field(default_factory=HarmonicModel.from_thesis)
@@ -53,6 +70,7 @@ class Config:
     amp0: float = 0.0
     omega_max: float | None = None
     omega_min: float = 0.0
+    acquire: bool = False
 
     def __post_init__(self) -> None:
         if not self.p0_omega > 0:
@@ -73,20 +91,24 @@ class Config:
 
 
 class State(NamedTuple):
-    """EKF prior for the next sample: ``x`` (1+2M,), ``P`` (1+2M, 1+2M)."""
+    """EKF prior for the next sample: ``x`` (1+2M,), ``P`` (1+2M, 1+2M) and the comb check's
+    ``[run of disagreeing candidates, last candidate, acquired]`` (None: as :func:`init`)."""
 
     x: np.ndarray
     P: np.ndarray
+    comb: np.ndarray | None = None
 
 
 class Estimate(NamedTuple):
-    """Posterior at one sample: omega (rad/s), its std, amplitudes (M,), innovation, its var."""
+    """Posterior at one sample: omega (rad/s), its std, amplitudes (M,), innovation, its var,
+    whether omega has been acquired (always with ``Config.acquire`` False)."""
 
     omega: float
     omega_std: float
     amplitudes: np.ndarray
     innovation: float
     innovation_var: float
+    acquired: bool = True
 
 
 def init(config: Config) -> State:
@@ -97,7 +119,11 @@ def init(config: Config) -> State:
     x[0] = config.omega0
     P = np.eye(n) * m.p0_amp
     P[0, 0] = config.p0_omega
-    return State(x, P)
+    return State(x, P, _comb0(config))
+
+
+def _comb0(config: Config) -> np.ndarray:
+    return np.array([0.0, np.nan, 0.0 if config.acquire else 1.0])
 
 
 @njit(cache=True)
@@ -183,8 +209,9 @@ def harmonic_update(x, P, y, M, r, freeze_first, freeze_last):
 
 
 @njit(cache=True)
-def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_min, om_max, out):
-    """In place: update x, P with y (skip if NaN), write outputs, predict. ``out`` (4+M,)."""
+def _ekf_step(x, P, cv, y, comb, M, T, q_om, q_amp, r, om_min, om_max, p0_amp, out):
+    """In place: update x, P with y (skip if NaN), comb check with ``comb`` (skip if NaN;
+    ``cv`` its state), write outputs, predict. ``out`` (5+M,)."""
     n = x.size
     # ---- measurement update: y = sum alpha + e --------------------------------------
     innov = np.nan
@@ -205,15 +232,27 @@ def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_min, om_max, out):
         x[0] = om_max
     if x[0] < om_min:
         x[0] = om_min
+    # ---- comb check: acquisition, re-lock from half / twice the wheel speed -----------------
+    if np.isfinite(comb) and comb > 0.0:
+        acquired = cv[2] > 0.5
+        steady, reset = comb_vote(cv[0:2], comb, x[0], COMB_REL,
+                                  COMB_COUNT if acquired else 1, True)
+        if steady:
+            cv[2] = 1.0
+        if reset:
+            restart_phasors(x, P, 1, n, p0_amp)
+            x[0] = min(max(comb, om_min), om_max)
+            P[0, 0] = (0.5 * COMB_REL * comb) ** 2
     # ---- outputs (posterior at this sample) --------------------------------------------
     out[0] = x[0]
     out[1] = np.sqrt(max(P[0, 0], 0.0))
     out[2] = innov
     out[3] = s_var
+    out[4] = cv[2]
     for m in range(M):
         a = x[1 + 2 * m]
         b = x[2 + 2 * m]
-        out[4 + m] = np.sqrt(a * a + b * b)
+        out[5 + m] = np.sqrt(a * a + b * b)
     # ---- time update ----------------------------------------------------------------
     F = np.eye(n)
     xn = x.copy()
@@ -228,28 +267,41 @@ def _ekf_step(x, P, y, M, T, q_om, q_amp, r, om_min, om_max, out):
 
 
 @njit(cache=True)
-def _ekf_run(ys, x, P, M, T, q_om, q_amp, r, om_min, om_max):
+def _ekf_run(ys, combs, x, P, cv, M, T, q_om, q_amp, r, om_min, om_max, p0_amp):
     n_s = ys.size
-    outs = np.empty((n_s, 4 + M))
-    out = np.empty(4 + M)
+    outs = np.empty((n_s, 5 + M))
+    out = np.empty(5 + M)
     for k in range(n_s):
-        _ekf_step(x, P, ys[k], M, T, q_om, q_amp, r, om_min, om_max, out)
+        _ekf_step(x, P, cv, ys[k], combs[k], M, T, q_om, q_amp, r, om_min, om_max, p0_amp,
+                  out)
         outs[k] = out
     return outs
 
 
 def _args(config: Config) -> tuple:
     m = config.model
-    return (m.M, m.dt, m.q_omega, m.q_amp, m.r, config.omega_min, config.omega_limit)
+    return (m.M, m.dt, m.q_omega, m.q_amp, m.r, config.omega_min, config.omega_limit, m.p0_amp)
 
 
-def step(config: Config, state: State, y: float) -> tuple[State, Estimate]:
-    """Process one sample ``y``; returns the prior for the next sample and the posterior now."""
+def _comb_state(config: Config, state: State) -> np.ndarray:
+    return _comb0(config) if state.comb is None else np.array(state.comb, dtype=np.float64)
+
+
+def step(config: Config, state: State, y: float, comb: float = np.nan
+         ) -> tuple[State, Estimate]:
+    """Process one sample ``y``; returns the prior for the next sample and the posterior now.
+
+    ``comb``: the comb check's candidate at this sample (rad/s; NaN: none), e.g. from
+    :func:`vibrospeed.signal.comb.comb_candidates`.
+    """
     x = state.x.copy()
     P = state.P.copy()
-    out = np.empty(4 + config.model.M)
-    _ekf_step(x, P, float(y), *_args(config), out)
-    return State(x, P), Estimate(out[0], out[1], out[4:].copy(), out[2], out[3])
+    cv = _comb_state(config, state)
+    a = _args(config)
+    out = np.empty(5 + config.model.M)
+    _ekf_step(x, P, cv, float(y), float(comb), *a, out)
+    return State(x, P, cv), Estimate(out[0], out[1], out[5:].copy(), out[2], out[3],
+                                     bool(out[4] > 0.5))
 
 
 class Result(NamedTuple):
@@ -260,16 +312,35 @@ class Result(NamedTuple):
     amplitudes: np.ndarray  # (n, M)
     innovation: np.ndarray  # (n,)
     innovation_var: np.ndarray  # (n,)
+    acquired: np.ndarray  # (n,) bool
     final: State
 
 
-def run(config: Config, y: np.ndarray, state: State | None = None) -> Result:
-    """Run over a whole signal; identical to repeated :func:`step`."""
+def run(config: Config, y: np.ndarray, state: State | None = None,
+        comb: np.ndarray | None = None) -> Result:
+    """Run over a whole signal (``comb``: the comb candidates per sample, NaN: none; None: no
+    comb check); identical to repeated :func:`step`."""
     st = init(config) if state is None else state
     x = st.x.copy()
     P = st.P.copy()
-    outs = _ekf_run(np.ascontiguousarray(y, dtype=np.float64), x, P, *_args(config))
-    return Result(outs[:, 0], outs[:, 1], outs[:, 4:], outs[:, 2], outs[:, 3], State(x, P))
+    cv = _comb_state(config, st)
+    ys = np.ascontiguousarray(y, dtype=np.float64)
+    if comb is None:
+        combs = np.full(ys.size, np.nan)
+    else:
+        combs = np.ascontiguousarray(comb, dtype=np.float64)
+        if combs.shape != ys.shape:
+            raise ParameterError(f"comb has {combs.size} samples, y has {ys.size}")
+    outs = _ekf_run(ys, combs, x, P, cv, *_args(config))
+    return Result(outs[:, 0], outs[:, 1], outs[:, 5:], outs[:, 2], outs[:, 3],
+                  outs[:, 4] > 0.5, State(x, P, cv))
+
+
+def _flag(v) -> bool:
+    """A boolean parameter given as bool, number or text ('true', '1', 'yes')."""
+    if isinstance(v, str):
+        return v.strip().lower() in ("1", "true", "yes", "on")
+    return bool(v)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -299,14 +370,35 @@ def estimate(
     the Nyquist limit ``M omega_max < pi fs``) and ``normalize_tau`` (s, running
     RMS normalisation; 0 = off, then the parameters are in the signal's own units and the
     thesis' values apply: ``r=0.003 q_amp=0.004 p0_amp=20``).
+
+    Acquisition (issue 13): ``comb`` (default True) feeds the comb check
+    (:func:`vibrospeed.signal.comb.comb_candidates` on the raw axis, over ``max(omega_min,
+    2 pi)`` .. ``omega_max``). Without ``omega0`` (``--init-omega``) the first steady comb
+    candidate sets omega (until then omega is the placeholder ``omega0`` = 10.2 rad/s and the
+    extra ``acquired`` is 0); with it, ``omega0`` is trusted and the comb check only re-locks
+    (2 steady candidates in a row more than 10 % from omega: omega and the phasors restart
+    there). ``comb=false`` is the thesis' EKF from ``omega0`` as before.
+
+    Online: the comb check is causal (3 s frames ending at the sample) but
+    :class:`~vibrospeed.estimators.online.OnlineTracker` does not compute it; it runs the EKF
+    without it (what ``comb=false`` with ``omega0`` gives here). A device that wants it feeds
+    :func:`step`'s ``comb`` from its own 3 s buffer.
     """
-    from vibrospeed.estimators.common import prepare_axis, run_in_chunks, split_params
+    from vibrospeed.estimators.common import (
+        axis_channel,
+        prepare_axis,
+        run_in_chunks,
+        split_params,
+    )
+    from vibrospeed.signal.comb import COMB_FRAME_S, COMB_HOP_S, comb_candidates
 
     params = dict(params or {})
     model_kw, cfg_kw = split_params(HarmonicModel, params)
     model_kw.pop("dt", None)
     pre = str(cfg_kw.pop("prefilter", "thesis-hp"))
     tau = float(cfg_kw.pop("normalize_tau", 5.0))
+    comb_on = _flag(cfg_kw.pop("comb", True))
+    cfg_kw.setdefault("acquire", comb_on and "omega0" not in cfg_kw)
     defaults = dict(UNIT_RMS_MODEL) if tau > 0 else HarmonicModel.from_thesis().to_dict()
     defaults.pop("dt", None)
     model = config_from_params(HarmonicModel, model_kw, dt=1.0, **defaults)
@@ -317,22 +409,37 @@ def estimate(
                                 omega_max=config.omega_max, normalize_tau=tau or None)
     model = config_from_params(HarmonicModel, model_kw, **{**model.to_dict(), "dt": dt})
     config = config_from_params(Config, cfg_kw, model=model)
+    comb = None
+    if comb_on:
+        comb, c_rng = comb_candidates(recording.channel(axis_channel(axis)), dt,
+                                      config.omega_min, config.omega_limit)
+        notes.append(f"comb check: {np.isfinite(comb).sum()} candidates from the harmonic comb "
+                     f"({COMB_FRAME_S:g} s frames every {COMB_HOP_S:g} s, range "
+                     f"{c_rng[0]:.3g}-{c_rng[1]:.3g} rad/s); "
+                     + ("omega acquired from the first steady one, " if config.acquire else "")
+                     + "reset to them after 2 disagreeing by > 10 % in a row")
     parts: list[Result] = []
 
     def chunk(a: int, b: int) -> Result:
-        parts.append(run(config, y[a:b], parts[-1].final if parts else None))
+        parts.append(run(config, y[a:b], parts[-1].final if parts else None,
+                         comb=None if comb is None else comb[a:b]))
         return parts[-1]
 
     run_in_chunks(chunk, y.size, progress=progress, label="ekf")
     res = Result(*(np.concatenate([getattr(p, f) for p in parts])
                    for f in Result._fields[:-1]), parts[-1].final)
+    if config.acquire and not res.acquired.any():
+        notes.append("no steady comb candidate: omega never acquired (the output is the EKF "
+                     f"from the placeholder omega0 = {config.omega0:g} rad/s)")
     extras = {f"amp{m + 1}": res.amplitudes[:, m] for m in range(model.M)}
     extras["nis"] = res.innovation**2 / res.innovation_var
+    extras["acquired"] = res.acquired.astype(np.float64)
     return Track.from_omega(
         recording.t, res.omega, res.omega_std,
         wheel_radius=wheel_radius or recording.wheel_radius, method="ekf",
         params={**model.to_dict(), "omega0": config.omega0, "p0_omega": config.p0_omega,
                 "amp0": config.amp0, "omega_max": config.omega_limit, "prefilter": pre,
-                "normalize_tau": tau, "axis": axis},
+                "normalize_tau": tau, "axis": axis, "comb": comb_on,
+                "acquire": config.acquire},
         extras=extras, notes=notes,
     )
