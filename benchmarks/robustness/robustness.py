@@ -130,6 +130,12 @@ def score(rec, om, extras, om_lo, stft_ok=None):
 def one_seed(seed, methods, duration, extra=None):
     from vibrospeed import sim
 
+    if extra and str(extra.get("standstill", "on")) == "off":  # the stage switched off
+        from vibrospeed.estimators import grid
+
+        extra = {k: v for k, v in extra.items() if k != "standstill"}
+        grid.with_standstill = lambda tr, *a, **k: tr
+
     rec = sim.simulate("random", seed=seed, duration=duration)
     d = rec.meta["drawn"]
     om_lo, om_hi = rec.meta["omega_range"]
@@ -195,7 +201,8 @@ def main(argv=None):
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--duration", type=float, default=240.0)
-    ap.add_argument("--grid-params", default="", help="NAME=VALUE,... for the grid methods")
+    ap.add_argument("--grid-params", default="", help="NAME=VALUE,... for the grid methods "
+                    "(standstill=off: without the standstill stage)")
     ap.add_argument("--write", action="store_true", help="append the tables to RESULTS.md")
     ap.add_argument("--label", default="", help="heading of the written section")
     ap.add_argument("--from-rows", default="", help="summarise a saved rows .npy, run nothing")
