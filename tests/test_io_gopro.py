@@ -132,7 +132,7 @@ def test_clip_read_like_the_equivalent_csv(clip, tmp_path):
 
 def test_varying_samples_per_payload_give_a_fitted_uniform_rate(tmp_path):
     pls = []
-    for i, n in enumerate((199, 201, 198, 202)):
+    for n in (199, 201, 198, 202):
         acc = np.full((n, 3), 418, dtype=">i2")
         pls.append(nest("DEVC", nest("STRM", klv("SCAL", "s", 2, 1, struct.pack(">h", 418)),
                                      klv("ACCL", "s", 6, n, acc.tobytes()))))

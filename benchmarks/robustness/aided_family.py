@@ -109,7 +109,9 @@ def table(rows, methods):
         rs = [r for r in rows if m in r and "error" not in r[m]]
         if not rs:
             continue
-        get = lambda k: np.array([r[m].get(k, np.nan) for r in rs], float)  # noqa: E731
+        def get(k, m=m, rs=rs):
+            return np.array([r[m].get(k, np.nan) for r in rs], float)
+
         stop_s, mov_s = get("stop_s"), get("moving_s")
         sd, sf = get("stop_det"), get("stop_false")
         det = np.nansum(sd * stop_s) / max(np.sum(stop_s[np.isfinite(sd)]), 1e-9)

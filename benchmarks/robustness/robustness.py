@@ -166,7 +166,9 @@ def summarise(rows, methods):
              " | standstill while moving | claim precision | claim recall | claimed | CPU s/seed |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for m in methods:
-        get = lambda k: [r[m].get(k, np.nan) for r in rows if "error" not in r[m]]  # noqa: E731
+        def get(k, m=m):
+            return [r[m].get(k, np.nan) for r in rows if "error" not in r[m]]
+
         stop_s = np.array([r[m]["stop_s"] for r in rows if "error" not in r[m]])
         mov_s = np.array([r[m]["moving_s"] for r in rows if "error" not in r[m]])
         sd = np.array(get("stop_det"), float)

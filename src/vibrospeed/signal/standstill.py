@@ -73,7 +73,8 @@ _LOG_LO, _LOG_HI, _BINS = -7.0, 3.0, 500
 
 
 def broadband_level(x: np.ndarray, dt: float, band: tuple[float, float], *,
-                    frame_s: float = FRAME_S, hop_s: float = HOP_S) -> tuple[np.ndarray, np.ndarray]:
+                    frame_s: float = FRAME_S,
+                    hop_s: float = HOP_S) -> tuple[np.ndarray, np.ndarray]:
     """``(ends, level)``: per frame the index of its last sample and its broadband level.
 
     ``band`` in rad/s (clipped to Nyquist); NaN samples count as 0, frames with fewer than half

@@ -24,6 +24,7 @@ import inspect
 import numpy as np
 
 from vibrospeed.errors import ParameterError
+from vibrospeed.sim import family  # noqa: F401  (registers the "random" scenario)
 from vibrospeed.sim.drive import EXTRA_TRUTH_UNITS, simulate_drive
 from vibrospeed.sim.profile import Segment, SpeedProfile, Turn, build_profile
 from vibrospeed.sim.scenarios import (
@@ -46,7 +47,6 @@ from vibrospeed.sim.sensors import (
     WheelConfig,
     gps_with_lag,
 )
-from vibrospeed.sim import family  # noqa: F401  (registers the "random" scenario)
 from vibrospeed.sim.validation import ValidationSignal, validation_signal
 from vibrospeed.sim.vibration import EngineConfig, VibrationConfig
 

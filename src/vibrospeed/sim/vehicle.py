@@ -411,8 +411,9 @@ RANDOM_RANGES = {
 
 def random_config(seed: int) -> Config:
     """A vehicle of the randomised family: tyre (magic formula or brush, shape C, stiffness B
-    from a slip at the force peak of 8-20 %, peak mu 0.3-1.0), ABS / traction control or none, sensor noise and biases of production size and a
-    sample rate of 50-200 Hz, all drawn from ``seed`` (:data:`RANDOM_RANGES`)."""
+    from a slip at the force peak of 8-20 %, peak mu 0.3-1.0), ABS / traction control or none,
+    sensor noise and biases of production size and a sample rate of 50-200 Hz, all drawn from
+    ``seed`` (:data:`RANDOM_RANGES`)."""
     rng = np.random.default_rng([int(seed), 0])
     u = rng.uniform
     C = u(1.3, 1.9)
