@@ -16,9 +16,10 @@
 Calibration (``benchmarks/calibration``, ``docs/robustness.md``): a phone in a car at 20-30 m/s
 shows wheel harmonic peaks of ~0.09, 0.05, 0.02 m/s^2 (harmonics 1-3), a local floor of
 ~0.01 m/s^2 in a 4 s Hann spectrum and 0.2-1.5 m/s^2 std of body motion and manoeuvres below
-2 Hz on the horizontal axes. Here the comb's level at the vehicle's typical speed is that figure times a
-factor log-uniform in [0.1, 10], the floor that figure times log-uniform [0.5, 2], the body
-motion 0.1-1.0 m/s^2 std per horizontal axis on top of the turns and braking of the profile.
+2 Hz on the horizontal axes. Here the comb's level at the calibration speed (car: 25 m/s) is
+that figure times a factor log-uniform in [0.1, 10], the floor that figure times log-uniform
+[0.5, 2], the body motion 0.1-1.0 m/s^2 std per horizontal axis (car) on top of the turns and
+braking of the profile.
 The drawn values are in ``recording.meta["drawn"]``; ``meta["omega_range"]`` is the search
 range a user would give for that vehicle class (car 10-120 rad/s, slow vehicles 2-30 rad/s).
 """
