@@ -45,33 +45,12 @@ NULL = {"off_rate": 0.05, "on_rate": 0.5}
 
 def stft_harmonic_sum(y, dt, omega_min, omega_max, n_grid=200, M=3, win_s=3.0, hop_s=0.25,
                       causal=False):
-    """Baseline: per 3 s Hann window (hop 0.25 s), argmax over the grid of
-    sum_m |X(m omega)| (zero-padded FFT, linear interpolation); interpolated between the
-    window centres (offline) or, ``causal``, between the window ends (what a device can do:
-    each value is known when its window ends)."""
-    n = y.size
-    L = int(round(win_s / dt))
-    hop = max(1, int(round(hop_s / dt)))
-    nfft = 1 << int(np.ceil(np.log2(4 * L)))
-    f = 2 * np.pi * np.fft.rfftfreq(nfft, dt)
-    grid = np.linspace(omega_min, omega_max, n_grid)
-    win = np.hanning(L)
-    out = np.full(n, np.nan)
-    centres, vals = [], []
-    for k0 in range(0, max(1, n - L + 1), hop):
-        x = np.nan_to_num(y[k0 : k0 + L])
-        if x.size < L:
-            break
-        mag = np.abs(np.fft.rfft((x - x.mean()) * win, nfft))
-        score = sum(np.interp(m * grid, f, mag, right=0.0) for m in range(1, M + 1))
-        centres.append(k0 + L - 1 if causal else k0 + L // 2)
-        vals.append(grid[np.argmax(score)])
-    if centres and causal:  # hold each window's value from its end on
-        j = np.searchsorted(centres, np.arange(n), side="right") - 1
-        out = np.where(j >= 0, np.asarray(vals)[np.maximum(j, 0)], np.nan)
-    elif centres:
-        out = np.interp(np.arange(n), centres, vals)
-    return out
+    """The baseline (:func:`vibrospeed.eval.baseline.stft_harmonic_sum`) at this script's
+    grid of 200 points."""
+    from vibrospeed.eval.baseline import stft_harmonic_sum as base
+
+    return base(y, dt, omega_min, omega_max, n_grid=n_grid, M=M, win_s=win_s, hop_s=hop_s,
+                causal=causal)
 
 
 def metrics(t, est, truth, lo=None, hi=None, has=None):

@@ -33,40 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
+from vibrospeed.eval.baseline import stft_harmonic_sum  # noqa: F401 (used by the others)
+
 HERE = Path(__file__).resolve().parent
 METHODS = ("grid", "grid-causal", "rbpmf", "stft", "stft-causal", "aided")
-
-
-def stft_harmonic_sum(y, dt, omega_min, omega_max, n_grid=300, M=3, win_s=3.0, hop_s=0.25,
-                      causal=False):
-    """Per 3 s Hann window (hop 0.25 s) the argmax over a grid of ``sum_m |X(m omega)|``
-    (zero-padded FFT, linear interpolation, harmonics above Nyquist folded); values between
-    window centres (offline) or held from each window's end (causal)."""
-    n = y.size
-    L = int(round(win_s / dt))
-    hop = max(1, int(round(hop_s / dt)))
-    nfft = 1 << int(np.ceil(np.log2(4 * L)))
-    f = 2 * np.pi * np.fft.rfftfreq(nfft, dt)
-    grid = np.linspace(omega_min, omega_max, n_grid)
-    nyq = np.pi / dt
-    win = np.hanning(L)
-    starts = np.arange(0, max(1, n - L + 1), hop)
-    x = np.nan_to_num(np.lib.stride_tricks.sliding_window_view(y, L)[starts])
-    mag = np.abs(np.fft.rfft((x - x.mean(axis=1, keepdims=True)) * win, nfft, axis=1))
-    score = np.zeros((starts.size, n_grid))
-    for m in range(1, M + 1):
-        w = np.abs((m * grid + nyq) % (2 * nyq) - nyq)  # folded frequency
-        idx = np.interp(w, f, np.arange(f.size))
-        i0 = np.floor(idx).astype(int)
-        fr = idx - i0
-        i1 = np.minimum(i0 + 1, f.size - 1)
-        score += mag[:, i0] * (1 - fr) + mag[:, i1] * fr
-    vals = grid[np.argmax(score, axis=1)]
-    centres = starts + (L - 1 if causal else L // 2)
-    if causal:
-        j = np.searchsorted(centres, np.arange(n), side="right") - 1
-        return np.where(j >= 0, vals[np.maximum(j, 0)], np.nan)
-    return np.interp(np.arange(n), centres, vals)
 
 
 def _run_method(name, rec, om_lo, om_hi, extra=None):

@@ -43,7 +43,7 @@ import numpy as np
 from vibrospeed.errors import ReaderError
 from vibrospeed.io._common import finish
 from vibrospeed.io._csv import CsvTable, nan_notes, text_stream
-from vibrospeed.io.timebase import check_increasing, interp_onto, nearest_index
+from vibrospeed.io.timebase import interp_onto, nearest_index, row_order
 from vibrospeed.types import Recording
 
 __all__ = ["is_phyphox", "read_phyphox"]
@@ -148,38 +148,12 @@ def _xyz(tab: CsvTable, label: str) -> list[str]:
     raise ReaderError(label, "expected a time column and x, y, z columns", row=tab.header_line)
 
 
-def _order(t: np.ndarray, lines: np.ndarray, label: str, sort: bool, notes: list[str]):
-    """Row order making ``t`` strictly increasing.
-
-    Exact repeats of the previous timestamp (phones emit a few) are dropped, keeping the first
-    row, and noted; time going backwards raises unless ``sort``, which sorts and de-duplicates.
-    """
-    if sort:
-        order = np.argsort(t, kind="stable")
-        order = order[np.isfinite(t[order])]
-        moved = int(np.count_nonzero(order != np.arange(order.size)))
-        if moved:
-            notes.append(f"{label}: sorted by time ({moved} rows moved)")
-    else:
-        order = np.arange(t.size)
-    ts = t[order]
-    keep = np.ones(ts.size, dtype=bool)
-    keep[1:] = ts[1:] != ts[:-1]
-    if not keep.all():
-        notes.append(f"{label}: dropped {ts.size - int(keep.sum())} row(s) repeating the previous "
-                     "timestamp (first kept)")
-    order = order[keep]
-    if not sort:
-        check_increasing(t[order], label, rows=lines[order])
-    return order
-
-
 def _sensor(src, name, sort, notes):
     tab, cols, lines = _read_table(src, name)
     label = src.labels[name]
     t = cols[tab.header[0]]
     xyz = [cols[h] for h in _xyz(tab, label)]
-    order = _order(t, lines, label, sort, notes)
+    order = row_order(t, lines, label, sort, notes)
     return tab, t[order], [x[order] for x in xyz], lines[order]
 
 
@@ -247,7 +221,7 @@ def _location(src: _Source, t: np.ndarray, sort: bool, notes: list[str]):
         raise ReaderError(label, "no 'Velocity (m/s)' column", row=tab.header_line,
                           column="Velocity (m/s)")
     hacc = next((h for h in tab.header if "horizontal accuracy" in h.lower()), None)
-    order = _order(tl, lines, label, sort, notes)
+    order = row_order(tl, lines, label, sort, notes)
     cols = {k: x[order] for k, x in cols.items()}
     tl, v = tl[order], cols[vel].copy()
     with np.errstate(invalid="ignore"):

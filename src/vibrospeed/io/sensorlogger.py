@@ -60,7 +60,7 @@ from vibrospeed.errors import ReaderError
 from vibrospeed.io._archive import SafeZip
 from vibrospeed.io._common import finish
 from vibrospeed.io._csv import CsvTable
-from vibrospeed.io.timebase import check_increasing, interp_onto, nearest_index
+from vibrospeed.io.timebase import interp_onto, nearest_index, row_order
 from vibrospeed.types import Recording
 
 __all__ = ["detect", "read_sensorlogger"]
@@ -193,31 +193,8 @@ def _table(src: _Source, name: str, want: list[str], sort: bool, notes: list[str
     notes.extend(f"{label}: {n}" for n in tab.notes)
     scale = 1e-9 if tcol.lower() == "time" else 1.0
     t = data[tcol]
-    order = _order(t, lines, label, sort, notes)
+    order = row_order(t, lines, label, sort, notes)
     return t[order], scale, [data[c][order] for c in cols[1:]], lines[order]
-
-
-def _order(t: np.ndarray, lines: np.ndarray, label: str, sort: bool, notes: list[str]):
-    """Row order making ``t`` strictly increasing: exact repeats dropped (first kept, noted);
-    time going backwards raises unless ``sort``."""
-    if sort:
-        order = np.argsort(t, kind="stable")
-        order = order[np.isfinite(t[order])]
-        moved = int(np.count_nonzero(order != np.arange(order.size)))
-        if moved:
-            notes.append(f"{label}: sorted by time ({moved} rows moved)")
-    else:
-        order = np.arange(t.size)
-    ts = t[order]
-    keep = np.ones(ts.size, dtype=bool)
-    keep[1:] = ts[1:] != ts[:-1]
-    if not keep.all():
-        notes.append(f"{label}: dropped {ts.size - int(keep.sum())} row(s) repeating the previous "
-                     "timestamp (first kept)")
-    order = order[keep]
-    if not sort:
-        check_increasing(t[order], label, rows=lines[order])
-    return order
 
 
 def read_sensorlogger(path: str | os.PathLike[str], *, sort: bool = False) -> Recording:

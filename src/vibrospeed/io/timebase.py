@@ -77,6 +77,34 @@ def check_increasing(t: np.ndarray, source: str = "", *, rows: np.ndarray | None
     raise InputError(f"{name}, sample {i}: {msg}")
 
 
+def row_order(t: np.ndarray, lines: np.ndarray, label: str, sort: bool,
+              notes: list[str]) -> np.ndarray:
+    """Row order making ``t`` strictly increasing (a phone app's CSV).
+
+    Exact repeats of the previous timestamp (phones emit a few) are dropped, keeping the first
+    row, and noted; time going backwards raises (naming ``lines``, the file's row numbers)
+    unless ``sort``, which sorts and de-duplicates.
+    """
+    if sort:
+        order = np.argsort(t, kind="stable")
+        order = order[np.isfinite(t[order])]
+        moved = int(np.count_nonzero(order != np.arange(order.size)))
+        if moved:
+            notes.append(f"{label}: sorted by time ({moved} rows moved)")
+    else:
+        order = np.arange(t.size)
+    ts = t[order]
+    keep = np.ones(ts.size, dtype=bool)
+    keep[1:] = ts[1:] != ts[:-1]
+    if not keep.all():
+        notes.append(f"{label}: dropped {ts.size - int(keep.sum())} row(s) repeating the previous "
+                     "timestamp (first kept)")
+    order = order[keep]
+    if not sort:
+        check_increasing(t[order], label, rows=lines[order])
+    return order
+
+
 def sort_dedup(rec: Recording) -> Recording:
     """Copy of ``rec`` sorted by time, rows with non-finite time dropped, repeated times dropped.
 
