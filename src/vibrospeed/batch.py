@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 
 from vibrospeed.errors import ParameterError, ReaderError, VibrospeedError
+from vibrospeed.eval.metrics import fitted_radius, track_summary  # noqa: F401 (re-exported)
 
 __all__ = [
     "EstimateOptions",
@@ -227,58 +228,6 @@ def vibration_channel(rec, axis: str | None) -> str:
 
     ch = axis_channel(axis or "y")
     return ch if ch in rec.channels else next(iter(rec.channels))
-
-
-# ---- summary numbers of one track ------------------------------------------------------------
-def _finite_median(x) -> float:
-    x = np.asarray(x, dtype=np.float64)
-    x = x[np.isfinite(x)]
-    return float(np.median(x)) if x.size else math.nan
-
-
-def _distance(t, v) -> float:
-    """Trapezoid integral of ``v`` over ``t``, over the intervals where both ends are finite."""
-    t = np.asarray(t, dtype=np.float64)
-    v = np.asarray(v, dtype=np.float64)
-    if t.size < 2:
-        return math.nan
-    ok = np.isfinite(v[:-1]) & np.isfinite(v[1:])
-    if not ok.any():
-        return math.nan
-    return float(np.sum(0.5 * (v[:-1] + v[1:])[ok] * np.diff(t)[ok]))
-
-
-def fitted_radius(track) -> float:
-    """A wheel radius in m that the method fitted, if it reports one: ``params['fitted_radius']``
-    or the last finite value of a per-sample ``wheel_radius_fit`` column; else NaN."""
-    r = track.params.get("fitted_radius") if isinstance(track.params, dict) else None
-    if isinstance(r, (int, float)) and math.isfinite(r):
-        return float(r)
-    col = track.extras.get("wheel_radius_fit")
-    if col is not None:
-        x = np.asarray(col, dtype=np.float64)
-        x = x[np.isfinite(x)]
-        if x.size:
-            return float(x[-1])
-    return math.nan
-
-
-def track_summary(track) -> dict[str, float]:
-    """The summary numbers of a track: ``signal_share``, ``median_speed``, ``median_omega``,
-    ``distance_m``, ``fitted_radius`` (NaN where they do not apply)."""
-    sig = track.extras.get("has_signal")
-    share = math.nan
-    if sig is not None:
-        s = np.asarray(sig, dtype=np.float64)
-        s = s[np.isfinite(s)]
-        share = float(np.mean(s > 0.5)) if s.size else math.nan
-    return {
-        "signal_share": share,
-        "median_speed": _finite_median(track.speed),
-        "median_omega": _finite_median(track.omega),
-        "distance_m": _distance(track.t, track.speed),
-        "fitted_radius": fitted_radius(track),
-    }
 
 
 # ---- inputs and output names -------------------------------------------------------------------

@@ -174,7 +174,7 @@ def render_report(
 ) -> str:
     """The HTML text of a drive's report (see :func:`write_report`)."""
     from vibrospeed import __version__
-    from vibrospeed.batch import track_summary
+    from vibrospeed.eval.metrics import track_summary
 
     rec = recording
     title = title or rec.source or (os.fspath(input_path) if input_path else "recording")
