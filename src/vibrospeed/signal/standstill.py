@@ -6,7 +6,8 @@ shaking and its narrow idle lines. Per accelerometer axis:
 
 1. each frame (``FRAME_S`` s, every ``HOP_S`` s, Hann window) gets a *broadband level*: the
    square root of the median power over the search band's bins, amplitude-scaled
-   (``2 |X| / sum(w)``), on the axis high-passed at ``RANGE_HP`` times the band's lower edge.
+   (``2 |X| / sum(w)``), on the axis high-passed (order 4) at the ``range`` pre-filter's corner,
+   :data:`vibrospeed.signal.prefilter.RANGE_HP` times the band's lower edge.
    The median ignores narrow lines (the engine idling, a wheel harmonic);
 2. and a *body-motion level*: the axis low-passed below the wheel's band (at most
    ``MOTION_HI_HZ``), over ``MOTION_FRAME_S`` s, the RMS of its residual from a straight line
@@ -53,8 +54,6 @@ NEAR_FLOOR = 3.0
 MIN_STOP_S = 2.0
 #: s, offline: each standing run is shortened by this much at both ends
 EDGE_S = 0.5
-#: the broadband level is taken above ``RANGE_HP`` times the band's lower edge
-RANGE_HP = 0.7
 #: Hz, the body-motion level: RMS of the axis between these (upper: below the wheel's band)
 #: over ``MOTION_FRAME_S`` s; a standing vehicle neither turns nor brakes nor pitches
 MOTION_LO_HZ = 0.2
@@ -232,12 +231,12 @@ def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s):
     n = x.size
     fs = 1.0 / dt
     lo_hz = band[0] / (2 * np.pi)
-    hp = pf.butter_sos("highpass", min(RANGE_HP * lo_hz, 0.45 * fs), fs, 4)
+    hp = pf.butter_sos("highpass", min(pf.RANGE_HP * lo_hz, 0.45 * fs), fs, 4)
     ends, level = broadband_level(pf.apply(hp, x), dt, band, frame_s=frame_s, hop_s=hop_s)
     if ends.size == 0:
         return np.zeros(n, bool)
     still = classify(level, causal=causal)
-    upper = min(RANGE_HP * lo_hz, MOTION_HI_HZ)
+    upper = min(pf.RANGE_HP * lo_hz, MOTION_HI_HZ)
     if upper >= 1.5 * MOTION_LO_HZ:  # the body motion has room below the band
         L = max(8, int(round(frame_s / dt)))
         ref = ends if causal else np.minimum(ends - L // 2 + int(round(MOTION_FRAME_S / 2 / dt)),
