@@ -1,8 +1,36 @@
-"""Build frozen parameter dataclasses from user-supplied ``NAME=VALUE`` overrides."""
+"""Typed parameters: ``NAME=VALUE`` text from the command line into frozen Config dataclasses.
+
+Every estimator and simulated scenario is configured by a frozen dataclass. The command line
+gives its fields as text (``-p q_omega=4``, ``--set vibration.harmonic_amps=0.1,0.05``); the
+text is parsed once, here, against the field's annotated type:
+
+=====================  ======================================  ============================
+field type             text                                    value
+=====================  ======================================  ============================
+``float``              ``4``, ``1e-3``, ``-0.5``, ``inf``      ``4.0`` ...
+``int``                ``200``, ``2.0``                        ``200``, ``2``
+``bool``               ``true/false, yes/no, on/off, 1/0``     ``True`` / ``False``
+``str``                anything, commas included               the text
+``X | None``           ``none`` (or ``null``, empty), else X   ``None`` or X
+``tuple[X, ...]``      ``a,b,c`` (``a:b:c`` also read)         ``(a, b, c)``; empty: ``()``
+``tuple[X, Y]``        ``a,b``: exactly two items              ``(a, b)``
+``list[X]``            as a tuple                              ``[a, b, c]``
+=====================  ======================================  ============================
+
+On the command line a comma followed by another ``NAME=`` starts the next parameter
+(``-p q_omega=2,omega_max=100``); any other comma belongs to the value
+(``-p comb_rates=-0.1,0.1``, ``-p fit=q_omega,r``), so lists need no quoting.
+Errors are one line: an unknown name with the closest valid names, a bad value with the
+parameter's name and expected type.
+"""
 
 from __future__ import annotations
 
 import dataclasses
+import difflib
+import math
+import re
+import types
 import typing
 from typing import Any, TypeVar
 
@@ -10,73 +38,200 @@ from vibrospeed.errors import ParameterError
 
 C = TypeVar("C")
 
+_TRUE = ("1", "true", "yes", "on")
+_FALSE = ("0", "false", "no", "off")
+_NONE = ("none", "null", "")
+#: ``NAME=`` at the start of a comma-separated part: a new parameter (dotted names reach
+#: nested Configs of a simulated scenario)
+_NAME_EQ = re.compile(r"^\s*[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*\s*=")
 
-def _convert(value: Any, typ: Any, name: str) -> Any:
-    if not isinstance(value, str):
-        return value
+
+def type_name(typ: Any) -> str:
+    """A short readable name of a field type, for messages and the reference pages
+    (``float``, ``int | None``, ``tuple[float, ...]``)."""
+    if isinstance(typ, str):
+        return typ
+    if typ is type(None):
+        return "None"
     origin = typing.get_origin(typ)
     args = typing.get_args(typ)
-    if origin in (typing.Union, getattr(__import__("types"), "UnionType", None)):
-        if value.lower() in ("none", "null", "") and type(None) in args:
+    if origin in (typing.Union, types.UnionType):
+        return " | ".join(type_name(a) for a in args)
+    if origin in (tuple, list):
+        name = origin.__name__
+        if not args:
+            return name
+        if len(args) == 2 and args[1] is Ellipsis:
+            return f"{name}[{type_name(args[0])}, ...]"
+        return f"{name}[{', '.join(type_name(a) for a in args)}]"
+    if origin is typing.Literal:
+        return " | ".join(repr(a) for a in args)
+    if origin is not None:
+        return str(typ).replace("typing.", "")
+    return getattr(typ, "__name__", str(typ))
+
+
+def _bad(name: str, text: str, typ: Any, why: str = "") -> ParameterError:
+    extra = f" ({why})" if why else ""
+    return ParameterError(f"parameter '{name}': cannot read '{text}' as {type_name(typ)}{extra}")
+
+
+def _split_items(text: str, numeric: bool) -> list[str]:
+    """Items of a list value: comma-separated; a numeric list without commas may also use
+    ``:`` (the older ``-0.1:0:0.1`` form)."""
+    if not text.strip():
+        return []
+    sep = ":" if numeric and "," not in text and ":" in text else ","
+    return [s.strip() for s in text.split(sep)]
+
+
+def parse_value(text: str, typ: Any, name: str = "value") -> Any:
+    """``text`` read as a value of type ``typ`` (see the module docstring's table).
+
+    Raises :class:`ParameterError` naming ``name`` and the expected type when ``text`` cannot
+    be read. Types the table does not cover (a nested Config, a dict) cannot be given as text.
+    """
+    if not isinstance(text, str):
+        return text
+    origin = typing.get_origin(typ)
+    args = typing.get_args(typ)
+    if typ is Any:
+        return text
+    if origin in (typing.Union, types.UnionType):
+        if type(None) in args and text.strip().lower() in _NONE:
             return None
-        for a in args:
-            if a is type(None):
-                continue
+        options = [a for a in args if a is not type(None)]
+        # a str member takes anything, so it is tried last
+        options.sort(key=lambda a: a is str)
+        for a in options:
             try:
-                return _convert(value, a, name)
+                return parse_value(text, a, name)
             except ParameterError:
                 continue
-        raise ParameterError(f"parameter '{name}': cannot read '{value}'")
-    try:
-        if typ in (float, "float"):
-            return float(value)
-        if typ in (int, "int"):
-            return int(float(value)) if float(value).is_integer() else int(value)
-        if typ in (bool, "bool"):
-            if value.lower() in ("1", "true", "yes", "on"):
-                return True
-            if value.lower() in ("0", "false", "no", "off"):
-                return False
-            raise ValueError(value)
-        if origin is tuple or typ is tuple:
-            inner = args[0] if args else float
-            return tuple(_convert(v, inner, name) for v in value.split(":") if v)
-    except ValueError:
-        raise ParameterError(f"parameter '{name}': cannot read '{value}' as {typ}") from None
-    return value
+        raise _bad(name, text, typ)
+    if origin is typing.Literal:
+        for a in args:
+            if str(a) == text.strip():
+                return a
+        raise _bad(name, text, typ, "choose from " + ", ".join(str(a) for a in args))
+    s = text.strip()
+    if typ is float:
+        try:
+            return float(s)
+        except ValueError:
+            raise _bad(name, text, typ, "a number") from None
+    if typ is int:
+        try:
+            return int(s)
+        except ValueError:
+            pass
+        try:
+            x = float(s)
+        except ValueError:
+            raise _bad(name, text, typ, "a whole number") from None
+        if not (math.isfinite(x) and x.is_integer()):
+            raise _bad(name, text, typ, "a whole number")
+        return int(x)
+    if typ is bool:
+        if s.lower() in _TRUE:
+            return True
+        if s.lower() in _FALSE:
+            return False
+        raise _bad(name, text, typ, "true or false")
+    if typ is str:
+        return text
+    if origin in (tuple, list) or typ in (tuple, list):
+        seq = origin or typ
+        if not args:
+            item_types: list[Any] = []
+            variadic: Any = float
+        elif (len(args) == 2 and args[1] is Ellipsis) or seq is list:
+            item_types, variadic = [], args[0]
+        else:
+            item_types, variadic = list(args), None
+        numeric = all(a in (float, int) for a in (item_types or [variadic]))
+        items = _split_items(text, numeric)
+        if variadic is None and len(items) != len(item_types):
+            raise _bad(name, text, typ, f"{len(item_types)} comma-separated items, "
+                       f"got {len(items)}")
+        out = [parse_value(v, variadic if variadic is not None else item_types[k],
+                           f"{name}[{k}]") for k, v in enumerate(items)]
+        return seq(out)
+    raise ParameterError(f"parameter '{name}': a {type_name(typ)} cannot be given as text "
+                         f"('{text}')")
+
+
+def format_value(value: Any) -> str:
+    """``value`` as the text :func:`parse_value` reads back to an equal value (floats by
+    ``repr``, so the round trip is exact; sequences comma-separated; None as ``none``)."""
+    if value is None:
+        return "none"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float | int):
+        return repr(value)
+    if isinstance(value, tuple | list):
+        return ",".join(format_value(v) for v in value)
+    return str(value)
+
+
+def suggest(name: str, valid: typing.Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` for the closest valid names, else a short hint."""
+    close = difflib.get_close_matches(name, list(valid), n=3, cutoff=0.6)
+    if close:
+        return " (did you mean " + " or ".join(f"'{c}'" for c in close) + "?)"
+    return ""
+
+
+def unknown(name: str, owner: str, valid: typing.Iterable[str], *,
+            near: str | None = None) -> ParameterError:
+    """The one-line error for an unknown parameter ``name`` of ``owner``: the valid names
+    closest to ``near`` (default ``name``), else the first valid names."""
+    valid = sorted(valid)
+    hint = suggest(name if near is None else near, valid)
+    if not hint:
+        shown = ", ".join(valid[:12]) + (", ..." if len(valid) > 12 else "")
+        hint = f" (valid: {shown})"
+    return ParameterError(f"unknown parameter '{name}' for {owner}{hint}")
+
+
+def field_types(cls: type) -> dict[str, Any]:
+    """Field name -> resolved annotated type of dataclass ``cls``."""
+    hints = typing.get_type_hints(cls)
+    return {f.name: hints.get(f.name, Any) for f in dataclasses.fields(cls)}
 
 
 def config_from_params(cls: type[C], params: dict[str, Any] | None = None, **defaults: Any) -> C:
     """Instantiate dataclass ``cls`` from ``defaults`` overridden by ``params``.
 
-    String values are converted to the field's annotated type; unknown names raise
-    :class:`ParameterError` listing the valid ones.
+    Text values are read as the field's annotated type (:func:`parse_value`); other values are
+    passed as given. An unknown name raises :class:`ParameterError` with the closest names.
     """
-    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
-    hints = typing.get_type_hints(cls)
+    typs = field_types(cls)
     kw = dict(defaults)
     for name, value in (params or {}).items():
-        if name not in fields:
-            raise ParameterError(
-                f"unknown parameter '{name}' for {cls.__name__} "
-                f"(valid: {', '.join(sorted(fields))})"
-            )
-        kw[name] = _convert(value, hints.get(name, type(value)), name)
+        if name not in typs:
+            raise unknown(name, cls.__name__, typs)
+        kw[name] = parse_value(value, typs[name], name)
     return cls(**kw)
 
 
 def parse_params(items: list[str] | None) -> dict[str, str]:
-    """``['q_omega=4', 'M=2']`` -> ``{'q_omega': '4', 'M': '2'}``."""
+    """``['q_omega=4', 'fit=q_omega,r', 'M=2,omega_max=100']`` -> ``{'q_omega': '4', 'fit':
+    'q_omega,r', 'M': '2', 'omega_max': '100'}``: text values, read later against the field
+    types. A comma starts a new parameter only when ``NAME=`` follows it."""
     out: dict[str, str] = {}
     for item in items or []:
+        last: str | None = None
         for part in item.split(","):
-            part = part.strip()
-            if not part:
-                continue
-            if "=" not in part:
-                raise ParameterError(f"parameter '{part}' must be written NAME=VALUE")
-            k, v = part.split("=", 1)
-            out[k.strip()] = v.strip()
+            if _NAME_EQ.match(part):
+                k, v = part.split("=", 1)
+                last = k.strip()
+                out[last] = v.strip()
+            elif last is not None:
+                out[last] = f"{out[last]},{part.strip()}"
+            elif part.strip():
+                raise ParameterError(f"parameter '{part.strip()}' must be written NAME=VALUE")
     return out
 
 

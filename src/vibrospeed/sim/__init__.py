@@ -90,19 +90,35 @@ def describe() -> dict[str, str]:
 from vibrospeed.sim import aided as _aided  # noqa: E402,F401
 
 
+def _gps_knob(build, name: str, value):
+    """A ``--set`` text value of a GPS scenario's knob, read as the type of the knob's default
+    (in the builder's or :func:`vibrospeed.sim.gps.drive`'s signature); a knob without a typed
+    default is read as a number where it is one."""
+    from vibrospeed.config import parse_value
+    from vibrospeed.sim import gps as _gps
+
+    if not isinstance(value, str):
+        return value
+    for fn in (build, _gps.drive):
+        par = inspect.signature(fn).parameters.get(name)
+        if par is None or par.default is inspect.Parameter.empty or par.default is None:
+            continue
+        d = par.default
+        typ = tuple[float, ...] if isinstance(d, tuple) else type(d)
+        if typ in (bool, int, float, str, tuple[float, ...]):
+            return parse_value(value, typ, name)
+    try:
+        return float(value)
+    except ValueError:
+        return value
+
+
 def _gps_scenario(name: str, build):
     """Adapt a :mod:`vibrospeed.sim.gps` builder ``f(rng, **kw)`` to the registry's signature."""
 
     def scenario(*, seed: int = 0, duration: float | None = None, fs: float | None = None,
                  gps_model=None, **overrides):
-        kw = {}
-        for k, v in overrides.items():
-            if isinstance(v, str):
-                try:
-                    v = float(v)
-                except ValueError:
-                    pass
-            kw[k] = v
+        kw = {k: _gps_knob(build, k, v) for k, v in overrides.items()}
         if duration is not None:
             kw["duration"] = duration
         if fs is not None:

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from vibrospeed.config import config_from_params
+from vibrospeed.config import config_from_params, unknown
 from vibrospeed.errors import ParameterError
 from vibrospeed.sim.drive import simulate_drive
 from vibrospeed.sim.profile import Segment, SpeedProfile, Turn, build_profile
@@ -73,10 +73,7 @@ def make_config(cls: type, params: dict[str, Any] | None = None, base: Any = Non
     for key, value in (params or {}).items():
         head, _, rest = key.partition(".")
         if head not in names:
-            raise ParameterError(
-                f"unknown parameter '{prefix}{key}' for {cls.__name__} "
-                f"(valid: {', '.join(sorted(names))})"
-            )
+            raise unknown(f"{prefix}{key}", cls.__name__, names, near=head)
         sub = _sub_type(hints[head])
         if sub is None:
             if rest:
