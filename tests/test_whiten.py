@@ -70,3 +70,41 @@ def test_any_input_gives_finite_where_finite(values):
     y = wh.apply(x, FS)
     assert y.shape == x.shape
     assert np.array_equal(np.isnan(y), np.isnan(x))
+
+
+def test_old_states_stay_valid_when_stepped_again():
+    """The history storage is shared between successive states: stepping an old state again
+    (a branch) or keeping it must not change what it, or the states after it, give."""
+    rng = np.random.default_rng(4)
+    x = red_with_line(1500, rng)
+    state, states, ys = wh.init(), [], []
+    for v in x:
+        states.append(state)
+        state, o = wh.step(state, v, FS)
+        ys.append(o)
+    # a branch from sample 700 with other data, then the main line replayed from its states
+    branch = states[700]
+    for v in rng.normal(size=300):
+        branch, _ = wh.step(branch, v, FS)
+    for k in (0, 699, 700, 701, 1200):
+        _, o = wh.step(states[k], x[k], FS)
+        assert o == ys[k]
+    replay = states[700]
+    for k in range(700, 1500):
+        replay, o = wh.step(replay, x[k], FS)
+        assert o == ys[k]
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.one_of(st.floats(-1e3, 1e3), st.just(float("nan"))), min_size=0,
+                max_size=400),
+       st.sampled_from([1.0, 2.5, 7.0, 100.0]))
+def test_step_equals_apply_any_input_and_rate(values, fs):
+    """Bitwise, also where the window W is shorter than the FIR (fs = 1 Hz: W = 6 samples)."""
+    x = np.array(values, dtype=float)
+    y = wh.apply(x, fs)
+    state, ys = wh.init(), []
+    for v in x:
+        state, o = wh.step(state, v, fs)
+        ys.append(o)
+    np.testing.assert_array_equal(y, np.array(ys, dtype=float).reshape(y.shape))

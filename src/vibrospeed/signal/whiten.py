@@ -28,6 +28,8 @@ the thesis high-pass lifts the grid tracker's share within tolerance most on car
 
 from __future__ import annotations
 
+import functools
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -44,15 +46,23 @@ SMOOTH_HZ = 1.0
 
 
 class WhitenState(NamedTuple):
-    """History of the last ``WINDOW_S`` s of finite samples (oldest first), samples seen, the
-    current FIR ``a`` (ORDER + 1) and its gain."""
+    """History of finite samples, samples seen, the current FIR ``a`` (ORDER + 1) and its gain.
 
-    hist: np.ndarray
+    The history is ``buf[max(0, end - K):end]``, K = ``max(WINDOW_S s, ORDER + 1)`` samples,
+    oldest first. ``buf`` is storage shared with the states that follow: a step appends at
+    ``buf[end]`` when ``tip[0] == end`` (no later sample written yet) and otherwise copies the
+    last K samples to fresh storage, so what a state reads is never written again and an old
+    state can be stepped again (or kept) safely."""
+
+    buf: np.ndarray
+    end: int
+    tip: np.ndarray
     count: int
     a: np.ndarray
     gain: float
 
 
+@functools.lru_cache(maxsize=64)
 def _sizes(fs: float) -> tuple[int, int, int]:
     return (max(1, int(round(WINDOW_S * fs))), max(1, int(round(BLOCK_S * fs))),
             max(8, int(round(SEGMENT_S * fs))))
@@ -101,28 +111,52 @@ def _fir(a, x, start, stop, gain, out):
         out[n] = gain * acc
 
 
+@njit(cache=True)
+def _fir_last(a, buf, end, gain):
+    """``gain sum_k a[k] buf[end - 1 - k]`` over the samples that exist (index >= 0): the
+    last output of :func:`_fir` on the same samples, the same operations in the same order."""
+    p = a.size - 1
+    n = end - 1
+    acc = 0.0
+    for k in range(p + 1):
+        j = n - k
+        if j >= 0:
+            acc += a[k] * buf[j]
+    return gain * acc
+
+
 def init() -> WhitenState:
     """Empty history, identity FIR."""
     a = np.zeros(ORDER + 1)
     a[0] = 1.0
-    return WhitenState(np.zeros(0), 0, a, 1.0)
+    return WhitenState(np.zeros(0), 0, np.zeros(1, dtype=np.int64), 0, a, 1.0)
 
 
 def step(state: WhitenState, x: float, fs: float) -> tuple[WhitenState, float]:
-    """Whiten one sample; NaN passes as NaN and leaves the state unchanged."""
-    if not np.isfinite(x):
-        return state, float("nan")
+    """Whiten one sample; NaN passes as NaN and leaves the state unchanged.
+
+    Per sample: one store into the history (a copy of K samples only when its storage is full,
+    every 3 K samples) and one compiled FIR dot product; every ``BLOCK_S`` s the predictor is
+    made from the last ``WINDOW_S`` s, as :func:`apply` does."""
+    x = float(x)
+    if not math.isfinite(x):
+        return state, math.nan
     W, B, _ = _sizes(fs)
-    a, gain = state.a, state.gain
+    buf, end, tip, a, gain = state.buf, state.end, state.tip, state.a, state.gain
     if state.count % B == 0:  # a block starts: new predictor from the history so far
-        a, gain = predictor(state.hist, fs)
-    hist = np.concatenate((state.hist, [float(x)]))[-W:]
-    # the FIR reads the last ORDER + 1 samples; at the start fewer exist (counted as 0)
-    tail = hist[-(ORDER + 1):] if state.count + 1 >= ORDER + 1 else np.concatenate(
-        (np.zeros(ORDER + 1 - min(hist.size, ORDER + 1)), hist[-(ORDER + 1):]))
-    out = np.zeros(tail.size)
-    _fir(a, tail, tail.size - 1, tail.size, gain, out)
-    return WhitenState(hist, state.count + 1, a, gain), float(out[-1])
+        a, gain = predictor(buf[max(0, end - W) : end], fs)
+    if end < buf.size and tip[0] == end:
+        buf[end] = x
+        tip[0] = end = end + 1
+    else:  # storage full, or this state was stepped before: fresh storage, last K - 1 + x
+        K = max(W, ORDER + 1)
+        old = buf[max(0, end - (K - 1)) : end]
+        buf = np.empty(4 * K)
+        buf[: old.size] = old
+        buf[old.size] = x
+        end = old.size + 1
+        tip = np.array([end], dtype=np.int64)
+    return WhitenState(buf, end, tip, state.count + 1, a, gain), _fir_last(a, buf, end, gain)
 
 
 def apply(x: np.ndarray, fs: float) -> np.ndarray:
