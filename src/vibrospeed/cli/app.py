@@ -89,6 +89,28 @@ SortOpt = Annotated[bool, typer.Option("--sort", help="sort by time and drop dup
                     "stamps instead of refusing time that goes backwards")]
 
 
+def _preset_help() -> str:
+    from vibrospeed.presets import PRESETS
+
+    per = "; ".join(f"{m}: {', '.join(p)}" for m, p in PRESETS.items())
+    return (f"named parameter set of the method, applied before -p (an explicit -p wins): {per} "
+            "(`vibrospeed methods` shows what each sets)")
+
+
+PresetOpt = Annotated[str | None, typer.Option("--preset", help=_preset_help())]
+ParamOpt = Annotated[list[str] | None, typer.Option("--param", "-p", help="estimator parameter "
+                     "NAME=VALUE (repeatable; lists by comma, e.g. -p comb_rates=-0.1,0.1); "
+                     "`vibrospeed methods` lists each method's parameters")]
+
+
+def _params(method: str, preset: str | None, param: list[str] | None) -> dict[str, str]:
+    """The estimator parameters: the preset's, then the -p flags over them."""
+    from vibrospeed import presets
+    from vibrospeed.config import parse_params
+
+    return presets.apply(method, preset, parse_params(param))
+
+
 @app.command()
 @_friendly
 def simulate(
@@ -100,7 +122,8 @@ def simulate(
     fs: Annotated[float | None, typer.Option(help="accelerometer sample rate in Hz (scenario "
                   "default: 100, GPS scenarios 400)")] = None,
     set_: Annotated[list[str] | None, typer.Option("--set", help="override a scenario knob, "
-                    "NAME=VALUE (repeatable)")] = None,
+                    "NAME=VALUE (repeatable; dotted for nested knobs, lists by comma: "
+                    "--set vibration.harmonic_amps=0.1,0.05)")] = None,
     list_: Annotated[bool, typer.Option("--list", help="list scenarios and exit")] = False,
 ) -> None:
     """Simulate a drive with ground truth (omega_true, speed_true) and write it.
@@ -148,8 +171,8 @@ def estimate(
     = None,
     init_omega: Annotated[float | None, typer.Option(help="initial omega guess in rad/s (EKF "
                           "start; rbpmf/grid: centre of the initial prior)")] = None,
-    param: Annotated[list[str] | None, typer.Option("--param", "-p", help="estimator parameter "
-                     "NAME=VALUE (repeatable), e.g. -p M=2 -p q_omega=8")] = None,
+    preset: PresetOpt = None,
+    param: ParamOpt = None,
     plot: Annotated[Path | None, typer.Option(help="also write a spectrogram plot (PNG)")] = None,
     smooth: Annotated[bool, typer.Option("--smooth", help="offline: forward-backward smoothing "
                       "on the grid (rbpmf, grid; uses the whole log, so the past sees the "
@@ -183,10 +206,13 @@ def estimate(
 
       (comb evidence from ax, ay and az together; tracking stays on --axis)
 
-      vibrospeed estimate drive.csv -p smooth=none -p comb_axes=all -p q_omega=4
-      -p amb_rel=0.02 -p amb_abs=1 -p mode_hold=4 -o est.csv
+      vibrospeed estimate drive.csv --preset lock -o est.csv
 
-      (the lock recipe: a causal tracker switched on while the vehicle moves)
+      (causal tracker switched on while the vehicle moves; `vibrospeed methods grid`)
+
+      vibrospeed estimate drive.csv --preset online -o est.csv   (causal, no smoothing)
+
+      vibrospeed estimate drive.csv -m rbpmf --preset paper -o est.csv   (the paper's filter)
 
       vibrospeed estimate drive.csv --method ekf --init-omega 10 -o est.csv
 
@@ -204,14 +230,13 @@ def estimate(
       vibrospeed estimate drive.csv --method rbpmf --smooth -p improved=true -o est.csv
     """
     from vibrospeed.batch import EstimateOptions, estimate_recording, vibration_channel
-    from vibrospeed.config import parse_params
 
-    opts = EstimateOptions(method=method, params=parse_params(param), axis=axis,
+    opts = EstimateOptions(method=method, params=_params(method, preset, param), axis=axis,
                            wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
                            lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
                            mapping=mapping, rate=rate, sort=sort, topic=topic)
     est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
-                             keep_posterior=plot is not None)
+                             keep_posterior=plot is not None, meta={"preset": preset})
     rec, track = est.recording, est.track
     for note in rec.notes + track.notes:
         err.print(f"note: {note}")
@@ -229,8 +254,6 @@ MethodOpt = Annotated[str, typer.Option("--method", "-m", help="estimator (see `
 AxisOpt = Annotated[str | None, typer.Option(help="vibration axis (x, y, z or a channel name; "
                     "default y); for gps-riss the longitudinal axis (default x)")]
 RadiusOpt = Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]
-ParamOpt = Annotated[list[str] | None, typer.Option("--param", "-p", help="estimator parameter "
-                     "NAME=VALUE (repeatable)")]
 
 
 @app.command()
@@ -246,6 +269,7 @@ def batch(
     wheel_radius: RadiusOpt = None,
     init_omega: Annotated[float | None, typer.Option(help="initial omega guess in rad/s")]
     = None,
+    preset: PresetOpt = None,
     param: ParamOpt = None,
     smooth: Annotated[bool, typer.Option("--smooth", help="as for estimate (rbpmf, grid)")]
     = False,
@@ -282,14 +306,15 @@ def batch(
 
       vibrospeed batch 'logs/*.csv' -o out -p omega_min=2 -p omega_max=30
 
+      vibrospeed batch 'logs/*.csv' -o out --preset online   (causal estimates)
+
       vibrospeed batch phone_logs/ --format phyphox --axis y -o out --report
 
       vibrospeed batch 'fleet/**/*.parquet' -o out --scheduler tcp://10.0.0.5:8786
     """
     from vibrospeed import batch as vb
-    from vibrospeed.config import parse_params
 
-    opts = vb.EstimateOptions(method=method, params=parse_params(param), axis=axis,
+    opts = vb.EstimateOptions(method=method, params=_params(method, preset, param), axis=axis,
                               wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
                               lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
                               mapping=str(mapping) if mapping is not None else None, rate=rate,
@@ -323,6 +348,7 @@ def report(
     method: MethodOpt = "grid",
     axis: AxisOpt = None,
     wheel_radius: RadiusOpt = None,
+    preset: PresetOpt = None,
     param: ParamOpt = None,
     fmt: FormatOpt = "auto",
     columns: ColumnsOpt = None,
@@ -345,7 +371,6 @@ def report(
 
     from vibrospeed import batch as vb
     from vibrospeed import io
-    from vibrospeed.config import parse_params
     from vibrospeed.eval.report import write_report
 
     ref = io.read(truth) if truth else None
@@ -362,7 +387,8 @@ def report(
         used_axis = axis or meta.get("axis")
         grids: dict = {}
     else:
-        opts = vb.EstimateOptions(method=method, params=parse_params(param), axis=axis,
+        opts = vb.EstimateOptions(method=method, params=_params(method, preset, param),
+                                  axis=axis,
                                   wheel_radius=wheel_radius, fmt=fmt, columns=columns,
                                   mapping=mapping, rate=rate, sort=sort)
         with tempfile.TemporaryDirectory(prefix="vibrospeed-") as d:
@@ -573,11 +599,40 @@ def info(
 
 
 @app.command()
-def methods() -> None:
-    """List the estimators and what each needs."""
-    from vibrospeed.estimators import METHODS, available
+@_friendly
+def methods(
+    method: Annotated[str | None, typer.Argument(help="one method to describe (default: all)")]
+    = None,
+) -> None:
+    """List the estimators: what each needs, its presets (--preset) and its parameters (-p).
 
-    have = set(available())
-    for name, (_, desc) in METHODS.items():
-        if name in have:
-            out.print(f"{name:10s} {desc}")
+    Examples:
+
+      vibrospeed methods
+
+      vibrospeed methods grid
+    """
+    from vibrospeed import presets
+    from vibrospeed.estimators import METHODS, available, get
+
+    have = available()
+    names = have if method is None else [method]
+    if method is not None:
+        get(method)  # an unknown method is the usual one-line error
+    for name in names:
+        desc = METHODS[name][1]
+        print(f"{name}: {desc}")
+        table = presets.presets(name)
+        print("  presets (--preset NAME):")
+        width = max(len(p) for p in table)
+        for pname, pre in table.items():
+            flags = presets.as_flags(pre.params) or "(nothing set)"
+            print(f"    {pname:{width}s}  {pre.about}")
+            print(f"    {'':{width}s}  = {flags}")
+        params = presets.PARAMETERS.get(name, {})
+        if params:
+            print("  parameters (-p NAME=VALUE; all of them: the reference pages):")
+            width = max(len(k) + len(v.example) + 1 for k, v in params.items())
+            for pname, par in params.items():
+                print(f"    {pname + '=' + par.example:{width}s}  {par.about}")
+        print()

@@ -1,0 +1,218 @@
+"""Named parameter sets per method (``vibrospeed estimate --preset NAME``) and each method's
+documented parameters.
+
+A preset is a set of ``-p NAME=VALUE`` parameters written as a user would type them; it is
+applied before the explicit ``-p`` flags, so ``--preset lock -p q_omega=8`` is the lock preset
+with ``q_omega`` changed. Every method has ``default`` (its own defaults, nothing set) and
+``online`` (a causal estimate: each output uses only samples up to it, as on a device; for the
+methods that are causal anyway it sets nothing); ``paper`` is the seed document's settings
+where the method comes from one (``../shared/METHODS.md`` names the section).
+
+:data:`PARAMETERS` is each method's small documented surface: the parameters a user is
+expected to set, with an example value and what it does. Every other Config field keeps its
+default (the reference pages list them all).
+
+This module holds data only (no estimator imports), so the CLI and the docs can list it
+without loading numba code.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+from vibrospeed.config import suggest
+from vibrospeed.errors import ParameterError
+
+
+class Preset(NamedTuple):
+    """A named parameter set: ``params`` as ``-p`` text, ``about`` one line on when to use it."""
+
+    params: dict[str, str]
+    about: str
+
+
+class Parameter(NamedTuple):
+    """A documented parameter: an ``example`` value (text, as typed after ``-p NAME=``) and
+    ``about``, one line with its unit."""
+
+    example: str
+    about: str
+
+
+_CAUSAL = "the method is causal already: the same as default"
+
+#: method -> preset name -> :class:`Preset`
+PRESETS: dict[str, dict[str, Preset]] = {
+    "grid": {
+        "default": Preset({}, "smoothed over the whole log (offline; the most accurate)"),
+        "online": Preset({"smooth": "none"}, "causal filter: each estimate from past samples "
+                         "only (live use, a device)"),
+        "lock": Preset({"smooth": "none", "comb_axes": "all", "q_omega": "4",
+                        "amb_rel": "0.02", "amb_abs": "1", "mode_hold": "4"},
+                       "causal filter switched on while the vehicle moves: comb evidence from "
+                       "every axis, a steady-speed walk, a narrow mode window held against "
+                       "hops"),
+    },
+    "rbpmf": {
+        "default": Preset({}, "the paper's filter (causal)"),
+        "paper": Preset({"M": "3", "q_omega": "4", "q_amp": "0.001", "p0_amp": "0.1",
+                         "n_grid": "200", "omega_min": "10", "omega_max": "120",
+                         "spacing": "linear", "prefilter": "paper-hp", "smooth": "none"},
+                        "paper III-D, Table I / IV-B: M = 3, 200 points on 10-120 rad/s, "
+                        "high-pass at 8 Hz, causal"),
+        "online": Preset({"smooth": "none"}, "causal filter (no smoothing)"),
+    },
+    "rbpf": {
+        "default": Preset({}, "the paper's filter (causal)"),
+        "paper": Preset({"M": "3", "q_omega": "4", "q_amp": "0.001", "p0_amp": "0.1",
+                         "n_particles": "3000", "scheme": "multinomial", "omega_min": "10",
+                         "omega_max": "120", "prefilter": "paper-hp"},
+                        "paper III-C, Table I: 3000 particles, multinomial resampling"),
+        "online": Preset({}, _CAUSAL),
+    },
+    "shs": {
+        "default": Preset({}, "batches of 200 samples on 10-120 rad/s"),
+        "paper": Preset({"batch": "200", "omega_min": "10", "omega_max": "120",
+                         "compression": "0.84", "points_per_octave": "48",
+                         "prefilter": "paper-hp"},
+                        "paper IV-B batches and range with Hermes' compression 0.84 and "
+                        "48 points per octave"),
+        "online": Preset({}, "one estimate per batch from that batch's samples: "
+                         + _CAUSAL),
+    },
+    "ekf": {
+        "default": Preset({}, "normalised input, acquisition from the harmonic comb check "
+                          "(no --init-omega needed)"),
+        "paper": Preset({"normalize_tau": "0", "comb": "false", "amp0": "10",
+                         "omega_max": "100"},
+                        "thesis ch. 2 (2.3.5): input in m/s^2 with the thesis' noise levels, "
+                        "start from omega0 = 10.2 rad/s (--init-omega), no comb check; omega "
+                        "clipped at 100 rad/s (3 harmonics below Nyquist at 100 Hz)"),
+        "online": Preset({}, _CAUSAL),
+    },
+    "aided": {
+        "default": Preset({}, "standstill and a_x offset from the whole log (offline)"),
+        "paper": Preset({"standstill": "window", "accel_offset": "none", "comb": "false",
+                         "causal": "true"},
+                        "thesis ch. 3: window standstill test, a_x used as measured, "
+                        "no comb check"),
+        "online": Preset({"causal": "true"}, "causal standstill detector and a_x offset "
+                         "(as a device decides)"),
+    },
+    "gps-riss": {
+        "default": Preset({}, "physical noise levels, GPS innovation gating"),
+        "paper": Preset({"q_speed": "5", "q_accel": "4", "q_offset": "0.01", "q_gps": "1",
+                         "r_acc_ins": "0.4", "r_acc_gps": "3.5", "r_gps": "40",
+                         "r_gps_slope": "72", "r_gps_sq": "0", "error_mode": "kf2",
+                         "offset_mode": "integrator", "p0_speed": "100", "p0_accel": "5"},
+                        "the GPS/RISS paper's constants (eq. 11-13, 18), KF2 error and drift "
+                        "integrator"),
+        "online": Preset({}, _CAUSAL),
+    },
+    "algebraic": {
+        "default": Preset({}, "Algorithms 1 and 2 of the algebraic velocity paper"),
+        "online": Preset({}, _CAUSAL),
+    },
+}
+
+_RANGE = "rad/s, lowest wheel speed searched (v / r for the slowest speed of interest)"
+_RANGE_HI = "rad/s, highest wheel speed searched"
+
+#: method -> parameter name -> :class:`Parameter` (the documented surface)
+PARAMETERS: dict[str, dict[str, Parameter]] = {
+    "grid": {
+        "omega_min": Parameter("2", _RANGE + "; default 10, a car's wheels"),
+        "omega_max": Parameter("30", _RANGE_HI + "; default 120"),
+        "smooth": Parameter("none", "fb (whole log, default), lag (fixed delay) or none "
+                            "(causal)"),
+        "lag": Parameter("2", "s, delay of the fixed-lag smoother (smooth=lag)"),
+        "comb_axes": Parameter("all", "axes read by the comb evidence: all, or e.g. x,y,z "
+                               "(tracking stays on --axis)"),
+        "M": Parameter("2", "harmonics of the wheel frequency in the model"),
+        "q_omega": Parameter("8", "(rad/s)^2/s, how fast omega may wander (acceleration)"),
+        "prefilter": Parameter("whiten", "pre-filter: whiten (default), thesis-hp, paper-hp, "
+                               "range, none"),
+        "fit": Parameter("q_omega,r", "noise parameters fitted to the recording by marginal "
+                         "likelihood first"),
+    },
+    "rbpmf": {
+        "omega_min": Parameter("2", _RANGE + "; default 10"),
+        "omega_max": Parameter("30", _RANGE_HI + "; default 120"),
+        "n_grid": Parameter("400", "grid points on [omega_min, omega_max]"),
+        "smooth": Parameter("fb", "none (causal, default), fb (whole log) or lag"),
+        "M": Parameter("2", "harmonics in the model"),
+        "q_omega": Parameter("8", "(rad/s)^2/s, random-walk intensity of omega"),
+        "omega0": Parameter("40", "rad/s, centre of the initial prior (--init-omega); "
+                            "default: uniform"),
+    },
+    "rbpf": {
+        "omega_min": Parameter("2", _RANGE + "; default 10"),
+        "omega_max": Parameter("30", _RANGE_HI + "; default 120"),
+        "n_particles": Parameter("1000", "particles (time grows linearly)"),
+        "seed": Parameter("1", "seed of the particle filter's generator"),
+        "q_omega": Parameter("8", "(rad/s)^2/s, random-walk intensity of omega"),
+    },
+    "shs": {
+        "omega_min": Parameter("2", _RANGE + "; default 10"),
+        "omega_max": Parameter("30", _RANGE_HI + "; default 120"),
+        "batch": Parameter("400", "samples per estimate (at least one period of omega_min)"),
+        "n_harmonics": Parameter("3", "harmonics summed"),
+    },
+    "ekf": {
+        "omega0": Parameter("10", "rad/s, start value (--init-omega); without it the comb "
+                            "check acquires omega"),
+        "omega_max": Parameter("60", "rad/s, upper clip of omega (M omega_max < pi fs)"),
+        "M": Parameter("2", "harmonics in the model"),
+        "q_omega": Parameter("4", "(rad/s)^2/s, random-walk intensity of omega"),
+        "comb": Parameter("false", "comb check for acquisition and re-lock (default true)"),
+    },
+    "aided": {
+        "accel_axis": Parameter("ax", "longitudinal acceleration channel; a leading - "
+                                "negates (e.g. -ay)"),
+        "standstill": Parameter("broadband", "standstill test: broadband (default), window, "
+                                "cusum, none"),
+        "causal": Parameter("true", "causal standstill detector and a_x offset"),
+        "tracker": Parameter("ekf", "vibration tracker aided: ekf (default), rbpmf, grid"),
+        "M": Parameter("2", "harmonics in the model"),
+    },
+    "gps-riss": {
+        "min_sats": Parameter("5", "GPS fixes with fewer satellites are ignored"),
+        "gps_delay": Parameter("0.2", "s, pure receiver delay before the lag model"),
+        "q_accel": Parameter("10", "process noise of the acceleration state"),
+        "r_gps": Parameter("0.02", "(m/s)^2, GPS speed variance per fix"),
+    },
+    "algebraic": {
+        "L1": Parameter("1.2", "m, centre of gravity to front axle (needed unless the "
+                        "recording has it)"),
+        "window": Parameter("0.2", "s, algebraic filter window for values"),
+        "window_d": Parameter("0.3", "s, algebraic filter window for derivatives"),
+        "slip_tol": Parameter("0.05", "relative wheel slip flagged as slipping"),
+    },
+}
+
+
+def presets(method: str) -> dict[str, Preset]:
+    """The presets of ``method`` (``default`` and ``online`` at least)."""
+    return PRESETS.get(method, {"default": Preset({}, "the method's defaults")})
+
+
+def preset_params(method: str, name: str | None) -> dict[str, str]:
+    """The parameters of preset ``name`` of ``method`` (None: none). An unknown preset is a
+    one-line :class:`ParameterError` listing the method's presets."""
+    if name is None:
+        return {}
+    table = presets(method)
+    if name not in table:
+        raise ParameterError(f"unknown preset '{name}' for method '{method}'"
+                             f"{suggest(name, table)} (choose from: {', '.join(table)})")
+    return dict(table[name].params)
+
+
+def apply(method: str, name: str | None, params: dict[str, str] | None) -> dict[str, str]:
+    """Preset ``name``'s parameters overridden by the explicit ``params`` (``-p`` wins)."""
+    return {**preset_params(method, name), **(params or {})}
+
+
+def as_flags(params: dict[str, str]) -> str:
+    """``{'smooth': 'none', 'M': '2'}`` -> ``-p smooth=none -p M=2`` (how to type it)."""
+    return " ".join(f"-p {k}={v}" for k, v in params.items())
