@@ -203,6 +203,10 @@ def estimate_recording(
         track.notes.insert(0, axis_note)
     used = track.params.get("axis")  # the axis the estimator chose when --axis was not given
     axis = used if isinstance(used, str) else axis
+    # saturated / stuck / spike samples: notes and a per-sample 'quality' column (bit flags)
+    from vibrospeed.signal.quality import annotate
+
+    annotate(track, rec, vibration_channel(rec, axis))
     # per-sample columns go to the CSV; a grid posterior (n, N) only to the plot
     grids = {k: v for k, v in track.extras.items() if np.shape(v) != (len(track),)}
     for k in grids:
