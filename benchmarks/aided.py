@@ -14,7 +14,7 @@
   unaided EKF and RBPMF.
 * hungary_grid: the aided grid trackers (-p tracker=rbpmf and tracker=grid) on the same drives,
   with the band's coverage split by the "no line" state (has_signal = p_null <= 0.5).
-Results are printed as markdown (pasted into docs/aided.md).
+Results are printed as markdown (pasted into benchmarks/aided/RESULTS.md).
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Run by hand (about a minute on one core)::
 
     PYTHONPATH=src .venv/bin/python benchmarks/algebraic.py
 
-Writes the tables into ``docs/algebraic.md`` between the RESULTS markers. Sections:
+Writes the tables into ``benchmarks/algebraic/RESULTS.md`` between the RESULTS markers. Sections:
 
 1. differentiation of noisy test signals: algebraic kernels (causal, causal at the exact point,
    centred) against scipy's Savitzky-Golay (centred and causal), same window; PyNumDiff is
@@ -37,7 +37,7 @@ from vibrospeed.types import WHEEL_CHANNELS
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path("/work/shared/datasets")
-DOC = ROOT / "docs" / "algebraic.md"
+DOC = ROOT / "benchmarks" / "algebraic" / "RESULTS.md"
 
 
 def _rmse(a, b, m=None):

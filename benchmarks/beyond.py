@@ -1,4 +1,4 @@
-"""Issue 7 benchmark: the grid tracker beyond the paper, side by side (results -> docs/beyond.md).
+"""Issue 7 benchmark: the grid tracker beyond the paper, side by side (results -> benchmarks/beyond/RESULTS.md).
 
 Usage (by hand)::
 
@@ -198,7 +198,7 @@ def table(allrows, alltimes):
               flush=True)
 
 
-#: defaults from `fit` (docs/beyond.md): geometric middle of the per-scenario fits
+#: defaults from `fit` (benchmarks/beyond/RESULTS.md): geometric middle of the per-scenario fits
 FITTED = {"car": {"r": 0.2, "q_omega": 16.0, "q_amp": 0.002},
           "cart": {"r": 0.0125, "q_omega": 0.125, "q_amp": 0.002}}
 
@@ -265,7 +265,7 @@ def real_bench(fitted, kart_axes=("x", "y", "z")):
     krec, kv = _kart()
     for ax in kart_axes:
         # the line lies at v / 0.089 m = 110..260 rad/s; below ~8 Hz (50 rad/s) the kart's
-        # broadband bumps dominate: range [60, 300], paper high-pass (docs/beyond.md)
+        # broadband bumps dominate: range [60, 300], paper high-pass (benchmarks/beyond/RESULTS.md)
         sets.append((f"GoPro kart ({ax})", krec, kv, None, ax,
                      {"prefilter": "paper-hp", "omega_min": 60.0, "omega_max": 300.0, "M": 2}))
     for label, rec, v, r_typ, axis, base in sets:

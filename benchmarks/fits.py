@@ -1,5 +1,5 @@
 """Issue 7, part 3: the grid tracker's noise parameters fitted by marginal likelihood (results ->
-docs/fits.md).
+benchmarks/fits/RESULTS.md).
 
 Usage (by hand, from the repository root; one at a time on the shared VM)::
 

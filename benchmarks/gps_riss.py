@@ -1,6 +1,6 @@
 """Benchmark of the GPS/RISS fusion (issue 5; METHODS.md section 3): simulated scenarios with 15
 seeds each, the comma2k19 minute (CAN wheel-speed truth) and GPS-drop windows on the Hungary
-phyphox drives. Writes docs/gps_riss.md.
+phyphox drives. Writes benchmarks/gps_riss/RESULTS.md.
 
 Run by hand (about a minute):  PYTHONPATH=src .venv/bin/python benchmarks/gps_riss.py
 """
@@ -458,8 +458,8 @@ Median error at 10 s: {np.median(hy['end']):.2f} m/s (aligned, phone GPS setting
 
     PYTHONPATH=src .venv/bin/python benchmarks/gps_riss.py
 """
-    (ROOT / "docs" / "gps_riss.md").write_text(text)
-    print(f"wrote docs/gps_riss.md in {time.time() - t0:.0f} s")
+    (ROOT / "benchmarks" / "gps_riss" / "RESULTS.md").write_text(text)
+    print(f"wrote benchmarks/gps_riss/RESULTS.md in {time.time() - t0:.0f} s")
     return 0
 
 

@@ -2,7 +2,7 @@
 (N = 2000), and the RBPF (3000 particles) over 15 seeds.
 
 Usage (run by hand from the repository root, one heavy process at a time; ~35-40 min of one
-core for both parts at 15 seeds; the tables are pasted into docs/reference.md)::
+core for both parts at 15 seeds; the tables are pasted into benchmarks/reference/RESULTS.md)::
 
     PYTHONPATH=src .venv/bin/python benchmarks/reference.py                      # both parts
     PYTHONPATH=src .venv/bin/python benchmarks/reference.py --seeds 1            # dry run

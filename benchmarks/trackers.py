@@ -1,7 +1,7 @@
 """Harmonic trackers benchmark (issue 3): accuracy on the simulator, lock from an unknown start
 at cruise (the paper's transient experiment), and speed.
 
-Usage (run by hand; results are pasted into docs/trackers.md)::
+Usage (run by hand; results are pasted into benchmarks/trackers/RESULTS.md)::
 
     PYTHONPATH=src .venv/bin/python benchmarks/trackers.py accuracy --seeds 15 --rbpf-seeds 2
     PYTHONPATH=src .venv/bin/python benchmarks/trackers.py transient --seeds 15 --rbpf-seeds 5
@@ -149,7 +149,7 @@ def _selected(methods, only: str | None):
     return [m for m in methods if any(k in m[0] for k in keys)]
 
 
-#: the causal grid settings for a lock from an unknown start (docs/trackers.md follow-up 5)
+#: the causal grid settings for a lock from an unknown start (benchmarks/trackers/RESULTS.md follow-up 5)
 LOCK_RECIPE = {"smooth": "none", "q_omega": 4.0, "comb_axes": "xyz", "amb_rel": 0.02,
                "amb_abs": 1.0, "mode_hold": 4.0}
 
@@ -168,7 +168,7 @@ def transient_methods(rbpf_seeds: int, particles: int):
         ("grid (filter, comb_axes xyz)", "grid", {"smooth": "none", "comb_axes": "xyz"}, None),
         ("grid (filter, q_omega 4, point=mode, comb_axes xyz)", "grid",
          {"smooth": "none", "q_omega": 4.0, "point": "mode", "comb_axes": "xyz"}, None),
-        # the lock recipe (docs/trackers.md follow-up 5): all axes, a narrower mode window and
+        # the lock recipe (benchmarks/trackers/RESULTS.md follow-up 5): all axes, a narrower mode window and
         # its hysteresis
         ("grid (filter, lock recipe: q_omega 4, comb_axes xyz, mode 2 % / 1 rad/s, hold 4)",
          "grid", LOCK_RECIPE, None),
