@@ -152,65 +152,90 @@ class CsvTable:
         a wrong number of fields, cells that are not numbers, and malformed CSV raise
         :class:`ReaderError` naming the line and column.
         """
-        idx = [self.index(c) for c in usecols]
-        ncols = len(self.header)
-        rows: list[list[str]] = []
-        line_buf: list[int] = []
-        out: list[list[np.ndarray]] = [[] for _ in idx]
+        out: list[list[np.ndarray]] = [[] for _ in usecols]
         lines_out: list[np.ndarray] = []
-        blank = 0
-        reader = csv.reader(self._fh, delimiter=self.delimiter)
-        base = self.header_line  # csv counts lines from where it starts reading
-        try:
-            for row in reader:
-                if len(row) != ncols:
-                    if not any(c.strip() for c in row):
-                        blank += 1
-                        continue
-                    if len(row) < ncols or any(c.strip() for c in row[ncols:]):
-                        raise ReaderError(
-                            self.source,
-                            f"expected {ncols} fields, found {len(row)}",
-                            row=base + reader.line_num,
-                        )
-                    row = row[:ncols]  # trailing empty fields
-                elif not row[0].strip() and not any(c.strip() for c in row):
-                    blank += 1
-                    continue
-                rows.append(row)
-                line_buf.append(base + reader.line_num)
-                if len(rows) >= chunk_rows:
-                    self._flush(rows, idx, line_buf, out, lines_out, usecols)
-        except csv.Error as exc:
-            raise ReaderError(
-                self.source, f"malformed CSV ({exc})", row=base + reader.line_num
-            ) from None
-        except UnicodeDecodeError as exc:
-            raise ReaderError(
-                self.source, f"not UTF-8 text ({exc.reason})", row=base + reader.line_num + 1
-            ) from None
-        self._flush(rows, idx, line_buf, out, lines_out, usecols)
+        for cols, lines in self.iter_chunks(usecols, allow_empty=allow_empty,
+                                            chunk_rows=chunk_rows):
+            for k, name in enumerate(usecols):
+                out[k].append(cols[name])
+            lines_out.append(lines)
         lines = np.concatenate(lines_out) if lines_out else np.empty(0, dtype=np.int64)
-        if lines.size == 0 and not allow_empty:
-            raise ReaderError(self.source, "no data rows after the header", row=self.header_line)
-        if blank:
-            self.notes.append(f"skipped {blank} blank line(s)")
         cols = {
             name: (np.concatenate(parts) if parts else np.empty(0))
             for name, parts in zip(usecols, out, strict=True)
         }
         return cols, lines
 
-    def _flush(self, rows, idx, line_buf, out, lines_out, names) -> None:
-        if not rows:
-            return
+    def iter_chunks(
+        self,
+        usecols: Sequence[str],
+        *,
+        allow_empty: bool = False,
+        chunk_rows: int = CHUNK_ROWS,
+    ) -> Iterator[tuple[dict[str, np.ndarray], np.ndarray]]:
+        """:meth:`read` ``chunk_rows`` rows at a time: yields ``(columns, lines)`` per chunk
+        (memory bounded by one chunk of text and numbers), the same errors at the same lines;
+        the blank-line note is added when the file is exhausted."""
+        if chunk_rows < 1:
+            raise ValueError(f"chunk_rows must be at least 1, got {chunk_rows}")
+        idx = [self.index(c) for c in usecols]
+        ncols = len(self.header)
+        rows: list[list[str]] = []
+        line_buf: list[int] = []
+        blank = 0
+        total = 0
+        reader = csv.reader(self._fh, delimiter=self.delimiter)
+        base = self.header_line  # csv counts lines from where it starts reading
+        it = iter(reader)
+        while True:
+            try:
+                row = next(it)
+            except StopIteration:
+                break
+            except csv.Error as exc:
+                raise ReaderError(
+                    self.source, f"malformed CSV ({exc})", row=base + reader.line_num
+                ) from None
+            except UnicodeDecodeError as exc:
+                raise ReaderError(
+                    self.source, f"not UTF-8 text ({exc.reason})", row=base + reader.line_num + 1
+                ) from None
+            if len(row) != ncols:
+                if not any(c.strip() for c in row):
+                    blank += 1
+                    continue
+                if len(row) < ncols or any(c.strip() for c in row[ncols:]):
+                    raise ReaderError(
+                        self.source,
+                        f"expected {ncols} fields, found {len(row)}",
+                        row=base + reader.line_num,
+                    )
+                row = row[:ncols]  # trailing empty fields
+            elif not row[0].strip() and not any(c.strip() for c in row):
+                blank += 1
+                continue
+            rows.append(row)
+            line_buf.append(base + reader.line_num)
+            if len(rows) >= chunk_rows:
+                total += len(rows)
+                yield self._convert(rows, idx, line_buf, usecols)
+        if rows:
+            total += len(rows)
+            yield self._convert(rows, idx, line_buf, usecols)
+        if total == 0 and not allow_empty:
+            raise ReaderError(self.source, "no data rows after the header", row=self.header_line)
+        if blank:
+            self.notes.append(f"skipped {blank} blank line(s)")
+
+    def _convert(self, rows, idx, line_buf, names) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """The buffered rows as float columns (buffers emptied)."""
         lines = np.asarray(line_buf, dtype=np.int64)
         cols = list(zip(*rows, strict=True))
-        for k, (j, name) in enumerate(zip(idx, names, strict=True)):
-            out[k].append(self._to_float(cols[j], lines, name))
-        lines_out.append(lines)
+        out = {name: self._to_float(cols[j], lines, name)
+               for j, name in zip(idx, names, strict=True)}
         rows.clear()
         line_buf.clear()
+        return out, lines
 
     def _to_float(self, cells: Sequence[str], lines: np.ndarray, name: str) -> np.ndarray:
         if self.decimal != ".":
