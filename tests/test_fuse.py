@@ -1,0 +1,355 @@
+"""``fuse``: acceleration + GPS + wheel-frequency Kalman filter with a learned wheel radius."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators import fuse
+from vibrospeed.models.gps_riss import receiver_matrices, simulate_receiver
+from vibrospeed.types import Recording, Track
+
+FR = 25.0  # fusion rate of the synthetic inputs
+
+
+def synth(seed=0, T=240.0, r_true=0.31, outage=None, no_line=None, bias=0.2, still=None,
+          psd=0.01, om_std=0.05, cfg=None):
+    """Fusion-sample inputs of a drive ``v = 15 + 5 sin(2 pi t / 60)`` (or 0 inside ``still``):
+    accelerometer means with offset ``bias``, fixes of the config's receiver every 2nd sample
+    (none inside ``outage``), the wheel frequency ``v / r_true`` with noise ``om_std``."""
+    cfg = cfg or fuse.Config(acc_psd=psd)
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, T, 1.0 / FR)
+    v = 15.0 + 5.0 * np.sin(2 * np.pi * t / 60.0)
+    a = 5.0 * 2 * np.pi / 60.0 * np.cos(2 * np.pi * t / 60.0)
+    stop = np.zeros(t.size, bool)
+    if still is not None:
+        stop = (t >= still[0]) & (t < still[1])
+        # a smooth stop: v -> 0 over 10 s before, back after
+        w = np.clip(np.minimum(t - still[0] + 10.0, still[1] + 10.0 - t) / 10.0, 0.0, 1.0)
+        w = 0.5 - 0.5 * np.cos(np.pi * w)
+        v = v * (1.0 - w)
+        a = np.gradient(v, t)
+    am = a + bias + rng.normal(0.0, math.sqrt(psd * FR), t.size)
+    am[0] = np.nan
+    rx = simulate_receiver(t, v, cfg.lag)
+    g = np.full(t.size, np.nan)
+    g[::2] = rx[::2] + rng.normal(0.0, 0.1, t[::2].size)
+    if outage is not None:
+        g[(t >= outage[0]) & (t < outage[1])] = np.nan
+    if still is not None:
+        g[stop & np.isfinite(g)] = np.abs(g[stop & np.isfinite(g)])
+    om = v / r_true + rng.normal(0.0, om_std, t.size)
+    line = ~stop
+    if no_line is not None:
+        line &= ~((t >= no_line[0]) & (t < no_line[1]))
+    return {"t": t, "accel": am, "gps_speed": g, "gps_sats": np.full(t.size, 9.0),
+            "omega": om, "omega_std": np.full(t.size, om_std), "line": line, "still": stop}, v
+
+
+# -- independent reference: the module's equations with scipy and the textbook update ------------
+
+def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
+    """Plain numpy/scipy re-implementation (standard-form update, scipy expm) of the filter."""
+    Ar, Br = receiver_matrices(cfg.lag)
+    n = 4 + Ar.shape[0]
+    Ac = np.zeros((n, n))
+    Ac[0, 1] = 1.0
+    Ac[4:, 4:] = Ar
+    Ac[4:, 0] = Br
+    q = np.array([cfg.q_speed, cfg.q_accel, cfg.q_offset, cfg.q_radius] + [cfg.q_gps] * (n - 4))
+    x, P = state.x.copy(), state.P.copy()
+    t_prev = math.nan
+
+    def upd(h, z, r):
+        nonlocal x, P
+        S = h @ P @ h + r
+        K = P @ h / S
+        x = x + K * (z - h @ x)
+        P = P - np.outer(K, K) * S
+
+    speeds, radii, ks = [], [], []
+    for i in range(arrays["t"].size):
+        t = arrays["t"][i]
+        dt = 0.0 if math.isnan(t_prev) else t - t_prev
+        t_prev = t
+        if dt > 0:
+            F = expm(Ac * dt)
+            x = F @ x
+            P = F @ P @ F.T + np.diag(q * dt)
+        e = np.eye(n)
+        if dt > 0 and np.isfinite(arrays["accel"][i]):
+            upd(e[1] + e[2], arrays["accel"][i], cfg.acc_psd / dt)
+        g = arrays["gps_speed"][i]
+        if np.isfinite(g) and arrays["gps_sats"][i] >= cfg.min_sats:
+            nu = g - x[4]
+            E2 = min(max(nu**2 - (P[4, 4] + cfg.r_gps), 0.0), cfg.e_max**2)
+            upd(e[4], g, cfg.r_gps + cfg.r_gps_sq * E2)
+        k_used = math.nan
+        om, s = arrays["omega"][i], arrays["omega_std"][i]
+        if arrays["line"][i] and dt > 0 and om > 0:
+            rh = max(x[3], 1e-3)
+            var = s**2 + (cfg.vib_rel * om) ** 2
+            costs = []
+            for k in (1.0, 0.5, 2.0):
+                h = e[0] - k * om * e[3]
+                R = (rh * k) ** 2 * var * cfg.vib_corr / dt
+                costs.append((h @ x) ** 2 / (h @ P @ h + R) + (0 if k == 1.0 else cfg.vib_penalty))
+            j = int(np.argmin(costs))
+            if costs[j] <= cfg.vib_gate:
+                k_used = (1.0, 0.5, 2.0)[j]
+                upd(e[0] - k_used * om * e[3], 0.0,
+                    (rh * k_used) ** 2 * var * cfg.vib_corr / dt)
+        speeds.append(x[0])
+        radii.append(x[3])
+        ks.append(k_used)
+    return np.array(speeds), np.array(radii), np.array(ks)
+
+
+def test_filter_matches_independent_reference():
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, _ = synth(seed=1, T=60.0, outage=(20.0, 40.0), no_line=(30.0, 35.0))
+    # octave errors of the tracker in places: the filter must resolve them as the reference does
+    arrays["omega"][200:230] *= 2.0
+    arrays["omega"][600:620] *= 0.5
+    st = fuse.init(cfg, float(arrays["gps_speed"][0]), radius=0.3, radius_std=0.05)
+    _, o = fuse.run(cfg, arrays, state=st)
+    vs, rs, ks = reference(cfg, arrays, st)
+    np.testing.assert_allclose(o.speed, vs, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(o.radius, rs, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(np.isnan(o.harmonic), np.isnan(ks))
+    # the doubled / halved stretches were read as 2 omega and omega / 2 (k = 1/2 and 2)
+    assert np.nanmedian(o.harmonic[205:230]) == 0.5
+    assert np.nanmedian(o.harmonic[605:620]) == 2.0
+
+
+def test_step_equals_run_bitwise():
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, _ = synth(seed=2, T=30.0, outage=(10.0, 20.0), still=(24.0, 28.0))
+    st0 = fuse.init(cfg, 15.0)
+    end, o = fuse.run(cfg, arrays, state=st0)
+    st = st0
+    for i in range(arrays["t"].size):
+        st, est = fuse.step(cfg, st, tuple(arrays[k][i] for k in fuse._SAMPLE))
+        assert est.speed == o.speed[i] and est.speed_std == o.speed_std[i]
+        assert est.radius == o.radius[i] and est.source == o.source[i]
+    np.testing.assert_array_equal(st.x, end.x)
+    np.testing.assert_array_equal(st.P, end.P)
+    # chunked runs carry the state: same numbers as one run
+    half = arrays["t"].size // 2
+    s1, o1 = fuse.run(cfg, {k: v[:half] for k, v in arrays.items()}, state=st0)
+    _, o2 = fuse.run(cfg, {k: v[half:] for k, v in arrays.items()}, state=s1)
+    np.testing.assert_array_equal(np.concatenate([o1.speed, o2.speed]), o.speed)
+
+
+def test_radius_converges_to_truth_and_carries_the_outage():
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=3, T=240.0, r_true=0.3217, outage=(120.0, 200.0))
+    _, o = fuse.run(cfg, arrays)
+    t = arrays["t"]
+    before = np.flatnonzero(t < 120.0)[-1]
+    assert abs(o.radius[before] - 0.3217) < 3 * o.radius_std[before]
+    assert abs(o.radius[before] - 0.3217) < 1e-3
+    assert o.radius_std[before] < 0.001
+    out = (t >= 120.0) & (t < 200.0)
+    # through the outage the radius stays put and vibration carries the speed
+    assert np.ptp(o.radius[out]) < 2e-3
+    assert np.all(o.source[out & (t >= 121.5)] == fuse.SRC_VIBRATION)  # gps holds 1.5 s
+    assert np.mean(np.abs(o.speed[out] - v[out]) <= 0.01 * v[out]) > 0.99
+    # with GPS
+    assert np.mean(o.source[(t > 5) & ~out] == fuse.SRC_GPS) > 0.99
+
+
+def test_outage_without_line_is_inertial_and_its_band_grows():
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=4, T=200.0, outage=(100.0, 160.0), no_line=(100.0, 160.0))
+    _, o = fuse.run(cfg, arrays)
+    t = arrays["t"]
+    out = (t >= 100.0 + 1.5) & (t < 160.0)  # gps source holds 1.5 s after the last fix
+    assert np.all(o.source[out] == fuse.SRC_INERTIAL)
+    assert np.all(np.diff(o.speed_std[out]) > 0)
+    # the accelerometer with its learned offset keeps the speed within its band
+    z = np.abs(o.speed[out] - v[out]) / o.speed_std[out]
+    assert np.mean(z < 2.33) > 0.9
+
+
+def test_no_jump_beyond_the_band_when_gps_returns():
+    """The radius prior is off by 4 % and there is no GPS before 60 s: the speed from vibration
+    is 4 % wrong; when GPS arrives the forward filter moves towards it by at most its band per
+    sample (z = 2.33, 98 %) and the smoothed speed has no step there either."""
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=5, T=120.0, r_true=0.31, outage=(0.0, 60.0))
+    st = fuse.init(cfg, 0.0, radius=0.31 * 1.04, radius_std=0.002)
+    _, o = fuse.run(cfg, arrays, state=st)
+    t = arrays["t"]
+    k0 = np.flatnonzero(t >= 60.0)[0]
+    assert abs(o.speed[k0 - 1] / v[k0 - 1] - 1.04) < 0.01  # wrong by the radius before
+    dv = np.abs(np.diff(o.speed[k0 - 5:k0 + 200]))
+    band = 2.33 * o.speed_std[k0 - 5:k0 + 199]  # the band before each step
+    assert np.all(dv <= band)
+    # ... and still reaches the truth within a minute
+    assert abs(o.speed[-1] - v[-1]) < 0.02 * v[-1]
+    assert abs(o.radius[-1] - 0.31) < 0.003
+    xs, Ps = fuse.smooth(cfg, o)
+    ds = np.abs(np.diff(xs[k0 - 50:k0 + 50, 0]))
+    assert ds.max() < 0.1  # m per 40 ms: a 2.5 m/s^2 change at most
+
+
+def test_jump_bound_holds_for_any_innovation():
+    """Module notes, item 2: one fix moves v by at most sqrt(P_vv) / (2 sqrt(c (1 - c)))."""
+    rng = np.random.default_rng(7)
+    for c in (0.05, 0.2, 0.5, 0.9):
+        cfg = fuse.Config(r_gps_sq=c, e_max=1e6)
+        for _ in range(50):
+            st = fuse.init(cfg, 10.0, p0_speed=float(rng.uniform(0.01, 100.0)))
+            g = 10.0 + float(rng.normal(0.0, 10.0 ** rng.uniform(-2, 3)))
+            new, est = fuse.step(cfg, st, (0.0, np.nan, g, 9.0, np.nan, np.nan, False, False))
+            bound = math.sqrt(st.P[0, 0]) / (2 * math.sqrt(c * (1 - c)))
+            assert abs(est.speed - 10.0) <= bound * (1 + 1e-9)
+
+
+def test_standstill_needs_all_evidence():
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=6, T=120.0, still=(60.0, 80.0))
+    _, o = fuse.run(cfg, arrays)
+    t = arrays["t"]
+    stop = (t >= 60.0) & (t < 80.0)
+    assert np.all(o.source[stop] == fuse.SRC_STANDSTILL)
+    assert np.all(np.abs(o.speed[stop]) < 0.05)
+    assert not np.any(o.source[~stop] == fuse.SRC_STANDSTILL)
+    # a GPS that says we move vetoes the stop the vibration reports
+    a2 = dict(arrays)
+    g = a2["gps_speed"].copy()
+    g[stop & np.isfinite(g)] = 5.0
+    a2["gps_speed"] = g
+    _, o2 = fuse.run(cfg, a2)
+    assert not np.any(o2.source == fuse.SRC_STANDSTILL)
+    # no GPS: the stop is taken where the integrated speed agrees with it
+    a3 = dict(arrays)
+    a3["gps_speed"] = np.where(t >= 30.0, np.nan, arrays["gps_speed"])
+    _, o3 = fuse.run(cfg, a3)
+    assert np.mean(o3.source[stop] == fuse.SRC_STANDSTILL) > 0.95
+
+
+def test_satellite_gate():
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=8, T=60.0, no_line=(0.0, 60.0))
+    t = arrays["t"]
+    bad = (t >= 20.0) & (t < 40.0)
+    arrays["gps_sats"] = np.where(bad, 4.0, 9.0)
+    arrays["gps_speed"] = np.where(bad & np.isfinite(arrays["gps_speed"]), 0.0,
+                                   arrays["gps_speed"])  # a receiver reporting 0 in a tunnel
+    _, o = fuse.run(cfg, arrays)
+    inside = bad & (t >= 21.5)
+    assert np.all(o.source[inside] == fuse.SRC_INERTIAL)
+    # not pulled towards the 0 m/s the receiver reports; the truth inside the band
+    assert np.all(np.abs(o.speed[inside] - v[inside]) < 2.33 * o.speed_std[inside])
+    assert o.speed[inside].min() > 5.0
+
+
+def test_radius_from_json_round_trip(tmp_path):
+    from vibrospeed.io import read_track, write_track
+
+    t = np.arange(0.0, 10.0, 0.1)
+    tr = Track.from_speed(t, np.full(t.size, 10.0), np.full(t.size, 0.1), wheel_radius=0.3125,
+                          method="fuse", params={"learned_radius": 0.3125,
+                                                 "learned_radius_std": 0.0007})
+    p = tmp_path / "est.csv"
+    write_track(tr, p)
+    assert fuse.radius_from_json(f"{p}.json") == (0.3125, 0.0007)
+    assert read_track(p).wheel_radius == 0.3125
+    q = tmp_path / "r.json"
+    q.write_text(json.dumps({"wheel_radius": 0.25}))
+    assert fuse.radius_from_json(q) == (0.25, 0.0025)
+    q.write_text(json.dumps({"wheel_radius": -1}))
+    with pytest.raises(InputError, match="positive"):
+        fuse.radius_from_json(q)
+    q.write_text("{")
+    with pytest.raises(InputError, match="r.json"):
+        fuse.radius_from_json(q)
+    q.write_text(json.dumps({"x": 1}))
+    with pytest.raises(InputError, match="learned_radius"):
+        fuse.radius_from_json(q)
+
+
+def test_config_and_input_errors():
+    with pytest.raises(ParameterError, match="r_gps_sq"):
+        fuse.Config(r_gps_sq=1.0)
+    with pytest.raises(ParameterError, match="acc_psd"):
+        fuse.Config(acc_psd=0.0)
+    cfg = fuse.Config()
+    with pytest.raises(InputError, match="backwards"):
+        fuse.run(cfg, {"t": np.array([0.0, 1.0, 0.5])})
+    with pytest.raises(InputError, match="omega"):
+        fuse.run(cfg, {"t": np.arange(3.0), "omega": np.ones(2)})
+    st, _ = fuse.step(cfg, fuse.init(cfg), (1.0, 0.0, np.nan, np.nan, np.nan, np.nan, 0, 0))
+    with pytest.raises(InputError, match="backwards"):
+        fuse.step(cfg, st, (0.5, 0.0, np.nan, np.nan, np.nan, np.nan, 0, 0))
+
+
+def test_fusion_blocks_put_each_fix_at_its_own_sample():
+    t = np.arange(0.0, 2.0, 0.01)
+    fix = np.zeros(t.size, bool)
+    fix[[7, 33, 34, 150]] = True
+    ends = fuse.fusion_samples(t, fix, 25.0)
+    assert set([7, 33, 34, 150]) <= set(ends.tolist())
+    assert ends[-1] == t.size - 1 and np.all(np.diff(ends) > 0) and np.diff(ends).max() <= 4
+    x = np.arange(t.size, dtype=float)
+    x[5] = np.nan
+    m = fuse._block_mean(x, ends)
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    ref = [np.nanmean(x[a:b + 1]) for a, b in zip(starts, ends, strict=True)]
+    np.testing.assert_allclose(m, ref)
+
+
+def _recording_with_line(seed=0, T=120.0, fs=200.0, r=0.3, gps=True):
+    """A drive with a clean 3-harmonic wheel line on ay, longitudinal acceleration on ax and
+    paper-receiver GPS fixes at 10 Hz."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, T, 1.0 / fs)
+    v = 12.0 + 4.0 * np.sin(2 * np.pi * t / 40.0)
+    a = np.gradient(v, t)
+    phase = np.cumsum(v / r) / fs
+    ay = sum(c * np.sin(k * phase) for k, c in ((1, 1.0), (2, 0.5), (3, 0.3)))
+    ay = ay + 0.3 * rng.normal(size=t.size)
+    ax = a + 0.1 + 0.2 * rng.normal(size=t.size)
+    ch = {"ax": ax, "ay": ay, "az": 9.81 + 0.2 * rng.normal(size=t.size), "speed_true": v}
+    if gps:
+        g = np.full(t.size, np.nan)
+        g[::20] = simulate_receiver(t, v, fuse.Config().lag)[::20] + rng.normal(
+            0, 0.1, t[::20].size)
+        ch.update(gps_speed=g, gps_sats=np.full(t.size, 9.0))
+    return Recording(t, ch, source=f"synthetic{seed}")
+
+
+@pytest.mark.slow
+def test_estimate_learns_the_radius_and_reuses_it_without_gps(tmp_path):
+    from vibrospeed.io import write_track
+
+    rec = _recording_with_line(seed=1, r=0.3)
+    tr = fuse.estimate(rec, params={"omega_min": 10.0, "omega_max": 120.0})
+    assert tr.method == "fuse"
+    assert abs(tr.params["learned_radius"] - 0.3) < 0.003
+    assert set(np.unique(tr.extras["source"])) <= set(fuse.SOURCES)
+    v = rec["speed_true"]
+    assert np.mean(np.abs(tr.speed - v) <= 0.03 * v) > 0.95
+    p = tmp_path / "drive1.csv"
+    write_track(tr, p)
+    # a second drive of the same vehicle without GPS: m/s from vibration alone
+    rec2 = _recording_with_line(seed=2, r=0.3, gps=False)
+    with pytest.raises(ParameterError, match="radius"):
+        fuse.estimate(rec2, params={"omega_min": 10.0, "omega_max": 120.0})
+    tr2 = fuse.estimate(rec2, params={"omega_min": 10.0, "omega_max": 120.0,
+                                      "radius_from": str(p) + ".json"})
+    v2 = rec2["speed_true"]
+    assert np.mean(np.abs(tr2.speed - v2) <= 0.03 * v2) > 0.9
+    assert tr2.params["radius_prior"][0] == pytest.approx(tr.params["learned_radius"])
+    assert np.mean(tr2.extras["source"] == fuse.SRC_VIBRATION) > 0.8
+    # online: causal tracker, forward filter; same learned radius within its band
+    tr3 = fuse.estimate(rec, params={"omega_min": 10.0, "omega_max": 120.0, "online": "true"})
+    assert abs(tr3.params["learned_radius"] - 0.3) < 0.003
