@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= demo_out
 
-.PHONY: demo test venv clean bench lint
+.PHONY: demo test venv clean bench lint docs
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -39,6 +39,10 @@ demo: venv
 test: venv
 	$(BIN)/python -m pytest -q
 
+# the documentation site into site/ (MkDocs, in the test extra); --strict: a warning fails it
+docs: venv
+	$(BIN)/python -m mkdocs build --strict
+
 bench: venv
 	$(BIN)/python benchmarks/ekf_throughput.py
 
@@ -46,4 +50,4 @@ lint: venv
 	$(BIN)/python -m ruff check .
 
 clean:
-	rm -rf $(VENV) $(OUT) build *.egg-info src/*.egg-info
+	rm -rf $(VENV) $(OUT) build site *.egg-info src/*.egg-info

@@ -120,6 +120,10 @@ def test_cli_preset_is_recorded_and_explicit_p_wins(tmp_path, drives):
     res = _run("estimate", path, "--preset", "lock", "-p", "mode_hold=2", "-o", c)
     assert res.exit_code == 0, res.output
     assert json.loads(c.with_name("c.csv.json").read_text())["params"]["mode_hold"] == 2.0
+    # a misspelt name: suggestions from all of the method's parameters (nested Configs too)
+    res = _run("estimate", path, "-p", "comb_axis=all", "-o", c)
+    assert res.exit_code == 2 and ("unknown parameter 'comb_axis' for method 'grid' (did you "
+                                   "mean 'comb_axes'") in res.stderr
     res = _run("estimate", path, "--preset", "nope", "-o", c)
     assert res.exit_code == 2 and "unknown preset 'nope' for method 'grid'" in res.stderr
     assert len(res.stderr.strip().splitlines()) == 1

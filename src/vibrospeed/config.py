@@ -201,6 +201,21 @@ def field_types(cls: type) -> dict[str, Any]:
     return {f.name: hints.get(f.name, Any) for f in dataclasses.fields(cls)}
 
 
+def flat_names(cls: type) -> set[str]:
+    """The names ``-p`` reaches through dataclass ``cls``: its fields, with a field that holds a
+    dataclass (a model, a tracker) replaced by that dataclass' names (estimators split one flat
+    parameter set between nested Configs)."""
+    out: set[str] = set()
+    for name, typ in field_types(cls).items():
+        sub = typ if dataclasses.is_dataclass(typ) else next(
+            (a for a in typing.get_args(typ) if dataclasses.is_dataclass(a)), None)
+        if sub is None:
+            out.add(name)
+        else:
+            out |= flat_names(sub)
+    return out
+
+
 def config_from_params(cls: type[C], params: dict[str, Any] | None = None, **defaults: Any) -> C:
     """Instantiate dataclass ``cls`` from ``defaults`` overridden by ``params``.
 
@@ -211,7 +226,7 @@ def config_from_params(cls: type[C], params: dict[str, Any] | None = None, **def
     kw = dict(defaults)
     for name, value in (params or {}).items():
         if name not in typs:
-            raise unknown(name, cls.__name__, typs)
+            raise unknown(name, cls.__name__, flat_names(cls))
         kw[name] = parse_value(value, typs[name], name)
     return cls(**kw)
 

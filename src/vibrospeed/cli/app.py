@@ -111,6 +111,25 @@ def _params(method: str, preset: str | None, param: list[str] | None) -> dict[st
     return presets.apply(method, preset, parse_params(param))
 
 
+def _unknown_hint(method: str, exc: ParameterError) -> ParameterError:
+    """An unknown-parameter error from one of a method's nested Configs, its suggestions taken
+    from all of the method's parameter names (the flat ``-p`` namespace)."""
+    import dataclasses
+    import re
+
+    from vibrospeed import estimators, presets
+    from vibrospeed.config import flat_names, unknown
+
+    m = re.match(r"unknown parameter '([^']+)' for \w+", str(exc))
+    if m is None or method not in estimators.METHODS:
+        return exc
+    names = set(presets.PARAMETERS.get(method, {}))
+    cfg = getattr(estimators.get(method), "Config", None)
+    if dataclasses.is_dataclass(cfg):
+        names |= flat_names(cfg)
+    return unknown(m.group(1), f"method '{method}'", names)
+
+
 @app.command()
 @_friendly
 def simulate(
@@ -235,8 +254,11 @@ def estimate(
                            wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
                            lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
                            mapping=mapping, rate=rate, sort=sort, topic=topic)
-    est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
-                             keep_posterior=plot is not None, meta={"preset": preset})
+    try:
+        est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
+                                 keep_posterior=plot is not None, meta={"preset": preset})
+    except ParameterError as exc:
+        raise _unknown_hint(method, exc) from None
     rec, track = est.recording, est.track
     for note in rec.notes + track.notes:
         err.print(f"note: {note}")
