@@ -104,3 +104,38 @@ def test_gps_delay_is_an_exact_shift():
     assert rec.meta["gps_lag"]["delay"] == 0.37
     with pytest.raises(ParameterError, match="gps_delay"):
         sg.braking(np.random.default_rng(2), fs=100.0, gps_delay=-1.0)
+
+
+def test_outage_gps_adds_gps_without_changing_the_drive():
+    from vibrospeed.sim import simulate
+
+    base = simulate("random", seed=11, duration=300.0, vehicle="car")
+    model = sg.outage_gps(tunnel_duration=(40.0, 60.0), jumps=2, low_sats=1)
+    rec = simulate("random", seed=11, duration=300.0, vehicle="car", gps_model=model)
+    for name, x in base.channels.items():
+        np.testing.assert_array_equal(rec[name], x)  # the other streams are untouched
+    sats, g, t = rec["gps_sats"], rec["gps_speed"], rec.t
+    tun = sats == 0
+    assert np.isfinite(sats).all()
+    spans = np.flatnonzero(np.diff(tun.astype(int)))
+    assert spans.size in (1, 2)  # one tunnel (it may run to the end)
+    length = tun.sum() / rec.fs
+    assert 40.0 - 0.05 <= length <= 60.0 + 0.05
+    assert not np.isfinite(g[tun]).any()
+    t_in = t[np.flatnonzero(tun)[0]]
+    assert t_in >= 60.0
+    assert 10.0 <= rec["speed_true"][np.flatnonzero(tun)[0]] <= 30.0
+    # fixes at ~10 Hz outside, weak sky 4-6 satellites somewhere, clear sky 6..14
+    rate = np.isfinite(g[~tun]).sum() / ((~tun).sum() / rec.fs)
+    assert 9.0 < rate < 10.5
+    assert np.any((sats >= 4) & (sats <= 6))
+    clear = ~tun & ~((sats >= 4) & (sats <= 6))
+    assert sats[clear].min() >= 6 and sats[clear].max() <= 14
+    # away from jumps and weak sky the fixes follow the paper receiver within the noise
+    fix = np.isfinite(g) & clear
+    rx = simulate_receiver(t, rec["speed_true"], GpsLagModel.paper())
+    err = g[fix] - rx[fix]
+    assert np.median(np.abs(err)) < 0.15
+    assert np.sum(np.abs(err) > 1.5) > 0  # the receiver jumps
+    again = simulate("random", seed=11, duration=300.0, vehicle="car", gps_model=model)
+    np.testing.assert_array_equal(again["gps_speed"], g)

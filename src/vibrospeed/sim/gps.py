@@ -325,3 +325,84 @@ def scenario(name: str, rng: np.random.Generator, **kw) -> Recording:
             f"unknown GPS scenario '{name}' (choose from: {', '.join(SCENARIOS)})"
         ) from None
     return f(rng, **kw)
+
+
+# -- outages, receiver jumps and weak sky for any simulated drive --------------------------------
+
+def outage_gps(
+    *,
+    lag: GpsLagModel | None = None,
+    rate: float = 10.0,
+    noise: float = 0.1,
+    tunnels: int = 1,
+    tunnel_duration: tuple[float, float] = (30.0, 180.0),
+    tunnel_speed: tuple[float, float] = (10.0, 30.0),
+    tunnel_after: float = 60.0,
+    jumps: int = 2,
+    jump_size: tuple[float, float] = (2.0, 5.0),
+    low_sats: int = 2,
+    low_duration: tuple[float, float] = (5.0, 20.0),
+    low_noise: float = 0.5,
+):
+    """A ``gps_model`` for :func:`vibrospeed.sim.simulate` (e.g. ``simulate("random", seed=N,
+    gps_model=outage_gps())``): the receiver of this module (lag model ``lag``, default the
+    paper's eq. 3-4, fixes at ``rate`` Hz, white noise ``noise`` m/s) with
+
+    * ``tunnels`` outages of ``tunnel_duration`` s (uniform) starting where the true speed lies
+      in ``tunnel_speed`` m/s, no earlier than ``tunnel_after`` s into the drive (anywhere after
+      it if the drive never reaches that speed): no fix, 0 satellites;
+    * ``jumps`` receiver jumps (paper section VI-c): the reported speed is off by
+      ``jump_size`` m/s (uniform, random sign) for 0.4-1 s, raised-cosine edges of 0.1 s;
+    * ``low_sats`` weak-sky periods of ``low_duration`` s with 4-6 satellites (below the usual
+      gate of 7) and ``low_noise`` m/s extra noise.
+
+    ``gps_sats`` is given on every sample (8-12 with a clear sky), ``gps_speed`` at fixes only.
+    The draws come from the simulator's own GPS stream, so the rest of the drive is the same
+    recording as without GPS. Tunnels do not overlap each other (a tunnel that cannot be placed
+    is left out).
+    """
+    lag = lag or GpsLagModel.paper()
+
+    def gps_model(t: np.ndarray, speed: np.ndarray, rng: np.random.Generator):
+        n = t.size
+        rx = simulate_receiver(t, speed, lag)
+        idx = _fix_indices(t, rate, rng, 0.002)
+        sats = np.round(rng.uniform(8.0, 12.0) + np.clip(
+            np.cumsum(rng.normal(0.0, 0.02, n)), -2.0, 2.0))
+        err = np.zeros(n)
+        extra = np.zeros(n)
+        blocked = np.zeros(n, dtype=bool)
+        for _ in range(tunnels):
+            d = float(rng.uniform(*tunnel_duration))
+            ok = ((speed >= tunnel_speed[0]) & (speed <= tunnel_speed[1])
+                  & (t >= t[0] + tunnel_after) & (t + d <= t[-1]))
+            cand = np.flatnonzero(ok & ~blocked)
+            if cand.size == 0:
+                cand = np.flatnonzero((t >= t[0] + tunnel_after) & (t + d <= t[-1]) & ~blocked)
+            if cand.size == 0:
+                continue
+            t0 = float(t[cand[rng.integers(cand.size)]])
+            inside = (t >= t0) & (t < t0 + d)
+            if np.any(blocked & inside):
+                continue
+            blocked |= inside
+        for _ in range(jumps):
+            t0 = float(rng.uniform(t[0], t[-1]))
+            d = float(rng.uniform(0.4, 1.0))
+            amp = float(rng.uniform(*jump_size)) * float(rng.choice([-1.0, 1.0]))
+            err += amp * _smooth_profile(t, [(t0, 1.0), (t0 + d, 0.0)], rise=0.1)
+        for _ in range(low_sats):
+            t0 = float(rng.uniform(t[0], t[-1]))
+            d = float(rng.uniform(*low_duration))
+            weak = (t >= t0) & (t < t0 + d)
+            sats[weak] = rng.integers(4, 7)
+            extra[weak] = low_noise
+        sats[blocked] = 0.0
+        gps = np.full(n, np.nan)
+        keep = idx[~blocked[idx]]
+        gps[keep] = np.maximum(rx[keep] + err[keep] + rng.normal(0.0, 1.0, keep.size)
+                               * np.hypot(noise, extra[keep]), 0.0)
+        return gps, sats
+
+    gps_model.__name__ = "outage_gps"
+    return gps_model
