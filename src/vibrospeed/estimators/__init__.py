@@ -39,6 +39,11 @@ METHODS: dict[str, tuple[str, str]] = {
         "vibrospeed.estimators.gps_riss",
         "GPS speed + one accelerometer Kalman fusion with GPS lag model",
     ),
+    "fuse": (
+        "vibrospeed.estimators.fuse",
+        "one speed from vibration + acceleration + GPS (where present), wheel radius learned "
+        "(-p radius_from=est.csv.json reuses it)",
+    ),
     "algebraic": (
         "vibrospeed.estimators.algebraic",
         "Vx/Vy from yaw rate, accelerations and wheel speeds, algebraic differentiation",
