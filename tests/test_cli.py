@@ -101,6 +101,10 @@ def test_module_entry_point_and_help():
     assert "simulate" in res.stdout and "estimate" in res.stdout
     res = _run("estimate", "--help")
     assert "Examples" in res.output
+    from vibrospeed import __version__
+
+    res = _run("--version")
+    assert res.exit_code == 0 and res.output.strip() == f"vibrospeed {__version__}"
 
 
 def test_truth_from_ticks_and_scenario_list(tmp_path):

@@ -1,9 +1,21 @@
-"""The README's Python example runs as written (a stale example is a bug for a new user)."""
+"""The README's and the docs' examples work as written (a stale example is a bug for a new user):
+the Python example runs, and every `vibrospeed ...` command line parses against the CLI (its
+command and options exist, values have the right type, a preset exists for its method)."""
 
 import re
+import shlex
 from pathlib import Path
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+import click
+import pytest
+import typer.main
+
+from vibrospeed import presets
+from vibrospeed.cli.app import app
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+PAGES = [README, *sorted((ROOT / "docs").glob("*.md"))]
 
 
 def test_readme_python_examples_run():
@@ -13,3 +25,36 @@ def test_readme_python_examples_run():
         ns: dict = {}
         exec(compile(code, str(README), "exec"), ns)  # noqa: S102 - our own README
         assert "est" in ns or "track" in ns
+
+
+def _command_lines(path: Path) -> list[str]:
+    """``vibrospeed ...`` lines of the ``sh`` blocks, comments removed, continuations joined."""
+    out = []
+    for block in re.findall(r"```sh\n(.*?)```", path.read_text(), flags=re.S):
+        for line in block.replace("\\\n", " ").splitlines():
+            line = line.strip()
+            if line.startswith("vibrospeed "):
+                out.append(line)
+    return out
+
+
+CASES = [(p.name, line) for p in PAGES for line in _command_lines(p)]
+
+
+def test_there_are_command_examples():
+    assert sum(1 for name, _ in CASES if name == "README.md") >= 15
+
+
+@pytest.mark.parametrize(("page", "line"), CASES)
+def test_command_examples_parse(page, line):
+    args = shlex.split(line, comments=True)[1:]
+    group = typer.main.get_command(app)
+    assert args[0] in group.commands, f"{page}: unknown command in {line!r}"
+    cmd = group.commands[args[0]]
+    try:
+        ctx = cmd.make_context(args[0], list(args[1:]))
+    except click.exceptions.UsageError as exc:  # unknown option, bad value, missing argument
+        pytest.fail(f"{page}: {line!r}: {exc.format_message()}")
+    preset = ctx.params.get("preset")
+    if preset is not None:
+        assert preset in presets.presets(ctx.params.get("method") or "grid"), (page, line)

@@ -38,6 +38,23 @@ err = Console(stderr=True)
 out = Console()
 
 
+def _version(value: bool) -> None:
+    if value:
+        from vibrospeed import __version__
+
+        print(f"vibrospeed {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    version: Annotated[bool, typer.Option("--version", help="print the version and exit",
+                                          callback=_version, is_eager=True)] = False,
+) -> None:
+    """Estimate vehicle speed from a chassis accelerometer (wheel harmonics), longitudinal
+    acceleration, GPS, yaw rate and wheel speeds."""
+
+
 def _friendly(fn):
     """Turn library errors into one line on stderr and exit status 2."""
 
