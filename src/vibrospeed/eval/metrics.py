@@ -33,7 +33,7 @@ class Metrics:
     double_share: float  # share near 2 * truth
     rmse_speed: float
     unit: str = "rad/s"  # unit of rmse, mae, bias: "rad/s", or "m/s" when compared as speeds
-    ok_share: float = float("nan")  # share within max(ok_abs, ok_rel * truth) (issue 7 score)
+    ok_share: float = float("nan")  # share within max(ok_abs, ok_rel * truth)
     claimed_share: float = float("nan")  # share of moving samples where has_signal (if reported)
     rmse_claimed: float = float("nan")  # RMSE where the tracker claims a signal
     ok_claimed: float = float("nan")  # ok share where the tracker claims a signal
@@ -82,8 +82,9 @@ def compare(
     ``min_omega``: truth below this (rad/s) counts as standing still and is excluded.
     ``warmup``: seconds at the start of the track excluded. ``tol``: relative tolerance for the
     half/double harmonic shares. ``ok_abs`` (rad/s) and ``ok_rel``: a sample is "ok" within
-    ``max(ok_abs, ok_rel * truth)`` (issue 7's score). Where the track reports ``has_signal``
-    (grid trackers), the ``*_claimed`` fields score only the samples it claims.
+    ``max(ok_abs, ok_rel * truth)`` (the tolerance of the accuracy tables). Where the track
+    reports ``has_signal`` (grid trackers), the ``*_claimed`` fields score only the samples it
+    claims.
     """
     w = interp_truth(np.asarray(truth_t, float), np.asarray(truth_omega_values, float), track.t)
     after = track.t >= track.t[0] + warmup

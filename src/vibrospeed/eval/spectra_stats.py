@@ -1,6 +1,6 @@
 """Spectral statistics of accelerometer recordings, for calibrating the simulator on real data.
 
-The quantities a vibration simulator must reproduce (issue 13), measured the same way on real
+The quantities a vibration simulator must reproduce, measured the same way on real
 recordings and simulated drives (``benchmarks/calibration/calibration.py``):
 
 * **line amplitude**: the peak of an amplitude-correct Hann spectrum,

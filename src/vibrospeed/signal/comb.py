@@ -1,4 +1,4 @@
-"""The comb check: the wheel speed of the strongest weighted harmonic comb (issue 13).
+"""The comb check: the wheel speed of the strongest weighted harmonic comb.
 
 Shared by the aided tracker (:mod:`vibrospeed.estimators.aided`) and the harmonic EKF
 (:mod:`vibrospeed.estimators.ekf`): acquisition of omega after a start and the way out of a lock

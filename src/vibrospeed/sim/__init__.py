@@ -1,4 +1,4 @@
-"""Seeded, deterministic simulator of drives with ground truth (issue 2, part 4).
+"""Seeded, deterministic simulator of drives with ground truth.
 
 Entry point::
 

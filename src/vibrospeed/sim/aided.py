@@ -1,4 +1,4 @@
-"""Simulator scenarios that stress inertial-aided tracking (issue 4, part 6; thesis ch. 3, 4.2.4).
+"""Simulator scenarios that stress inertial-aided tracking (thesis ch. 3, 4.2.4).
 
 Shelf-cart drives in the thesis' setting (wheel radius 0.08 m, about 10 rad/s, 100 Hz, the
 vibrations on the lateral axis y, the speed changes on the longitudinal axis x), built from the

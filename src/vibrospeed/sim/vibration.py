@@ -38,7 +38,7 @@ Per accelerometer axis ``j`` (x, y, z) the vibration is (all terms in m/s^2)::
   that a real car adds to turns and braking: white noise through a Butterworth low-pass of
   order 2 at ``lowfreq_cutoff`` Hz, scaled to ``lowfreq_std`` m/s^2 at ``v >= lowfreq_v`` and
   faded in linearly below it. Measured on a phone in a car at 20-30 m/s: 0.2-1.5 m/s^2 std
-  below 2 Hz on the horizontal axes (issue 13), 10-20x a wheel harmonic.
+  below 2 Hz on the horizontal axes (``benchmarks/calibration``), 10-20x a wheel harmonic.
 * Extra engine orders (``EngineConfig.extra_orders``): ``(order, relative amplitude)`` pairs
   added to the main order line, e.g. the firing order 2 of a four-cylinder engine.
 """
