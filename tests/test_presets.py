@@ -142,3 +142,16 @@ def test_methods_lists_presets_and_parameters():
     assert res.exit_code == 2 and "unknown method 'nope'" in res.stderr
     res = _run("estimate", "--help")
     assert "--preset" in res.output and "lock" in res.output
+
+
+def test_batch_takes_a_preset(tmp_path, drives):
+    path = tmp_path / "cart.csv"
+    io.write(drives["cart"], path)
+    res = _run("batch", path, "-o", tmp_path / "out", "--preset", "online", "-p", "M=2",
+               "-j", 1)
+    assert res.exit_code == 0, res.output
+    side = json.loads((tmp_path / "out" / "cart_grid.csv.json").read_text())
+    assert side["params"]["smooth"] == "none" and side["params"]["M"] == 2
+    assert side["meta"]["options"]["params"] == {"M": "2", "smooth": "none"}
+    res = _run("batch", path, "-o", tmp_path / "out", "-m", "ekf", "--preset", "lock")
+    assert res.exit_code == 2 and "unknown preset 'lock' for method 'ekf'" in res.stderr
