@@ -77,8 +77,8 @@ PRESETS: dict[str, dict[str, Preset]] = {
                          "prefilter": "paper-hp"},
                         "paper IV-B batches and range with Hermes' compression 0.84 and "
                         "48 points per octave"),
-        "online": Preset({}, "one estimate per batch from that batch's samples: "
-                         + _CAUSAL),
+        "online": Preset({}, "each batch's estimate uses that batch's samples only (one "
+                         "batch late): the same as default"),
     },
     "ekf": {
         "default": Preset({}, "normalised input, acquisition from the harmonic comb check "
