@@ -1,0 +1,399 @@
+"""Time and memory against log length, the online tracker's cost per sample, the CLI's start-up.
+
+Parts (all in fresh child processes so that peak memory is the run's own):
+
+* ``lengths``: ``simulate("car", seed=1)`` of 1 min, 10 min, 1 h (``--lengths``) written as
+  Parquet; a child reads it and runs one method's ``estimate`` (as the CLI does, no output
+  written); wall time of the estimate, peak RSS of the child (``ru_maxrss``, the recording
+  included) and RSS before the estimate. Methods: ``grid`` (the default, offline smoothed),
+  ``grid-causal`` (``smooth=none``), ``rbpmf``, ``ekf`` and the 3 s STFT harmonic sum
+  (:func:`vibrospeed.eval.baseline.stft_harmonic_sum` on the same pre-filtered axis as the grid
+  sees). Beyond the longest length the time and memory are extrapolated with the log-log slope
+  of the last two lengths (printed as such).
+* ``online``: microseconds per sample of :class:`~vibrospeed.estimators.online.OnlineTracker`
+  (grid causal, rbpmf, ekf; 3000 samples after 300 warm-up, best of 3) and of
+  :func:`vibrospeed.signal.whiten.step` (12 000 samples of noise, best of 3), beside the same
+  whitener at ``--whiten-ref`` (a git revision, read with ``git show``).
+* ``startup``: ``python -m vibrospeed estimate`` on a 10 s canonical CSV with an empty numba
+  cache directory (``NUMBA_CACHE_DIR``: every ``cache=True`` kernel compiles) and again with the
+  cache it left; ``python -c "import vibrospeed.cli.app"`` for reference.
+* ``read``: peak RSS of reading a 1 h CSV / Parquet whole (``io.read``) and chunk by chunk
+  (:class:`vibrospeed.io.chunks.ChunkedRecording`, 65 536 rows) over the child's baseline.
+
+Usage (``--write``: ``benchmarks/scale/RESULTS.md`` and ``docs/img/scale.png``)::
+
+    PYTHONPATH=src .venv/bin/python benchmarks/scale.py [lengths] [online] [startup] [read]
+        [--lengths 60,600,3600] [--methods grid,grid-causal,rbpmf,ekf,stft] [--write]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+METHODS = ("grid", "grid-causal", "rbpmf", "ekf", "stft")
+DAY = 86400.0
+
+
+def _rss_mib() -> float:
+    with open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith("VmRSS:"):
+                return float(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def _peak_mib() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+# ---- children ---------------------------------------------------------------------------
+def child_estimate(method: str, path: str) -> dict:
+    from vibrospeed import io
+
+    rec = io.read(path)
+    # compile (or load the numba cache) on a 10 s piece first: start-up is measured apart
+    short = type(rec)(rec.t[:1000], {k: v[:1000] for k, v in rec.channels.items()})
+    _run(method, short)
+    before = _rss_mib()
+    t0 = time.perf_counter()
+    n = _run(method, rec)
+    wall = time.perf_counter() - t0
+    return {"wall": wall, "peak": _peak_mib(), "before": before, "n": n}
+
+
+def _run(method: str, rec) -> int:
+    from vibrospeed import estimators
+
+    name, params = {"grid": ("grid", {}), "grid-causal": ("grid", {"smooth": "none"}),
+                    "rbpmf": ("rbpmf", {}), "ekf": ("ekf", {})}.get(method, (None, None))
+    if name is None:
+        return _stft(rec)
+    return len(estimators.get(name).estimate(rec, axis="y", params=params))
+
+
+def _stft(rec) -> int:
+    """The STFT baseline as the robustness benchmark runs it: ay through the thesis high-pass,
+    3 s windows, the grid's default range 10-120 rad/s."""
+    from vibrospeed.eval.baseline import stft_harmonic_sum
+    from vibrospeed.signal import prefilter as pf
+
+    y = pf.apply(pf.design("thesis-hp", rec.fs), np.nan_to_num(rec["ay"]))
+    return int(stft_harmonic_sum(y, rec.dt, 10.0, 120.0).size)
+
+
+def child_read(path: str, chunked: bool) -> dict:
+    import vibrospeed.io.canonical
+    import vibrospeed.io.parquet  # noqa: F401 - imported before the baseline is taken
+    from vibrospeed import io
+    from vibrospeed.io.chunks import ChunkedRecording
+
+    try:
+        import pyarrow.parquet  # noqa: F401
+    except ImportError:
+        pass
+    base = _peak_mib()
+    t0 = time.perf_counter()
+    if chunked:
+        n, acc = 0, 0.0
+        for c in ChunkedRecording(path):
+            n += len(c)
+            acc += float(np.nansum(c.channels["ay"]))
+    else:
+        rec = io.read(path)
+        n = len(rec)
+    return {"wall": time.perf_counter() - t0, "peak": _peak_mib(), "before": base, "n": n}
+
+
+def _child(args: list[str]) -> dict:
+    env = dict(os.environ)
+    env.setdefault("PYTHONPATH", str(ROOT / "src"))
+    out = subprocess.run([sys.executable, __file__, "_child", *args], capture_output=True,
+                         text=True, env=env)
+    if out.returncode:
+        return {"error": (out.stderr.strip().splitlines() or ["?"])[-1]}
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+# ---- parts ------------------------------------------------------------------------------
+def part_lengths(lengths, methods, tmp: Path) -> list[dict]:
+    from vibrospeed import io, sim
+
+    rows = []
+    for L in lengths:
+        p = tmp / f"car_{int(L)}.parquet"
+        rec = _imu(sim.simulate("car", seed=1, duration=L))
+        io.write(rec, p)
+        del rec
+        for m in methods:
+            r = _child(["estimate", m, str(p)])
+            r.update(method=m, length=L)
+            rows.append(r)
+            print(f"  {m:12s} {L:7.0f} s: {r}", flush=True)
+    return rows
+
+
+def _imu(rec):
+    """The phone-like part of a simulated drive: ax, ay, az, gx, gy, gz."""
+    keep = ("ax", "ay", "az", "gx", "gy", "gz")
+    return type(rec)(rec.t, {k: rec.channels[k] for k in keep}, source=rec.source,
+                     wheel_radius=rec.wheel_radius)
+
+
+def _slope(x0, y0, x1, y1) -> float:
+    return float(np.log(y1 / y0) / np.log(x1 / x0))
+
+
+def render_lengths(rows: list[dict], lengths) -> list[str]:
+    out = ["## Time and peak memory against log length", "",
+           "`simulate(\"car\", seed=1)` at 100 Hz (its 6 IMU channels), read from Parquet "
+           "in a fresh process; wall time of `estimate` (or the STFT baseline; after a 10 s "
+           "run that compiles the kernels), real-time factor (log length / wall), "
+           "peak RSS of the process (recording included) and its RSS before the estimate. "
+           "Rows marked *extrapolated*: time by the log-log slope, peak memory by the straight "
+           "line (MiB per s of log) through the two longest measured lengths.", "",
+           "| method | length | wall s | x real time | peak MiB | before MiB | note |",
+           "|---|---|---|---|---|---|---|"]
+    by = {}
+    for r in rows:
+        by.setdefault(r["method"], []).append(r)
+    for m, rs in by.items():
+        ok = [r for r in rs if "error" not in r]
+        for r in rs:
+            if "error" in r:
+                out.append(f"| {m} | {_len(r['length'])} | - | - | - | - | {r['error']} |")
+                continue
+            out.append(f"| {m} | {_len(r['length'])} | {r['wall']:.2f} | "
+                       f"{r['length'] / r['wall']:.0f} | {r['peak']:.0f} | {r['before']:.0f} |"
+                       " |")
+        if len(ok) >= 2:
+            a, b = ok[-2], ok[-1]
+            st = _slope(a["length"], a["wall"], b["length"], b["wall"])
+            k = (b["peak"] - a["peak"]) / (b["length"] - a["length"])  # MiB per s of log
+            for L in (3 * 3600.0, DAY):
+                if L <= b["length"]:
+                    continue
+                w = b["wall"] * (L / b["length"]) ** st
+                pk = b["peak"] + k * (L - b["length"])
+                out.append(f"| {m} | {_len(L)} | {w:.0f} | {L / w:.0f} | {pk:.0f} | - | "
+                           f"*extrapolated* (time ~ length^{st:.2f}; memory {1000 * k:.0f} "
+                           "MiB per 1000 s) |")
+    return out
+
+
+def _len(L: float) -> str:
+    return f"{L / 3600:.0f} h" if L >= 3600 else f"{L / 60:.0f} min"
+
+
+def part_online(ref: str | None) -> list[str]:
+    from vibrospeed import sim
+    from vibrospeed.estimators import ekf, grid, rbpmf
+    from vibrospeed.estimators.common import start_level
+    from vibrospeed.estimators.online import OnlineTracker
+    from vibrospeed.signal import whiten
+
+    rec = sim.simulate("car", seed=1, duration=60)
+    ay = rec["ay"]
+    out = ["## Online: microseconds per sample", "",
+           "`OnlineTracker` fed `simulate(\"car\", seed=1)`'s ay sample by sample (3000 samples "
+           "after 300, best of 3) and `whiten.step` alone (12 000 samples of white noise, best "
+           "of 3; the predictor runs once per second in both).", "",
+           "| what | us / sample |", "|---|---|"]
+    for label, mod, params in (("OnlineTracker grid (causal)", grid, {"smooth": "none"}),
+                               ("OnlineTracker rbpmf", rbpmf, {}),
+                               ("OnlineTracker ekf", ekf, {})):
+        if mod is ekf:  # the EKF's estimate() defaults: unit-RMS model at the log's rate
+            from vibrospeed.models.harmonic import HarmonicModel
+
+            cfg = ekf.Config(model=HarmonicModel(**{**ekf.UNIT_RMS_MODEL, "dt": rec.dt}))
+        else:
+            cfg = mod.config_for(rec, axis="y", params=params)
+        best = np.inf
+        for _ in range(3):
+            trk = OnlineTracker(mod, cfg, level=start_level(ay, rec.dt))
+            for v in ay[:300]:
+                trk.update(v)
+            t0 = time.perf_counter()
+            for v in ay[300:3300]:
+                trk.update(v)
+            best = min(best, (time.perf_counter() - t0) / 3000 * 1e6)
+        out.append(f"| {label} | {best:.1f} |")
+        print(out[-1], flush=True)
+    x = np.random.default_rng(0).normal(size=12000)
+    mods = [("whiten.step (this tree)", whiten)]
+    if ref:
+        import importlib.util
+
+        src = subprocess.run(["git", "show", f"{ref}:src/vibrospeed/signal/whiten.py"],
+                             capture_output=True, text=True, cwd=ROOT, check=True).stdout
+        d = Path(tempfile.mkdtemp())
+        (d / "whiten_ref.py").write_text(src)
+        spec = importlib.util.spec_from_file_location("whiten_ref", d / "whiten_ref.py")
+        old = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(old)
+        mods.append((f"whiten.step at {ref}", old))
+    for label, mod in mods:
+        for no_pred in (False, True):
+            saved = mod.predictor
+            if no_pred:
+                a = np.zeros(mod.ORDER + 1)
+                a[0] = 1.0
+                mod.predictor = lambda h, fs, a=a: (a, 1.0)
+            best = np.inf
+            for _ in range(3):
+                st = mod.init()
+                t0 = time.perf_counter()
+                for v in x:
+                    st, _ = mod.step(st, v, 100.0)
+                best = min(best, (time.perf_counter() - t0) / x.size * 1e6)
+            mod.predictor = saved
+            out.append(f"| {label}{' without the predictor' if no_pred else ''} | {best:.2f} |")
+            print(out[-1], flush=True)
+    return out
+
+
+def part_startup(tmp: Path) -> list[str]:
+    from vibrospeed import io, sim
+
+    p = tmp / "short.csv"
+    io.write(sim.simulate("car", seed=1, duration=10), p)
+    env = dict(os.environ)
+    env.setdefault("PYTHONPATH", str(ROOT / "src"))
+    cache = Path(tempfile.mkdtemp())
+    env["NUMBA_CACHE_DIR"] = str(cache)
+    out = ["## Start-up: `vibrospeed estimate` on a 10 s file", "",
+           "Wall time of the whole command (`python -m vibrospeed estimate short.csv -o "
+           "est.csv`, default grid) with an empty numba cache directory, then again with the "
+           "cache that run left; the import of the CLI alone for reference.", "",
+           "| run | wall s |", "|---|---|"]
+    runs = [("import vibrospeed.cli.app", [sys.executable, "-c", "import vibrospeed.cli.app"]),
+            ("estimate, empty numba cache", None), ("estimate, numba cache warm", None),
+            ("estimate, numba cache warm (again)", None)]
+    for label, cmd in runs:
+        cmd = cmd or [sys.executable, "-m", "vibrospeed", "estimate", str(p), "-o",
+                      str(tmp / "est.csv")]
+        t0 = time.perf_counter()
+        r = subprocess.run(cmd, capture_output=True, text=True, env=env)
+        wall = time.perf_counter() - t0
+        out.append(f"| {label} | {wall:.2f}{'' if r.returncode == 0 else ' (failed)'} |")
+        print(out[-1], flush=True)
+    return out
+
+
+def part_read(tmp: Path, L: float) -> list[str]:
+    from vibrospeed import io, sim
+
+    rec = _imu(sim.simulate("car", seed=1, duration=L))
+    out = [f"## Reading a {_len(L)} log whole or in chunks", "",
+           "Peak RSS of a fresh process over its peak after the imports: `io.read` (the whole "
+           "recording) against `ChunkedRecording` (65 536 rows per chunk, summing ay).", "",
+           "| file | size MiB | whole: wall s | whole: MiB | chunks: wall s | chunks: MiB |",
+           "|---|---|---|---|---|---|"]
+    for suffix in (".csv", ".parquet"):
+        p = tmp / f"read{suffix}"
+        io.write(rec, p)
+        w = _child(["read", "0", str(p)])
+        c = _child(["read", "1", str(p)])
+        out.append(f"| {suffix[1:]} ({len(rec)} rows, {len(rec.channels)} channels) | "
+                   f"{p.stat().st_size / 2**20:.0f} | {w['wall']:.1f} | "
+                   f"{w['peak'] - w['before']:.0f} | {c['wall']:.1f} | "
+                   f"{c['peak'] - c['before']:.0f} |")
+        print(out[-1], flush=True)
+    return out
+
+
+def plot(rows: list[dict], dest: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
+    by = {}
+    for r in rows:
+        if "error" not in r:
+            by.setdefault(r["method"], []).append(r)
+    for m, rs in by.items():
+        L = np.array([r["length"] for r in rs])
+        w = np.array([r["wall"] for r in rs])
+        pk = np.array([r["peak"] for r in rs])
+        (line,) = a1.loglog(L, w, "o-", label=m)
+        a2.loglog(L, pk, "o-", color=line.get_color(), label=m)
+        if L.size >= 2:
+            Lx = np.array([L[-1], DAY])
+            a1.loglog(Lx, w[-1] * (Lx / L[-1]) ** _slope(L[-2], w[-2], L[-1], w[-1]), ":",
+                      color=line.get_color())
+            k = (pk[-1] - pk[-2]) / (L[-1] - L[-2])
+            Lm = np.geomspace(L[-1], DAY, 20)
+            a2.loglog(Lm, pk[-1] + k * (Lm - L[-1]), ":", color=line.get_color())
+    Ls = np.array([60.0, DAY])
+    a1.loglog(Ls, Ls / 1000, "k--", lw=1, label="1000x real time")
+    a2.axhline(2048, color="k", ls="--", lw=1, label="2 GiB")
+    a1.set(xlabel="log length (s)", ylabel="wall time (s)", title="time (dotted: extrapolated)")
+    a2.set(xlabel="log length (s)", ylabel="peak RSS (MiB)", title="peak memory")
+    a1.legend(fontsize=7)
+    a2.legend(fontsize=7)
+    fig.tight_layout()
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(dest, dpi=110)
+
+
+def main(argv=None) -> None:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "_child":
+        if argv[1] == "estimate":
+            res = child_estimate(argv[2], argv[3])
+        else:
+            res = child_read(argv[3], argv[2] == "1")
+        print(json.dumps(res))
+        return
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("parts", nargs="*", default=["lengths", "online", "startup", "read"])
+    ap.add_argument("--lengths", default="60,600,3600")
+    ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--whiten-ref", default=None)
+    ap.add_argument("--read-length", type=float, default=3600.0)
+    ap.add_argument("--write", action="store_true")
+    a = ap.parse_args(argv)
+    lengths = [float(x) for x in a.lengths.split(",")]
+    methods = [m for m in a.methods.split(",") if m]
+    text = ["# Scale: time and memory against log length (`benchmarks/scale.py`)", "",
+            "Shared 2-core VM (other jobs running: wall times are upper bounds), one process, "
+            "float64.", ""]
+    rows: list[dict] = []
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        if "lengths" in a.parts:
+            rows = part_lengths(lengths, methods, tmp)
+            text += render_lengths(rows, lengths) + [""]
+        if "online" in a.parts:
+            text += part_online(a.whiten_ref) + [""]
+        if "startup" in a.parts:
+            text += part_startup(tmp) + [""]
+        if "read" in a.parts:
+            text += part_read(tmp, a.read_length) + [""]
+    body = "\n".join(text) + "\n"
+    print(body)
+    if a.write:
+        dest = HERE / "scale" / "RESULTS.md"
+        dest.parent.mkdir(exist_ok=True)
+        dest.write_text(body)
+        if rows:
+            plot(rows, ROOT / "docs" / "img" / "scale.png")
+            (HERE / "scale" / "lengths.json").write_text(json.dumps(rows, indent=1))
+        print(f"wrote {dest}")
+
+
+if __name__ == "__main__":
+    main()
