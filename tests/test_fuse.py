@@ -165,6 +165,23 @@ def test_radius_converges_to_truth_and_carries_the_outage():
     assert np.mean(o.source[(t > 5) & ~out] == fuse.SRC_GPS) > 0.99
 
 
+def test_radius_takes_the_octave_most_updates_use():
+    """A tracker locked on the second harmonic for the first 3 s teaches r / 2 (k = 1 is the
+    only choice with a wide prior); once it reports the fundamental, k = 2 explains it with
+    r / 2 until the octave average moves the radius to the truth. The speed is right all the
+    way."""
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=9, T=120.0, r_true=0.3)
+    arrays["omega"][:75] *= 2.0
+    _, o = fuse.run(cfg, arrays)
+    t = arrays["t"]
+    assert abs(o.radius[70] - 0.15) < 0.01
+    assert o.harmonic[100] == 2.0
+    assert abs(o.radius[-1] - 0.3) < 0.002
+    assert np.all(o.harmonic[t > 30.0] == 1.0)
+    assert np.mean(np.abs(o.speed[t > 1.0] - v[t > 1.0]) < 0.02 * v[t > 1.0]) > 0.99
+
+
 def test_outage_without_line_is_inertial_and_its_band_grows():
     cfg = fuse.Config(acc_psd=0.01)
     arrays, v = synth(seed=4, T=200.0, outage=(100.0, 160.0), no_line=(100.0, 160.0))

@@ -31,7 +31,12 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    sample to sample). The hypothesis with the smallest normalised innovation squared
    ``nu^2 / S`` plus ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate``; else
    the sample has no vibration update. So the speed prior (GPS, the accelerometer, the radius
-   learned so far) decides an octave, not the tracker's guess.
+   learned so far) decides an octave, not the tracker's guess. The radius is defined by the
+   line the tracker reports most of the time: an exponential average (time constant
+   ``octave_tau`` s of updates) of ``log2 k`` over the accepted updates beyond +-1/2 means
+   that most recent updates used k = 2 (or 1/2), e.g. after a tracker that locked on the
+   second harmonic at the start taught the radius; then ``r <- k r`` (its variance by k^2) and
+   the average restarts at 0. The speed is unchanged by this, only the octave of r.
 4. standstill: where the vibration tracker reports a stop (no wheel line, broadband vibration and
    body motion at their floors: the ``standstill`` input), the last valid GPS fix in the past
    ``gps_hold`` s (if any) is below ``gps_still``, and the speed the accelerometer has
@@ -110,6 +115,7 @@ class Config:
     source_hold : s an accepted fix keeps ``source`` at gps.
     p0_speed, p0_accel, p0_offset : initial variances.  radius0, radius_std0 : radius prior
         (m; overridden by ``radius_from`` / a given wheel radius in :func:`estimate`).
+    octave_tau : s, time constant of the octave average (item 3).
     fuse_rate : Hz of the fusion samples in :func:`estimate` (plus one per GPS fix).
     """
 
@@ -143,13 +149,14 @@ class Config:
     p0_offset: float = 1.0
     radius0: float = 0.3
     radius_std0: float = 0.15
+    octave_tau: float = 10.0
     fuse_rate: float = 25.0
 
     def __post_init__(self) -> None:
         _ = self.lag
         for name in ("acc_psd", "r_gps", "vib_rel", "vib_corr", "vib_gate", "r_still",
                      "r_still_acc", "still_gate", "p0_speed", "p0_accel", "p0_offset",
-                     "radius0", "radius_std0", "fuse_rate"):
+                     "radius0", "radius_std0", "fuse_rate", "octave_tau"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"fuse: {name} must be > 0, got {getattr(self, name)}")
         for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "e_max", "min_sats",
@@ -185,6 +192,7 @@ class Config:
             self.acc_psd, self.r_gps, self.r_gps_sq, self.e_max, self.min_sats, self.vib_rel,
             self.vib_corr, self.vib_gate, self.vib_penalty, self.r_still, self.r_still_acc,
             self.still_gate, self.still_speed, self.gps_still, self.gps_hold, self.source_hold,
+            self.octave_tau,
         ], dtype=np.float64)
         return Ac, qc, p
 
@@ -195,7 +203,7 @@ class State(NamedTuple):
     x, P : (n,), (n, n) mean and covariance of ``[v, a, b, r, x3, x4, d...]``.
     t : time of the last sample (NaN before the first).  t_gps : time of the last accepted
     fix (-inf: none).  t_fix, v_fix : time and value of the last valid fix (for the standstill
-    veto).
+    veto).  octave : average of log2 k over recent wheel-frequency updates (module notes, 3).
     """
 
     x: np.ndarray
@@ -204,6 +212,7 @@ class State(NamedTuple):
     t_gps: float
     t_fix: float
     v_fix: float
+    octave: float = 0.0
 
 
 class Estimate(NamedTuple):
@@ -285,7 +294,7 @@ def _update_row(x, P, h, z, r):
 
 @njit(cache=True)
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, out, xp, Pp):
-    """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc]``;
+    """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave]``;
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
     prediction (for the smoother). Returns dt."""
     n = x.size
@@ -351,6 +360,15 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             _update_row(x, P, h, 0.0, (r_hat * kk) ** 2 * var_om * infl)
             h[IV] = 0.0
             h[IR] = 0.0
+            # the radius follows the octave most updates use
+            sc[5] += (math.log2(kk) - sc[5]) * min(1.0, dt / p[16])
+            if abs(sc[5]) > 0.5:
+                c = 2.0 if sc[5] > 0.0 else 0.5
+                x[IR] *= c
+                for i in range(n):
+                    P[IR, i] *= c
+                    P[i, IR] *= c
+                sc[5] = 0.0
         else:
             kk = math.nan
     # 4. standstill from all evidence
@@ -401,12 +419,12 @@ def _unpack(state: State, n: int):
         raise ParameterError(f"fuse: state has {x.size} states but the config's model needs {n} "
                              "(GPS delay on/off changed?)")
     P = np.array(state.P, dtype=np.float64)
-    sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0])
+    sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0, state.octave])
     return x, P, sc
 
 
 def _pack(x, P, sc) -> State:
-    return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]))
+    return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]))
 
 
 _SAMPLE = ("t", "accel", "gps_speed", "gps_sats", "omega", "omega_std", "line", "still")
