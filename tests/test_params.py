@@ -142,3 +142,14 @@ def test_estimator_and_scenario_lists(tmp_path):
                                                     "smooth=none"]))
     assert cfg.comb_rates == (-0.1, 0.1)
     assert cfg.tracker.fit == "q_omega,r"
+
+
+def test_scenario_knob_errors_name_the_dotted_knob():
+    from vibrospeed import sim
+
+    with pytest.raises(ParameterError, match=r"^parameter 'vibration.harmonic_amps\[1\]': "
+                       r"cannot read 'b' as float"):
+        sim.simulate("cart", duration=5, **parse_params(["vibration.harmonic_amps=0.1,b"]))
+    with pytest.raises(ParameterError, match=r"unknown parameter 'vibraton.harmonic_amps' for "
+                       r"CartConfig \(did you mean 'vibration'"):
+        sim.simulate("cart", duration=5, **parse_params(["vibraton.harmonic_amps=1"]))

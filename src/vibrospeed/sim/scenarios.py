@@ -104,7 +104,13 @@ def make_config(cls: type, params: dict[str, Any] | None = None, base: Any = Non
             current = make_config(sub, sub_params, current if current is not None else sub(),
                                   prefix=f"{prefix}{head}.")
         kw[head] = current
-    return config_from_params(cls, plain, **kw)
+    try:
+        return config_from_params(cls, plain, **kw)
+    except ParameterError as exc:  # name the knob as it was given: vibration.harmonic_amps
+        msg, head = str(exc), "parameter '"
+        if prefix and msg.startswith(head):
+            raise ParameterError(head + prefix + msg[len(head):]) from None
+        raise
 
 
 def _jsonable(cfg: Any) -> dict:
