@@ -109,6 +109,12 @@ PRESETS: dict[str, dict[str, Preset]] = {
                         "integrator"),
         "online": Preset({}, _CAUSAL),
     },
+    "fuse": {
+        "default": Preset({}, "smoothed grid tracker and an RTS smoother over the fusion "
+                          "(offline)"),
+        "online": Preset({"online": "true"}, "causal grid tracker and the forward filter "
+                         "only"),
+    },
     "algebraic": {
         "default": Preset({}, "Algorithms 1 and 2 of the algebraic velocity paper"),
         "online": Preset({}, _CAUSAL),
@@ -180,6 +186,13 @@ PARAMETERS: dict[str, dict[str, Parameter]] = {
         "gps_delay": Parameter("0.2", "s, pure receiver delay before the lag model"),
         "q_accel": Parameter("10", "process noise of the acceleration state"),
         "r_gps": Parameter("0.02", "(m/s)^2, GPS speed variance per fix"),
+    },
+    "fuse": {
+        "online": Parameter("true", "causal: the causal grid tracker and the forward filter"),
+        "radius_from": Parameter("drive1_fuse.csv.json", "wheel radius learned on an earlier "
+                                 "drive (its sidecar) as the radius prior"),
+        "accel_axis": Parameter("ax", "longitudinal acceleration channel"),
+        "min_sats": Parameter("5", "GPS fixes with fewer satellites are ignored"),
     },
     "algebraic": {
         "L1": Parameter("1.2", "m, centre of gravity to front axle (needed unless the "
