@@ -116,6 +116,10 @@ class Config:
     p0_speed, p0_accel, p0_offset : initial variances.  radius0, radius_std0 : radius prior
         (m; overridden by ``radius_from`` / a given wheel radius in :func:`estimate`).
     octave_tau : s, time constant of the octave average (item 3).
+    vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
+        (where the tracker claims a line, ``has_signal``) or ``"all"`` (every positive omega,
+        its posterior spread and the gate decide: for trackers whose null state dominates on a
+        real line).
     fuse_rate : Hz of the fusion samples in :func:`estimate` (plus one per GPS fix).
     """
 
@@ -150,6 +154,7 @@ class Config:
     radius0: float = 0.3
     radius_std0: float = 0.15
     octave_tau: float = 10.0
+    vib_use: str = "line"
     fuse_rate: float = 25.0
 
     def __post_init__(self) -> None:
@@ -163,6 +168,8 @@ class Config:
                      "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
+        if self.vib_use not in ("line", "all"):
+            raise ParameterError(f"fuse: vib_use must be line or all, got '{self.vib_use}'")
         if not 0.0 < self.r_gps_sq < 1.0:
             raise ParameterError(f"fuse: r_gps_sq must be in (0, 1) (it bounds the speed's jump "
                                  f"on a GPS fix), got {self.r_gps_sq}")
@@ -668,8 +675,9 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
                          f"recording {len(recording)}")
     else:
         vib = vibration
-    line = (np.nan_to_num(vib.extras.get("has_signal", np.ones(len(vib)))) > 0.5)
-    still = (np.nan_to_num(vib.extras.get("standstill", np.zeros(len(vib)))) > 0.5) & ~line
+    claim = np.nan_to_num(vib.extras.get("has_signal", np.ones(len(vib)))) > 0.5
+    still = (np.nan_to_num(vib.extras.get("standstill", np.zeros(len(vib)))) > 0.5) & ~claim
+    line = claim if cfg.vib_use == "line" else (np.nan_to_num(vib.omega) > 0) & ~still
     # 2. fusion samples
     t = recording.t
     g = recording.channels.get("gps_speed", np.full(t.size, np.nan))
@@ -716,7 +724,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     extras = {
         "source": o.source.astype(np.float64)[blk], "radius": back(rr),
         "radius_std": back(rrs), "offset": back(off), "harmonic": o.harmonic[blk],
-        "omega_vib": vib.omega, "has_signal": line.astype(np.float64),
+        "omega_vib": vib.omega, "has_signal": claim.astype(np.float64),
     }
     return Track.from_speed(t, speed, speed_std, wheel_radius=r_fin, method="fuse",
                             params=pdict, extras=extras, notes=[*vib.notes, *notes])
