@@ -1,4 +1,4 @@
-"""The README's and the docs' examples work as written (a stale example is a bug for a new user):
+"""The README's, the docs' and every `--help`'s examples work as written (a stale example is a bug
 the Python example runs, and every `vibrospeed ...` command line parses against the CLI (its
 command and options exist, values have the right type, a preset exists for its method)."""
 
@@ -38,7 +38,27 @@ def _command_lines(path: Path) -> list[str]:
     return out
 
 
-CASES = [(p.name, line) for p in PAGES for line in _command_lines(p)]
+def _help_lines() -> list[tuple[str, str]]:
+    """The example command lines in each command's ``--help`` (its docstring, from "Examples"
+    on): a line that starts with ``vibrospeed``, continued by following lines that start with
+    ``-``; a trailing ``(comment)`` after two spaces is dropped."""
+    out = []
+    for cmd in typer.main.get_command(app).commands.values():
+        lines = [ln.strip() for ln in (cmd.help or "").splitlines()]
+        first = next((k for k, ln in enumerate(lines) if ln.startswith("Example")), len(lines))
+        for k, line in enumerate(lines):
+            if k < first or not line.startswith("vibrospeed "):
+                continue
+            full = line
+            for cont in lines[k + 1:]:
+                if not cont.startswith("-"):
+                    break
+                full += " " + cont
+            out.append((f"{cmd.name} --help", re.sub(r"\s{2,}\(.*\)$", "", full)))
+    return out
+
+
+CASES = [(p.name, line) for p in PAGES for line in _command_lines(p)] + _help_lines()
 
 
 def test_there_are_command_examples():
