@@ -1,6 +1,7 @@
-"""The README's, the docs' and every `--help`'s examples work as written (a stale example is a bug
-the Python example runs, and every `vibrospeed ...` command line parses against the CLI (its
-command and options exist, values have the right type, a preset exists for its method)."""
+"""The README's, the docs' and every `--help`'s examples work as written (a stale example
+is a bug for a new user): the Python example runs, and every `vibrospeed ...` command line
+parses against the CLI (its command and options exist, values have the right type, a preset
+exists for its method)."""
 
 import re
 import shlex
