@@ -84,9 +84,28 @@ def _attribute_docs(cls: type) -> dict[str, str]:
     return out
 
 
+def _inline_entry(name: str, entries: dict[str, str]) -> str:
+    """A description of ``name`` written inside another entry: ``... . name : text.`` after a
+    sentence, else the entry that mentions ````name````."""
+    for text in entries.values():
+        m = re.search(rf"(?:^|[.;]\s+){re.escape(name)}\s+:\s+([^.]*\.)", text)
+        if m:
+            return m.group(1)
+    for text in entries.values():
+        if f"``{name}``" in text:
+            return text
+    return ""
+
+
 def field_docs(cls: type) -> dict[str, str]:
-    """Field name -> one-paragraph description (attribute docstring, else class docstring)."""
-    return {**_class_doc_entries(cls), **_attribute_docs(cls)}
+    """Field name -> one-paragraph description: the attribute docstring, else the class
+    docstring's entry, else a mention inside another entry."""
+    entries = _class_doc_entries(cls)
+    out = {**entries, **_attribute_docs(cls)}
+    for f in dataclasses.fields(cls) if dataclasses.is_dataclass(cls) else ():
+        if not out.get(f.name):
+            out[f.name] = _inline_entry(f.name, entries)
+    return out
 
 
 # ---- tables --------------------------------------------------------------------------------------
