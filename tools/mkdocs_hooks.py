@@ -109,8 +109,13 @@ def field_docs(cls: type) -> dict[str, str]:
 
 
 # ---- tables --------------------------------------------------------------------------------------
+_ROLE = re.compile(r":(?:func|class|mod|meth|attr|data|obj):`~?([^`]+)`")
+
+
 def _cell(text: Any) -> str:
-    return str(text).replace("|", "\\|").replace("\n", " ")
+    """Table cell text: Sphinx roles as plain code, pipes escaped, one line."""
+    text = _ROLE.sub(r"`\1`", str(text))
+    return text.replace("|", "\\|").replace("\n", " ")
 
 
 def _default(f: dataclasses.Field, inst: Any) -> tuple[bool, Any]:
