@@ -21,9 +21,8 @@ def test_particles_on_grid_without_noise_or_resampling_equal_rbpmf():
     grid_cfg = rbpmf.Config(model=model, n_grid=25, omega_min=20.0, omega_max=44.0)
     pf_cfg = rbpf.Config(model=model, n_particles=25, omega_min=20.0, omega_max=44.0,
                          ess_threshold=0.0)
-    rng = np.random.default_rng(1)
-    st = rbpf.init(pf_cfg, rng, particles=grid_cfg.grid)
-    res_pf = rbpf.run(pf_cfg, y, rng, st)
+    st = rbpf.init(pf_cfg, np.random.default_rng(1), particles=grid_cfg.grid)
+    res_pf = rbpf.run(pf_cfg, y, st)
     res_pm = rbpmf.run(grid_cfg, y)
     assert not res_pf.resampled.any()
     np.testing.assert_array_equal(res_pf.final.omega, grid_cfg.grid)
@@ -41,18 +40,19 @@ def test_step_equals_run_and_seeded():
     model, y = _signal(seed=2, n=120)
     y[30:33] = np.nan
     cfg = rbpf.Config(model=model, n_particles=200, omega_min=10.0, omega_max=60.0,
-                      scheme="systematic")
-    res = rbpf.run(cfg, y, np.random.default_rng(7))
-    rng = np.random.default_rng(7)
-    st = rbpf.init(cfg, rng)
+                      scheme="systematic", seed=7)
+    res = rbpf.run(cfg, y)
+    st = rbpf.init(cfg)
     for k, v in enumerate(y):
-        st, est = rbpf.step(cfg, st, v, rng)
+        st, est = rbpf.step(cfg, st, v)
         assert est.omega == res.omega[k] and est.ess == res.ess[k]
         assert est.resampled == res.resampled[k]
     assert np.array_equal(st.omega, res.final.omega)
-    again = rbpf.run(cfg, y, np.random.default_rng(7))
+    # the state's generator is copied, not drawn from: the same state gives the same numbers
+    again = rbpf.run(cfg, y, rbpf.init(cfg, np.random.default_rng(7)))
     assert np.array_equal(again.omega, res.omega)
-    other = rbpf.run(cfg, y, np.random.default_rng(8))
+    assert np.array_equal(rbpf.run(cfg, y[:5], st).omega, rbpf.run(cfg, y[:5], st).omega)
+    other = rbpf.run(cfg, y, rbpf.init(cfg, np.random.default_rng(8)))
     assert not np.array_equal(other.omega, res.omega)
     assert res.resampled.any()
 
@@ -61,7 +61,7 @@ def test_many_particles_approach_rbpmf():
     model, y = _signal(seed=3, n=500)
     pm = rbpmf.run(rbpmf.Config(model=model, n_grid=201, omega_min=20.0, omega_max=45.0), y)
     pf = rbpf.run(rbpf.Config(model=model, n_particles=2000, omega_min=20.0, omega_max=45.0,
-                              scheme="systematic"), y, np.random.default_rng(4))
+                              scheme="systematic", seed=4), y)
     assert np.sqrt(np.mean((pf.omega[200:] - pm.omega[200:]) ** 2)) < 0.3
     assert np.all(pf.omega_lo[200:] <= pf.omega_hi[200:])
 

@@ -41,9 +41,9 @@ def test_step_equals_run():
     st = shs.init(cfg)
     got = []
     for v in y:
-        st, om = shs.step(cfg, st, v)
-        if np.isfinite(om):
-            got.append(om)
+        st, est = shs.step(cfg, st, v)
+        if np.isfinite(est.omega):
+            got.append(est.omega)
     assert np.array_equal(np.array(got), res.omega) and len(got) == 3
     np.testing.assert_allclose(res.omega, [30, 35, 40], atol=0.5)
     assert st.count == res.final.count == 70

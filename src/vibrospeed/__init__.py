@@ -24,6 +24,16 @@ Estimators
     Each estimator module offers a frozen ``Config`` dataclass, a small immutable ``State``,
     ``init(config) -> state``, ``step(config, state, y) -> (state, estimate)`` for one sample
     (online use) and ``run(config, y) -> arrays`` over a whole recording with identical numbers.
+Layers
+    Subpackages are layered; a module imports only from its own layer or a lower one (checked
+    by ``tests/test_import_graph.py``, together with "no import cycles"), lowest first:
+
+    0. the package root and types, errors, config, presets
+    1. models, signal, io
+    2. sim, estimators
+    3. eval
+    4. batch
+    5. cli (and ``__main__``)
 """
 
 from importlib.metadata import PackageNotFoundError, version

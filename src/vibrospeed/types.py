@@ -1,4 +1,5 @@
-"""Shared value types: :class:`Recording` (sensor data) and :class:`Track` (an estimate).
+"""Shared value types: :class:`Recording` (sensor data), :class:`Track` (an estimate over
+time) and :class:`Estimate` (every estimator's ``step`` output for one sample).
 
 Canonical channel names and their units are fixed here (pyins-style column constants); readers
 map whatever a file calls its columns onto these names and convert to SI.
@@ -6,8 +7,11 @@ map whatever a file calls its columns onto these names and convert to SI.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any
+from types import MappingProxyType
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy import stats
@@ -231,3 +235,43 @@ class Track:
 
     def __len__(self) -> int:
         return int(self.t.size)
+
+
+_NO_EXTRAS: Mapping[str, Any] = MappingProxyType({})
+
+
+class Estimate(NamedTuple):
+    """One sample's estimate: what every estimator's ``step(config, state, sample)`` returns
+    (with the next state), the same record for every method.
+
+    omega, omega_std : rad/s, the wheel angular speed and its standard deviation;
+    omega_lo, omega_hi : rad/s, the credible band at the method's ``level``;
+    speed, speed_std : m/s, for the methods that estimate the vehicle's speed itself
+        (``gps-riss``, ``algebraic``);
+    has_signal : 1.0 where the method sees a wheel line, 0.0 where it does not;
+    standstill : 1.0 where the method decides the vehicle stands, else 0.0;
+    extras : method-specific values by name (e.g. the grid's ``p_null``, ``posterior``), also
+        readable as attributes (``est.p_null``).
+
+    A quantity the method does not provide is NaN (``extras``: absent). Each name matches the
+    column of the method's ``run`` result or Track of the same name.
+    """
+
+    omega: float = math.nan
+    omega_std: float = math.nan
+    omega_lo: float = math.nan
+    omega_hi: float = math.nan
+    speed: float = math.nan
+    speed_std: float = math.nan
+    has_signal: float = math.nan
+    standstill: float = math.nan
+    extras: Mapping[str, Any] = _NO_EXTRAS
+
+    def __getattr__(self, name: str) -> Any:
+        # only called for names that are not fields: the method-specific extras
+        if name.startswith("__"):
+            raise AttributeError(name)
+        try:
+            return tuple.__getitem__(self, 8)[name]
+        except KeyError:
+            raise AttributeError(f"Estimate has no field or extra '{name}'") from None

@@ -1,13 +1,23 @@
-"""How speed is inferred. Each estimator module offers the same interface:
+"""How speed is inferred. Each method module (:data:`METHODS`) offers the same protocol:
 
-* ``Config``: frozen dataclass of parameters (unknown fields are an error);
-* ``State``: small immutable record (NamedTuple) of the filter state;
-* ``init(config, ...) -> State``, ``step(config, state, y) -> (State, estimate)``: online use;
-* ``run(config, y, ...) -> arrays``: batch over a whole recording, same numbers as ``step``;
-* ``estimate(recording, *, axis, wheel_radius, params, progress) -> Track``: the entry point used
-  by the CLI and :mod:`vibrospeed.eval`. ``params`` maps ``Config`` field names to values.
+* ``Config``: frozen dataclass of parameters (an unknown field is a
+  :class:`~vibrospeed.errors.ParameterError` through :func:`vibrospeed.config.config_from_params`);
+* ``State``: small immutable record (NamedTuple) of the filter state, picklable;
+* ``init(config) -> State``: the prior before the first sample;
+* ``step(config, state, y) -> (State, Estimate)``: one sample ``y`` (a float, or the
+  method's ``Sample`` record of several inputs), the shared :class:`vibrospeed.types.Estimate`
+  (omega, its std and band, ``has_signal``, ``standstill``, method-specific ``extras``);
+* ``run(config, y, state=None) -> Result``: a whole signal (arrays, or a ``Sample`` of
+  arrays); the same numbers as repeated ``step`` (columns named as the Estimate's fields
+  and extras), ``Result.final`` the state after the last sample, so chunked runs equal one run;
+* ``estimate(recording, *, axis, wheel_radius, params, progress, return_posterior) -> Track``:
+  the entry point of the CLI and :mod:`vibrospeed.eval`; ``params`` maps ``Config`` field names
+  to values (text or typed), ``return_posterior`` adds a grid method's posterior to the extras
+  (other methods have none and ignore it).
 
-:func:`get` finds the module of a method by its CLI name.
+``tests/test_conformance.py`` checks the protocol for every method. The grid tracker and the
+paper's filter share the package :mod:`vibrospeed.estimators.grid`; :func:`get` finds the
+module of a method by its CLI name.
 """
 
 from __future__ import annotations

@@ -27,7 +27,7 @@ The harmonic EKF of :mod:`vibrospeed.estimators.ekf` extended with
   test on the EKF residual (4.2.3, :func:`vibrospeed.signal.detectors.standstill_eps`) says the
   vehicle stands still, a virtual measurement ``omega = 0`` with variance ``R_ss = 1`` is made
   (not in acceleration mode: there the integration is trusted).
-* optional reference-speed fixes (thesis 4.2.4; :mod:`vibrospeed.eval.reference`): a measurement
+* optional reference-speed fixes (thesis 4.2.4; :mod:`vibrospeed.signal.reference`): a measurement
   ``omega = v_ref / r`` with variance ``(sigma_v / r)^2`` on the samples where one exists.
 * line gate (not in the thesis; for recordings without a usable wheel line): the share of the
   running power of the EKF input explained by the tracked harmonics, ``sum_m |a_m|^2 / 2``
@@ -83,6 +83,19 @@ from numba import njit
 
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators.aiding import (  # noqa: F401 (re-exported: the aided API)
+    BROADBAND_LO,
+    Sample,
+    _channel,
+    _flag,
+    aiding_inputs,
+    input_arrays,
+    running_gain,
+    running_mean,
+    standstill_band,
+    standstill_flags,
+    standstill_offset,
+)
 from vibrospeed.estimators.ekf import harmonic_update, rotate_phasors, symmetrize_into
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
@@ -100,7 +113,7 @@ from vibrospeed.signal.comb import (  # noqa: F401  (comb_fixes, COMB_*: re-expo
     restart_phasors,
 )
 from vibrospeed.signal.detectors import _cusum_core, _mode_core, _window_core
-from vibrospeed.types import Recording, Track
+from vibrospeed.types import Estimate, Recording, Track
 
 STANDSTILL_KINDS = {"none": 0, "window": 1, "cusum": 2, "broadband": 3}
 
@@ -268,21 +281,13 @@ class State(NamedTuple):
     line: np.ndarray
 
 
-class Estimate(NamedTuple):
-    """Posterior at one sample."""
-
-    omega: float  # rad/s
-    omega_std: float  # rad/s
-    bias: float  # m/s^2, estimated b (added to a_x)
-    standstill: bool
-    accelerating: bool
-    boost: bool
-    ubar: float  # m/s^2, mean of the last mode_n a_x
-    innovation: float  # vibration innovation (EKF units), NaN if no vibration update
-    innovation_var: float
-    line_share: float  # explained power share of the prior (the gate's statistic)
-    locked: bool  # the vibration update was allowed to move omega
-    amplitudes: np.ndarray  # (M,)
+#: extras of :func:`step`'s :class:`~vibrospeed.types.Estimate`: bias (m/s^2, estimated b
+#: added to a_x), acceleration / boost modes, ubar (m/s^2, mean of the last ``mode_n`` a_x),
+#: the vibration innovation (EKF units; NaN without a vibration update) and its variance, the
+#: explained power share of the prior (the gate's statistic), whether the vibration update
+#: was allowed to move omega, amplitudes (M,)
+ESTIMATE_EXTRAS = ("bias", "accelerating", "boost", "ubar", "innovation", "innovation_var",
+                   "line_share", "locked", "amplitudes")
 
 
 N_OUT = 11  # omega, std, bias, ss, acc, boost, ubar, innov, innov var, share, locked; then amps
@@ -508,8 +513,8 @@ def _pack(a: list) -> State:
 def step(
     config: Config,
     state: State,
-    y: float,
-    u: float,
+    y: float | Sample,
+    u: float = np.nan,
     *,
     gain: float = 1.0,
     ref: float = np.nan,
@@ -517,7 +522,8 @@ def step(
     still: float = np.nan,
     comb: float = np.nan,
 ) -> tuple[State, Estimate]:
-    """Process one sample.
+    """Process one sample: a :class:`~vibrospeed.estimators.aiding.Sample` of the inputs
+    below, or ``y`` and the others as arguments.
 
     y : pre-filtered vibration sample in m/s^2 (the standstill tests read it in these units).
     u : longitudinal acceleration a_x in m/s^2 (NaN: no aiding on this sample).
@@ -529,6 +535,8 @@ def step(
         ``comb_count`` candidates in a row that disagree with omega by more than ``comb_rel``
         of the candidate, omega is measured as the candidate (std ``comb_rel / 2`` of it).
     """
+    if isinstance(y, Sample):
+        y, u, gain, ref, ref_var, still, comb = y
     a = _unpack(state)
     out = np.empty(N_OUT + config.model.M)
     _aided_step(a[0], a[1], float(y), float(u), float(gain), float(ref), float(ref_var),
@@ -537,13 +545,14 @@ def step(
 
 
 def _estimate(o: np.ndarray) -> Estimate:
-    return Estimate(float(o[0]), float(o[1]), float(o[2]), bool(o[3]), bool(o[4]), bool(o[5]),
-                    float(o[6]), float(o[7]), float(o[8]), float(o[9]), bool(o[10] > 0.5),
-                    o[N_OUT:].copy())
+    extras = dict(zip(ESTIMATE_EXTRAS, (
+        float(o[2]), bool(o[4]), bool(o[5]), float(o[6]), float(o[7]), float(o[8]),
+        float(o[9]), bool(o[10] > 0.5), o[N_OUT:].copy()), strict=True))
+    return Estimate(float(o[0]), float(o[1]), standstill=float(bool(o[3])), extras=extras)
 
 
 class Result(NamedTuple):
-    """Batch output over samples."""
+    """Batch output over samples: the columns of :func:`step`'s estimates."""
 
     omega: np.ndarray  # (n,) rad/s
     omega_std: np.ndarray  # (n,) rad/s
@@ -560,26 +569,10 @@ class Result(NamedTuple):
     final: State
 
 
-def input_arrays(n: int, u, gain, ref, ref_var, where: str = "aided.run") -> tuple:
-    """``(u, gain, ref, ref_var)`` as (n,) float64 arrays; None -> NaN (gain: 1). Shared by the
-    aided EKF and the aided grid filter; a wrong shape is an :class:`InputError`."""
-    out = []
-    for name, v, fill in (("u", u, np.nan), ("gain", gain, 1.0), ("ref", ref, np.nan),
-                          ("ref_var", ref_var, np.nan)):
-        if v is None:
-            out.append(np.full(n, fill))
-            continue
-        a = np.ascontiguousarray(v, dtype=np.float64)
-        if a.shape != (n,):
-            raise InputError(f"{where}: '{name}' has shape {a.shape}, expected ({n},) like y")
-        out.append(a)
-    return tuple(out)
-
-
 def run(
     config: Config,
-    y: np.ndarray,
-    u: np.ndarray,
+    y: np.ndarray | Sample,
+    u: np.ndarray | None = None,
     *,
     gain: np.ndarray | None = None,
     ref: np.ndarray | None = None,
@@ -588,7 +581,12 @@ def run(
     comb: np.ndarray | None = None,
     state: State | None = None,
 ) -> Result:
-    """Run over whole signals (see :func:`step` for the inputs); identical to repeated step."""
+    """Run over whole signals (see :func:`step` for the inputs; ``y`` may be a
+    :class:`~vibrospeed.estimators.aiding.Sample` of arrays); identical to repeated step."""
+    if isinstance(y, Sample):  # scalars (the defaults) hold for every sample
+        n = np.size(y.y)
+        y, u, gain, ref, ref_var, still, comb = (
+            np.full(n, v, dtype=np.float64) if np.ndim(v) == 0 else v for v in y)
     y = np.ascontiguousarray(y, dtype=np.float64)
     n = y.size
     u, gain, ref, ref_var = input_arrays(n, u, gain, ref, ref_var)
@@ -606,55 +604,6 @@ def run(
 
 
 # ---------------------------------------------------------------------------------------------
-#: rad/s, lower edge of the standstill detector's band when no search range is given (the
-#: lowest wheel speed of the family's slow vehicles)
-BROADBAND_LO = 2.0
-
-
-def standstill_band(dt: float, M: int, omega_min: float | None = None,
-                    omega_max: float | None = None) -> tuple[float, float]:
-    """rad/s band of the standstill detector (:func:`vibrospeed.signal.standstill.standstill`
-    reads it as the search band): ``omega_min`` (default 2 rad/s) up to ``M omega_max`` (default
-    Nyquist), clipped to Nyquist."""
-    nyq = np.pi / dt
-    lo = BROADBAND_LO if omega_min is None else float(omega_min)
-    hi = nyq if omega_max is None else min(nyq, M * float(omega_max))
-    return min(lo, 0.5 * hi), hi
-
-
-def standstill_flags(x: np.ndarray, dt: float, band: tuple[float, float], *,
-                     causal: bool = False) -> np.ndarray:
-    """Per-sample standstill flags (float 0/1) from the raw accelerometer axis ``x`` (n,) or
-    axes (n, A): :func:`vibrospeed.signal.standstill.standstill` (whole-log decision by
-    default, ``causal=True`` as a device would decide). Fed to :func:`run` as ``still`` with
-    ``standstill='broadband'``."""
-    from vibrospeed.signal import standstill as ss
-
-    x = np.asarray(x, dtype=np.float64)
-    return ss.standstill(x, dt, band, causal=causal).astype(np.float64)
-
-
-def standstill_offset(u: np.ndarray, still: np.ndarray, *, causal: bool = False) -> np.ndarray:
-    """Per-sample offset of the longitudinal accelerometer: its mean over the samples flagged
-    standing (gravity leaking in through a tilted mount, the sensor's bias). Offline one value,
-    the mean over every standing sample (over all samples when none stands); causally the
-    mean over the standing samples so far, and before the first one the mean of all samples so
-    far (a drive starts at rest more often than not). NaN samples are skipped."""
-    u = np.asarray(u, dtype=np.float64)
-    fin = np.isfinite(u)
-    st = (np.asarray(still) > 0.5) & fin
-    if not causal:
-        sel = st if st.any() else fin
-        val = float(np.mean(u[sel])) if sel.any() else 0.0
-        return np.full(u.size, val)
-    uz = np.where(fin, u, 0.0)
-    n_all = np.cumsum(fin)
-    m_all = np.cumsum(uz) / np.maximum(n_all, 1)
-    n_st = np.cumsum(st)
-    m_st = np.cumsum(np.where(st, uz, 0.0)) / np.maximum(n_st, 1)
-    return np.where(n_st > 0, m_st, np.where(n_all > 0, m_all, 0.0))
-
-
 def omega_shift(config: Config, u: float, bias: float, accelerating: bool) -> float:
     """Omega increment (rad/s) the aiding adds in one time update: ``(T / r)(u_eff + b)``.
 
@@ -666,82 +615,6 @@ def omega_shift(config: Config, u: float, bias: float, accelerating: bool) -> fl
 
 
 # ---------------------------------------------------------------------------------------------
-def _flag(v) -> bool:
-    """A boolean parameter given as bool, number or text ('true', '1', 'yes')."""
-    if isinstance(v, str):
-        return v.strip().lower() in ("1", "true", "yes", "on")
-    return bool(v)
-
-
-def _channel(recording: Recording, spec: str) -> np.ndarray:
-    """'ax', 'x', '-ay' (negated)... -> channel values."""
-    from vibrospeed.estimators.common import axis_channel
-
-    spec = spec.strip()
-    sign = -1.0 if spec.startswith("-") else 1.0
-    name = axis_channel(spec.lstrip("+-"))
-    recording.require(name)
-    return sign * recording.channel(name)
-
-
-def running_mean(u: np.ndarray, dt: float, tau: float) -> np.ndarray:
-    """Causal exponential running mean (time constant ``tau`` s, plain mean while ``t < tau``);
-    NaN samples keep the previous value."""
-    out = np.empty_like(u, dtype=np.float64)
-    m = 0.0
-    cnt = 0.0
-    a = min(1.0, dt / tau)
-    for k, v in enumerate(np.asarray(u, dtype=np.float64)):
-        if np.isfinite(v):
-            cnt += 1.0
-            m += (v - m) * max(a, 1.0 / cnt)
-        out[k] = m if cnt else np.nan
-    return out
-
-
-def running_gain(y: np.ndarray, dt: float, tau: float) -> np.ndarray:
-    """Factor ``g_k`` with ``g_k y_k`` = running-RMS-normalised y (:mod:`signal.normalize`)."""
-    from vibrospeed.signal.normalize import running_rms_normalize
-
-    yn = running_rms_normalize(y, dt, tau)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        g = np.where(np.abs(y) > 0, yn / y, np.nan)
-    # forward fill where y = 0 exactly (the gain only scales the CUSUM residual there)
-    ok = np.isfinite(g)
-    if not ok.any():
-        return np.ones_like(y)
-    idx = np.where(ok, np.arange(g.size), 0)
-    np.maximum.accumulate(idx, out=idx)
-    g = g[idx]
-    first = int(np.flatnonzero(ok)[0])
-    g[:first] = g[first]
-    return g
-
-
-def aiding_inputs(recording: Recording, dt: float, wheel_radius: float, *,
-                  accel_axis: str = "ax", detrend: float = 0.0, reference: str = "none",
-                  wheelbase: float | None = None) -> tuple:
-    """Aiding inputs shared by both trackers: ``(u, ref, ref_var, notes)``.
-
-    ``u`` = the ``accel_axis`` channel (m/s^2), minus a causal running mean with time constant
-    ``detrend`` s when ``detrend > 0``; ``ref``, ``ref_var``: per-sample omega fixes from
-    :mod:`vibrospeed.eval.reference` (None when ``reference == 'none'``).
-    """
-    u = _channel(recording, accel_axis)
-    notes = [f"aided by '{accel_axis}' (wheel radius {wheel_radius:g} m)"]
-    if detrend > 0:
-        u = u - running_mean(u, dt, detrend)
-        notes.append(f"'{accel_axis}' detrended by a causal running mean (tau = {detrend:g} s)")
-    ref = ref_var = None
-    if reference != "none":
-        from vibrospeed.eval import reference as refmod
-
-        fixes = refmod.detect(recording, kinds=reference, wheelbase=wheelbase)
-        ref, ref_var = refmod.fixes_to_omega(fixes, recording.t, wheel_radius)
-        notes.append(f"{len(fixes)} reference-speed fixes ({reference}) fed as measurements")
-    return u, ref, ref_var, notes
-
-
 def estimate(
     recording: Recording,
     *,
@@ -749,6 +622,7 @@ def estimate(
     wheel_radius: float | None = None,
     params: dict | None = None,
     progress: bool = False,
+    return_posterior: bool = False,
 ) -> Track:
     """Aided tracking of omega from vibration axis ``axis`` and longitudinal acceleration.
 
@@ -757,7 +631,7 @@ def estimate(
     ``-ay``); ``prefilter`` (default ``thesis-hplp``, low-pass cut-off per M) and ``lp_cutoff``
     (rad/s); ``normalize_tau`` (s, running-RMS normalisation of the EKF input; default 0 = off,
     then the model is in m/s^2 units as in the thesis); ``reference`` ('none', 'bump', 'turn',
-    'both': speed fixes from :mod:`vibrospeed.eval.reference` fed as measurements) and
+    'both': speed fixes from :mod:`vibrospeed.signal.reference` fed as measurements) and
     ``wheelbase`` (m, for bump fixes); ``accel_detrend`` (s; subtract a causal running mean of
     a_x with this time constant, for a tilted phone whose a_x carries a large gravity offset that
     would hold the mode detector in acceleration mode; default 0 = off, as in the thesis).

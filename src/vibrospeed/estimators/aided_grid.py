@@ -71,7 +71,7 @@ from numba import njit
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
-from vibrospeed.estimators.aided import input_arrays
+from vibrospeed.estimators.aiding import aiding_inputs, input_arrays, running_gain
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
 from vibrospeed.signal.detectors import _mode_core, _window_core
@@ -532,7 +532,6 @@ def estimate(
     The Track's band is the grid posterior's credible interval (``level``).
     """
     from vibrospeed.config import config_from_params
-    from vibrospeed.estimators import aided
     from vibrospeed.estimators.common import axis_channel, check_uniform, split_params, start_level
     from vibrospeed.signal import prefilter as pf
     from vibrospeed.types import Track
@@ -581,7 +580,7 @@ def estimate(
     lp = None if lp in (None, "", "none") else float(lp)
     sos = pf.design(tracker.prefilter, 1.0 / dt, M=model.M, lp_cutoff=lp)
     y = pf.apply(sos, x, level=start_level(x, dt))
-    u, ref, ref_var, notes = aided.aiding_inputs(
+    u, ref, ref_var, notes = aiding_inputs(
         recording, dt, float(r), accel_axis=str(inp.get("accel_axis", "ax")),
         detrend=float(inp.get("accel_detrend", 0.0)),
         reference=str(inp.get("reference", "none")), wheelbase=inp.get("wheelbase"))
@@ -596,7 +595,7 @@ def estimate(
                      f"every {comb.comb_hop:g} s, weight {comb.comb_weight:g})")
     gain = None
     if tracker.scaling == "rms":
-        gain = tracker.signal_rms * aided.running_gain(y, dt, tracker.rms_tau)
+        gain = tracker.signal_rms * running_gain(y, dt, tracker.rms_tau)
         notes.append(f"RBPMF input normalised by a running RMS (tau = {tracker.rms_tau:g} s)")
     res = run(config, y, u, gain=gain, ref=ref, ref_var=ref_var)
     extras = {f"amp{m + 1}": res.amplitudes[:, m] for m in range(model.M)}

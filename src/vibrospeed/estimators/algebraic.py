@@ -556,6 +556,7 @@ def estimate(
     wheel_radius: float | None = None,
     params: dict | None = None,
     progress: bool = False,
+    return_posterior: bool = False,
 ) -> Track:
     """Vx (``speed``) and Vy (``extras['vy']``) of a recording with ``gz, ax, ay`` and the four
     ``wheel_omega_*`` channels.

@@ -42,7 +42,7 @@ from vibrospeed.config import config_from_params
 from vibrospeed.errors import ParameterError
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal.comb import COMB_COUNT, COMB_REL, comb_vote, restart_phasors
-from vibrospeed.types import Recording, Track
+from vibrospeed.types import Estimate, Recording, Track
 
 
 @dataclass(frozen=True)
@@ -99,16 +99,9 @@ class State(NamedTuple):
     comb: np.ndarray | None = None
 
 
-class Estimate(NamedTuple):
-    """Posterior at one sample: omega (rad/s), its std, amplitudes (M,), innovation, its var,
-    whether omega has been acquired (always with ``Config.acquire`` False)."""
-
-    omega: float
-    omega_std: float
-    amplitudes: np.ndarray
-    innovation: float
-    innovation_var: float
-    acquired: bool = True
+#: extras of :func:`step`'s :class:`~vibrospeed.types.Estimate`: amplitudes (M,), the
+#: innovation and its variance, whether omega has been acquired (always with ``acquire`` off)
+ESTIMATE_EXTRAS = ("amplitudes", "innovation", "innovation_var", "acquired")
 
 
 def init(config: Config) -> State:
@@ -300,12 +293,13 @@ def step(config: Config, state: State, y: float, comb: float = np.nan
     a = _args(config)
     out = np.empty(5 + config.model.M)
     _ekf_step(x, P, cv, float(y), float(comb), *a, out)
-    return State(x, P, cv), Estimate(out[0], out[1], out[5:].copy(), out[2], out[3],
-                                     bool(out[4] > 0.5))
+    extras = dict(zip(ESTIMATE_EXTRAS, (out[5:].copy(), out[2], out[3], bool(out[4] > 0.5)),
+                      strict=True))
+    return State(x, P, cv), Estimate(out[0], out[1], extras=extras)
 
 
 class Result(NamedTuple):
-    """Batch output: arrays over samples."""
+    """Batch output: arrays over samples, the columns of :func:`step`'s estimates."""
 
     omega: np.ndarray  # (n,) rad/s
     omega_std: np.ndarray  # (n,) rad/s
@@ -359,6 +353,7 @@ def estimate(
     wheel_radius: float | None = None,
     params: dict | None = None,
     progress: bool = False,
+    return_posterior: bool = False,
 ) -> Track:
     """Track omega on accelerometer axis ``axis`` of a uniformly sampled recording.
 

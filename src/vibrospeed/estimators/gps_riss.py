@@ -527,7 +527,8 @@ _AXIS_CHANNEL = {"x": "ax", "y": "ay", "z": "az"}
 
 
 def estimate(recording: Recording, *, axis: str = "x", wheel_radius: float | None = None,
-             params: dict | None = None, progress: bool = False) -> Track:
+             params: dict | None = None, progress: bool = False,
+             return_posterior: bool = False) -> Track:
     """Fused speed for a recording with an accelerometer channel and ``gps_speed``.
 
     ``axis`` names the longitudinal accelerometer channel: "x" -> ``ax`` (phones often have "y"

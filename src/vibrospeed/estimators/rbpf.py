@@ -20,6 +20,7 @@ step draws, in this order, the resampling uniforms (only when it resamples) and 
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -33,7 +34,7 @@ from vibrospeed.estimators.kalman import predict_one, rotation_blocks, update_on
 from vibrospeed.estimators.rbpmf import DEFAULT_R, prepare
 from vibrospeed.estimators.scaling import DEFAULT_SIGNAL_RMS, DEFAULT_TAU
 from vibrospeed.models.harmonic import HarmonicModel
-from vibrospeed.types import Recording, Track
+from vibrospeed.types import Estimate, Recording, Track
 
 
 def _paper_model(dt: float = 0.01) -> HarmonicModel:
@@ -99,29 +100,23 @@ class Config:
 
 class State(NamedTuple):
     """Prior for the next sample: ``omega`` (K,), ``log_w`` (K,) normalised, ``mean`` (K, 2M),
-    ``cov`` (K, 2M, 2M)."""
+    ``cov`` (K, 2M, 2M), and ``rng`` the generator the next sample draws from (``step`` and
+    ``run`` use a copy, so a state can be stepped twice with the same numbers)."""
 
     omega: np.ndarray
     log_w: np.ndarray
     mean: np.ndarray
     cov: np.ndarray
+    rng: np.random.Generator
 
 
-class Estimate(NamedTuple):
-    """Posterior at one sample: omega mean, std, credible interval (rad/s), predictive
-    log-likelihood, effective sample size (before resampling), resampled flag."""
-
-    omega: float
-    omega_std: float
-    omega_lo: float
-    omega_hi: float
-    loglik: float
-    ess: float
-    resampled: bool
+#: extras of :func:`step`'s :class:`~vibrospeed.types.Estimate`: predictive log-likelihood,
+#: effective sample size (before resampling), whether the particles were resampled
+ESTIMATE_EXTRAS = ("loglik", "ess", "resampled")
 
 
 class Result(NamedTuple):
-    """Batch output, arrays over samples."""
+    """Batch output, arrays over samples: the columns of :func:`step`'s estimates."""
 
     omega: np.ndarray
     omega_std: np.ndarray
@@ -134,10 +129,14 @@ class Result(NamedTuple):
 
 
 def init(
-    config: Config, rng: np.random.Generator, *, particles: np.ndarray | None = None
+    config: Config, rng: np.random.Generator | None = None, *,
+    particles: np.ndarray | None = None,
 ) -> State:
     """Initial particles: uniform on [omega_min, omega_max] (or N(omega0, omega0_std^2)
-    clipped to it), or the given ``particles`` (K,); equal weights, means 0, cov var(a_0) I."""
+    clipped to it), or the given ``particles`` (K,); equal weights, means 0, cov var(a_0) I.
+    The particles are drawn from ``rng`` (default: a generator seeded with ``config.seed``),
+    which the state then carries."""
+    rng = np.random.default_rng(config.seed) if rng is None else rng
     K = config.n_particles
     if particles is not None:
         om = np.array(particles, dtype=np.float64).ravel()
@@ -150,7 +149,7 @@ def init(
                      config.omega_min, config.omega_max)
     n = config.model.n_lin
     return State(om, np.full(K, -np.log(K)), np.zeros((K, n)),
-                 np.broadcast_to(np.eye(n) * config.model.p0_amp, (K, n, n)).copy())
+                 np.broadcast_to(np.eye(n) * config.model.p0_amp, (K, n, n)).copy(), rng)
 
 
 # ------------------------------------------------------------------------------------------
@@ -242,23 +241,24 @@ def _one(config: Config, om, lw, mean, cov, y, rng, w, out, blocks):
     return resampled
 
 
-def step(
-    config: Config, state: State, y: float, rng: np.random.Generator
-) -> tuple[State, Estimate]:
-    """Process one sample with randomness from ``rng``; returns (prior for next, posterior)."""
+def step(config: Config, state: State, y: float) -> tuple[State, Estimate]:
+    """Process one sample with randomness from (a copy of) the state's generator; returns
+    (prior for next, posterior)."""
     om, lw = state.omega.copy(), state.log_w.copy()
     mean, cov = state.mean.copy(), state.cov.copy()
+    rng = copy.deepcopy(state.rng)
     out = np.empty(6)
     blocks = np.empty((om.size, config.model.M, 2, 2))
     res = _one(config, om, lw, mean, cov, y, rng, np.empty(om.size), out, blocks)
-    return State(om, lw, mean, cov), Estimate(*out, res)
+    extras = dict(zip(ESTIMATE_EXTRAS, (out[4], out[5], res), strict=True))
+    return State(om, lw, mean, cov, rng), Estimate(*out[:4], extras=extras)
 
 
-def run(
-    config: Config, y: np.ndarray, rng: np.random.Generator, state: State | None = None
-) -> Result:
-    """Run over a whole signal; identical to repeated :func:`step` with the same ``rng``."""
-    st = init(config, rng) if state is None else state
+def run(config: Config, y: np.ndarray, state: State | None = None) -> Result:
+    """Run over a whole signal; identical to repeated :func:`step` from ``state`` (default
+    :func:`init`)."""
+    st = init(config) if state is None else state
+    rng = copy.deepcopy(st.rng)
     om, lw = st.omega.copy(), st.log_w.copy()
     mean, cov = st.mean.copy(), st.cov.copy()
     y = np.asarray(y, dtype=np.float64)
@@ -269,7 +269,7 @@ def run(
     for k in range(y.size):
         flags[k] = _one(config, om, lw, mean, cov, y[k], rng, w, outs[k], blocks)
     return Result(outs[:, 0], outs[:, 1], outs[:, 2], outs[:, 3], outs[:, 4], outs[:, 5], flags,
-                  State(om, lw, mean, cov))
+                  State(om, lw, mean, cov, rng))
 
 
 def estimate(
@@ -279,6 +279,7 @@ def estimate(
     wheel_radius: float | None = None,
     params: dict | None = None,
     progress: bool = False,
+    return_posterior: bool = False,
 ) -> Track:
     """Track omega on ``axis`` with the RBPF (pre-filter, running-RMS scaling as the RBPMF).
 
@@ -289,11 +290,10 @@ def estimate(
     from vibrospeed.estimators.common import run_in_chunks
 
     config, y, rms, notes = prepare(recording, axis, Config, params, _paper_model)
-    rng = np.random.default_rng(config.seed)
     parts: list[Result] = []
 
-    def chunk(a: int, b: int) -> Result:  # same rng, carried state: same numbers as one run
-        parts.append(run(config, y[a:b], rng, parts[-1].final if parts else None))
+    def chunk(a: int, b: int) -> Result:  # the state carries the generator: one run's numbers
+        parts.append(run(config, y[a:b], parts[-1].final if parts else None))
         return parts[-1]
 
     run_in_chunks(chunk, y.size, progress=progress, label="rbpf", chunk=5_000)

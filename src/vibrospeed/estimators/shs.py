@@ -26,7 +26,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vibrospeed.errors import ParameterError
-from vibrospeed.types import Recording, Track
+from vibrospeed.types import Estimate, Recording, Track
 
 
 @dataclass(frozen=True)
@@ -148,16 +148,17 @@ def batch_estimate(config: Config, x: np.ndarray) -> tuple[float, float]:
     return float(axis[j]), float(H[j])
 
 
-def step(config: Config, state: State, y: float) -> tuple[State, float]:
-    """Add one sample. Returns the batch estimate (rad/s) when this sample completes a batch,
-    else NaN."""
+def step(config: Config, state: State, y: float) -> tuple[State, Estimate]:
+    """Add one sample. The estimate's omega is the batch estimate (rad/s) when this sample
+    completes a batch, else NaN (extras ``score``: the summed spectrum at the peak)."""
     buf = state.buf.copy()
     buf[state.count] = y
     count = state.count + 1
     if count == config.batch:
-        om, _ = batch_estimate(config, buf)
-        return State(np.zeros(config.batch), 0, state.n_batches + 1), om
-    return State(buf, count, state.n_batches), float("nan")
+        om, sc = batch_estimate(config, buf)
+        return (State(np.zeros(config.batch), 0, state.n_batches + 1),
+                Estimate(om, extras={"score": sc}))
+    return State(buf, count, state.n_batches), Estimate(extras={"score": float("nan")})
 
 
 def run(config: Config, y: np.ndarray, state: State | None = None) -> Result:
@@ -201,6 +202,7 @@ def estimate(
     wheel_radius: float | None = None,
     params: dict | None = None,
     progress: bool = False,
+    return_posterior: bool = False,
 ) -> Track:
     """SHS estimates held over each batch's samples (the trailing partial batch is NaN).
 

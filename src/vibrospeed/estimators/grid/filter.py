@@ -1,0 +1,237 @@
+"""Rao-Blackwellized point-mass filter, the chassis-vibration paper's variant (paper III-D,
+Algorithm 1; METHODS.md 1.3).
+
+A fixed grid ``omega_j`` (j = 1..N) carries weights ``w_j`` and, per grid point, a Kalman filter
+(mean ``m_j`` (2M,), covariance ``P_j`` (2M, 2M)) of the phasor states of
+:class:`vibrospeed.models.harmonic.HarmonicModel`. One iteration, for sample ``y_k``:
+
+1. measurement update per grid point (:func:`vibrospeed.estimators.kalman.update_one`)::
+
+       log w_j += log N(y_k; h m_j, h P_j h' + r);   normalise in log space
+
+2. output: posterior mean, std, MAP and the ``level`` credible interval of omega from the grid
+   posterior (each mass spread uniformly over its cell, so quantiles interpolate);
+3. linear time update per *source* point i: ``m_i- = F(omega_i) m_i``,
+   ``P_i- = F(omega_i) P_i F(omega_i)' + T Q_lin`` (F from ``HarmonicModel.F(grid)``);
+4. transition ``w_ij = w_i K_ij`` with the random-walk kernel
+   ``K_ij = N(omega_j; omega_i, T var(v^omega)) Delta_j / sum_j(...)`` (``Delta_j`` cell width,
+   rows normalised over the grid so no mass leaves it), ``W_j = sum_i w_ij``;
+5. moment-matching merge with ``lambda_ij = w_ij / W_j``::
+
+       m_j = sum_i lambda_ij m_i-,   P_j = sum_i lambda_ij (P_i- + m_i- m_i-') - m_j m_j'
+
+   valid because ``p(x^lin_{t+1} | omega_{t+1}, omega_t) = p(x^lin_{t+1} | omega_t)`` for this
+   model (paper III-D): the N^2 pairwise filters are never formed, memory is O(N).
+
+The state stored between samples is the *prior* for the next sample (as in
+:mod:`vibrospeed.estimators.ekf`): ``step`` = steps 1-5. NaN samples skip step 1.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from vibrospeed.errors import ParameterError
+from vibrospeed.estimators.grid import summary as cols
+from vibrospeed.estimators.grid.config import Config
+from vibrospeed.estimators.grid.core import Tables, _run, _step
+from vibrospeed.estimators.grid.summary import N_OUT_FIXED
+from vibrospeed.models.harmonic import HarmonicModel
+from vibrospeed.types import Estimate
+
+
+class State(NamedTuple):
+    """Prior for the next sample: ``log_w`` (N,) log-weights of the grid points, ``mean``
+    (N, 2M), ``cov`` (N, 2M, 2M) per grid point, ``log_w_null`` log-weight of the "no line"
+    state (-inf when the model has none). The weights sum to 1 over grid and null."""
+
+    log_w: np.ndarray
+    mean: np.ndarray
+    cov: np.ndarray
+    log_w_null: float = -np.inf
+    mode_j: int = -1
+
+
+#: extras of the filter's :class:`~vibrospeed.types.Estimate` (rad/s or shares of the mass):
+#: MAP grid point, predictive log-likelihood ``log p(y_k | y_1..k-1)``, mass of "no line",
+#: masses near MAP/2, 2 MAP, MAP/3, 3 MAP, amplitudes (M,) at the MAP point, the grid
+#: posterior (N,) of the signal part, the mode window's mean and its basin's mass, the
+#: posterior mean (``omega`` is the mode's mean with ``point="mode"``)
+ESTIMATE_EXTRAS = ("omega_map", "loglik", "p_null", "p_half", "p_double", "amplitudes",
+                   "posterior", "p_third", "p_triple", "omega_mode", "p_mode", "omega_mean")
+
+
+class Result(NamedTuple):
+    """Batch output, arrays over samples (n,) unless noted; the columns of :func:`step`'s
+    :class:`~vibrospeed.types.Estimate` and its extras."""
+
+    omega: np.ndarray
+    omega_std: np.ndarray
+    omega_map: np.ndarray
+    omega_lo: np.ndarray
+    omega_hi: np.ndarray
+    loglik: np.ndarray
+    p_null: np.ndarray
+    p_half: np.ndarray
+    p_double: np.ndarray
+    amplitudes: np.ndarray  # (n, M)
+    posterior: np.ndarray | None  # (n, N) float32 when asked for
+    grid_loglik: np.ndarray | None  # (n, N + 1) float32 when asked for (last column: null)
+    final: State
+    p_third: np.ndarray | None = None  # mass near MAP/3
+    p_triple: np.ndarray | None = None  # mass near 3 MAP
+    omega_mode: np.ndarray | None = None  # mean of the highest-mass window (the mode)
+    p_mode: np.ndarray | None = None  # the basin's share of the signal mass
+    omega_mean: np.ndarray | None = None  # the posterior mean (= omega unless point="mode")
+
+    @property
+    def has_signal(self) -> np.ndarray:
+        """1.0 where the "no line" mass is below one half."""
+        return (1.0 - self.p_null >= 0.5).astype(np.float64)
+
+
+def init(config: Config) -> State:
+    """Prior at the first sample: weights uniform in omega (or Gaussian around ``omega0``),
+    phasor means 0, covariances ``var(alpha_0) I``; with a "no line" state, its stationary
+    probability ``off / (off + on)``."""
+    k = config.kern
+    N = k.grid.size
+    n = config.model.n_lin
+    if config.omega0 is None:
+        lw = np.log(k.widths)
+    else:
+        z = (k.grid - config.omega0) / config.omega0_std
+        lw = -0.5 * z * z + np.log(k.widths)
+    lw = lw - np.max(lw)
+    lw = np.maximum(lw, -config.log_floor)
+    lw -= np.log(np.sum(np.exp(lw)))
+    lw0 = -np.inf
+    if config.has_null:
+        p0 = (config.off_rate / (config.off_rate + config.on_rate) if config.p_null0 is None
+              else float(config.p_null0))
+        lw = lw + np.log1p(-p0)
+        lw0 = float(np.log(p0))
+    mean = np.zeros((N, n))
+    cov = np.broadcast_to(np.eye(n) * config.model.p0_amp, (N, n, n)).copy()
+    return State(lw, mean, cov, lw0)
+
+
+def _check_h(model: HarmonicModel) -> None:
+    h = model.H
+    if not (np.all(h[0::2] == 1.0) and np.all(h[1::2] == 0.0)):  # pragma: no cover - invariant
+        raise ParameterError("rbpmf needs the harmonic model's h = [1, 0, 1, 0, ...]")
+
+
+def tables(config: Config) -> Tables:
+    """The constants of the compiled core for ``config``."""
+    k = config.kern
+    m = config.model
+    _check_h(m)
+    q = 0.5 * (1.0 - config.level)
+    cs = np.ascontiguousarray(np.stack([k.blocks[:, :, 0, 0], k.blocks[:, :, 0, 1]], axis=-1))
+    u = k.widths / np.sum(k.widths)
+    eps, p_off, p_on, nv = config.rates()
+    return Tables(float(m.r), cs, float(m.dt * m.q_amp), k.kb, int(k.B), k.grid, k.edges, u,
+                  float(config.log_floor), q, 1.0 - q, eps, p_off, p_on, nv, float(m.p0_amp),
+                  float(config.amb_rel), float(config.amb_abs), config.temper_step,
+                  config.null_model == "mixture", float(config.mode_hold))
+
+
+#: summary columns of Estimate / Result after the reported omega, in their field order
+_HEAD = (cols.COL_STD, cols.COL_MAP, cols.COL_LO, cols.COL_HI, cols.COL_LOGLIK, cols.COL_P_NULL,
+         cols.COL_P_HALF, cols.COL_P_DOUBLE)
+#: the fields after ``amplitudes, posterior`` (Estimate) / ``..., final`` (Result)
+_TAIL = (cols.COL_P_THIRD, cols.COL_P_TRIPLE, cols.COL_MODE, cols.COL_P_MODE, cols.COL_MEAN)
+
+
+def _point_and_columns(config: Config, rows: np.ndarray) -> list:
+    """The reported omega (the mode window's mean with ``point="mode"``, else the posterior
+    mean) and the :data:`_HEAD` columns of a summary row (or of rows transposed)."""
+    om = rows[cols.COL_MODE] if config.point == "mode" else rows[cols.COL_MEAN]
+    return [om, *(rows[c] for c in _HEAD)]
+
+
+def _extra_vec(config: Config, ex) -> np.ndarray:
+    N = config.n_grid
+    e = np.ascontiguousarray(ex, dtype=np.float64)
+    if e.shape == (N,):
+        e = np.append(e, 0.0)
+    if e.shape != (N + 1,):
+        raise ParameterError(f"extra evidence must have {N} or {N + 1} entries, got {e.shape}")
+    return e
+
+
+def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Estimate]:
+    """Process one sample; returns the prior for the next sample and the posterior now.
+
+    ``extra`` : optional (N,) or (N + 1,) log-evidence added to the grid points' (and the "no
+    line" state's) log-weights with this sample (e.g. :mod:`vibrospeed.estimators.grid`)."""
+    lw = state.log_w.copy()
+    lw0 = np.array([state.log_w_null])
+    mean = state.mean.copy()
+    cov = state.cov.copy()
+    N, n = mean.shape
+    M = n // 2
+    out = np.empty(N_OUT_FIXED + M)
+    post = np.empty(N)
+    L = n + n * (n + 1) // 2
+    ex = np.empty(0) if extra is None else _extra_vec(config, extra)
+    cur = np.array([state.mode_j], dtype=np.int64)
+    _step(tables(config), lw, lw0, mean, cov, cur, float(y), ex, np.empty(N), np.empty(N),
+          np.empty((N, L)), np.empty(L), out, post, np.empty(0))
+    head = _point_and_columns(config, out)
+    vals = dict(zip(("omega", "omega_std", "omega_map", "omega_lo", "omega_hi", "loglik",
+                     "p_null", "p_half", "p_double"), head, strict=True))
+    vals.update(zip(("p_third", "p_triple", "omega_mode", "p_mode", "omega_mean"),
+                    (out[c] for c in _TAIL), strict=True))
+    vals["amplitudes"] = out[N_OUT_FIXED:].copy()
+    vals["posterior"] = post
+    est = Estimate(vals["omega"], vals["omega_std"], vals["omega_lo"], vals["omega_hi"],
+                   has_signal=float(1.0 - vals["p_null"] >= 0.5),
+                   extras={k: vals[k] for k in ESTIMATE_EXTRAS})
+    return State(lw, mean, cov, float(lw0[0]), int(cur[0])), est
+
+
+def run(
+    config: Config,
+    y: np.ndarray,
+    state: State | None = None,
+    *,
+    return_posterior: bool = False,
+    return_grid_loglik: bool = False,
+    extra: tuple[np.ndarray, np.ndarray] | None = None,
+) -> Result:
+    """Run over a whole (already pre-filtered, scaled) signal; identical to repeated
+    :func:`step`. ``return_posterior``: also return the grid posterior (n, N) as float32;
+    ``return_grid_loglik``: the per-state log-emissions (n, N + 1) float32 that
+    :mod:`vibrospeed.estimators.grid_smoother` needs (last column: the "no line" state).
+    ``extra = (idx, values)``: log-evidence ``values[f]`` ((N,) or (N + 1,) per row) added at
+    sample ``idx[f]`` (indices into ``y``, increasing), as :func:`step`'s ``extra``."""
+    st = init(config) if state is None else state
+    lw = np.array(st.log_w, dtype=np.float64)
+    lw0 = np.array([st.log_w_null], dtype=np.float64)
+    mean = np.ascontiguousarray(st.mean, dtype=np.float64).copy()
+    cov = np.ascontiguousarray(st.cov, dtype=np.float64).copy()
+    ys = np.ascontiguousarray(y, dtype=np.float64)
+    N = config.n_grid
+    if extra is None:
+        ex_idx, ex_val = np.zeros(0, np.int64), np.zeros((0, N + 1))
+    else:
+        ex_idx = np.ascontiguousarray(extra[0], dtype=np.int64)
+        ex_val = np.ascontiguousarray(extra[1], dtype=np.float64)
+        if ex_val.ndim == 2 and ex_val.shape[1] == N:
+            ex_val = np.ascontiguousarray(np.column_stack([ex_val, np.zeros(len(ex_val))]))
+        if ex_val.shape != (ex_idx.size, N + 1):
+            raise ParameterError(f"extra evidence must be ({ex_idx.size}, {N} or {N + 1}), "
+                                 f"got {ex_val.shape}")
+        if ex_idx.size > 1 and np.any(np.diff(ex_idx) <= 0):
+            raise ParameterError("extra evidence indices must be strictly increasing")
+    cur = np.array([st.mode_j], dtype=np.int64)
+    outs, posts, glls = _run(tables(config), lw, lw0, mean, cov, cur, ys, ex_idx, ex_val,
+                             bool(return_posterior), bool(return_grid_loglik))
+    return Result(*_point_and_columns(config, outs.T), outs[:, N_OUT_FIXED:],
+                  posts if return_posterior else None, glls if return_grid_loglik else None,
+                  State(lw, mean, cov, float(lw0[0]), int(cur[0])),
+                  *(outs[:, c] for c in _TAIL))

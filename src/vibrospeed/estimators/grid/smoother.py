@@ -1,0 +1,376 @@
+"""Offline and fixed-lag smoothing on the RBPMF grid (issue 7, part 2): forward-backward
+marginals, Viterbi MAP path and credible bands of omega.
+
+Model actually smoothed
+-----------------------
+The RBPMF (:mod:`vibrospeed.estimators.rbpmf`) replaces, at every step, the mixture over omega
+histories of each grid point's Kalman filter by one moment-matched Gaussian (paper III-D, the
+merge of Algorithm 1). Its weights therefore follow *exactly* the forward recursion of a hidden
+Markov chain on the grid (plus the optional "no line" state)::
+
+    alpha_t(j) ∝ l_t(j) sum_i alpha_{t-1}(i) T(i -> j),    l_t(j) = N(y_t; h m_j, h P_j h' + r)
+
+with the emission ``l_t(j) = p(y_t | omega_t = j, y_1..t-1)`` the grid point's predictive
+density from the merged linear-state moments. The smoother runs the *backward* recursion of
+that same chain::
+
+    beta_t(i) = sum_j T(i -> j) l_{t+1}(j) beta_{t+1}(j)
+    p(omega_t = j | y_1..T) ∝ alpha_t(j) beta_t(j)
+
+i.e. the emissions are kept as the filter computed them (conditioned on the past only, not
+re-conditioned on the future). Justification: (a) for a fixed omega path the linear states
+are exactly Gaussian and ``prod_t l_t`` is then the exact ``p(y_1..T | omega_1..T)``; the only
+approximation is the one the filter already makes (collapsing the path dependence into the
+moments at the current grid point, a good approximation when neighbouring grid points carry
+similar phasors, which the kernel's width ~ one grid spacing ensures); (b) with it, the forward
+pass here reproduces the filter's weights to float32 rounding (tested), so filter and smoother
+are two views of one model and the smoother's bands are consistent with the filter's; (c) a
+two-filter / backward-information treatment of the 2M linear states would need a backward
+Kalman filter per grid point and pairwise merges, i.e. the N^2 work the RBPMF avoids. The
+per-point emissions are the filter's by-product (``rbpmf.run(..., return_grid_loglik=True)``),
+stored as float32: memory 4 (N + 1) bytes per sample.
+
+The transition ``T`` is the filter's: banded random walk ``K`` with probability
+``1 - eps - p_off``, a jump to anywhere (weights ``u_j`` proportional to the cell widths) with
+``eps``, "line -> none" ``p_off``, "none -> line" ``p_on`` (rbpmf.Config.rates). The Viterbi path
+maximises the same chain's joint probability (log domain, O(N B) per step since outside the
+band only the jump term remains).
+
+Fixed lag: blocks of ``L = lag / T`` samples; at the end of block b+1 the backward recursion
+runs from there (``beta = 1``) down to the start of block b, so each sample of block b uses the
+data up to ``L..2L`` samples after it (output delay <= 2 lag, work 2x the backward pass).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from vibrospeed.estimators.grid import summary as cols
+from vibrospeed.estimators.grid.config import Config
+from vibrospeed.estimators.grid.filter import init
+from vibrospeed.estimators.grid.summary import COL_LOGLIK, N_OUT_FIXED, _summary
+
+
+class Smoothed(NamedTuple):
+    """Smoothed posterior per sample (n,): mean, std, band of the mixture (the "no line" mass
+    spread uniformly on the grid), MAP of the marginal, ``p_null``, ``p_half``, ``p_double``;
+    ``posterior`` (n, N) float32 of the grid part when asked for."""
+
+    omega: np.ndarray
+    omega_std: np.ndarray
+    omega_map: np.ndarray
+    omega_lo: np.ndarray
+    omega_hi: np.ndarray
+    p_null: np.ndarray
+    p_half: np.ndarray
+    p_double: np.ndarray
+    posterior: np.ndarray | None
+    p_third: np.ndarray | None = None
+    p_triple: np.ndarray | None = None
+    omega_mode: np.ndarray | None = None  # mean of the highest-mass window (the mode)
+    p_mode: np.ndarray | None = None  # the basin's share of the signal mass
+
+
+class Path(NamedTuple):
+    """Viterbi MAP path: ``state`` (n,) grid index (N for "no line"), ``omega`` (n,) rad/s
+    (NaN in "no line"), ``log_joint`` of the path (emissions and transitions)."""
+
+    state: np.ndarray
+    omega: np.ndarray
+    log_joint: float
+
+
+def _setup(config: Config):
+    k = config.kern
+    st = init(config)
+    lw = np.append(st.log_w, st.log_w_null)
+    eps, p_off, p_on, _ = config.rates()
+    u = k.widths / np.sum(k.widths)
+    q = 0.5 * (1.0 - config.level)
+    return lw, k.kb, int(k.B), k.grid, k.edges, u, eps, p_off, p_on, q
+
+
+@njit(cache=True)
+def _predict(a, kb, B, u, eps, p_off, p_on, has_null, out):
+    """out = a T (one transition of the probability vector a (N+1,))."""
+    N = u.size
+    a0 = a[N] if has_null else 0.0
+    rw = 1.0 - eps - p_off
+    J = eps * (1.0 - a0) + p_on * a0
+    for j in range(N):
+        lo = max(0, j - B)
+        hi = min(N - 1, j + B)
+        s = 0.0
+        for i in range(lo, hi + 1):
+            s += a[i] * kb[j, i - j + B]
+        out[j] = rw * s + J * u[j]
+    out[N] = p_off * (1.0 - a0) + (1.0 - p_on) * a0 if has_null else 0.0
+
+
+@njit(cache=True)
+def _forward(gll, lw_init, kb, B, u, eps, p_off, p_on, has_null, log_floor):
+    """Filtered probabilities alpha (n, N+1) float32, exactly the RBPMF's weight recursion."""
+    n_s, N1 = gll.shape
+    N = N1 - 1
+    alpha = np.empty((n_s, N1), dtype=np.float32)
+    lw = lw_init.copy()
+    a = np.empty(N1)
+    pr = np.empty(N1)
+    for t in range(n_s):
+        mx = -np.inf
+        for j in range(N1):
+            if j == N and not has_null:
+                continue
+            lw[j] += gll[t, j]
+            if lw[j] > mx:
+                mx = lw[j]
+        s = 0.0
+        for j in range(N1):
+            if j == N and not has_null:
+                a[j] = 0.0
+                continue
+            d = lw[j] - mx
+            if d < -log_floor:
+                d = -log_floor
+            a[j] = np.exp(d)
+            s += a[j]
+        for j in range(N1):
+            a[j] /= s
+            # stored as float32: floored at 1e-37 (the smallest normal float32 is 1.2e-38) so
+            # that alpha * beta cannot vanish on every state when strong evidence disagrees
+            alpha[t, j] = max(a[j], 1e-37) if (j < N or has_null) else 0.0
+        _predict(a, kb, B, u, eps, p_off, p_on, has_null, pr)
+        for j in range(N1):
+            lw[j] = np.log(pr[j]) if pr[j] > 0.0 else -np.inf
+    return alpha
+
+
+@njit(cache=True)
+def _backstep(beta, gll_next, kb, B, u, eps, p_off, p_on, has_null, e, out):
+    """out(i) = sum_j T(i -> j) l_{t+1}(j) beta_{t+1}(j), normalised to max 1."""
+    N = u.size
+    mx = -np.inf
+    for j in range(N + 1):
+        if (j < N or has_null) and gll_next[j] > mx:
+            mx = gll_next[j]
+    ue = 0.0
+    for j in range(N):
+        e[j] = np.exp(gll_next[j] - mx) * beta[j]
+        ue += u[j] * e[j]
+    e[N] = np.exp(gll_next[N] - mx) * beta[N] if has_null else 0.0
+    rw = 1.0 - eps - p_off
+    top = 0.0
+    for i in range(N):
+        lo = max(0, i - B)
+        hi = min(N - 1, i + B)
+        s = 0.0
+        for j in range(lo, hi + 1):
+            s += kb[j, i - j + B] * e[j]
+        out[i] = rw * s + eps * ue + p_off * e[N]
+        if out[i] > top:
+            top = out[i]
+    out[N] = (1.0 - p_on) * e[N] + p_on * ue if has_null else 0.0
+    if out[N] > top:
+        top = out[N]
+    if top > 0.0:
+        for i in range(N + 1):
+            out[i] /= top
+
+
+@njit(cache=True)
+def _emit(alpha_t, beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, row, post_row,
+          cur):
+    N = grid.size
+    s = 0.0
+    for j in range(N + 1):
+        g[j] = alpha_t[j] * beta[j]
+        s += g[j]
+    if not s > 0.0:  # pragma: no cover - guarded by the alpha floor
+        s = 0.0
+        for j in range(N + 1):
+            g[j] = alpha_t[j]
+            s += g[j]
+    for j in range(N + 1):
+        g[j] /= s
+    # hold 1: the stateless mode (no hysteresis); cur is only written
+    jmap = _summary(g[:N], g[N], u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, row, 1.0, cur)
+    row[COL_LOGLIK] = 0.0
+    if post_row.size == N:
+        for j in range(N):
+            post_row[j] = g[j]
+    return jmap
+
+
+@njit(cache=True)
+def _smooth_range(alpha, gll, t_end, t_lo, t_hi, kb, B, grid, edges, u, eps, p_off, p_on,
+                  has_null, q_lo, q_hi, amb_rel, amb_abs, outs, posts, want_post):
+    """Backward from t_end (beta = 1) down to t_lo; write outputs for t in [t_lo, t_hi)."""
+    N = grid.size
+    beta = np.ones(N + 1)
+    nb = np.empty(N + 1)
+    e = np.empty(N + 1)
+    g = np.empty(N + 1)
+    v = np.empty(N)
+    empty = np.empty(0, dtype=np.float32)
+    cur = np.full(1, -1, np.int64)
+    for t in range(t_end, t_lo - 1, -1):
+        if t < t_end:
+            _backstep(beta, gll[t + 1], kb, B, u, eps, p_off, p_on, has_null, e, nb)
+            for j in range(N + 1):
+                beta[j] = nb[j]
+        if t < t_hi:
+            pr = posts[t] if want_post else empty
+            _emit(alpha[t], beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, outs[t],
+                  pr, cur)
+
+
+def _result(outs: np.ndarray, posts: np.ndarray | None) -> Smoothed:
+    c = cols
+    return Smoothed(*(outs[:, i] for i in (c.COL_MEAN, c.COL_STD, c.COL_MAP, c.COL_LO,
+                                           c.COL_HI, c.COL_P_NULL, c.COL_P_HALF,
+                                           c.COL_P_DOUBLE)),
+                    posts, *(outs[:, i] for i in (c.COL_P_THIRD, c.COL_P_TRIPLE, c.COL_MODE,
+                                                  c.COL_P_MODE)))
+
+
+def _prep(config, gll, return_posterior):
+    lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
+    gll = np.ascontiguousarray(gll, dtype=np.float64)
+    if gll.ndim != 2 or gll.shape[1] != grid.size + 1:
+        raise ValueError(f"grid_loglik must be (n, {grid.size + 1}), got {gll.shape}")
+    has_null = config.has_null
+    alpha = _forward(gll, lw, kb, B, u, eps, p_off, p_on, has_null, float(config.log_floor))
+    n = gll.shape[0]
+    outs = np.zeros((n, N_OUT_FIXED))
+    posts = np.zeros((n if return_posterior else 1, grid.size), dtype=np.float32)
+    common = (kb, B, grid, edges, u, eps, p_off, p_on, has_null, q, 1.0 - q,
+              float(config.amb_rel), float(config.amb_abs))
+    return alpha, gll, outs, posts, common
+
+
+def filtered(config: Config, grid_loglik: np.ndarray) -> np.ndarray:
+    """(n, N+1) filtered probabilities recomputed from the emissions (the RBPMF's weights)."""
+    lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
+    return _forward(np.ascontiguousarray(grid_loglik, dtype=np.float64), lw, kb, B, u, eps,
+                    p_off, p_on, config.has_null, float(config.log_floor))
+
+
+def smooth(config: Config, grid_loglik: np.ndarray, *,
+           return_posterior: bool = False) -> Smoothed:
+    """Forward-backward marginals ``p(omega_t | y_1..T)`` for the whole log.
+
+    ``grid_loglik`` : (n, N+1) from ``rbpmf.run(config, y, return_grid_loglik=True)``.
+    """
+    alpha, gll, outs, posts, c = _prep(config, grid_loglik, return_posterior)
+    n = gll.shape[0]
+    _smooth_range(alpha, gll, n - 1, 0, n, *c, outs, posts, bool(return_posterior))
+    return _result(outs, posts if return_posterior else None)
+
+
+def fixed_lag(config: Config, grid_loglik: np.ndarray, *, lag: float = 2.0,
+              return_posterior: bool = False) -> Smoothed:
+    """Fixed-lag smoother: each sample uses the data up to ``lag..2 lag`` s after it (blocks of
+    ``lag`` s; an online device emits block b at the end of block b+1). Uses only data a
+    device has at that time, computed here from the stored emissions."""
+    alpha, gll, outs, posts, c = _prep(config, grid_loglik, return_posterior)
+    n = gll.shape[0]
+    L = max(1, int(round(lag / config.model.dt)))
+    for s0 in range(0, n, L):
+        t_end = min(s0 + 2 * L, n) - 1
+        _smooth_range(alpha, gll, t_end, s0, min(s0 + L, n), *c, outs, posts,
+                      bool(return_posterior))
+    return _result(outs, posts if return_posterior else None)
+
+
+@njit(cache=True)
+def _viterbi(gll, lw_init, kb, B, u, eps, p_off, p_on, has_null):
+    n_s, N1 = gll.shape
+    N = N1 - 1
+    rw = 1.0 - eps - p_off
+    # log T for targets j from sources in the band (indexed like kb)
+    W = kb.shape[1]
+    lt = np.full((N, W), -np.inf)
+    for j in range(N):
+        for d in range(W):
+            val = rw * kb[j, d] + eps * u[j]
+            i = j + d - B
+            if 0 <= i < N and val > 0.0:
+                lt[j, d] = np.log(val)
+    lju = np.full(N, -np.inf)
+    lon = np.full(N, -np.inf)
+    for j in range(N):
+        if eps > 0.0:
+            lju[j] = np.log(eps * u[j])
+        if has_null:
+            lon[j] = np.log(p_on * u[j])
+    loff = np.log(p_off) if has_null else -np.inf
+    lstay0 = np.log(1.0 - p_on) if has_null else -np.inf
+    back = np.empty((n_s, N1), dtype=np.int32)
+    delta = np.empty(N1)
+    nd = np.empty(N1)
+    for j in range(N1):
+        delta[j] = lw_init[j] + gll[0, j] if (j < N or has_null) else -np.inf
+        back[0, j] = j
+    for t in range(1, n_s):
+        best = 0
+        for i in range(N):
+            if delta[i] > delta[best]:
+                best = i
+        for j in range(N):
+            lo = max(0, j - B)
+            hi = min(N - 1, j + B)
+            bv = -np.inf
+            bi = j
+            for i in range(lo, hi + 1):
+                val = delta[i] + lt[j, i - j + B]
+                if val > bv:
+                    bv = val
+                    bi = i
+            val = delta[best] + lju[j]
+            if val > bv:
+                bv = val
+                bi = best
+            if has_null:
+                val = delta[N] + lon[j]
+                if val > bv:
+                    bv = val
+                    bi = N
+            nd[j] = bv + gll[t, j]
+            back[t, j] = bi
+        if has_null:
+            a = delta[N] + lstay0
+            b = delta[best] + loff
+            if a >= b:
+                nd[N] = a + gll[t, N]
+                back[t, N] = N
+            else:
+                nd[N] = b + gll[t, N]
+                back[t, N] = best
+        else:
+            nd[N] = -np.inf
+            back[t, N] = N
+        for j in range(N1):
+            delta[j] = nd[j]
+    path = np.empty(n_s, dtype=np.int64)
+    k = 0
+    for j in range(N1):
+        if delta[j] > delta[k]:
+            k = j
+    lj = delta[k]
+    path[n_s - 1] = k
+    for t in range(n_s - 1, 0, -1):
+        k = back[t, k]
+        path[t - 1] = k
+    return path, lj
+
+
+def viterbi(config: Config, grid_loglik: np.ndarray) -> Path:
+    """Most probable state sequence of the grid chain (Viterbi, log domain, O(n N B))."""
+    lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
+    gll = np.ascontiguousarray(grid_loglik, dtype=np.float64)
+    path, lj = _viterbi(gll, lw, kb, B, u, eps, p_off, p_on, config.has_null)
+    om = np.where(path < grid.size, grid[np.minimum(path, grid.size - 1)], np.nan)
+    return Path(path, om, float(lj))

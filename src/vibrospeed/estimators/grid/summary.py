@@ -1,0 +1,145 @@
+"""Posterior summaries of grid weights, shared by the filter and the smoother: mean, std,
+MAP, credible band (piecewise-uniform cells), mode window and its basin, masses near MAP/2,
+2 MAP, MAP/3, 3 MAP. The columns of a summary row are named here (``COL_*``)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+#: columns of a summary row: posterior mean given a line (rad/s), std and band of the mixture
+#: (the "no line" mass spread over the grid), MAP grid point, predictive log-likelihood (filter
+#: only), "no line" mass, masses near MAP/2, 2 MAP, MAP/3, 3 MAP (shares of the signal mass),
+#: mean of the mode window (rad/s) and its basin's share of the signal mass
+COL_MEAN, COL_STD, COL_MAP, COL_LO, COL_HI, COL_LOGLIK = 0, 1, 2, 3, 4, 5
+COL_P_NULL, COL_P_HALF, COL_P_DOUBLE, COL_P_THIRD, COL_P_TRIPLE = 6, 7, 8, 9, 10
+COL_MODE, COL_P_MODE = 11, 12
+#: fixed columns per row; the filter appends the M amplitudes at the MAP point after them
+N_OUT_FIXED = 13
+
+
+@njit(cache=True)
+def _quantile(w, edges, q):
+    """Quantile of the piecewise-uniform density with mass w_j on cell [edges_j, edges_j+1]."""
+    acc = 0.0
+    N = w.size
+    for j in range(N):
+        if acc + w[j] >= q and w[j] > 0.0:
+            f = (q - acc) / w[j]
+            if f < 0.0:
+                f = 0.0
+            if f > 1.0:
+                f = 1.0
+            return edges[j] + f * (edges[j + 1] - edges[j])
+        acc += w[j]
+    return edges[N]
+
+
+@njit(cache=True)
+def _mass_near(w, grid, x, rel, ab):
+    """Mass of ``w`` on grid points within max(ab, rel x) of x."""
+    hw = max(ab, rel * x)
+    s = 0.0
+    for j in range(grid.size):
+        if abs(grid[j] - x) <= hw:
+            s += w[j]
+    return s
+
+
+@njit(cache=True)
+def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, cur):
+    """The summary row ``out`` (every ``COL_*`` but ``COL_LOGLIK``) from grid weights ``w``
+    (signal, sum 1 - w0) and null mass ``w0``:
+    omega is the mean given a line (grid part renormalised); std and band are of the mixture
+    ``v_j = w_j + w0 u_j`` (the null's omega is unknown: uniform on the grid);
+    MAP and ambiguity masses are of the signal part."""
+    N = grid.size
+    mu = 0.0
+    mc = 0.0
+    jmap = 0
+    for j in range(N):
+        v[j] = w[j] + w0 * u[j]
+        mu += v[j] * grid[j]
+        mc += w[j] * grid[j]
+        if w[j] > w[jmap]:
+            jmap = j
+    var = 0.0
+    for j in range(N):
+        d = grid[j] - mu
+        var += v[j] * d * d
+    # reported omega: the mean given that a line is present (= mu without a null state)
+    out[COL_MEAN] = mc / (1.0 - w0) if w0 > 0.0 and w0 < 1.0 else mu
+    out[COL_STD] = np.sqrt(var)
+    out[COL_MAP] = grid[jmap]
+    out[COL_LO] = _quantile(v, edges, q_lo)
+    out[COL_HI] = _quantile(v, edges, q_hi)
+    out[COL_P_NULL] = w0
+    # the mode: the window of half-width max(amb_abs, amb_rel x) around a grid point x that
+    # holds the most signal mass (v_j, two pointers; v is free after the quantiles), reported
+    # as the window's conditional mean; a window, not the single highest point, so a spiky
+    # posterior (fine grid, tempered data) does not hop between neighbouring peaks
+    lo = 0
+    hi = 0
+    s = 0.0
+    jb = 0
+    for j in range(N):
+        hw = max(amb_abs, amb_rel * grid[j])
+        while hi < N and grid[hi] <= grid[j] + hw:
+            s += w[hi]
+            hi += 1
+        while grid[lo] < grid[j] - hw:
+            s -= w[lo]
+            lo += 1
+        v[j] = s
+        if s > v[jb]:
+            jb = j
+    # hysteresis (mode_hold > 1): keep the current window, re-centred on its best window
+    # within its half-width, unless the best window holds more than hold x its mass
+    if hold > 1.0 and cur[0] >= 0:
+        c = cur[0]
+        hwc = max(amb_abs, amb_rel * grid[c])
+        jc = c
+        for j in range(N):
+            if abs(grid[j] - grid[c]) <= hwc and v[j] > v[jc]:
+                jc = j
+        if not v[jb] > hold * v[jc]:
+            jb = jc
+    cur[0] = jb
+    hw = max(amb_abs, amb_rel * grid[jb])
+    sb = 0.0
+    mb = 0.0
+    for j in range(N):
+        if abs(grid[j] - grid[jb]) <= hw:
+            sb += w[j]
+            mb += w[j] * grid[j]
+    out[COL_MODE] = mb / sb if sb > 0.0 else grid[jb]
+    # its basin: the windows reached from jb by non-increasing window mass; p_mode is the
+    # signal mass they cover (1e-12: the running sums' rounding, so a flat posterior is one
+    # basin)
+    a = jb
+    while a > 0 and v[a - 1] <= v[a] + 1e-12:
+        a -= 1
+    b = jb
+    while b < N - 1 and v[b + 1] <= v[b] + 1e-12:
+        b += 1
+    x_lo = grid[a] - max(amb_abs, amb_rel * grid[a])
+    x_hi = grid[b] + max(amb_abs, amb_rel * grid[b])
+    sb = 0.0
+    for j in range(N):
+        if grid[j] >= x_lo and grid[j] <= x_hi:
+            sb += w[j]
+    sig = 1.0 - w0
+    out[COL_P_MODE] = min(1.0, sb / sig) if sig > 1e-300 else 1.0
+    if sig > 1e-300:
+        x = grid[jmap]
+        out[COL_P_HALF] = _mass_near(w, grid, x / 2.0, amb_rel, amb_abs) / sig
+        out[COL_P_DOUBLE] = _mass_near(w, grid, 2.0 * x, amb_rel, amb_abs) / sig
+        out[COL_P_THIRD] = _mass_near(w, grid, x / 3.0, amb_rel, amb_abs) / sig
+        out[COL_P_TRIPLE] = _mass_near(w, grid, 3.0 * x, amb_rel, amb_abs) / sig
+    else:
+        out[COL_P_HALF] = 0.0
+        out[COL_P_DOUBLE] = 0.0
+        out[COL_P_THIRD] = 0.0
+        out[COL_P_TRIPLE] = 0.0
+    return jmap
+
