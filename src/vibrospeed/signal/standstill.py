@@ -18,22 +18,18 @@ shaking and its narrow idle lines. Per accelerometer axis:
    has no such gap and declares none).
 
 With several axes a frame is standing where every axis says so. Offline the quantiles are over
-the whole log; gaps under 1 s inside a stop are closed, standing runs shorter than
-``MIN_STOP_S`` dropped and the rest shortened by ``EDGE_S`` at both ends (the frames that
-overlap the roll-out and the start). Causally (``causal=True``, what a device can do) the
-quantiles are over the frames seen so far (a histogram of log-levels, after
-``CAUSAL_WARMUP_S`` s) and a stop is declared after ``CAUSAL_DWELL_S`` s of standing frames, so a
-decision never uses later data, and a stop before the first motion, with nothing to compare it
-with, is not recognised.
+the whole log; gaps under 1 s inside a stop are closed and standing runs shorter than
+``MIN_STOP_S`` dropped; each frame decides for the samples nearest its centre. Causally
+(``causal=True``, what a device can do) the quantiles are over the frames seen so far (a
+histogram of log-levels, after ``CAUSAL_WARMUP_S`` s) and a stop is declared after
+``CAUSAL_DWELL_S`` s of standing frames, so a decision never uses later data, and a stop before
+the first motion, with nothing to compare it with, is not recognised.
 
-Chosen on the randomised family (``simulate("random")`` seeds 0-59, with an idling engine's
-broadband shaking) together with the real phone drives of ``hungary_car_phyphox``, whose slow
-smooth stretches are the hard case. Three axes, offline: family 91 % of stop time found (1 s
-away from motion), 0.09 % of moving time standing; Hungary 0.4 % of the time above 1 m/s GPS
-speed standing; GoPro kart 0.06 % above 3 m/s. Causal: family 53 % found (the first stop of
-every drive is missed), 0.5 % standing while moving; Hungary 0.1 %, kart 0.5 %. The broadband
-level alone declared 1.4 % (family) and 1-5 % (Hungary) of moving time standing
-(``benchmarks/robustness``).
+The constants are chosen on the randomised family (``simulate("random")``, with an idling
+engine's broadband shaking) and checked on the real phone drives of ``hungary_car_phyphox``, whose
+slow smooth stretches are the hard case; the broadband level alone declares a stop on slow smooth
+roads, the body-motion level is what rules those out. Figures: ``benchmarks/robustness/
+standstill.py`` and its ``STANDSTILL.md``.
 
 Frames with fewer than half their samples finite have no level and repeat the last decision.
 """
@@ -52,8 +48,6 @@ MIN_CONTRAST = 2.0
 NEAR_FLOOR = 3.0
 #: s, offline: shorter standing runs are dropped (a vehicle rolling slowly through its floor)
 MIN_STOP_S = 2.0
-#: s, offline: each standing run is shortened by this much at both ends
-EDGE_S = 0.5
 #: Hz, the body-motion level: RMS of the axis between these (upper: below the wheel's band)
 #: over ``MOTION_FRAME_S`` s; a standing vehicle neither turns nor brakes nor pitches
 MOTION_LO_HZ = 0.2
@@ -243,13 +237,9 @@ def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s):
                                              n - 1)
         motion = motion_level(x, dt, ref, upper)
         still &= classify(motion, causal=causal, min_contrast=1.0, near_floor=MOTION_NEAR)
-    e = int(round(EDGE_S / hop_s))
     if not causal and MIN_STOP_S > 0:  # close gaps < 1 s within a stop, then drop short runs
         still = ~_drop_short(~still, int(round(1.0 / hop_s)))
         still = _drop_short(still, int(round(MIN_STOP_S / hop_s)))
-        if e > 0:  # a stop's frames that overlap the roll-out or the start are not standing
-            run = np.convolve(still.astype(np.int64), np.ones(2 * e + 1, np.int64), "same")
-            still = run == 2 * e + 1
     d = int(round(CAUSAL_DWELL_S / hop_s))
     if causal and d > 0:  # a stop is declared after CAUSAL_DWELL_S s of standing frames
         run = np.convolve(still.astype(np.int64), np.ones(d + 1, np.int64))[: still.size]
