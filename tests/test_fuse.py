@@ -370,3 +370,28 @@ def test_estimate_learns_the_radius_and_reuses_it_without_gps(tmp_path):
     # online: causal tracker, forward filter; same learned radius within its band
     tr3 = fuse.estimate(rec, params={"omega_min": 10.0, "omega_max": 120.0, "online": "true"})
     assert abs(tr3.params["learned_radius"] - 0.3) < 0.003
+
+
+def test_plot_colours_speed_by_source(tmp_path):
+    from vibrospeed.eval import plot
+
+    assert {k: v[0] for k, v in plot.SOURCE_COLOURS.items()} == fuse.SOURCES
+    t = np.arange(0.0, 20.0, 0.01)
+    rec = Recording(t, {"ay": np.sin(40 * t), "gps_speed": np.where(t < 10, 12.0, np.nan)})
+    src = np.where(t < 10, 1.0, 2.0)
+    tr = Track.from_speed(t, np.full(t.size, 12.0), np.full(t.size, 0.2), wheel_radius=0.3,
+                          method="fuse", extras={"source": src})
+    seen = []
+    orig = plot.plt.Axes.plot
+
+    def spy(self, *a, **k):
+        seen.append(k.get("label"))
+        return orig(self, *a, **k)
+
+    plot.plt.Axes.plot = spy
+    try:
+        out = plot.plot_track(tmp_path / "f.png", rec, tr, axis="ay")
+    finally:
+        plot.plt.Axes.plot = orig
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "fuse: gps" in seen and "fuse: vibration" in seen and "fuse: inertial" not in seen

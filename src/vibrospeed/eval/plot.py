@@ -42,7 +42,9 @@ def plot_track(
     path = Path(path)
     speed_only = (track is not None and not np.isfinite(track.omega).any()
                   and np.isfinite(track.speed).any())
-    if speed_only:  # GPS fusion / algebraic without a wheel radius: lower panel in m/s
+    if speed_only or (track is not None and "source" in track.extras):
+        # GPS fusion / algebraic without a wheel radius, or fuse (speed coloured by its
+        # source): lower panel in m/s
         return _plot_speed(path, recording, track, axis=axis, truth=truth, window_s=window_s,
                            title=title)
     if track is not None and isinstance(track.params.get("M"), int):
@@ -118,6 +120,11 @@ def plot_track(
     return path
 
 
+#: ``source`` code of a fused track -> (name, colour) (vibrospeed.estimators.fuse.SOURCES)
+SOURCE_COLOURS = {0: ("inertial", "tab:red"), 1: ("gps", "tab:blue"),
+                  2: ("vibration", "tab:green"), 3: ("standstill", "tab:gray")}
+
+
 def _plot_speed(path: Path, recording: Recording, track: Track, *, axis: str,
                 truth: Recording | None, window_s: float, title: str | None) -> Path:
     """Spectrogram of ``axis`` over a speed panel (m/s): estimate, band, truth, GPS fixes."""
@@ -132,7 +139,16 @@ def _plot_speed(path: Path, recording: Recording, track: Track, *, axis: str,
     ax0.set_ylabel(f"{axis}: omega [rad/s]")
     ax1.fill_between(track.t, track.speed_lo, track.speed_hi, color="tab:blue", alpha=0.25,
                      lw=0, label=f"{track.level:.0%} band")
-    ax1.plot(track.t, track.speed, color="tab:blue", lw=1.0, label=f"estimate ({track.method})")
+    if "source" in track.extras:  # fuse: what each sample's speed rests on
+        src = np.asarray(track.extras["source"], float)
+        for code, (name, colour) in SOURCE_COLOURS.items():
+            sel = src == code
+            if sel.any():
+                ax1.plot(track.t, np.where(sel, track.speed, np.nan), color=colour, lw=1.2,
+                         label=f"{track.method}: {name}")
+    else:
+        ax1.plot(track.t, track.speed, color="tab:blue", lw=1.0,
+                 label=f"estimate ({track.method})")
     tr = truth if truth is not None else recording
     if "speed_true" in tr.channels:
         ax1.plot(tr.t, tr.channel("speed_true"), color="k", lw=0.9, ls="--", label="truth")
