@@ -1,6 +1,7 @@
-"""One axis or all three in the grid's comb evidence (``-p comb_axes=all``; benchmarks/trackers/RESULTS.md
-follow-up 5). The lock from an unknown start and the 15-seed accuracy are in ``trackers.py``
-(rows "comb_axes xyz"); this script gives the rest of that section.
+"""One axis or all three in the grid's comb evidence (``-p comb_axes=all``;
+benchmarks/trackers/RESULTS.md follow-up 5). The lock from an unknown start and the 15-seed
+accuracy are in ``trackers.py`` (rows "comb_axes xyz"); this script gives the rest of that
+section.
 
 Usage (by hand, from the repository root; ~10 min on one core)::
 
@@ -11,8 +12,9 @@ Usage (by hand, from the repository root; ~10 min on one core)::
   and has_signal while standing (omega_true <= 5 rad/s).
 * tracked: the same with the time-domain (tracked) axis x or z instead of y: what a wrong
   axis choice (a phone of unknown orientation) costs with one axis and with all three.
-* kart: GoPro kart, tracked axis z, range [60, 300], paper-hp, M = 2 (benchmarks/beyond/RESULTS.md): k fitted
-  to the GPS speed, share within 5 % / 10 % of k v (and 5 % two-fold).
+* kart: GoPro kart, tracked axis z, range [60, 300], paper-hp, M = 2
+  (benchmarks/beyond/RESULTS.md): k fitted to the GPS speed, share within 5 % / 10 % of k v
+  (and 5 % two-fold).
 * noline: Hungary drives (az tracked) and the comma2k19 phone (each axis tracked), where no
   wheel line is visible: band coverage, confident misses and claimed share (real_recordings.py
   definitions).

@@ -1,4 +1,4 @@
-"""Issue 7 benchmark: the grid tracker beyond the paper, side by side (results -> benchmarks/beyond/RESULTS.md).
+"""The grid tracker beyond the paper, side by side (results -> benchmarks/beyond/RESULTS.md).
 
 Usage (by hand)::
 

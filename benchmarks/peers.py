@@ -6,8 +6,9 @@ Run by hand (several minutes on one core; librosa and praat-parselmouth are the 
     PYTHONPATH=src .venv/bin/python benchmarks/peers.py [--seeds 15] [--rbpf-seeds 3]
         [--scenarios car,cart] [--no-write]
 
-Writes ``benchmarks/peers/RESULTS.md`` (the whole file: method notes and the tables) unless ``--no-write``;
-the tables are also printed. A peer that is not installed is skipped with a printed note.
+Writes ``benchmarks/peers/RESULTS.md`` (the whole file: method notes and the tables) unless
+``--no-write``; the tables are also printed. A peer that is not installed is skipped with a
+printed note.
 
 Signals: ``vibrospeed.sim.simulate(scenario, seed=s)``, vibration axis ``ay``, truth
 ``omega_true``. Our trackers run through their public ``estimate()`` only (so the numbers
@@ -52,7 +53,8 @@ SETUP = {
         "range": (4.0, 30.0),
     },
 }
-MOVING = 5.0  # rad/s: samples with omega_true above this are scored (as benchmarks/trackers/RESULTS.md)
+#: rad/s: samples with omega_true above this are scored (as benchmarks/trackers/RESULTS.md)
+MOVING = 5.0
 AUDIO_SR = 16000.0  # Hz: the rate the peers are told the (time-compressed) data have
 MIN_SAMPLES_PER_PERIOD = 16  # upsampling target at omega_max before handing data to the peers
 HOP_S = 0.1  # s of real time between peer frames
@@ -424,7 +426,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--rbpf-seeds", type=int, default=3)
     ap.add_argument("--particles", type=int, default=3000)
     ap.add_argument("--scenarios", default="car,cart")
-    ap.add_argument("--no-write", action="store_true", help="print only, leave benchmarks/peers/RESULTS.md")
+    ap.add_argument("--no-write", action="store_true",
+                    help="print only, leave benchmarks/peers/RESULTS.md")
     a = ap.parse_args(argv)
     peers = available_peers()
     versions = [f"Python {platform.python_version()}, numpy {np.__version__}"]
@@ -466,7 +469,8 @@ READING = """## Reading
 
 (Written by hand after the last run; the tables above are regenerated, this text is not. The
 grid tracker and the RBPMF were being changed while this ran (src/ edits at 05:56 and 06:03
-on the day of the run): the grid rows are that day's state, benchmarks/trackers/RESULTS.md has a later run.)
+on the day of the run): the grid rows are that day's state, benchmarks/trackers/RESULTS.md has a
+later run.)
 
 * **Car** (engine-order line, body resonances, amplitudes growing with speed): the smoothed
   **grid** tracker is ahead of every peer and of our other trackers: 74.6 % of the moving time

@@ -1,4 +1,5 @@
-"""The same defaults at any sample rate (results -> benchmarks/beyond/RESULTS.md update 4, benchmarks/aided/RESULTS.md).
+"""The same defaults at any sample rate (results -> benchmarks/beyond/RESULTS.md update 4,
+benchmarks/aided/RESULTS.md).
 
 Usage (by hand, from the repository root; ~15 min on one core)::
 
@@ -13,7 +14,8 @@ Usage (by hand, from the repository root; ~15 min on one core)::
   per 100 Hz) and with the thesis' per-sample values (20-sample windows, threshold 10).
 * aided_grid: ``stop_and_go`` seeds 1..seeds at 100-400 Hz, the aided grid trackers
   (``tracker=grid`` / ``rbpmf``) with the sampled random-walk kernel and the earlier q values
-  vs the variance-matched kernel (the defaults): mean RMSE (benchmarks/aided/RESULTS.md; ``--seeds 8``).
+  vs the variance-matched kernel (the defaults): mean RMSE (benchmarks/aided/RESULTS.md;
+  ``--seeds 8``).
 """
 
 from __future__ import annotations

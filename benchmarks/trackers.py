@@ -149,7 +149,8 @@ def _selected(methods, only: str | None):
     return [m for m in methods if any(k in m[0] for k in keys)]
 
 
-#: the causal grid settings for a lock from an unknown start (benchmarks/trackers/RESULTS.md follow-up 5)
+#: the causal grid settings for a lock from an unknown start (benchmarks/trackers/RESULTS.md,
+#: follow-up 5)
 LOCK_RECIPE = {"smooth": "none", "q_omega": 4.0, "comb_axes": "xyz", "amb_rel": 0.02,
                "amb_abs": 1.0, "mode_hold": 4.0}
 
@@ -168,8 +169,8 @@ def transient_methods(rbpf_seeds: int, particles: int):
         ("grid (filter, comb_axes xyz)", "grid", {"smooth": "none", "comb_axes": "xyz"}, None),
         ("grid (filter, q_omega 4, point=mode, comb_axes xyz)", "grid",
          {"smooth": "none", "q_omega": 4.0, "point": "mode", "comb_axes": "xyz"}, None),
-        # the lock recipe (benchmarks/trackers/RESULTS.md follow-up 5): all axes, a narrower mode window and
-        # its hysteresis
+        # the lock recipe (benchmarks/trackers/RESULTS.md follow-up 5): all axes, a narrower mode
+        # window and its hysteresis
         ("grid (filter, lock recipe: q_omega 4, comb_axes xyz, mode 2 % / 1 rad/s, hold 4)",
          "grid", LOCK_RECIPE, None),
         # two-component omega walk (rbpmf.Config.q_omega_fast / p_fast; issue 3 follow-up)
