@@ -395,3 +395,36 @@ def test_plot_colours_speed_by_source(tmp_path):
         plot.plt.Axes.plot = orig
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "fuse: gps" in seen and "fuse: vibration" in seen and "fuse: inertial" not in seen
+
+
+@pytest.mark.slow
+def test_cli_fuse_and_radius_from(tmp_path):
+    from typer.testing import CliRunner
+
+    from vibrospeed import io
+    from vibrospeed.cli.app import app
+
+    runner = CliRunner()
+    rec = _recording_with_line(seed=3, T=60.0, r=0.3)
+    a = tmp_path / "a.csv"
+    io.write(rec, a)
+    b = tmp_path / "b.csv"
+    io.write(_recording_with_line(seed=4, T=60.0, r=0.3, gps=False), b)
+    rng = ["-p", "omega_min=10", "-p", "omega_max=120"]
+    res = runner.invoke(app, ["estimate", str(a), "-m", "fuse", *rng, "-o",
+                              str(tmp_path / "e.csv")])
+    assert res.exit_code == 0, res.output
+    side = json.loads((tmp_path / "e.csv.json").read_text())
+    assert side["method"] == "fuse" and abs(side["params"]["learned_radius"] - 0.3) < 0.005
+    res = runner.invoke(app, ["estimate", str(b), "-m", "fuse", *rng, "--radius-from",
+                              str(tmp_path / "e.csv.json"), "-o", str(tmp_path / "f.csv")])
+    assert res.exit_code == 0, res.output
+    side2 = json.loads((tmp_path / "f.csv.json").read_text())
+    assert side2["params"]["radius_prior"][0] == side["params"]["learned_radius"]
+    res = runner.invoke(app, ["estimate", str(b), "-m", "grid", "--radius-from",
+                              str(tmp_path / "e.csv.json"), "-o", str(tmp_path / "g.csv")])
+    assert res.exit_code == 2 and "--radius-from is for --method fuse" in res.output
+    res = runner.invoke(app, ["estimate", str(b), "-m", "fuse", *rng, "-o",
+                              str(tmp_path / "h.csv")])
+    assert res.exit_code == 2 and "needs a radius" in res.output
+    assert "Traceback" not in res.output

@@ -205,6 +205,9 @@ def estimate(
                     "default y); for gps-riss the longitudinal axis (default x)")] = None,
     wheel_radius: Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]
     = None,
+    radius_from: Annotated[Path | None, typer.Option(
+        "--radius-from", help="fuse: wheel radius prior from an earlier fuse estimate's .json "
+        "sidecar of the same vehicle (m/s from vibration without GPS)")] = None,
     init_omega: Annotated[float | None, typer.Option(help="initial omega guess in rad/s (EKF "
                           "start; rbpmf/grid: centre of the initial prior)")] = None,
     preset: PresetOpt = None,
@@ -264,8 +267,17 @@ def estimate(
       vibrospeed estimate drive.csv -p smooth=none -o est.csv   (causal grid filter, online)
 
       vibrospeed estimate drive.csv --method rbpmf --smooth -p improved=true -o est.csv
+
+      vibrospeed estimate drive.csv -m fuse -o est.csv   (vibration + acceleration + GPS)
+
+      vibrospeed estimate nogps.csv -m fuse --radius-from est.csv.json -o est2.csv
     """
     from vibrospeed.batch import EstimateOptions, estimate_recording, vibration_channel
+
+    if radius_from is not None:
+        if method != "fuse":
+            raise ParameterError("--radius-from is for --method fuse (the radius it learned)")
+        param = [*(param or []), f"radius_from={radius_from}"]
 
     opts = EstimateOptions(method=method, params=_params(method, preset, param), axis=axis,
                            wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
