@@ -62,16 +62,22 @@ def standstill_band(dt: float, M: int, omega_min: float | None = None,
     return min(lo, 0.5 * hi), hi
 
 
+#: s, each whole-log stop is shortened by this much at both ends (see :func:`standstill_flags`)
+STILL_EDGE_S = 0.5
+
+
 def standstill_flags(x: np.ndarray, dt: float, band: tuple[float, float], *,
                      causal: bool = False) -> np.ndarray:
     """Per-sample standstill flags (float 0/1) from the raw accelerometer axis ``x`` (n,) or
     axes (n, A): :func:`vibrospeed.signal.standstill.standstill` (whole-log decision by
-    default, ``causal=True`` as a device would decide). Fed to :func:`run` as ``still`` with
+    default, ``causal=True`` as a device would decide), each stop shortened by
+    ``STILL_EDGE_S`` at both ends: the tracker holds omega at 0 while standing, so a stop must
+    end before the vehicle moves off. Fed to :func:`run` as ``still`` with
     ``standstill='broadband'``."""
     from vibrospeed.signal import standstill as ss
 
     x = np.asarray(x, dtype=np.float64)
-    return ss.standstill(x, dt, band, causal=causal).astype(np.float64)
+    return ss.standstill(x, dt, band, causal=causal, edge_s=STILL_EDGE_S).astype(np.float64)
 
 
 def standstill_offset(u: np.ndarray, still: np.ndarray, *, causal: bool = False) -> np.ndarray:

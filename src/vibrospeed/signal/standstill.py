@@ -203,23 +203,30 @@ def motion_level(x: np.ndarray, dt: float, ends: np.ndarray, upper_hz: float, *,
 
 
 def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *, causal: bool = False,
-               frame_s: float = FRAME_S, hop_s: float = HOP_S) -> np.ndarray:
+               frame_s: float = FRAME_S, hop_s: float = HOP_S,
+               edge_s: float = 0.0) -> np.ndarray:
     """Standing (bool) per sample of the raw accelerometer axis ``x`` (n,), or of several axes
     ``x`` (n, A): standing where every axis says so (module docstring).
 
     ``band``: the tracker's search band in rad/s (lowest fundamental .. highest harmonic).
     Offline each frame decides for the samples around its centre (nearest frame centre);
     causally a frame's decision holds from its last sample to the next frame's.
+    ``edge_s`` (offline): each standing run is shortened by this much at both ends. A per-sample
+    label needs none; a filter that *holds* its state at zero while standing (the aided
+    tracker) needs its stops to end before the vehicle moves off, not with the frame that
+    first sees the motion.
     """
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 2:
         return np.logical_and.reduce([
-            _standstill_axis(x[:, j], dt, band, causal=causal, frame_s=frame_s, hop_s=hop_s)
+            _standstill_axis(x[:, j], dt, band, causal=causal, frame_s=frame_s, hop_s=hop_s,
+                             edge_s=edge_s)
             for j in range(x.shape[1])])
-    return _standstill_axis(x, dt, band, causal=causal, frame_s=frame_s, hop_s=hop_s)
+    return _standstill_axis(x, dt, band, causal=causal, frame_s=frame_s, hop_s=hop_s,
+                            edge_s=edge_s)
 
 
-def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s):
+def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s, edge_s):
     from vibrospeed.signal import prefilter as pf
 
     n = x.size
@@ -240,6 +247,10 @@ def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s):
     if not causal and MIN_STOP_S > 0:  # close gaps < 1 s within a stop, then drop short runs
         still = ~_drop_short(~still, int(round(1.0 / hop_s)))
         still = _drop_short(still, int(round(MIN_STOP_S / hop_s)))
+        e = int(round(edge_s / hop_s))
+        if e > 0:
+            run = np.convolve(still.astype(np.int64), np.ones(2 * e + 1, np.int64), "same")
+            still = run == 2 * e + 1
     d = int(round(CAUSAL_DWELL_S / hop_s))
     if causal and d > 0:  # a stop is declared after CAUSAL_DWELL_S s of standing frames
         run = np.convolve(still.astype(np.int64), np.ones(d + 1, np.int64))[: still.size]
