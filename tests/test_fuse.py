@@ -428,3 +428,29 @@ def test_cli_fuse_and_radius_from(tmp_path):
                               str(tmp_path / "h.csv")])
     assert res.exit_code == 2 and "needs a radius" in res.output
     assert "Traceback" not in res.output
+
+
+def test_negative_speed_is_projected_onto_zero():
+    """Accelerometer only, the vehicle stops but the offset is wrong: without the constraint the
+    integrated speed goes below 0; with it the state is the projection (v = 0, the correlated
+    states moved by P[:, v] v / P_vv, P unchanged)."""
+    t = np.arange(0.0, 30.0, 0.04)
+    arrays = {"t": t, "accel": np.where(t < 10, -1.0, -0.3)}
+    known = {"p0_offset": 1e-6, "q_offset": 0.0}  # an offset known to be 0
+    st = fuse.init(fuse.Config(**known), 10.0, p0_speed=0.01)
+    _, free = fuse.run(fuse.Config(nonneg=False, **known), arrays, state=st)
+    assert free.speed.min() < -3.0
+    cfg = fuse.Config(**known)
+    _, o = fuse.run(cfg, arrays, state=st)
+    assert o.speed.min() >= 0.0
+    k = int(np.argmax(free.speed < 0))
+    np.testing.assert_array_equal(o.speed[:k], free.speed[:k])
+    # one step by hand at the first violation
+    s_prev, _ = fuse.run(cfg, {n: v[:k] for n, v in arrays.items()}, state=st)
+    raw, _ = fuse.step(fuse.Config(nonneg=False, **known), s_prev,
+                       (t[k], arrays["accel"][k], np.nan, np.nan, np.nan, np.nan, 0, 0))
+    proj, _ = fuse.step(cfg, s_prev,
+                        (t[k], arrays["accel"][k], np.nan, np.nan, np.nan, np.nan, 0, 0))
+    want = raw.x - raw.P[:, 0] * raw.x[0] / raw.P[0, 0]
+    np.testing.assert_allclose(proj.x, want, atol=1e-12)
+    np.testing.assert_array_equal(proj.P, raw.P)

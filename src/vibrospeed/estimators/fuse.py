@@ -44,6 +44,10 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    ``|v| <= still_speed``), the pseudo-measurements ``v = 0`` and ``a = 0`` (variance
    ``r_still``, ``r_still_acc``) are applied: zero-velocity updates that also calibrate b.
 
+5. speed is a magnitude (GPS speed and a wheel frequency are): where the updates leave
+   ``v < 0`` the state is projected onto ``v = 0`` (``x <- x - P[:, v] v / P_vv``, the
+   equality-constrained estimate of Simon & Chia; P unchanged), unless ``nonneg`` is off.
+
 The radius is observable where GPS and a line coincide (``v`` from GPS, ``omega`` from the
 vibration: r is their ratio); through an outage its random walk ``q_radius`` keeps it nearly
 constant and the vibration carries the speed. Without GPS the radius prior must come from an
@@ -120,6 +124,7 @@ class Config:
         (where the tracker claims a line, ``has_signal``) or ``"all"`` (every positive omega,
         its posterior spread and the gate decide: for trackers whose null state dominates on a
         real line).
+    nonneg : project negative speeds onto 0 (item 5).
     fuse_rate : Hz of the fusion samples in :func:`estimate` (plus one per GPS fix).
     """
 
@@ -155,6 +160,7 @@ class Config:
     radius_std0: float = 0.15
     octave_tau: float = 10.0
     vib_use: str = "line"
+    nonneg: bool = True
     fuse_rate: float = 25.0
 
     def __post_init__(self) -> None:
@@ -199,7 +205,7 @@ class Config:
             self.acc_psd, self.r_gps, self.r_gps_sq, self.e_max, self.min_sats, self.vib_rel,
             self.vib_corr, self.vib_gate, self.vib_penalty, self.r_still, self.r_still_acc,
             self.still_gate, self.still_speed, self.gps_still, self.gps_hold, self.source_hold,
-            self.octave_tau,
+            self.octave_tau, float(self.nonneg),
         ], dtype=np.float64)
         return Ac, qc, p
 
@@ -391,6 +397,13 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             _update_row(x, P, h, 0.0, p[10])
             h[IA] = 0.0
             stopped = True
+    # 5. speed >= 0: project onto the constraint surface
+    if p[17] > 0.5 and x[IV] < 0.0 and P[IV, IV] > 0.0:
+        f = x[IV] / P[IV, IV]
+        col = P[:, IV].copy()
+        for i in range(n):
+            x[i] -= col[i] * f
+        x[IV] = 0.0
     if stopped:
         src = 3
     elif t - sc[1] <= p[15]:
