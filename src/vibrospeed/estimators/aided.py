@@ -1,3 +1,5 @@
+# Over 500 lines: the thesis' aided EKF is one compiled kernel; its detectors' wiring, Config,
+# protocol and entry point explain each other (the inputs are in estimators.aiding).
 """Inertial-aided vibration tracker (thesis ch. 3 and 4.2; METHODS.md section 2).
 
 The harmonic EKF of :mod:`vibrospeed.estimators.ekf` extended with
@@ -69,7 +71,7 @@ update's shift ``(T / r)(u + b)``, the boost, and scalar omega measurements (sta
 reference fixes). A grid tracker (the RBPMF of :mod:`vibrospeed.estimators.rbpmf`) gains the
 same aiding by shifting its grid posterior by ``(T / r)(u + b)`` per sample and multiplying the
 grid weights by the omega likelihoods; :func:`omega_shift` computes the shift such a wrapper
-applies (see docs/aided.md).
+applies (benchmarks/aided/RESULTS.md).
 """
 
 from __future__ import annotations
@@ -97,6 +99,7 @@ from vibrospeed.estimators.aiding import (  # noqa: F401 (re-exported: the aided
     standstill_offset,
 )
 from vibrospeed.estimators.ekf import harmonic_update, rotate_phasors, symmetrize_into
+from vibrospeed.estimators.kalman import joseph_update
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
 from vibrospeed.signal.comb import (  # noqa: F401  (comb_fixes, COMB_*: re-exported)
@@ -122,7 +125,8 @@ def _thesis_model() -> HarmonicModel:
     # thesis 3.5: M = 2 best; R = 0.0022 (table 3.1; the text says 0.0008); q_amp from ch. 2
     # (Q = 4e-5 per step at 100 Hz). q_omega: the ch. 2 value 16 (rad/s)^2/s makes the
     # vibration-mode omega wander by +-2 rad/s on the simulated cart (RMSE 1.1 rad/s on
-    # stop-and-go); 0.5 gives 0.39 (docs/aided.md), the aiding handles the fast changes.
+    # stop-and-go); 0.5 gives 0.39 (benchmarks/aided/RESULTS.md), the aiding handles the fast
+    # changes.
     return HarmonicModel(M=2, dt=0.01, q_omega=0.5, q_amp=0.004, r=0.0022, p0_amp=0.1)
 
 
@@ -312,21 +316,9 @@ def init(config: Config) -> State:
 @njit(cache=True)
 def _scalar_update(x, P, j, z, r):
     """Update with the scalar measurement ``z = x[j] + e``, var(e) = r (Joseph form)."""
-    n = x.size
     s = P[j, j] + r
     k = P[:, j] / s
-    innov = z - x[j]
-    for i in range(n):
-        x[i] += k[i] * innov
-    A = np.eye(n)
-    for i in range(n):
-        A[i, j] -= k[i]
-    Pn = A @ P @ A.T
-    for i in range(n):
-        for jj in range(i, n):
-            v = 0.5 * (Pn[i, jj] + Pn[jj, i]) + r * k[i] * k[jj]
-            P[i, jj] = v
-            P[jj, i] = v
+    joseph_update(x, P, k, z - x[j], r, j, 1, 1)
 
 
 @njit(cache=True)
@@ -640,7 +632,8 @@ def estimate(
     harmonic-comb evidence); the grid trackers go to
     :func:`vibrospeed.estimators.aided_grid.estimate`.
 
-    Defaults not in the thesis (issue 13; docs/aided.md): ``standstill='broadband'`` (the
+    Defaults not in the thesis (measured in benchmarks/aided/RESULTS.md):
+    ``standstill='broadband'`` (the
     broadband-level detector on the vibration axis, whole-log; ``causal=True`` for the causal
     detector, as a device would run it; 'window' / 'cusum' are the thesis' tests);
     ``accel_offset='standstill'`` (the mean of a_x while standing is removed from it; 'none'

@@ -1,5 +1,7 @@
-"""Inertial aiding around the RBPMF grid tracker (issue 4 part 3; thesis ch. 3 applied to
-paper III-D; METHODS.md 1.3 and 2).
+# Over 500 lines: the aiding's hooks on the grid posterior (shift, merge, standstill, comb)
+# share one state and one loop; splitting them would separate the equations from their code.
+"""Inertial aiding around the RBPMF grid tracker (thesis ch. 3 applied to paper III-D;
+METHODS.md 1.3 and 2).
 
 The aiding of :mod:`vibrospeed.estimators.aided` acts on omega only, through three hooks; on the
 grid posterior of :mod:`vibrospeed.estimators.rbpmf` they become:
@@ -40,7 +42,7 @@ Bias: unlike the EKF version there is no bias state (a grid over (omega, b) woul
 cost); ``accel_bias`` is a fixed known offset added to ``u``. On real data the offset of the
 forward axis is removed before (``accel_detrend`` in :func:`estimate`).
 
-"No line" state and comb evidence (``tracker=grid``, issue 4 follow-up): the tracker config may
+"No line" state and comb evidence (``tracker=grid``): the tracker config may
 carry the RBPMF's "no line" state (``off_rate`` > 0; its omega is unknown, i.e. uniform on the
 grid) and ``comb`` (a :class:`vibrospeed.estimators.grid.Config`) adds the harmonic-comb
 log-evidence of the grid product every ``comb_hop`` s (``rbpmf.step(..., extra=E)``; frames of the
@@ -90,7 +92,7 @@ def _cart_tracker(dt: float = 0.01) -> rbpmf.Config:
     (``kernel_var="matched"``) with those effective values, q_omega 0.025 and
     ``q_omega_accel`` 0.5: the same tracker at 100 Hz (stop_and_go seeds 1-8: mean RMSE 0.474
     either way) and the same meaning at any sample rate (400 Hz: 0.758 -> 0.425 rad/s; the
-    sampled walk freezes there, docs/aided.md)."""
+    sampled walk freezes there; benchmarks/aided/RESULTS.md)."""
     model = HarmonicModel(M=2, dt=dt, q_omega=0.025, q_amp=0.004, r=0.0022, p0_amp=0.1)
     return rbpmf.Config(model=model, n_grid=161, omega_min=0.0, omega_max=40.0,
                         prefilter="thesis-hplp", scaling="none", kernel_var="matched")
@@ -499,7 +501,7 @@ def run(config: Config, y: np.ndarray, u: np.ndarray, *, gain: np.ndarray | None
 #: parameters of :func:`estimate` that are neither Config, rbpmf.Config nor HarmonicModel fields
 INPUT_PARAMS = ("accel_axis", "lp_cutoff", "reference", "wheelbase", "accel_detrend")
 
-#: ``tracker=grid`` (issue 4 follow-up): the grid product's tracker settings
+#: ``tracker=grid``: the grid product's tracker settings
 #: (:data:`vibrospeed.estimators.grid.GRID_DEFAULTS`: jumps, "no line" state with the mixture
 #: null model, tempered likelihood, mode estimate) on the aided model, plus its comb evidence
 #: (:class:`vibrospeed.estimators.grid.Config` defaults). The noise levels and q_omega stay the

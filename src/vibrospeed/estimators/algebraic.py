@@ -1,3 +1,5 @@
+# Over 500 lines: slip detection, resets and the algebraic differentiation share one compiled
+# loop and one Config; the entry point maps the recording's channels onto it.
 """Longitudinal and lateral velocity at the centre of gravity, algebraic estimation.
 
 METHODS.md section 4; seed: algebraic-velocity-estimation-paper, sections II-IV, Algorithms 1-2.
@@ -27,14 +29,15 @@ Per sample ``t_i`` (sample period ``Ts``):
    ``Vy(t_i) = Vy(t_{i-1}) + Ts (gamma_y - psi_dot Vx)``.
 
 Both updates use the previous sample's ``Vx``, ``Vy`` (explicit Euler, as the seed's fixed
-integration step). Extensions (docs/algebraic.md): at the onset of slip the integration restarts
+integration step). Extensions (benchmarks/algebraic/RESULTS.md): at the onset of slip the
+integration restarts
 ``backtrack`` samples earlier (within the preceding wheel-mode run); optional noise-scaled
 thresholds (``eps_k``) and a cap on an integration episode (``max_int``); and standard
 deviations of Vx and Vy: wheel-speed noise plus slip allowances in wheel mode, a random walk of
 the measured accelerometer / gyro noise plus a bias ramp since the switch in integration mode.
 NaN inputs are held at their last finite value (zero-order hold).
 The seed gives no numbers for its thresholds (its Table I is lost in the text); the defaults
-here were tuned on :mod:`vibrospeed.sim.vehicle` (see docs/algebraic.md).
+here were tuned on :mod:`vibrospeed.sim.vehicle` (benchmarks/algebraic/RESULTS.md).
 """
 
 from __future__ import annotations

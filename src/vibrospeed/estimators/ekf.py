@@ -17,7 +17,7 @@ NaN samples skip the update (prediction only). The model is symmetric under
 with omega >= 0 is used (and P transformed alike). Omega is clipped to ``omega_max`` (default just
 below the Nyquist limit ``pi fs / M``).
 
-Comb check (issue 13; not the thesis'; :mod:`vibrospeed.signal.comb`, as in the aided tracker):
+Comb check (not the thesis'; :mod:`vibrospeed.signal.comb`, as in the aided tracker):
 an optional per-sample input ``comb``, the speed of the strongest weighted harmonic comb in the
 last 3 s (NaN between candidates). After ``COMB_COUNT`` = 2 steady candidates in a row that
 differ from omega by more than ``COMB_REL`` = 10 % of the candidate, omega is *reset* to the
@@ -40,6 +40,7 @@ from numba import njit
 
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import ParameterError
+from vibrospeed.estimators.kalman import joseph_update
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal.comb import COMB_COUNT, COMB_REL, comb_vote, restart_phasors
 from vibrospeed.types import Estimate, Recording, Track
@@ -186,18 +187,7 @@ def harmonic_update(x, P, y, M, r, freeze_first, freeze_last):
         k[0] = 0.0
     if freeze_last:
         k[n - 1] = 0.0
-    for i in range(n):
-        x[i] += k[i] * innov
-    A = np.eye(n)
-    for i in range(n):
-        for m in range(M):
-            A[i, 1 + 2 * m] -= k[i]
-    Pn = A @ P @ A.T
-    for i in range(n):
-        for j in range(i, n):
-            v = 0.5 * (Pn[i, j] + Pn[j, i]) + r * k[i] * k[j]
-            P[i, j] = v
-            P[j, i] = v
+    joseph_update(x, P, k, innov, r, 1, 2, M)
     return innov, s_var
 
 
@@ -342,7 +332,8 @@ def _flag(v) -> bool:
 #: thesis' best, table 3.1; an EKF with more harmonics than the signal carries is easily dragged
 #: off the line), measurement noise 30 % of the signal power (unmodelled harmonics, resonances
 #: and road noise all count as noise), amplitude random walk 1 % of the power per second, omega
-#: random walk 1 (rad/s)^2/s. Chosen on the simulated cart (benchmarks/ekf_cart.py, docs/ekf.md).
+#: random walk 1 (rad/s)^2/s. Chosen on the simulated cart (benchmarks/ekf_cart.py,
+#: benchmarks/ekf/RESULTS.md).
 UNIT_RMS_MODEL = dict(M=2, q_omega=1.0, q_amp=0.01, r=0.3, p0_amp=1.0)
 
 
@@ -366,7 +357,7 @@ def estimate(
     RMS normalisation; 0 = off, then the parameters are in the signal's own units and the
     thesis' values apply: ``r=0.003 q_amp=0.004 p0_amp=20``).
 
-    Acquisition (issue 13): ``comb`` (default True) feeds the comb check
+    Acquisition: ``comb`` (default True) feeds the comb check
     (:func:`vibrospeed.signal.comb.comb_candidates` on the raw axis, over ``max(omega_min,
     2 pi)`` .. ``omega_max``). Without ``omega0`` (``--init-omega``) the first steady comb
     candidate sets omega (until then omega is the placeholder ``omega0`` = 10.2 rad/s and the

@@ -1,3 +1,5 @@
+# Over 500 lines: one filter (the paper's GPS/RISS with its lag model and three error modes)
+# with its Config, compiled loop, protocol and entry point.
 """GPS + single-accelerometer Kalman fusion, "GPS/RISS" (METHODS.md section 3; O'Kane & Ringwood,
 sections IV-VI, eq. 1-18), with the accelerometer offset as a filter state and a GPS delay.
 

@@ -18,6 +18,11 @@ Equations (scalar measurement ``y = h x + e``, ``var(e) = r``)::
     log p(y) = -0.5 (log(2 pi S) + nu^2 / S)
 
 A NaN ``y`` skips the update (log-likelihood 0): gaps are prediction only.
+
+:func:`joseph_update` is the Joseph-form update ``P+ = (I - K h) P- (I - K h)' + r K K'`` of the
+EKFs (:mod:`.ekf`, :mod:`.aided`), for an ``h`` of ones at evenly spaced columns: it stays
+positive semi-definite with the gains the aided tracker's gate sets to zero, which the short
+form above does not.
 """
 
 from __future__ import annotations
@@ -205,3 +210,23 @@ def update_scalar(m, P, h, r, y, loglik):
     for k in range(m.shape[0]):
         ll, _, _ = update_one(m[k], P[k], h, r, y, ph)
         loglik[k] = ll
+
+
+@njit(cache=True)
+def joseph_update(x, P, k, innov, r, first, stride, count):
+    """In place ``x += k innov`` and ``P = A P A' + r k k'`` (symmetrised), ``A = I - k h``, for
+    a scalar measurement whose ``h`` is 1 at the columns ``first + stride c``, ``c < count``, and
+    0 elsewhere; ``k`` the gain actually applied (not necessarily ``P h' / S``)."""
+    n = x.size
+    for i in range(n):
+        x[i] += k[i] * innov
+    A = np.eye(n)
+    for i in range(n):
+        for c in range(count):
+            A[i, first + stride * c] -= k[i]
+    Pn = A @ P @ A.T
+    for i in range(n):
+        for j in range(i, n):
+            v = 0.5 * (Pn[i, j] + Pn[j, i]) + r * k[i] * k[j]
+            P[i, j] = v
+            P[j, i] = v

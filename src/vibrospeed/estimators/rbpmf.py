@@ -59,7 +59,7 @@ def estimate(
 
     The axis is pre-filtered (``prefilter``, paper HP by default), normalised by its running RMS
     (``scaling``) and tracked. ``params`` may set any :class:`Config` or
-    :class:`HarmonicModel` field, plus ``improved=true`` (the issue-7 settings of
+    :class:`HarmonicModel` field, plus ``improved=true`` (the re-acquisition settings
     :data:`IMPROVED` under any explicit params). ``smooth="fb"`` / ``"lag"`` smooths
     (:mod:`.grid_smoother`), ``fit="q_omega,q_amp,r"`` fits those by marginal likelihood first
     (:mod:`.fit`; values in the Track's params and notes).

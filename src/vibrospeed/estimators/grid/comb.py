@@ -6,15 +6,15 @@ Why a comb evidence
 -------------------
 The RBPMF's per-sample likelihood rewards a grid point for any power it can explain with *any*
 of its harmonics, so a strong single line (an engine order, a body resonance, the 3rd wheel
-harmonic) is as good as a wheel's comb: omega locks on the line, on line/2 or line/3 (issue 7:
-the cart at 28 rad/s = 3 x truth; the car on the engine line below ~30 rad/s). A wheel,
+harmonic) is as good as a wheel's comb: omega locks on the line, on line/2 or line/3 (the
+cart at 28 rad/s = 3 x truth; the car on the engine line below ~30 rad/s). A wheel,
 however, produces M harmonics whose amplitudes vary slowly together; an interfering line is one
 line. The comb evidence scores that structure on the whitened spectrum of the last ``W`` s
 (Hann window, 4x zero padding; background = running median over ``comb_bg`` Hz divided by
 ln 2, the median of an exponential; so ``S(f) ~ Exp(1)`` where there is no line). The
 background spans at least 1.5 Hann main lobes (``6 / w`` Hz for a frame of ``w`` s: a short
 start-up frame's line would otherwise fill the median's window and whiten itself away;
-docs/trackers.md follow-up 4). Per harmonic
+benchmarks/trackers/RESULTS.md). Per harmonic
 k, with the line modelled as a complex Gaussian of SNR ``a`` (``comb_snr``) against the
 background, the log likelihood ratio "line at k omega" vs "background" is::
 
@@ -30,7 +30,7 @@ line (the idling engine, a resonance) scores *below* the "no line" state, whose 
 With ``null_model="mixture"`` (:class:`vibrospeed.estimators.rbpmf.Config`, the default here)
 the time-domain data do not favour "line" over "no line" at all, so this evidence and the
 switching rates alone decide ``has_signal``: at a car's standstill the engine line no longer
-reads as a turning wheel (docs/beyond.md).
+reads as a turning wheel (benchmarks/beyond/RESULTS.md).
 Accelerating combs: over a 3 s frame a car accelerating at 8 rad/s^2 moves its 3rd harmonic by
 72 rad/s, so a stationary spectrum smears the comb and peaks at the frame's *mean* frequency,
 1.5 s behind the filter's present. Each frame is therefore also resampled in a warped time
@@ -41,13 +41,14 @@ frequency ``omega_e`` at the frame's end in tau, for every omega at once. The ev
 average over the rates in probability, ``E = log sum_b p_b exp(E_b)`` with ``comb_rate_p0`` on
 beta = 0, so a steady comb loses at most ``log p0`` and an accelerating one is scored sharp, at
 its current frequency (car, 3 seeds: smoothed share within tolerance 78 -> 84 %, causal filter
-73 -> 80 %; docs/beyond.md).
+73 -> 80 %; benchmarks/beyond/RESULTS.md).
 Where the evidence is placed: a causal filter can only add a frame's evidence at the frame's
 end (and the warps refer to that end). The forward-backward smoother (``smooth="fb"``) instead
 refers each frame to its middle sample (warps about the middle, :func:`evidence` ``centre``)
 and adds the evidence there, where a stationary spectrum describes the comb: a stop or a
 braking is then not attributed 1.5 s late (cart, 3 seeds: smoothed 97.1 -> 98.7 % within
-tolerance, car 84 -> 88.5 %; docs/beyond.md). The fixed-lag smoother does the same when
+tolerance, car 84 -> 88.5 %; benchmarks/beyond/RESULTS.md). The fixed-lag smoother does the same
+when
 ``lag >= W/2`` and shrinks its blocks to ``lag - W/2`` s, so a sample still uses data at most
 ``lag..2 lag - W/2`` s after it (cart 97.1 -> 98.6 %, car 84.2 -> 85.7 % at lag 2 s).
 Aliasing is folded like the rotation model (k omega above Nyquist appears at its alias). The
@@ -57,7 +58,7 @@ weight ``comb_weight`` < 1 accounts for overlapping frames (hop 0.25 s, window 3
 data. Because the time-domain evidence is also over-confident for a misspecified model
 (resonances, interfering lines), it is tempered (``temper``, the coarsened likelihood
 c-posterior of Miller & Dunson 2019) so the two views are balanced. Both values and the noise
-levels come from the sweeps in docs/beyond.md.
+levels come from the sweeps in benchmarks/beyond/RESULTS.md.
 
 Several axes (``comb_axes``, beyond the paper): a wheel's harmonic reaches each accelerometer
 axis with its own gain, and these gains wander, so one axis can lose a harmonic for a while that
@@ -67,8 +68,8 @@ limit is ``A comb_lead`` and the evidence is weighted ``A ** -0.834`` (0.4 for t
 axes' noise is neither independent, weight 1, nor one signal seen A times, 1 / A; chosen on the
 simulated car's transient). The time-domain likelihood stays on the tracked axis. Simulated car,
 15 seeds: within tolerance smoothed 89.3 -> 90.5 %, causal 78.1 -> 80.3 %; from an unknown
-start at cruise (q_omega 4) every start with a complete comb locks within 2 s (docs/trackers.md
-follow-up 5).
+start at cruise (q_omega 4) every start with a complete comb locks within 2 s
+(benchmarks/trackers/RESULTS.md).
 """
 
 from __future__ import annotations

@@ -55,7 +55,7 @@ class Config:
         describes exactly, only the fundamental must stay below it) or "error" (require
         ``M omega_max < pi fs``).
 
-    Beyond the paper (issue 7; all off by default = the paper's filter, see :func:`improved`):
+    Beyond the paper (all off by default = the paper's filter, see :func:`improved`):
 
     jump_rate : 1/s, rate of a jump of omega to anywhere on the grid (re-acquisition). Per step
         ``eps = 1 - exp(-jump_rate T)`` of every grid point's mass moves to the grid with
@@ -71,8 +71,8 @@ class Config:
         suits a device switched on at standstill: an idling engine then reads "no line"
         sooner (causal grid, 5 seeds, has_signal while standing in the first 8 s: car 68 ->
         48 %, cart 64 -> 31 %), but a start while driving locks later (the "no line" mass
-        re-enters the grid uniformly: car, lock < 2 s 83 -> 78 % of 175 starts; docs/beyond.md
-        update 4).
+        re-enters the grid uniformly: car, lock < 2 s 83 -> 78 % of 175 starts;
+        benchmarks/beyond/RESULTS.md).
     amb_rel, amb_abs : half-width ``max(amb_abs, amb_rel * x)`` of the window around ``x =
         MAP/2`` and ``2 MAP`` in which the posterior mass ``p_half``, ``p_double`` is reported;
         the same window defines the mode (``point``).
@@ -92,7 +92,7 @@ class Config:
         temper_fs / fs)`` per sample (:attr:`temper_step`): the tempered evidence *per second*
         and its balance with per-second evidence (the grid's comb) then do not depend on the
         sample rate (simulated car at 400 Hz, 3 seeds, grid smoother: 76.7 % within tolerance
-        with 0.2 per sample, 90.3 % with 0.2 at 100 Hz; docs/beyond.md update 4).
+        with 0.2 per sample, 90.3 % with 0.2 at 100 Hz; benchmarks/beyond/RESULTS.md).
     null_model : time-domain emission of the "no line" state. ``"white"`` (default):
         ``y ~ N(0, null_var)``. ``"mixture"``: the signal part's own one-step predictive
         density, ``p0(y_k) = sum_j p(omega_j | y_1..k-1, line) p(y_k | omega_j, y_1..k-1)``
@@ -105,7 +105,7 @@ class Config:
         (the paper's posterior mean) or ``"mode"``: the conditional mean of the window
         ``|omega - x| <= max(amb_abs, amb_rel x)`` that holds the most mass (a window, not the
         highest grid point, so a spiky posterior does not make the point hop between close
-        peaks: issue 3, 87 car starts, strict lock < 2 s 90 -> 92 % at q_omega 4, 71 -> 82 %
+        peaks: 87 car starts, strict lock < 2 s 90 -> 92 % at q_omega 4, 71 -> 82 %
         at 16). Its basin is the set of windows reached from it by non-increasing window mass;
         ``p_mode`` is the mass they cover. For a unimodal
         posterior both are equal; while the posterior is split between lines (acquisition
@@ -117,10 +117,10 @@ class Config:
     mode_hold : hysteresis of the mode in the causal filter (``step`` / ``run``; 1: none): the
         current mode window, re-centred on its best window within its half-width, is kept
         unless another window holds more than ``mode_hold`` times its mass, so a second line
-        that briefly draws level does not make the point estimate hop (issue 3 follow-up 5).
+        that briefly draws level does not make the point estimate hop.
         The smoothers report the stateless mode.
     q_omega_fast, p_fast : two-component ("slow cruise / fast acceleration") omega random
-        walk (issue 3 follow-up; off by default, ``p_fast = 0`` is the paper's kernel): each
+        walk (off by default, ``p_fast = 0`` is the paper's kernel): each
         step's increment is drawn from ``(1 - p_fast) N(0, T q_omega) + p_fast N(0, T
         q_omega_fast)`` (rad/s)^2/s, i.e. kernel rows ``K = (1 - p_fast) K_slow + p_fast
         K_fast`` with each component normalised over the grid. The band B (and the work per
@@ -282,7 +282,9 @@ class Config:
         return flat_dict(self)
 
 def improved(config: Config | None = None, **kw) -> Config:
-    """``config`` (default: the paper's) with the issue-7 settings :data:`IMPROVED` switched on;
+    """``config`` (default: the paper's) with :data:`IMPROVED` (re-acquisition jumps, "no line"
+    state)
+    switched on;
     ``kw`` overrides any Config field."""
     base = Config() if config is None else config
     kw = {**IMPROVED, **kw}
@@ -290,12 +292,13 @@ def improved(config: Config | None = None, **kw) -> Config:
     return dataclasses.replace(base, model=dataclasses.replace(base.model, **mkw), **kw)
 
 
-#: noise levels for the improved tracker on the running-RMS scaled signal (docs/beyond.md):
+#: noise levels for the improved tracker on the running-RMS scaled signal
+#: (benchmarks/beyond/RESULTS.md):
 #: between the marginal-likelihood fits on the car (r 0.2, q_omega 16, q_amp 0.002) and the
 #: cart (r 0.0125, q_omega 0.125, q_amp 0.002); r large enough that a weak line still beats
 #: the "no line" state.
 IMPROVED_NOISE = {"r": 0.15, "q_amp": 0.002}
-#: issue-7 settings used by :func:`improved` and ``params={"improved": True}``: jumps at
+#: the settings used by :func:`improved` and ``params={"improved": True}``: jumps at
 #: 0.05/s (a lost track is re-found within ~1/(0.05 * share of evidence) s; the posterior
 #: cost is a floor of eps u_j on far grid points), "no line" state entered at 0.05/s, left at
 #: 0.5/s, plus :data:`IMPROVED_NOISE`.

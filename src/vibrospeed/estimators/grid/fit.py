@@ -1,4 +1,4 @@
-"""Noise parameters of the RBPMF by maximum marginal likelihood (issue 7, part 3).
+"""Noise parameters of the RBPMF by maximum marginal likelihood.
 
 The filter's normaliser gives ``log p(y_1..T) = sum_k log p(y_k | y_1..k-1)`` (the predictive
 log-likelihood column of :func:`vibrospeed.estimators.rbpmf.run`) for free, as a function of
@@ -11,7 +11,8 @@ per parameter and round (each O(n N B)); a coarse search is all the likelihood s
 
 The search stays within ``[start / span, start * span]`` (``span`` 1e4 by default) and
 :attr:`FitResult.warnings` says when a value ends at that limit or moved by more than three
-decades: on a recording without a steady line (docs/fits.md: the Hungary drives) q_omega runs
+decades: on a recording without a steady line (benchmarks/fits/RESULTS.md: the Hungary drives)
+q_omega runs
 to the limit and r to zero, i.e. the harmonic model does not describe the data, and the fitted
 values should not be used as settings.
 """

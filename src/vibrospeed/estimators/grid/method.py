@@ -1,4 +1,4 @@
-"""The grid tracker as a product (issue 7): the improved RBPMF plus a harmonic-comb evidence.
+"""The grid method: the improved RBPMF plus a harmonic-comb evidence, smoothed offline.
 
 ``vibrospeed estimate -m grid`` = :mod:`vibrospeed.estimators.rbpmf` with re-acquisition jumps,
 the "no line" state, a tempered per-sample likelihood and, every ``comb_hop`` s, the log-evidence
@@ -29,10 +29,11 @@ from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Estimate, Recording, Track
 
 #: with several ``comb_axes`` the summed comb evidence is weighted ``A ** -AXES_EXPONENT``
-#: (3 axes: 0.4; simulated car, docs/trackers.md follow-up 5)
+#: (3 axes: 0.4; simulated car, benchmarks/trackers/RESULTS.md)
 AXES_EXPONENT = 0.834
 
-#: tracker settings of the product on top of the paper's Config (docs/beyond.md, "grid"):
+#: tracker settings of the product on top of the paper's Config (benchmarks/beyond/RESULTS.md,
+#: "grid"):
 #: jumps 0.05/s, "no line" in 0.01/s out 0.5/s, noise from the marginal-likelihood fits
 #: (r 0.15, q_amp 0.002; q_omega 16 (rad/s)^2/s follows car accelerations of ~8 rad/s^2),
 #: likelihood tempered to 0.05 per 0.01 s of data (``temper_fs`` 100 Hz: 0.0125 per sample at
@@ -42,10 +43,10 @@ AXES_EXPONENT = 0.834
 #: does not: 0.2 -> 0.05 lifts the median share within tolerance from 0.15 to 0.27 offline,
 #: 0.02 to 0.33 but costs the real kart's causal filter 0.27 -> 0.10 within 5 %), the
 #: thesis high-pass (4 rad/s) instead of the paper's 8 Hz
-#: (which removes a slow wheel's fundamental: the cart failure of issue 7).
+#: (which removes a slow wheel's fundamental: the cart failure).
 #: The "no line" state's time-domain emission is the signal part's predictive mixture
 #: (``null_model="mixture"``): only the comb evidence decides whether a wheel comb is there.
-#: The reported omega is the mean of the MAP mode (``point="mode"``, issue 3 follow-up): on a
+#: The reported omega is the mean of the MAP mode (``point="mode"``): on a
 #: line where the posterior is split (acquisition, an interfering line), the posterior mean
 #: (in ``extras["omega_mean"]``) is the MMSE choice but lies between the lines.
 GRID_DEFAULTS = {

@@ -1,4 +1,4 @@
-"""Offline and fixed-lag smoothing on the RBPMF grid (issue 7, part 2): forward-backward
+"""Offline and fixed-lag smoothing on the RBPMF grid: forward-backward
 marginals, Viterbi MAP path and credible bands of omega.
 
 Model actually smoothed
