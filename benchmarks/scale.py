@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -47,15 +46,26 @@ DAY = 86400.0
 
 
 def _rss_mib() -> float:
+    return _status_mib("VmRSS:")
+
+
+def _status_mib(key: str) -> float:
     with open("/proc/self/status") as fh:
         for line in fh:
-            if line.startswith("VmRSS:"):
+            if line.startswith(key):
                 return float(line.split()[1]) / 1024.0
     return float("nan")
 
 
 def _peak_mib() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    """This process's peak RSS since the last :func:`_reset_peak` (VmHWM). Not ``ru_maxrss``:
+    a child's counts its parent's RSS at exec time."""
+    return _status_mib("VmHWM:")
+
+
+def _reset_peak() -> None:
+    with open("/proc/self/clear_refs", "w") as fh:  # "5": reset the peak RSS (Linux >= 4.0)
+        fh.write("5")
 
 
 # ---- children ---------------------------------------------------------------------------
@@ -67,10 +77,11 @@ def child_estimate(method: str, path: str) -> dict:
     short = type(rec)(rec.t[:1000], {k: v[:1000] for k, v in rec.channels.items()})
     _run(method, short)
     before = _rss_mib()
-    t0 = time.perf_counter()
+    _reset_peak()
+    t0, c0 = time.perf_counter(), time.process_time()
     n = _run(method, rec)
-    wall = time.perf_counter() - t0
-    return {"wall": wall, "peak": _peak_mib(), "before": before, "n": n}
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return {"wall": wall, "cpu": cpu, "peak": _peak_mib(), "before": before, "n": n}
 
 
 def _run(method: str, rec) -> int:
@@ -103,7 +114,8 @@ def child_read(path: str, chunked: bool) -> dict:
         import pyarrow.parquet  # noqa: F401
     except ImportError:
         pass
-    base = _peak_mib()
+    base = _rss_mib()
+    _reset_peak()
     t0 = time.perf_counter()
     if chunked:
         n, acc = 0, 0.0
@@ -158,13 +170,18 @@ def _slope(x0, y0, x1, y1) -> float:
 def render_lengths(rows: list[dict], lengths) -> list[str]:
     out = ["## Time and peak memory against log length", "",
            "`simulate(\"car\", seed=1)` at 100 Hz (its 6 IMU channels), read from Parquet "
-           "in a fresh process; wall time of `estimate` (or the STFT baseline; after a 10 s "
-           "run that compiles the kernels), real-time factor (log length / wall), "
-           "peak RSS of the process (recording included) and its RSS before the estimate. "
-           "Rows marked *extrapolated*: time by the log-log slope, peak memory by the straight "
+           "in a fresh process; CPU time (the process's user + system) and wall time of "
+           "`estimate` (or the STFT baseline; after a 10 s run that compiles the kernels), "
+           "real-time factor (log length / CPU time: the machine is shared, so wall time is "
+           "longer than CPU time when other jobs run), "
+           "peak RSS of the process during the estimate (recording included) and its RSS "
+           "before it. "
+           "Rows marked *extrapolated*: CPU time in proportion to length from the longest "
+           "measured one (the measured log-log slope is printed), peak memory by the straight "
            "line (MiB per s of log) through the two longest measured lengths.", "",
-           "| method | length | wall s | x real time | peak MiB | before MiB | note |",
-           "|---|---|---|---|---|---|---|"]
+           "| method | length | CPU s | x real time (CPU) | wall s | peak MiB | before MiB | "
+           "note |",
+           "|---|---|---|---|---|---|---|---|"]
     by = {}
     for r in rows:
         by.setdefault(r["method"], []).append(r)
@@ -172,23 +189,23 @@ def render_lengths(rows: list[dict], lengths) -> list[str]:
         ok = [r for r in rs if "error" not in r]
         for r in rs:
             if "error" in r:
-                out.append(f"| {m} | {_len(r['length'])} | - | - | - | - | {r['error']} |")
+                out.append(f"| {m} | {_len(r['length'])} | - | - | - | - | - | {r['error']} |")
                 continue
-            out.append(f"| {m} | {_len(r['length'])} | {r['wall']:.2f} | "
-                       f"{r['length'] / r['wall']:.0f} | {r['peak']:.0f} | {r['before']:.0f} |"
-                       " |")
+            out.append(f"| {m} | {_len(r['length'])} | {r['cpu']:.2f} | "
+                       f"{r['length'] / r['cpu']:.0f} | {r['wall']:.2f} | {r['peak']:.0f} | "
+                       f"{r['before']:.0f} | |")
         if len(ok) >= 2:
             a, b = ok[-2], ok[-1]
-            st = _slope(a["length"], a["wall"], b["length"], b["wall"])
+            st = _slope(a["length"], a["cpu"], b["length"], b["cpu"])
             k = (b["peak"] - a["peak"]) / (b["length"] - a["length"])  # MiB per s of log
             for L in (3 * 3600.0, DAY):
                 if L <= b["length"]:
                     continue
-                w = b["wall"] * (L / b["length"]) ** st
+                w = b["cpu"] * L / b["length"]  # linear: the per-sample work is constant
                 pk = b["peak"] + k * (L - b["length"])
-                out.append(f"| {m} | {_len(L)} | {w:.0f} | {L / w:.0f} | {pk:.0f} | - | "
-                           f"*extrapolated* (time ~ length^{st:.2f}; memory {1000 * k:.0f} "
-                           "MiB per 1000 s) |")
+                out.append(f"| {m} | {_len(L)} | {w:.0f} | {L / w:.0f} | - | {pk:.0f} | - | "
+                           f"*extrapolated* linearly (measured time ~ length^{st:.2f}; memory "
+                           f"{1000 * k:.0f} MiB per 1000 s) |")
     return out
 
 
@@ -207,8 +224,8 @@ def part_online(ref: str | None) -> list[str]:
     ay = rec["ay"]
     out = ["## Online: microseconds per sample", "",
            "`OnlineTracker` fed `simulate(\"car\", seed=1)`'s ay sample by sample (3000 samples "
-           "after 300, best of 3) and `whiten.step` alone (12 000 samples of white noise, best "
-           "of 3; the predictor runs once per second in both).", "",
+           "after 300, best of 3, CPU time) and `whiten.step` alone (12 000 samples of white "
+           "noise, best of 3; the predictor runs once per second in both).", "",
            "| what | us / sample |", "|---|---|"]
     for label, mod, params in (("OnlineTracker grid (causal)", grid, {"smooth": "none"}),
                                ("OnlineTracker rbpmf", rbpmf, {}),
@@ -224,10 +241,10 @@ def part_online(ref: str | None) -> list[str]:
             trk = OnlineTracker(mod, cfg, level=start_level(ay, rec.dt))
             for v in ay[:300]:
                 trk.update(v)
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             for v in ay[300:3300]:
                 trk.update(v)
-            best = min(best, (time.perf_counter() - t0) / 3000 * 1e6)
+            best = min(best, (time.process_time() - t0) / 3000 * 1e6)
         out.append(f"| {label} | {best:.1f} |")
         print(out[-1], flush=True)
     x = np.random.default_rng(0).normal(size=12000)
@@ -253,10 +270,10 @@ def part_online(ref: str | None) -> list[str]:
             best = np.inf
             for _ in range(3):
                 st = mod.init()
-                t0 = time.perf_counter()
+                t0 = time.process_time()
                 for v in x:
                     st, _ = mod.step(st, v, 100.0)
-                best = min(best, (time.perf_counter() - t0) / x.size * 1e6)
+                best = min(best, (time.process_time() - t0) / x.size * 1e6)
             mod.predictor = saved
             out.append(f"| {label}{' without the predictor' if no_pred else ''} | {best:.2f} |")
             print(out[-1], flush=True)
@@ -273,10 +290,10 @@ def part_startup(tmp: Path) -> list[str]:
     cache = Path(tempfile.mkdtemp())
     env["NUMBA_CACHE_DIR"] = str(cache)
     out = ["## Start-up: `vibrospeed estimate` on a 10 s file", "",
-           "Wall time of the whole command (`python -m vibrospeed estimate short.csv -o "
+           "CPU and wall time of the whole command (`python -m vibrospeed estimate short.csv -o "
            "est.csv`, default grid) with an empty numba cache directory, then again with the "
            "cache that run left; the import of the CLI alone for reference.", "",
-           "| run | wall s |", "|---|---|"]
+           "| run | CPU s (user + system) | wall s |", "|---|---|---|"]
     runs = [("import vibrospeed.cli.app", [sys.executable, "-c", "import vibrospeed.cli.app"]),
             ("estimate, empty numba cache", None), ("estimate, numba cache warm", None),
             ("estimate, numba cache warm (again)", None)]
@@ -284,9 +301,13 @@ def part_startup(tmp: Path) -> list[str]:
         cmd = cmd or [sys.executable, "-m", "vibrospeed", "estimate", str(p), "-o",
                       str(tmp / "est.csv")]
         t0 = time.perf_counter()
-        r = subprocess.run(cmd, capture_output=True, text=True, env=env)
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                env=env)
+        _, status, ru = os.wait4(proc.pid, 0)
         wall = time.perf_counter() - t0
-        out.append(f"| {label} | {wall:.2f}{'' if r.returncode == 0 else ' (failed)'} |")
+        ok = os.waitstatus_to_exitcode(status) == 0
+        out.append(f"| {label} | {ru.ru_utime + ru.ru_stime:.2f} | {wall:.2f}"
+                   f"{'' if ok else ' (failed)'} |")
         print(out[-1], flush=True)
     return out
 
@@ -296,7 +317,7 @@ def part_read(tmp: Path, L: float) -> list[str]:
 
     rec = _imu(sim.simulate("car", seed=1, duration=L))
     out = [f"## Reading a {_len(L)} log whole or in chunks", "",
-           "Peak RSS of a fresh process over its peak after the imports: `io.read` (the whole "
+           "Peak RSS of a fresh process over its RSS after the imports: `io.read` (the whole "
            "recording) against `ChunkedRecording` (65 536 rows per chunk, summing ay).", "",
            "| file | size MiB | whole: wall s | whole: MiB | chunks: wall s | chunks: MiB |",
            "|---|---|---|---|---|---|"]
@@ -326,27 +347,51 @@ def plot(rows: list[dict], dest: Path) -> None:
             by.setdefault(r["method"], []).append(r)
     for m, rs in by.items():
         L = np.array([r["length"] for r in rs])
-        w = np.array([r["wall"] for r in rs])
+        w = np.array([r["cpu"] for r in rs])
         pk = np.array([r["peak"] for r in rs])
         (line,) = a1.loglog(L, w, "o-", label=m)
         a2.loglog(L, pk, "o-", color=line.get_color(), label=m)
         if L.size >= 2:
             Lx = np.array([L[-1], DAY])
-            a1.loglog(Lx, w[-1] * (Lx / L[-1]) ** _slope(L[-2], w[-2], L[-1], w[-1]), ":",
-                      color=line.get_color())
+            a1.loglog(Lx, w[-1] * Lx / L[-1], ":", color=line.get_color())
             k = (pk[-1] - pk[-2]) / (L[-1] - L[-2])
             Lm = np.geomspace(L[-1], DAY, 20)
             a2.loglog(Lm, pk[-1] + k * (Lm - L[-1]), ":", color=line.get_color())
     Ls = np.array([60.0, DAY])
     a1.loglog(Ls, Ls / 1000, "k--", lw=1, label="1000x real time")
     a2.axhline(2048, color="k", ls="--", lw=1, label="2 GiB")
-    a1.set(xlabel="log length (s)", ylabel="wall time (s)", title="time (dotted: extrapolated)")
+    a1.set(xlabel="log length (s)", ylabel="CPU time (s)", title="time (dotted: extrapolated)")
     a2.set(xlabel="log length (s)", ylabel="peak RSS (MiB)", title="peak memory")
     a1.legend(fontsize=7)
     a2.legend(fontsize=7)
     fig.tight_layout()
     dest.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(dest, dpi=110)
+
+
+def _sections(text: str) -> list[tuple[str, str]]:
+    """(heading, text) of each ``## `` section ("" for what comes before the first)."""
+    out, head, buf = [], "", []
+    for line in text.splitlines(keepends=True):
+        if line.startswith("## "):
+            out.append((head, "".join(buf)))
+            head, buf = line.strip(), []
+        buf.append(line)
+    out.append((head, "".join(buf)))
+    return out
+
+
+def _merge(dest: Path, body: str) -> str:
+    """``dest``'s sections with the ones in ``body`` replaced (a part run alone keeps the
+    others)."""
+    if not dest.is_file():
+        return body
+    new = dict(_sections(body))
+    old = _sections(dest.read_text())
+    heads = [h for h, _ in old]
+    merged = [(h, new.get(h, t)) for h, t in old]
+    merged += [(h, t) for h, t in _sections(body) if h not in heads]
+    return "".join(t if t.endswith("\n\n") or not t else t + "\n" for _, t in merged)
 
 
 def main(argv=None) -> None:
@@ -388,7 +433,7 @@ def main(argv=None) -> None:
     if a.write:
         dest = HERE / "scale" / "RESULTS.md"
         dest.parent.mkdir(exist_ok=True)
-        dest.write_text(body)
+        dest.write_text(_merge(dest, body))
         if rows:
             plot(rows, ROOT / "docs" / "img" / "scale.png")
             (HERE / "scale" / "lengths.json").write_text(json.dumps(rows, indent=1))
