@@ -149,3 +149,17 @@ def test_cli_estimate_writes_the_quality_column_and_notes(tmp_path):
     np.testing.assert_array_equal(np.flatnonzero(tr.extras["quality"]), np.arange(999, 1200))
     assert "quality: channel 'ay': 201 stuck" in r.output
     assert "quality: channel 'ax':" in r.output and "saturated" in r.output
+
+
+def test_mask_flagged_sets_exactly_the_spikes_to_nan():
+    n = 8000
+    x = vibration(n, 12)
+    where = np.array([500, 2100, 4400, 7000])
+    x[where] += 30 * np.std(x)
+    rec = Recording(np.arange(n) / FS, {"ay": x, "az": vibration(n, 13)}, notes=["kept"])
+    out = ql.mask_flagged(rec)
+    np.testing.assert_array_equal(np.flatnonzero(np.isnan(out["ay"])), where)
+    np.testing.assert_array_equal(np.delete(out["ay"], where), np.delete(x, where))
+    np.testing.assert_array_equal(out["az"], rec["az"])
+    assert out.notes == ["kept", "quality: channel 'ay': 4 flagged sample(s) set to NaN"]
+    assert not np.isnan(rec["ay"]).any()  # the input is not changed

@@ -36,7 +36,7 @@ bit   value        meaning
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.ndimage import median_filter
@@ -207,3 +207,21 @@ def annotate(track, rec, channel: str | None = None):
         track.extras["quality"] = flags_at(rec.t, qs[use].flags, track.t).astype(np.float64)
     track.notes.extend(notes)
     return track
+
+
+def mask_flagged(rec, bits: int = SPIKE, channels=None):
+    """A copy of ``rec`` with the samples flagged ``bits`` set to NaN on each accelerometer
+    channel (or ``channels``), and a note per channel: the trackers then bridge them by
+    prediction instead of fitting them as vibration. Spikes only by default: a saturated or
+    stuck sample still carries the sign or the rough level of the vibration."""
+    qs, _ = recording_quality(rec, channels)
+    new = dict(rec.channels)
+    notes = list(rec.notes)
+    for c, q in qs.items():
+        hit = (q.flags & bits) != 0
+        if hit.any():
+            x = new[c].copy()
+            x[hit] = np.nan
+            new[c] = x
+            notes.append(f"quality: channel '{c}': {int(hit.sum())} flagged sample(s) set to NaN")
+    return replace(rec, channels=new, notes=notes)
