@@ -68,6 +68,24 @@ def hungary() -> dict:
     return out
 
 
+def kart() -> dict:
+    import pandas as pd
+    import real_recordings as R
+
+    from vibrospeed import io
+    from vibrospeed.signal import standstill as ss
+
+    rec = io.read(R.KART / "GX030410_accl_raw.csv", columns="ax=c1,ay=c2,az=c3", rate=198.4)
+    gps = pd.read_csv(R.KART / "GX030410_gps_speed.csv")
+    moving = np.interp(rec.t, gps["t_video_s"].to_numpy(float),
+                       gps["gps_speed2d_mps"].to_numpy(float)) > 3.0
+    dt = 1.0 / 198.4
+    X = np.column_stack([rec.channel(c) for c in ("az", "ax", "ay")])
+    return {causal: float(ss.standstill(X, dt, (20.0, min(900.0, np.pi / dt)),
+                                        causal=causal)[moving].mean())
+            for causal in (False, True)}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=60)
@@ -95,8 +113,11 @@ def main(argv=None):
                      f"{100 * x[2] / max(x[3], 1):.2f} % |")
     if not a.no_real:
         h = hungary()
+        k = kart()
         lines += ["", f"Hungary phone drives, standstill while GPS speed > 1 m/s: offline "
-                  f"{100 * h[False]:.2f} %, causal {100 * h[True]:.2f} %"]
+                  f"{100 * h[False]:.2f} %, causal {100 * h[True]:.2f} %",
+                  f"GoPro kart, standstill while GPS speed > 3 m/s: offline "
+                  f"{100 * k[False]:.2f} %, causal {100 * k[True]:.2f} %"]
     lines.append(f"\n({time.time() - t0:.0f} s wall)")
     text = "\n".join(lines)
     print(text)
