@@ -92,7 +92,8 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
             upd(e[4], g, cfg.r_gps + cfg.r_gps_sq * E2)
         k_used = math.nan
         om, s = arrays["omega"][i], arrays["omega_std"][i]
-        if arrays["line"][i] and dt > 0 and om > 0:
+        moving = x[0] + 3 * math.sqrt(P[0, 0]) >= cfg.vib_min_speed
+        if arrays["line"][i] and moving and dt > 0 and om > 0:
             rh = max(x[3], 1e-3)
             var = s**2 + (cfg.vib_rel * om) ** 2
             costs = []
@@ -428,6 +429,18 @@ def test_cli_fuse_and_radius_from(tmp_path):
                               str(tmp_path / "h.csv")])
     assert res.exit_code == 2 and "needs a radius" in res.output
     assert "Traceback" not in res.output
+
+
+def test_no_radius_from_a_line_claimed_at_a_standstill():
+    """GPS says 0 and the tracker claims a line (an idling engine): r must not become 0."""
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=10, T=60.0, still=(0.0, 15.0))
+    arrays["line"][:] = True
+    arrays["omega"] = np.where(v < 0.5, 110.0, arrays["omega"])
+    arrays["still"][:] = False
+    _, o = fuse.run(cfg, arrays)
+    assert np.all(o.radius > 0.2)
+    assert abs(o.radius[-1] - 0.31) < 0.005
 
 
 def test_negative_speed_is_projected_onto_zero():

@@ -30,8 +30,11 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    samples per correlation time of the tracker's errors (its outputs are not independent from
    sample to sample). The hypothesis with the smallest normalised innovation squared
    ``nu^2 / S`` plus ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate``; else
-   the sample has no vibration update. So the speed prior (GPS, the accelerometer, the radius
-   learned so far) decides an octave, not the tracker's guess. The radius is defined by the
+   the sample has no vibration update. No line is used where the filter knows the vehicle to be
+   slower than ``vib_min_speed`` (``v + 3 sqrt(P_vv) < vib_min_speed``): a line claimed at a
+   standstill (an idling engine) would otherwise teach ``r = v / omega = 0``. So the speed
+   prior (GPS, the accelerometer, the radius learned so far) decides an octave, not the
+   tracker's guess. The radius is defined by the
    line the tracker reports most of the time: an exponential average (time constant
    ``octave_tau`` s of updates) of ``log2 k`` over the accepted updates beyond +-1/2 means
    that most recent updates used k = 2 (or 1/2), e.g. after a tracker that locked on the
@@ -120,6 +123,7 @@ class Config:
     p0_speed, p0_accel, p0_offset : initial variances.  radius0, radius_std0 : radius prior
         (m; overridden by ``radius_from`` / a given wheel radius in :func:`estimate`).
     octave_tau : s, time constant of the octave average (item 3).
+    vib_min_speed : m/s; no wheel-frequency update where the speed is surely below it (item 3).
     vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
         (where the tracker claims a line, ``has_signal``) or ``"all"`` (every positive omega,
         its posterior spread and the gate decide: for trackers whose null state dominates on a
@@ -160,6 +164,7 @@ class Config:
     radius_std0: float = 0.15
     octave_tau: float = 10.0
     vib_use: str = "line"
+    vib_min_speed: float = 1.0
     nonneg: bool = True
     fuse_rate: float = 25.0
 
@@ -171,7 +176,8 @@ class Config:
             if not getattr(self, name) > 0:
                 raise ParameterError(f"fuse: {name} must be > 0, got {getattr(self, name)}")
         for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "e_max", "min_sats",
-                     "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold"):
+                     "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
+                     "vib_min_speed"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
         if self.vib_use not in ("line", "all"):
@@ -205,7 +211,7 @@ class Config:
             self.acc_psd, self.r_gps, self.r_gps_sq, self.e_max, self.min_sats, self.vib_rel,
             self.vib_corr, self.vib_gate, self.vib_penalty, self.r_still, self.r_still_acc,
             self.still_gate, self.still_speed, self.gps_still, self.gps_hold, self.source_hold,
-            self.octave_tau, float(self.nonneg),
+            self.octave_tau, float(self.nonneg), self.vib_min_speed,
         ], dtype=np.float64)
         return Ac, qc, p
 
@@ -352,7 +358,9 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             sc[1] = t
     # 3. wheel frequency, octave chosen by the speed prior
     kk = math.nan
-    if line and dt > 0.0 and om > 0.0 and not math.isnan(om) and not math.isnan(om_std):
+    moving = x[IV] + 3.0 * math.sqrt(max(P[IV, IV], 0.0)) >= p[18]
+    if (line and moving and dt > 0.0 and om > 0.0 and not math.isnan(om)
+            and not math.isnan(om_std)):
         best = math.inf
         r_hat = max(x[IR], 1e-3)
         var_om = om_std * om_std + (p[5] * om) ** 2
