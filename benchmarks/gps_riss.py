@@ -86,7 +86,7 @@ def sim_table() -> tuple[str, dict]:
                 rec = sg.scenario(name, np.random.default_rng(seed))
             moto = name == "gps_motorcycle"
             cfg = gr.Config.with_lag(_lag_of(rec), pitch_compensation=moto)
-            _, o = gr.run(cfg, rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"])
+            o = gr.run(cfg, gr.Sample(rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
             v, t = rec["speed_true"], rec.t
             ok = np.isfinite(rec["gps_speed"]) & (rec["gps_sats"] >= 7)
             raw = _hold(t, rec["gps_speed"], ok)
@@ -95,22 +95,22 @@ def sim_table() -> tuple[str, dict]:
                  "lag_raw": _xcorr_lag(v[m], raw[m], rec.fs),
                  "lag_fused": _xcorr_lag(v[m], o.speed[m], rec.fs),
                  "cover": _cover(o.speed[m] - v[m], o.speed_std[m])}
-            _, opp = gr.run(gr.Config.paper(pitch_compensation=moto).using_lag(_lag_of(rec)), t,
-                            rec["ax"], rec["gps_speed"], rec["gps_sats"])
+            opp = gr.run(gr.Config.paper(pitch_compensation=moto).using_lag(_lag_of(rec)),
+                         gr.Sample(t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
             r["fused_paper"] = _rmse(opp.speed[m] - v[m])
             r["cover_paper"] = _cover(opp.speed[m] - v[m], opp.speed_std[m])
             if name == "gps_braking_delay":
                 for key, L in (("fused_id_delay", lag_d), ("fused_id_nodelay", lag_d0),
                                ("fused_nodelay", GpsLagModel(a=_lag_of(rec).a,
                                                              b=_lag_of(rec).b))):
-                    _, oi = gr.run(gr.Config.with_lag(L), t, rec["ax"], rec["gps_speed"],
-                                   rec["gps_sats"])
+                    oi = gr.run(gr.Config.with_lag(L),
+                                gr.Sample(t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
                     r[key] = _rmse(oi.speed[m] - v[m])
                     r["lag_" + key] = _xcorr_lag(v[m], oi.speed[m], rec.fs)
             if name == "gps_braking":
-                _, oi = gr.run(gr.Config.with_lag(lag_id), t, rec["ax"], rec["gps_speed"],
-                               rec["gps_sats"])
-                _, op = gr.run(gr.Config(), t, rec["ax"], rec["gps_speed"], rec["gps_sats"])
+                oi = gr.run(gr.Config.with_lag(lag_id),
+                            gr.Sample(t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
+                op = gr.run(gr.Config(), gr.Sample(t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
                 r["fused_identified"] = _rmse(oi.speed[m] - v[m])
                 r["fused_paper_lag"] = _rmse(op.speed[m] - v[m])
             if name == "gps_tunnel":
@@ -127,26 +127,26 @@ def sim_table() -> tuple[str, dict]:
                 r["off_within10"] = float(np.mean(e[late] < 0.05))
                 r["off_t10"] = float(t[np.argmax(e < 0.05)])
                 r["speed_max"] = float(np.max(np.abs(o.speed - v)[t > 5.0]))
-                _, on = gr.run(gr.Config.paper(offset_mode="off").using_lag(_lag_of(rec)), t,
-                               rec["ax"], rec["gps_speed"], rec["gps_sats"])
+                on = gr.run(gr.Config.paper(offset_mode="off").using_lag(_lag_of(rec)),
+                            gr.Sample(t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
                 r["fused_no_offset"] = _rmse(on.speed[m] - v[m])
-                _, oi = gr.run(gr.Config.paper().using_lag(_lag_of(rec)), t,
-                               rec["ax"], rec["gps_speed"], rec["gps_sats"])
+                oi = gr.run(gr.Config.paper().using_lag(_lag_of(rec)),
+                            gr.Sample(t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
                 r["fused_integrator"] = _rmse(oi.speed[m] - v[m])
                 r["off_med_integrator"] = float(np.median(
                     np.abs(oi.offset - rec.meta["offset_true"])[late]))
             if name == "gps_jump":
-                _, of = gr.run(gr.Config.with_lag(_lag_of(rec), adaptive=False), t, rec["ax"],
-                               rec["gps_speed"], rec["gps_sats"])
-                _, os_ = gr.run(gr.Config.with_lag(_lag_of(rec), error_mode="kf2"), t,
-                                rec["ax"], rec["gps_speed"], rec["gps_sats"])
+                of = gr.run(gr.Config.with_lag(_lag_of(rec), adaptive=False),
+                            gr.Sample(t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
+                os_ = gr.run(gr.Config.with_lag(_lag_of(rec), error_mode="kf2"),
+                             gr.Sample(t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
                 r["fused_fixed"] = _rmse(of.speed[m] - v[m])
                 r["fused_kf2"] = _rmse(os_.speed[m] - v[m])
                 r["max_adaptive"] = float(np.max(np.abs(o.speed - v)[m]))
                 r["max_fixed"] = float(np.max(np.abs(of.speed - v)[m]))
             if moto:
-                _, on = gr.run(gr.Config.with_lag(_lag_of(rec)), t, rec["ax"], rec["gps_speed"],
-                               rec["gps_sats"])
+                on = gr.run(gr.Config.with_lag(_lag_of(rec)),
+                            gr.Sample(t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
                 r["fused_no_pitch"] = _rmse(on.speed[m] - v[m])
             for k, val in r.items():
                 acc.setdefault(k, []).append(val)
@@ -233,7 +233,7 @@ def comma_table() -> tuple[str, dict]:
             ("fused, paper constants and lag (previous default)", gr.Config.paper()),
         ]:
             st = gr.init(cfg, float(g[0]), offset0=offset0)
-            _, o = gr.run(cfg, t, along, gps, None, state=st)
+            o = gr.run(cfg, gr.Sample(t, along, gps, None), state=st)
             rows.append((label, o.speed, o.speed_std))
         for label, sp, sd in rows:
             e = sp[m] - v[m]
@@ -294,7 +294,7 @@ def hungary_table() -> tuple[str, dict]:
                         continue
                     seg = (ta >= w0 - 120.0) & (ta < w1)  # 2 min of history is plenty
                     g2 = np.where(inside, np.nan, gps)
-                    _, o = gr.run(cfg, ta[seg], sig[seg], g2[seg], None)
+                    o = gr.run(cfg, gr.Sample(ta[seg], sig[seg], g2[seg], None))
                     err = o.speed[inside[seg]] - gps[inside]
                     before = fix[ta[fix] < w0]
                     ends.append(abs(err[-1]))

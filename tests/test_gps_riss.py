@@ -127,7 +127,8 @@ def test_constant_speed_reaches_dare_steady_state():
     cfg = gr.Config(adaptive=False)
     T = 0.01
     t, ax, gps = _const(T=T, n=6000)
-    st, o = gr.run(cfg, t, ax, gps, state=gr.init(cfg, 9.0))
+    o = gr.run(cfg, gr.Sample(t, ax, gps), state=gr.init(cfg, 9.0))
+    st = o.final
     F = discretise(cfg.lag, T, offset_state=True)
     Q = np.diag([cfg.q_speed, cfg.q_accel, cfg.q_offset, cfg.q_gps, cfg.q_gps]) * T
     H = np.array([[0, 1, 1, 0, 0], [0, 0, 0, 1, 0.0]])
@@ -146,7 +147,8 @@ def test_constant_offset_is_estimated_at_constant_speed(mode):
     off = 9.80665 * np.sin(np.arctan(0.03))
     t, ax, gps = _const(n=12000, a=off, gps_every=10)
     cfg = gr.Config(offset_mode=mode) if mode == "state" else gr.Config.paper()
-    st, o = gr.run(cfg, t, ax, gps)
+    o = gr.run(cfg, gr.Sample(t, ax, gps))
+    st = o.final
     assert st.offset == pytest.approx(off, rel=0.02)
     assert o.offset[-1] == pytest.approx(off, rel=0.02)
     assert abs(o.speed[-1] - 12.0) < 0.01
@@ -159,18 +161,20 @@ def test_satellite_gating_equals_dropping_the_fixes():
     bad = fix[::3]
     sats[bad] = 5.0  # below the default gate of 7
     cfg = gr.Config()
-    _, o = gr.run(cfg, rec.t, rec["ax"], rec["gps_speed"], sats, state=gr.init(cfg, 15.0))
+    o = gr.run(cfg, gr.Sample(rec.t, rec["ax"], rec["gps_speed"], sats), state=gr.init(cfg, 15.0))
     dropped = rec["gps_speed"].copy()
     dropped[bad] = np.nan
-    _, o2 = gr.run(cfg, rec.t, rec["ax"], dropped, None, state=gr.init(cfg, 15.0))
+    o2 = gr.run(cfg, gr.Sample(rec.t, rec["ax"], dropped, None), state=gr.init(cfg, 15.0))
     np.testing.assert_array_equal(o.speed, o2.speed)
     assert set(np.flatnonzero(o.mode == gr.MODE_REJECTED)) == set(bad)
     assert np.all(o2.mode[bad] == gr.MODE_INS)
     # lowering the gate to 5 accepts them again, and NaN satellite counts count as valid
     cfg5 = gr.Config(min_sats=5)
-    _, o3 = gr.run(cfg5, rec.t, rec["ax"], rec["gps_speed"], sats, state=gr.init(cfg5, 15.0))
+    o3 = gr.run(cfg5,
+                gr.Sample(rec.t, rec["ax"], rec["gps_speed"], sats), state=gr.init(cfg5, 15.0))
     sats_nan = np.where(np.isin(np.arange(sats.size), bad), np.nan, 9.0)
-    _, o4 = gr.run(cfg5, rec.t, rec["ax"], rec["gps_speed"], sats_nan, state=gr.init(cfg5, 15.0))
+    o4 = gr.run(cfg5,
+                gr.Sample(rec.t, rec["ax"], rec["gps_speed"], sats_nan), state=gr.init(cfg5, 15.0))
     np.testing.assert_array_equal(o3.speed, o4.speed)
     assert np.all(o3.mode[fix] == gr.MODE_GPS)
 
@@ -181,7 +185,7 @@ def test_outage_integrates_the_accelerometer():
     t = np.arange(0, 20, 0.01)
     ax = np.where(t < 10, 0.0, 1.0)
     gps = np.where((t < 10) & (np.arange(t.size) % 10 == 0), 10.0, np.nan)
-    _, o = gr.run(cfg, t, ax, gps)
+    o = gr.run(cfg, gr.Sample(t, ax, gps))
     assert np.all(o.mode[t >= 10] == gr.MODE_INS)
     # speed after the outage starts: 10 + (t - 10), up to the short settling of x2
     k = np.searchsorted(t, 19.0)
@@ -213,13 +217,14 @@ def test_step_equals_run_exactly(kw):
     t[100:110] = t[100]  # repeated time stamps (dt = 0)
     cfg = gr.Config(**kw)
     st0 = gr.init(cfg, 14.0)
-    st_run, o = gr.run(cfg, t, ax, rec["gps_speed"], rec["gps_sats"], state=st0)
+    o = gr.run(cfg, gr.Sample(t, ax, rec["gps_speed"], rec["gps_sats"]), state=st0)
+    st_run = o.final
     s = st0
     cols = {k: [] for k in gr.Output._fields}
     for k in range(t.size):
         s, e = gr.step(cfg, s, (t[k], ax[k], rec["gps_speed"][k], rec["gps_sats"][k]))
         for c in cols:
-            cols[c].append(e[c])
+            cols[c].append(getattr(e, c))
     assert np.all(np.isfinite(o.speed)) and np.all(o.speed_std > 0)
     for c in cols:
         np.testing.assert_array_equal(np.array(cols[c]), np.asarray(getattr(o, c)), err_msg=c)
@@ -227,8 +232,10 @@ def test_step_equals_run_exactly(kw):
         np.testing.assert_array_equal(a, b)
     # chunked run equals whole run
     h = t.size // 2
-    st_a, oa = gr.run(cfg, t[:h], ax[:h], rec["gps_speed"][:h], rec["gps_sats"][:h], state=st0)
-    _, ob = gr.run(cfg, t[h:], ax[h:], rec["gps_speed"][h:], rec["gps_sats"][h:], state=st_a)
+    oa = gr.run(cfg, gr.Sample(t[:h], ax[:h], rec["gps_speed"][:h], rec["gps_sats"][:h]), state=st0)
+    st_a = oa.final
+    ob = gr.run(cfg,
+                gr.Sample(t[h:], ax[h:], rec["gps_speed"][h:], rec["gps_sats"][h:]), state=st_a)
     np.testing.assert_array_equal(np.concatenate([oa.speed, ob.speed]), o.speed)
     # and so does the chunked run behind estimate(progress=True)
     op = gr._run_progress(cfg, t, ax, rec["gps_speed"], rec["gps_sats"], chunk=700, state=st0)
@@ -254,13 +261,13 @@ def test_estimate_axis_and_params():
     with pytest.raises(InputError, match="'ay' is missing"):
         gr.estimate(rec, axis="y")
     with pytest.raises(InputError, match="backwards"):
-        gr.run(gr.Config(), [0.0, 1.0, 0.5], [0.0] * 3, [1.0] * 3)
+        gr.run(gr.Config(), gr.Sample([0.0, 1.0, 0.5], [0.0] * 3, [1.0] * 3))
     with pytest.raises(ParameterError, match="error_mode"):
         gr.Config(error_mode="magic")
     with pytest.raises(ParameterError, match="offset_mode"):
         gr.Config(offset_mode="magic")
     with pytest.raises(ParameterError, match="needs 7"):
-        gr.run(gr.Config(gps_delay=0.3), rec.t, rec["ax"], rec["gps_speed"],
+        gr.run(gr.Config(gps_delay=0.3), gr.Sample(rec.t, rec["ax"], rec["gps_speed"]),
                state=gr.init(gr.Config(), 15.0))
     # progress bar: same numbers
     np.testing.assert_array_equal(gr.estimate(rec, progress=True).speed, tr.speed)
@@ -308,7 +315,7 @@ def test_fused_beats_raw_gps_and_removes_lag(name, seed):
     rec = sg.scenario(name, np.random.default_rng(seed), fs=200.0)
     lag = _lag_of(rec)
     cfg = gr.Config.with_lag(lag, pitch_compensation=name == "gps_motorcycle")
-    _, o = gr.run(cfg, rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"])
+    o = gr.run(cfg, gr.Sample(rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
     v = rec["speed_true"]
     raw = _hold(rec.t, rec["gps_speed"], np.isfinite(rec["gps_speed"]))
     m = rec.t > 2.0
@@ -368,10 +375,11 @@ def test_delay_state_removes_a_pure_gps_delay():
     v, m = rec["speed_true"], rec.t > 2.0
     lag = _lag_of(rec)
     assert lag.delay == 0.4
-    _, o = gr.run(gr.Config.with_lag(lag), rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"])
+    o = gr.run(gr.Config.with_lag(lag),
+               gr.Sample(rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
     nodelay = GpsLagModel(a=lag.a, b=lag.b)
-    _, o0 = gr.run(gr.Config.with_lag(nodelay), rec.t, rec["ax"], rec["gps_speed"],
-                   rec["gps_sats"])
+    o0 = gr.run(gr.Config.with_lag(nodelay),
+                gr.Sample(rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
     raw = _hold(rec.t, rec["gps_speed"], np.isfinite(rec["gps_speed"]))
     rmse = np.sqrt(np.mean((o.speed[m] - v[m]) ** 2))
     assert rmse < 0.5 * np.sqrt(np.mean((raw[m] - v[m]) ** 2))
@@ -386,7 +394,7 @@ def test_speed_std_is_honest_on_the_scenarios():
     for name in sg.SCENARIOS:
         rec = sg.scenario(name, np.random.default_rng(7), fs=100.0)
         cfg = gr.Config.with_lag(_lag_of(rec), pitch_compensation=name == "gps_motorcycle")
-        _, o = gr.run(cfg, rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"])
+        o = gr.run(cfg, gr.Sample(rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
         m = rec.t > 2.0
         e = o.speed[m] - rec["speed_true"][m]
         cover.append(np.mean(np.abs(e) <= 2.3263 * o.speed_std[m]))
@@ -398,6 +406,6 @@ def test_speed_std_is_honest_on_the_scenarios():
     assert min(cover) >= 0.9, cover
     assert 0.4 < min(ratio) and max(ratio) < 1.3, ratio  # tunnel: offset walk, conservative
     rec = sg.hilly(np.random.default_rng(7), fs=100.0, duration=60.0)
-    _, o = gr.run(gr.Config.paper(), rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"])
+    o = gr.run(gr.Config.paper(), gr.Sample(rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
     e = o.speed - rec["speed_true"]
     assert np.sqrt(np.mean(e**2) / np.mean(o.speed_std**2)) < 0.1  # paper set: far too wide

@@ -8,8 +8,10 @@
   method's ``Sample`` record of several inputs), the shared :class:`vibrospeed.types.Estimate`
   (omega, its std and band, ``has_signal``, ``standstill``, method-specific ``extras``);
 * ``run(config, y, state=None) -> Result``: a whole signal (arrays, or a ``Sample`` of
-  arrays); the same numbers as repeated ``step`` (columns named as the Estimate's fields
-  and extras), ``Result.final`` the state after the last sample, so chunked runs equal one run;
+  arrays) from ``state``; the same numbers as repeated ``step`` from that state (columns named
+  as the Estimate's fields and extras), ``Result.final`` the state after the last sample, so
+  chunked runs equal one run. ``state=None`` is ``init(config)`` (``gps-riss``: started at
+  the first GPS fix's speed);
 * ``estimate(recording, *, axis, wheel_radius, params, progress, return_posterior) -> Track``:
   the entry point of the CLI and :mod:`vibrospeed.eval`; ``params`` maps ``Config`` field names
   to values (text or typed), ``return_posterior`` adds a grid method's posterior to the extras

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, replace
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -57,7 +57,7 @@ from vibrospeed.models.gps_riss import (
     simulate_receiver,
     transition,
 )
-from vibrospeed.types import Recording, Track
+from vibrospeed.types import Estimate, Recording, Track
 
 G = 9.80665
 
@@ -244,6 +244,38 @@ class Output(NamedTuple):
 
 
 _NOUT = 8
+
+
+class Sample(NamedTuple):
+    """The inputs of one sample (or, as arrays, of a recording): ``t`` s, ``accel`` m/s^2 the
+    longitudinal accelerometer (NaN: none), ``gps_speed`` m/s (finite only at a new fix),
+    ``gps_sats`` satellites (NaN or None: unknown, the fix counts as valid)."""
+
+    t: Any
+    accel: Any
+    gps_speed: Any
+    gps_sats: Any = math.nan
+
+
+class Result(NamedTuple):
+    """:func:`run`'s output: the :class:`Output` columns per sample and ``final`` the state
+    after the last sample."""
+
+    speed: np.ndarray
+    speed_std: np.ndarray
+    accel: np.ndarray
+    gps_model: np.ndarray
+    offset: np.ndarray
+    offset_std: np.ndarray
+    gps_error: np.ndarray
+    r22: np.ndarray
+    mode: np.ndarray
+    final: State
+
+    @property
+    def output(self) -> Output:
+        """The per-sample columns alone."""
+        return Output(*self[:-1])
 
 
 def init(config: Config, v0: float = 0.0, *, offset0: float = 0.0) -> State:
@@ -449,12 +481,13 @@ _OUT_NAMES = ("speed", "speed_std", "accel", "gps_model", "offset", "offset_std"
               "r22")
 
 
-def step(config: Config, state: State, y: tuple[float, float, float, float]
-         ) -> tuple[State, dict[str, float]]:
-    """One sample ``y = (t, ax, gps_speed, gps_sats)``; NaN marks "no sample now".
+def step(config: Config, state: State, y: Sample | tuple[float, float, float, float]
+         ) -> tuple[State, Estimate]:
+    """One sample ``y = (t, ax, gps_speed, gps_sats)`` (a :class:`Sample`); NaN marks "no
+    sample now".
 
-    ``gps_sats`` NaN means "unknown" (the fix counts as valid). Returns the new state and a dict
-    with the :class:`Output` fields for this sample.
+    ``gps_sats`` NaN means "unknown" (the fix counts as valid). Returns the new state and the
+    estimate: ``speed``, ``speed_std`` and the other :class:`Output` columns as extras.
     """
     t, a, g, s = (float(v) for v in y)
     if not math.isnan(state.t) and not t >= state.t:
@@ -463,22 +496,24 @@ def step(config: Config, state: State, y: tuple[float, float, float, float]
     arrs = _copy_state(state, Ac.shape[0])
     out = np.empty(_NOUT)
     mode = _step_core(Ac, qc, ha, hg, p, poly, *arrs, t, a, g, s, np.eye(Ac.shape[0]), out)
-    est = {k: float(v) for k, v in zip(_OUT_NAMES, out, strict=True)}
-    est["mode"] = int(mode)
-    return _pack(arrs), est
+    ex = {k: float(v) for k, v in zip(_OUT_NAMES, out, strict=True)}
+    ex["mode"] = int(mode)
+    return _pack(arrs), Estimate(speed=ex.pop("speed"), speed_std=ex.pop("speed_std"), extras=ex)
 
 
-def run(config: Config, t, ax, gps_speed, gps_sats=None, *, state: State | None = None
-        ) -> tuple[State, Output]:
+def run(config: Config, y: Sample, state: State | None = None) -> Result:
     """Filter a whole recording; identical numbers to repeated :func:`step`.
 
     Parameters
     ----------
-    t : (n,) s non-decreasing.  ax : (n,) m/s^2 longitudinal accelerometer (NaN = none).
-    gps_speed : (n,) m/s, finite only at samples carrying a new fix.
-    gps_sats : (n,) satellites, or None (every fix valid).
+    y : a :class:`Sample` of arrays: ``t`` (n,) s non-decreasing, ``accel`` (n,) m/s^2
+        longitudinal accelerometer (NaN = none), ``gps_speed`` (n,) m/s, finite only at samples
+        carrying a new fix, ``gps_sats`` (n,) satellites, or None / NaN (every fix valid).
     state : start state (default ``init(config, first valid GPS speed or 0)``).
     """
+    t, ax, gps_speed, gps_sats = y
+    if gps_sats is not None and np.ndim(gps_sats) == 0:
+        gps_sats = None if math.isnan(float(gps_sats)) else np.full(np.size(t), gps_sats)
     t = np.ascontiguousarray(t, dtype=np.float64)
     n = t.size
     ax = np.ascontiguousarray(ax, dtype=np.float64)
@@ -497,8 +532,7 @@ def run(config: Config, t, ax, gps_speed, gps_sats=None, *, state: State | None 
     out = np.empty((n, _NOUT))
     mode = np.empty(n, dtype=np.int8)
     _run_core(Ac, qc, ha, hg, p, poly, *arrs, t, ax, g, s, out, mode)
-    o = Output(*(np.ascontiguousarray(out[:, i]) for i in range(_NOUT)), mode)
-    return _pack(arrs), o
+    return Result(*(np.ascontiguousarray(out[:, i]) for i in range(_NOUT)), mode, _pack(arrs))
 
 
 def _run_progress(config: Config, t, ax, g, s, chunk: int = 200_000,
@@ -518,9 +552,10 @@ def _run_progress(config: Config, t, ax, g, s, chunk: int = 200_000,
                 fin = np.flatnonzero(np.isfinite(g) & ~(np.asarray(s, float) < config.min_sats)
                                      ) if s is not None else np.flatnonzero(np.isfinite(g))
                 state = init(config, float(g[fin[0]]) if fin.size else 0.0)
-            state, o = run(config, t[sl], ax[sl], g[sl], None if s is None else s[sl],
-                           state=state)
-            parts.append(o)
+            o = run(config, Sample(t[sl], ax[sl], g[sl], None if s is None else s[sl]),
+                    state=state)
+            state = o.final
+            parts.append(o.output)
             bar.update(task, advance=min(chunk, t.size - k0))
     return Output(*(np.concatenate([getattr(o, f) for o in parts]) for f in Output._fields))
 
@@ -552,7 +587,7 @@ def estimate(recording: Recording, *, axis: str = "x", wheel_radius: float | Non
     recording.require(ch, "gps_speed")
     sats = recording.channels.get("gps_sats")
     args = (cfg, recording.t, recording.channel(ch), recording.channel("gps_speed"), sats)
-    o = _run_progress(*args) if progress else run(*args)[1]
+    o = _run_progress(*args) if progress else run(cfg, Sample(*args[1:])).output
     return Track.from_speed(
         recording.t, o.speed, o.speed_std, wheel_radius=wheel_radius or recording.wheel_radius,
         method="gps-riss", params={k: (list(v) if isinstance(v, tuple) else v)

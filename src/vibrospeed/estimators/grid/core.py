@@ -55,21 +55,30 @@ class Tables(NamedTuple):
 def _step(tb, lw, lw0, mean, cov, cur, y, ex, w, v, X, acc, out, post, gll):
     """One iteration with the constants ``tb`` (:class:`Tables`) in place on the state (lw,
     lw0[0], mean, cov, cur[0] the mode window); ``w``, ``v`` (N,), ``X`` (N, L), ``acc`` (L,)
-    are work space (L = 2M + M(2M + 1)). Writes ``out``, ``post`` (N,)
-    and ``gll`` (N + 1,) per-point log-emissions (if sized): ``temper`` times the predictive
-    log-likelihood plus ``ex`` (N + 1,) extra log-evidence for this sample (if sized; last entry
-    for the "no line" state). ``null_mix``: the "no line" state's time-domain emission is the
-    signal part's predictive mixture (Config.null_model "mixture") instead of N(0, null_var).
+    are work space (L = 2M + M(2M + 1)). See :func:`_iterate`."""
+    _iterate(lw, lw0, mean, cov, y, tb.r, tb.cs, tb.qd, tb.kb, tb.B, tb.grid, tb.edges, tb.u,
+             tb.log_floor, tb.q_lo, tb.q_hi, tb.eps, tb.p_off, tb.p_on, tb.null_var, tb.p0,
+             tb.amb_rel, tb.amb_abs, tb.temper, tb.null_mix, tb.hold, cur, ex, w, v, X, acc, out,
+             post, gll)
+
+
+@njit(cache=True)
+def _iterate(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo, q_hi,
+             eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, hold, cur, ex,
+             w, v, X, acc, out, post, gll):
+    """One iteration in place on (lw, lw0[0], mean, cov); the constants are the fields of
+    :class:`Tables` (passed one by one: the loop of :func:`_run` calls this per sample, and
+    numba passes scalars and array structs here without packing a record per call). Writes
+    ``out``, ``post`` (N,) and ``gll`` (N + 1,) per-point log-emissions (if sized):
+    ``temper`` times the predictive log-likelihood plus ``ex`` (N + 1,) extra log-evidence
+    for this sample (if sized; last entry for the "no line" state). ``null_mix``: the "no
+    line" state's time-domain emission is the signal part's predictive mixture
+    (Config.null_model "mixture") instead of N(0, null_var).
 
     Specialised to the harmonic model: ``h = [1, 0, 1, 0, ...]`` (rank-1 update with
     ``P h' = sum of the even columns``), ``F`` block diagonal with rotations ``cs[i, m] =
     (cos, sin)(m omega_i T)`` precomputed per grid point, ``Q = qd I``.
     """
-    r, cs, qd, kb, B = tb.r, tb.cs, tb.qd, tb.kb, tb.B
-    grid, edges, u, log_floor = tb.grid, tb.edges, tb.u, tb.log_floor
-    q_lo, q_hi, eps, p_off, p_on = tb.q_lo, tb.q_hi, tb.eps, tb.p_off, tb.p_on
-    null_var, p0, amb_rel, amb_abs = tb.null_var, tb.p0, tb.amb_rel, tb.amb_abs
-    temper, null_mix, hold = tb.temper, tb.null_mix, tb.hold
     N = grid.size
     n = mean.shape[1]
     M = n // 2
@@ -280,8 +289,13 @@ def _run(tb, lw, lw0, mean, cov, cur, ys, ex_idx, ex_val, want_post, want_gll):
     """:func:`_step` over ``ys`` with the extra evidence rows ``ex_val[f]`` at the samples
     ``ex_idx[f]``; returns the summary rows (n, N_OUT_FIXED + M) and, if wanted, the
     posteriors (n, N) and per-state log-emissions (n, N + 1) as float32."""
+    r, cs, qd, kb, B = tb.r, tb.cs, tb.qd, tb.kb, tb.B
+    grid, edges, u, log_floor = tb.grid, tb.edges, tb.u, tb.log_floor
+    q_lo, q_hi, eps, p_off, p_on = tb.q_lo, tb.q_hi, tb.eps, tb.p_off, tb.p_on
+    null_var, p0, amb_rel, amb_abs = tb.null_var, tb.p0, tb.amb_rel, tb.amb_abs
+    temper, null_mix, hold = tb.temper, tb.null_mix, tb.hold
     n_s = ys.size
-    N = tb.grid.size
+    N = grid.size
     n = mean.shape[1]
     M = n // 2
     outs = np.empty((n_s, N_OUT_FIXED + M))
@@ -301,7 +315,9 @@ def _run(tb, lw, lw0, mean, cov, cur, ys, ex_idx, ex_val, want_post, want_gll):
         while f < n_ex and ex_idx[f] < k:
             f += 1
         ex = ex_val[f] if (f < n_ex and ex_idx[f] == k) else no_ex
-        _step(tb, lw, lw0, mean, cov, cur, ys[k], ex, w, v, X, acc, outs[k], post, gll)
+        _iterate(lw, lw0, mean, cov, ys[k], r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo,
+                 q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, hold,
+                 cur, ex, w, v, X, acc, outs[k], post, gll)
         if want_post:
             for j in range(N):
                 posts[k, j] = post[j]
