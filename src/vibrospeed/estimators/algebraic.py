@@ -52,7 +52,7 @@ from vibrospeed.config import config_from_params
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.models.kinematics import disturbance_rhs
 from vibrospeed.signal import differentiation as dif
-from vibrospeed.types import WHEEL_CHANNELS, Recording, Track
+from vibrospeed.types import WHEEL_CHANNELS, Estimate, Recording, Track
 
 #: inputs, in this order, of :func:`step`
 INPUTS = ("gz", "ax", "ay", "omega_mean")
@@ -507,22 +507,51 @@ def _run(b0, b1, p, buf, hist, s, Z, outs):
         _core(b0, b1, p, buf, hist, s, Z[i], outs[i])
 
 
-def step(config: Config, state: State, z, taps=None) -> tuple[State, np.ndarray]:
-    """One sample ``z = (gz, ax, ay, omega_mean)``; returns the new state and the outputs
-    (:data:`OUTPUTS`). Pass ``taps = config.taps()`` to avoid recomputing kernels."""
+class Result(NamedTuple):
+    """:func:`run`'s output: ``final`` the state after the last sample and ``outputs`` (n,
+    len(:data:`OUTPUTS`)) the per-sample columns, also readable by name (``res.vy``,
+    ``res.slip_mode``; ``speed`` and ``speed_std`` are ``vx`` and ``vx_std``). In this order,
+    so ``state, outputs = run(...)`` unpacks it."""
+
+    final: State
+    outputs: np.ndarray
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        if name.startswith("__"):
+            raise AttributeError(name)
+        col = _ALIAS.get(name, name)
+        if col not in OUTPUTS:
+            raise AttributeError(f"algebraic.Result has no column '{name}'")
+        return tuple.__getitem__(self, 1)[:, OUTPUTS.index(col)]
+
+
+#: the Estimate's and Track's names of the outputs ``vx``, ``vx_std``
+_ALIAS = {"speed": "vx", "speed_std": "vx_std"}
+
+
+def _estimate(out: np.ndarray) -> Estimate:
+    vals = dict(zip(OUTPUTS, out, strict=True))
+    return Estimate(speed=vals.pop("vx"), speed_std=vals.pop("vx_std"), extras=vals)
+
+
+def step(config: Config, state: State, y, taps=None) -> tuple[State, Estimate]:
+    """One sample ``y = (gz, ax, ay, omega_mean)``; returns the new state and the estimate
+    (``speed`` = vx, ``speed_std`` = vx_std, the other :data:`OUTPUTS` as extras). Pass
+    ``taps = config.taps()`` to avoid recomputing kernels."""
     b0, b1 = config.taps() if taps is None else taps
     buf = state.buf.copy()
     hist = state.hist.copy()
     s = state.s.copy()
     out = np.empty(len(OUTPUTS))
-    _core(b0, b1, config.scalars(), buf, hist, s, np.asarray(z, dtype=np.float64), out)
-    return State(buf, hist, s), out
+    _core(b0, b1, config.scalars(), buf, hist, s, np.asarray(y, dtype=np.float64), out)
+    return State(buf, hist, s), _estimate(out)
 
 
-def run(config: Config, Z: np.ndarray, state: State | None = None) -> tuple[State, np.ndarray]:
-    """All samples ``Z`` (n, 4); outputs (n, len(OUTPUTS)), identical to repeated :func:`step`."""
+def run(config: Config, y: np.ndarray, state: State | None = None) -> Result:
+    """All samples ``y`` (n, 4) (columns :data:`INPUTS`); outputs (n, len(OUTPUTS)),
+    identical to repeated :func:`step`."""
     st = init(config) if state is None else state
-    Z = np.ascontiguousarray(Z, dtype=np.float64)
+    Z = np.ascontiguousarray(y, dtype=np.float64)
     if Z.ndim != 2 or Z.shape[1] != 4:
         raise ParameterError(f"algebraic.run expects (n, 4) inputs {INPUTS}, got {Z.shape}")
     b0, b1 = config.taps()
@@ -531,7 +560,7 @@ def run(config: Config, Z: np.ndarray, state: State | None = None) -> tuple[Stat
     s = st.s.copy()
     outs = np.empty((Z.shape[0], len(OUTPUTS)))
     _run(b0, b1, config.scalars(), buf, hist, s, Z, outs)
-    return State(buf, hist, s), outs
+    return Result(State(buf, hist, s), outs)
 
 
 # -- recordings -----------------------------------------------------------------------------
