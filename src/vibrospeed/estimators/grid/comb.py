@@ -40,17 +40,14 @@ speed changes linearly, ``omega(s) = omega_e (1 + beta s)``, is a stationary com
 frequency ``omega_e`` at the frame's end in tau, for every omega at once. The evidence is the
 average over the rates in probability, ``E = log sum_b p_b exp(E_b)`` with ``comb_rate_p0`` on
 beta = 0, so a steady comb loses at most ``log p0`` and an accelerating one is scored sharp, at
-its current frequency (car, 3 seeds: smoothed share within tolerance 78 -> 84 %, causal filter
-73 -> 80 %; benchmarks/beyond/RESULTS.md).
+its current frequency (measured: benchmarks/beyond/RESULTS.md).
 Where the evidence is placed: a causal filter can only add a frame's evidence at the frame's
 end (and the warps refer to that end). The forward-backward smoother (``smooth="fb"``) instead
 refers each frame to its middle sample (warps about the middle, :func:`evidence` ``centre``)
 and adds the evidence there, where a stationary spectrum describes the comb: a stop or a
-braking is then not attributed 1.5 s late (cart, 3 seeds: smoothed 97.1 -> 98.7 % within
-tolerance, car 84 -> 88.5 %; benchmarks/beyond/RESULTS.md). The fixed-lag smoother does the same
-when
-``lag >= W/2`` and shrinks its blocks to ``lag - W/2`` s, so a sample still uses data at most
-``lag..2 lag - W/2`` s after it (cart 97.1 -> 98.6 %, car 84.2 -> 85.7 % at lag 2 s).
+braking is then not attributed 1.5 s late (benchmarks/beyond/RESULTS.md). The fixed-lag
+smoother does the same when ``lag >= W/2`` and shrinks its blocks to ``lag - W/2`` s, so a
+sample still uses data at most ``lag..2 lag - W/2`` s after it.
 Aliasing is folded like the rotation model (k omega above Nyquist appears at its alias). The
 grid point's evidence ``E(omega) = comb_weight * sum_k l_k(omega)`` (the "no line" state: 0)
 is added to the log-weights at the end of every frame (``rbpmf.step(..., extra=E)``). The
@@ -66,10 +63,8 @@ another still carries. With A axes each frame's spectrum is whitened per axis an
 per-harmonic terms are summed over the axes, ``l_k = min(sum_j l_k^(j), A comb_cap)``, the lead
 limit is ``A comb_lead`` and the evidence is weighted ``A ** -0.834`` (0.4 for three axes: the
 axes' noise is neither independent, weight 1, nor one signal seen A times, 1 / A; chosen on the
-simulated car's transient). The time-domain likelihood stays on the tracked axis. Simulated car,
-15 seeds: within tolerance smoothed 89.3 -> 90.5 %, causal 78.1 -> 80.3 %; from an unknown
-start at cruise (q_omega 4) every start with a complete comb locks within 2 s
-(benchmarks/trackers/RESULTS.md).
+simulated car's transient). The time-domain likelihood stays on the tracked axis (measured:
+benchmarks/trackers/RESULTS.md).
 """
 
 from __future__ import annotations

@@ -69,10 +69,8 @@ class Config:
         switching chain's stationary share ``off_rate / (off_rate + on_rate)`` (2 % for the
         grid's rates, i.e. "a wheel line is there" before any data). 0.5 ("not known yet")
         suits a device switched on at standstill: an idling engine then reads "no line"
-        sooner (causal grid, 5 seeds, has_signal while standing in the first 8 s: car 68 ->
-        48 %, cart 64 -> 31 %), but a start while driving locks later (the "no line" mass
-        re-enters the grid uniformly: car, lock < 2 s 83 -> 78 % of 175 starts;
-        benchmarks/beyond/RESULTS.md).
+        sooner, but a start while driving locks later (the "no line" mass re-enters the grid
+        uniformly; benchmarks/beyond/RESULTS.md).
     amb_rel, amb_abs : half-width ``max(amb_abs, amb_rel * x)`` of the window around ``x =
         MAP/2`` and ``2 MAP`` in which the posterior mass ``p_half``, ``p_double`` is reported;
         the same window defines the mode (``point``).
@@ -91,8 +89,7 @@ class Config:
         at this sample rate and a recording sampled at ``fs`` uses ``min(1, temper *
         temper_fs / fs)`` per sample (:attr:`temper_step`): the tempered evidence *per second*
         and its balance with per-second evidence (the grid's comb) then do not depend on the
-        sample rate (simulated car at 400 Hz, 3 seeds, grid smoother: 76.7 % within tolerance
-        with 0.2 per sample, 90.3 % with 0.2 at 100 Hz; benchmarks/beyond/RESULTS.md).
+        sample rate (benchmarks/beyond/RESULTS.md).
     null_model : time-domain emission of the "no line" state. ``"white"`` (default):
         ``y ~ N(0, null_var)``. ``"mixture"``: the signal part's own one-step predictive
         density, ``p0(y_k) = sum_j p(omega_j | y_1..k-1, line) p(y_k | omega_j, y_1..k-1)``
@@ -105,9 +102,8 @@ class Config:
         (the paper's posterior mean) or ``"mode"``: the conditional mean of the window
         ``|omega - x| <= max(amb_abs, amb_rel x)`` that holds the most mass (a window, not the
         highest grid point, so a spiky posterior does not make the point hop between close
-        peaks: 87 car starts, strict lock < 2 s 90 -> 92 % at q_omega 4, 71 -> 82 %
-        at 16). Its basin is the set of windows reached from it by non-increasing window mass;
-        ``p_mode`` is the mass they cover. For a unimodal
+        peaks; benchmarks/trackers/RESULTS.md). Its basin is the set of windows reached from
+        it by non-increasing window mass; ``p_mode`` is the mass they cover. For a unimodal
         posterior both are equal; while the posterior is split between lines (acquisition
         from a uniform prior, a resonance, omega/2) the global mean lies between the modes,
         on no line, while the mode mean stays on the most probable one. Both are always in

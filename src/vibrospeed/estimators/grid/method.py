@@ -37,13 +37,11 @@ AXES_EXPONENT = 0.834
 #: jumps 0.05/s, "no line" in 0.01/s out 0.5/s, noise from the marginal-likelihood fits
 #: (r 0.15, q_amp 0.002; q_omega 16 (rad/s)^2/s follows car accelerations of ~8 rad/s^2),
 #: likelihood tempered to 0.05 per 0.01 s of data (``temper_fs`` 100 Hz: 0.0125 per sample at
-#: 400 Hz, so the time-domain evidence per second does not grow with the sample rate; on the
-#: randomised family (``benchmarks/robustness``) the time-domain model, which must explain a
-#: vehicle's body motion and resonances with harmonics, misleads where the whitened comb
-#: does not: 0.2 -> 0.05 lifts the median share within tolerance from 0.15 to 0.27 offline,
-#: 0.02 to 0.33 but costs the real kart's causal filter 0.27 -> 0.10 within 5 %), the
-#: thesis high-pass (4 rad/s) instead of the paper's 8 Hz
-#: (which removes a slow wheel's fundamental: the cart failure).
+#: 400 Hz, so the time-domain evidence per second does not grow with the sample rate; the
+#: time-domain model, which must explain a vehicle's body motion and resonances with
+#: harmonics, misleads where the whitened comb does not: benchmarks/robustness/RESULTS.md),
+#: adaptive pre-whitening instead of the paper's 8 Hz high-pass (which removes a slow
+#: wheel's fundamental).
 #: The "no line" state's time-domain emission is the signal part's predictive mixture
 #: (``null_model="mixture"``): only the comb evidence decides whether a wheel comb is there.
 #: The reported omega is the mean of the MAP mode (``point="mode"``): on a
