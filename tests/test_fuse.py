@@ -467,3 +467,19 @@ def test_negative_speed_is_projected_onto_zero():
     want = raw.x - raw.P[:, 0] * raw.x[0] / raw.P[0, 0]
     np.testing.assert_allclose(proj.x, want, atol=1e-12)
     np.testing.assert_array_equal(proj.P, raw.P)
+
+
+def test_relock_when_the_filter_diverged_in_an_outage():
+    """A wrong offset (a false stop) makes the inertial speed run away in an outage while the
+    line is gated out; after vib_relock s of rejections the line is taken again."""
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=11, T=200.0, outage=(100.0, 200.0), no_line=(100.0, 130.0))
+    t = arrays["t"]
+    arrays["accel"] = np.where((t >= 100.0) & (t < 130.0), arrays["accel"] + 1.5,
+                               arrays["accel"])  # the speed runs 45 m/s away
+    _, o = fuse.run(cfg, arrays)
+    _, stuck = fuse.run(fuse.Config(acc_psd=0.01, vib_relock=1e9), arrays)
+    late = t >= 140.0
+    assert np.median(np.abs(stuck.speed[late] - v[late])) > 10.0
+    assert np.all(np.abs(o.speed[late] - v[late]) < 0.03 * v[late])
+    assert np.all(o.source[late] == fuse.SRC_VIBRATION)

@@ -38,8 +38,13 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    line the tracker reports most of the time: an exponential average (time constant
    ``octave_tau`` s of updates) of ``log2 k`` over the accepted updates beyond +-1/2 means
    that most recent updates used k = 2 (or 1/2), e.g. after a tracker that locked on the
-   second harmonic at the start taught the radius; then ``r <- k r`` (its variance by k^2) and
-   the average restarts at 0. The speed is unchanged by this, only the octave of r.
+   second harmonic at the start taught the radius; then, if r is known within
+   ``octave_rel`` (relative std), ``r <- k r`` (its variance by k^2) and the average restarts at
+   0. The speed is unchanged by this, only the octave of r. Re-lock: when a claimed line is
+   gated out and no line has been accepted for ``vib_relock`` s since the first one was (and
+   no GPS fix in that time, and r known within ``octave_rel``), the filter has diverged (e.g.
+   an offset learned at a false stop): ``P_vv`` is increased by the k = 1 innovation squared,
+   so the line is taken again.
 4. standstill: where the vibration tracker reports a stop (no wheel line, broadband vibration and
    body motion at their floors: the ``standstill`` input), the last valid GPS fix in the past
    ``gps_hold`` s (if any) is below ``gps_still``, and the speed the accelerometer has
@@ -124,6 +129,8 @@ class Config:
         (m; overridden by ``radius_from`` / a given wheel radius in :func:`estimate`).
     octave_tau : s, time constant of the octave average (item 3).
     vib_min_speed : m/s; no wheel-frequency update where the speed is surely below it (item 3).
+    octave_rel : relative radius std below which the octave average and the re-lock act.
+    vib_relock : s of consecutive gated-out lines without GPS before the re-lock (item 3).
     vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
         (where the tracker claims a line, ``has_signal``) or ``"all"`` (every positive omega,
         its posterior spread and the gate decide: for trackers whose null state dominates on a
@@ -151,7 +158,7 @@ class Config:
     vib_gate: float = 16.0
     vib_penalty: float = 9.0
     r_still: float = 1e-4
-    r_still_acc: float = 1e-2
+    r_still_acc: float = 1.0
     still_gate: float = 9.0
     still_speed: float = 0.5
     gps_still: float = 0.5
@@ -165,6 +172,8 @@ class Config:
     octave_tau: float = 10.0
     vib_use: str = "line"
     vib_min_speed: float = 1.0
+    octave_rel: float = 0.05
+    vib_relock: float = 5.0
     nonneg: bool = True
     fuse_rate: float = 25.0
 
@@ -177,7 +186,7 @@ class Config:
                 raise ParameterError(f"fuse: {name} must be > 0, got {getattr(self, name)}")
         for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "e_max", "min_sats",
                      "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
-                     "vib_min_speed"):
+                     "vib_min_speed", "octave_rel", "vib_relock"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
         if self.vib_use not in ("line", "all"):
@@ -211,7 +220,8 @@ class Config:
             self.acc_psd, self.r_gps, self.r_gps_sq, self.e_max, self.min_sats, self.vib_rel,
             self.vib_corr, self.vib_gate, self.vib_penalty, self.r_still, self.r_still_acc,
             self.still_gate, self.still_speed, self.gps_still, self.gps_hold, self.source_hold,
-            self.octave_tau, float(self.nonneg), self.vib_min_speed,
+            self.octave_tau, float(self.nonneg), self.vib_min_speed, self.octave_rel,
+            self.vib_relock,
         ], dtype=np.float64)
         return Ac, qc, p
 
@@ -223,6 +233,7 @@ class State(NamedTuple):
     t : time of the last sample (NaN before the first).  t_gps : time of the last accepted
     fix (-inf: none).  t_fix, v_fix : time and value of the last valid fix (for the standstill
     veto).  octave : average of log2 k over recent wheel-frequency updates (module notes, 3).
+    t_reject : start of the current run of gated-out lines (NaN: none).
     """
 
     x: np.ndarray
@@ -232,6 +243,7 @@ class State(NamedTuple):
     t_fix: float
     v_fix: float
     octave: float = 0.0
+    t_reject: float = math.nan
 
 
 class Estimate(NamedTuple):
@@ -313,7 +325,8 @@ def _update_row(x, P, h, z, r):
 
 @njit(cache=True)
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, out, xp, Pp):
-    """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave]``;
+    """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
+    t_reject]``;
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
     prediction (for the smoother). Returns dt."""
     n = x.size
@@ -375,7 +388,18 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             if cost < best:
                 best = cost
                 kk = k
+        known = math.sqrt(max(P[IR, IR], 0.0)) < p[19] * abs(x[IR])
+        if best > p[7]:
+            if math.isnan(sc[6]):
+                sc[6] = t
+            elif known and t - sc[6] >= p[20] and t - sc[1] > p[20]:
+                # re-lock: the filter, not the line, has diverged
+                nu = x[IV] - x[IR] * om
+                P[IV, IV] += nu * nu
+                kk = 1.0
+                best = 0.0
         if best <= p[7]:
+            sc[6] = math.nan
             h[IV] = 1.0
             h[IR] = -kk * om
             _update_row(x, P, h, 0.0, (r_hat * kk) ** 2 * var_om * infl)
@@ -383,7 +407,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             h[IR] = 0.0
             # the radius follows the octave most updates use
             sc[5] += (math.log2(kk) - sc[5]) * min(1.0, dt / p[16])
-            if abs(sc[5]) > 0.5:
+            if abs(sc[5]) > 0.5 and known:
                 c = 2.0 if sc[5] > 0.0 else 0.5
                 x[IR] *= c
                 for i in range(n):
@@ -447,12 +471,14 @@ def _unpack(state: State, n: int):
         raise ParameterError(f"fuse: state has {x.size} states but the config's model needs {n} "
                              "(GPS delay on/off changed?)")
     P = np.array(state.P, dtype=np.float64)
-    sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0, state.octave])
+    sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0, state.octave,
+                   state.t_reject])
     return x, P, sc
 
 
 def _pack(x, P, sc) -> State:
-    return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]))
+    return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]),
+                 float(sc[6]))
 
 
 _SAMPLE = ("t", "accel", "gps_speed", "gps_sats", "omega", "omega_std", "line", "still")
