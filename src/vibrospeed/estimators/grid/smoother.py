@@ -111,15 +111,15 @@ def _predict(a, kb, B, u, eps, p_off, p_on, has_null, out):
 
 
 @njit(cache=True)
-def _forward(gll, lw_init, kb, B, u, eps, p_off, p_on, has_null, log_floor):
-    """Filtered probabilities alpha (n, N+1) float32, exactly the RBPMF's weight recursion."""
-    n_s, N1 = gll.shape
+def _forward_range(gll, t0, t1, lw, kb, B, u, eps, p_off, p_on, has_null, log_floor, alpha, a,
+                   pr):
+    """The forward recursion for t in [t0, t1): ``lw`` (N+1, the log predicted weights before
+    t0) is advanced in place; filtered probabilities of t go to ``alpha[t - t0]`` (float32)
+    when ``alpha`` has rows (none: the state alone is carried). ``a``, ``pr``: scratch."""
+    N1 = gll.shape[1]
     N = N1 - 1
-    alpha = np.empty((n_s, N1), dtype=np.float32)
-    lw = lw_init.copy()
-    a = np.empty(N1)
-    pr = np.empty(N1)
-    for t in range(n_s):
+    keep = alpha.shape[0] > 0
+    for t in range(t0, t1):
         mx = -np.inf
         for j in range(N1):
             if j == N and not has_null:
@@ -141,10 +141,20 @@ def _forward(gll, lw_init, kb, B, u, eps, p_off, p_on, has_null, log_floor):
             a[j] /= s
             # stored as float32: floored at 1e-37 (the smallest normal float32 is 1.2e-38) so
             # that alpha * beta cannot vanish on every state when strong evidence disagrees
-            alpha[t, j] = max(a[j], 1e-37) if (j < N or has_null) else 0.0
+            if keep:
+                alpha[t - t0, j] = max(a[j], 1e-37) if (j < N or has_null) else 0.0
         _predict(a, kb, B, u, eps, p_off, p_on, has_null, pr)
         for j in range(N1):
             lw[j] = np.log(pr[j]) if pr[j] > 0.0 else -np.inf
+
+
+@njit(cache=True)
+def _forward(gll, lw_init, kb, B, u, eps, p_off, p_on, has_null, log_floor):
+    """Filtered probabilities alpha (n, N+1) float32, exactly the RBPMF's weight recursion."""
+    n_s, N1 = gll.shape
+    alpha = np.empty((n_s, N1), dtype=np.float32)
+    _forward_range(gll, 0, n_s, lw_init.copy(), kb, B, u, eps, p_off, p_on, has_null,
+                   log_floor, alpha, np.empty(N1), np.empty(N1))
     return alpha
 
 
@@ -205,11 +215,11 @@ def _emit(alpha_t, beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, row
 
 
 @njit(cache=True)
-def _smooth_range(alpha, gll, t_end, t_lo, t_hi, kb, B, grid, edges, u, eps, p_off, p_on,
-                  has_null, q_lo, q_hi, amb_rel, amb_abs, outs, posts, want_post):
-    """Backward from t_end (beta = 1) down to t_lo; write outputs for t in [t_lo, t_hi)."""
+def _smooth_range(alpha, a0, gll, t_end, t_lo, t_hi, beta, kb, B, grid, edges, u, eps, p_off,
+                  p_on, has_null, q_lo, q_hi, amb_rel, amb_abs, outs, posts, want_post):
+    """Backward from t_end down to t_lo, ``beta`` (N+1) holding beta_{t_end} on entry and
+    beta_{t_lo} on exit; outputs for t in [t_lo, t_hi) from ``alpha[t - a0]``."""
     N = grid.size
-    beta = np.ones(N + 1)
     nb = np.empty(N + 1)
     e = np.empty(N + 1)
     g = np.empty(N + 1)
@@ -223,8 +233,8 @@ def _smooth_range(alpha, gll, t_end, t_lo, t_hi, kb, B, grid, edges, u, eps, p_o
                 beta[j] = nb[j]
         if t < t_hi:
             pr = posts[t] if want_post else empty
-            _emit(alpha[t], beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, outs[t],
-                  pr, cur)
+            _emit(alpha[t - a0], beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v,
+                  outs[t], pr, cur)
 
 
 def _result(outs: np.ndarray, posts: np.ndarray | None) -> Smoothed:
@@ -236,61 +246,111 @@ def _result(outs: np.ndarray, posts: np.ndarray | None) -> Smoothed:
                                                   c.COL_P_MODE)))
 
 
+def _emissions(gll: np.ndarray, N: int) -> np.ndarray:
+    """The emissions as given (the filter's float32; float32 -> float64 is exact in the
+    kernels, so no float64 copy of the (n, N+1) array is made), C-contiguous."""
+    gll = np.asarray(gll)
+    if gll.dtype not in (np.float32, np.float64):
+        gll = gll.astype(np.float64)
+    gll = np.ascontiguousarray(gll)
+    if gll.ndim != 2 or gll.shape[1] != N + 1:
+        raise ValueError(f"grid_loglik must be (n, {N + 1}), got {gll.shape}")
+    return gll
+
+
 def _prep(config, gll, return_posterior):
     lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
-    gll = np.ascontiguousarray(gll, dtype=np.float64)
-    if gll.ndim != 2 or gll.shape[1] != grid.size + 1:
-        raise ValueError(f"grid_loglik must be (n, {grid.size + 1}), got {gll.shape}")
-    has_null = config.has_null
-    alpha = _forward(gll, lw, kb, B, u, eps, p_off, p_on, has_null, float(config.log_floor))
+    gll = _emissions(gll, grid.size)
     n = gll.shape[0]
     outs = np.zeros((n, N_OUT_FIXED))
     posts = np.zeros((n if return_posterior else 1, grid.size), dtype=np.float32)
-    common = (kb, B, grid, edges, u, eps, p_off, p_on, has_null, q, 1.0 - q,
+    fwd = (kb, B, u, eps, p_off, p_on, config.has_null, float(config.log_floor))
+    common = (kb, B, grid, edges, u, eps, p_off, p_on, config.has_null, q, 1.0 - q,
               float(config.amb_rel), float(config.amb_abs))
-    return alpha, gll, outs, posts, common
+    return lw, gll, outs, posts, fwd, common
 
 
 def filtered(config: Config, grid_loglik: np.ndarray) -> np.ndarray:
     """(n, N+1) filtered probabilities recomputed from the emissions (the RBPMF's weights)."""
     lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
-    return _forward(np.ascontiguousarray(grid_loglik, dtype=np.float64), lw, kb, B, u, eps,
-                    p_off, p_on, config.has_null, float(config.log_floor))
+    return _forward(_emissions(grid_loglik, grid.size), lw, kb, B, u, eps, p_off, p_on,
+                    config.has_null, float(config.log_floor))
 
 
-def smooth(config: Config, grid_loglik: np.ndarray, *,
-           return_posterior: bool = False) -> Smoothed:
+#: Samples between the forward states the smoother keeps (:func:`smooth`).
+CHECKPOINT = 4096
+
+
+def smooth(config: Config, grid_loglik: np.ndarray, *, return_posterior: bool = False,
+           checkpoint: int | None = CHECKPOINT) -> Smoothed:
     """Forward-backward marginals ``p(omega_t | y_1..T)`` for the whole log.
 
     ``grid_loglik`` : (n, N+1) from ``rbpmf.run(config, y, return_grid_loglik=True)``.
+
+    Checkpointed: the forward pass keeps its state (N+1 log weights) every ``checkpoint``
+    samples only; the backward pass, from the last segment to the first, recomputes each
+    segment's filtered probabilities from its checkpoint (the same operations, so the result
+    is bitwise that of the whole-log pass, ``checkpoint=None``). Memory for alpha: one segment
+    (``checkpoint`` x (N+1) float32) instead of the whole log; time: the forward pass twice
+    (it is a small part of the filter's cost).
     """
-    alpha, gll, outs, posts, c = _prep(config, grid_loglik, return_posterior)
-    n = gll.shape[0]
-    _smooth_range(alpha, gll, n - 1, 0, n, *c, outs, posts, bool(return_posterior))
-    return _result(outs, posts if return_posterior else None)
+    lw, gll, outs, posts, fwd, c = _prep(config, grid_loglik, return_posterior)
+    n, N1 = gll.shape
+    want = bool(return_posterior)
+    beta = np.ones(N1)
+    if checkpoint is None or checkpoint >= n:
+        alpha = _forward(gll, lw, *fwd)
+        _smooth_range(alpha, 0, gll, n - 1, 0, n, beta, *c, outs, posts, want)
+        return _result(outs, posts if want else None)
+    K = int(checkpoint)
+    if K < 1:
+        raise ValueError(f"checkpoint must be at least 1 sample, got {checkpoint}")
+    starts = np.arange(0, n, K)
+    states = np.empty((starts.size, N1))
+    a, pr = np.empty(N1), np.empty(N1)
+    none = np.empty((0, N1), dtype=np.float32)
+    lw = lw.copy()
+    for s, t0 in enumerate(starts):  # forward: the state before each segment
+        states[s] = lw
+        _forward_range(gll, t0, min(t0 + K, n), lw, *fwd, none, a, pr)
+    alpha = np.empty((K, N1), dtype=np.float32)
+    for s in range(starts.size - 1, -1, -1):  # backward, segment by segment
+        t0 = int(starts[s])
+        t1 = min(t0 + K, n)
+        lw = states[s].copy()
+        _forward_range(gll, t0, t1, lw, *fwd, alpha, a, pr)
+        # from beta_{t1} (the next segment's first sample; at the end of the log beta = 1)
+        _smooth_range(alpha, t0, gll, min(t1, n - 1), t0, t1, beta, *c, outs, posts, want)
+    return _result(outs, posts if want else None)
 
 
 def fixed_lag(config: Config, grid_loglik: np.ndarray, *, lag: float = 2.0,
               return_posterior: bool = False) -> Smoothed:
     """Fixed-lag smoother: each sample uses the data up to ``lag..2 lag`` s after it (blocks of
     ``lag`` s; an online device emits block b at the end of block b+1). Uses only data a
-    device has at that time, computed here from the stored emissions."""
-    alpha, gll, outs, posts, c = _prep(config, grid_loglik, return_posterior)
-    n = gll.shape[0]
+    device has at that time, computed here from the stored emissions; the filtered
+    probabilities are kept for one block at a time."""
+    lw, gll, outs, posts, fwd, c = _prep(config, grid_loglik, return_posterior)
+    n, N1 = gll.shape
     L = max(1, int(round(lag / config.model.dt)))
+    a, pr = np.empty(N1), np.empty(N1)
+    lw = lw.copy()
+    alpha = np.empty((min(L, n), N1), dtype=np.float32)
     for s0 in range(0, n, L):
+        s1 = min(s0 + L, n)
+        _forward_range(gll, s0, s1, lw, *fwd, alpha, a, pr)
         t_end = min(s0 + 2 * L, n) - 1
-        _smooth_range(alpha, gll, t_end, s0, min(s0 + L, n), *c, outs, posts,
+        _smooth_range(alpha, s0, gll, t_end, s0, s1, np.ones(N1), *c, outs, posts,
                       bool(return_posterior))
     return _result(outs, posts if return_posterior else None)
 
 
 @njit(cache=True)
-def _viterbi(gll, lw_init, kb, B, u, eps, p_off, p_on, has_null):
-    n_s, N1 = gll.shape
-    N = N1 - 1
+def _viterbi_tables(kb, B, u, eps, p_off, p_on, has_null):
+    """Log transition terms: ``lt`` (N, W) for targets j from sources in the band (indexed
+    like kb), jump-in ``lju``, "none -> line" ``lon``, ``loff``, ``lstay0``."""
+    N = u.size
     rw = 1.0 - eps - p_off
-    # log T for targets j from sources in the band (indexed like kb)
     W = kb.shape[1]
     lt = np.full((N, W), -np.inf)
     for j in range(N):
@@ -308,13 +368,24 @@ def _viterbi(gll, lw_init, kb, B, u, eps, p_off, p_on, has_null):
             lon[j] = np.log(p_on * u[j])
     loff = np.log(p_off) if has_null else -np.inf
     lstay0 = np.log(1.0 - p_on) if has_null else -np.inf
-    back = np.empty((n_s, N1), dtype=np.int32)
-    delta = np.empty(N1)
-    nd = np.empty(N1)
-    for j in range(N1):
-        delta[j] = lw_init[j] + gll[0, j] if (j < N or has_null) else -np.inf
-        back[0, j] = j
-    for t in range(1, n_s):
+    return lt, lju, lon, loff, lstay0
+
+
+@njit(cache=True)
+def _viterbi_range(gll, t0, t1, lw_init, delta, nd, back, B, has_null, lt, lju, lon, loff,
+                   lstay0):
+    """The Viterbi recursion for t in [t0, t1): ``delta`` (N+1) holds delta_{t0-1} on entry
+    (ignored when t0 = 0: the start from ``lw_init``) and delta_{t1-1} on exit; the back
+    pointers of t go to ``back[t - t0]``."""
+    N1 = gll.shape[1]
+    N = N1 - 1
+    start = t0
+    if t0 == 0:
+        for j in range(N1):
+            delta[j] = lw_init[j] + gll[0, j] if (j < N or has_null) else -np.inf
+            back[0, j] = j
+        start = 1
+    for t in range(start, t1):
         best = 0
         for i in range(N):
             if delta[i] > delta[best]:
@@ -339,38 +410,66 @@ def _viterbi(gll, lw_init, kb, B, u, eps, p_off, p_on, has_null):
                     bv = val
                     bi = N
             nd[j] = bv + gll[t, j]
-            back[t, j] = bi
+            back[t - t0, j] = bi
         if has_null:
             a = delta[N] + lstay0
             b = delta[best] + loff
             if a >= b:
                 nd[N] = a + gll[t, N]
-                back[t, N] = N
+                back[t - t0, N] = N
             else:
                 nd[N] = b + gll[t, N]
-                back[t, N] = best
+                back[t - t0, N] = best
         else:
             nd[N] = -np.inf
-            back[t, N] = N
+            back[t - t0, N] = N
         for j in range(N1):
             delta[j] = nd[j]
-    path = np.empty(n_s, dtype=np.int64)
+
+
+@njit(cache=True)
+def _trace(back, t0, t1, path):
+    """path[t - 1] = back[t - t0, path[t]] for t = t1 - 1 down to max(t0, 1)."""
+    for t in range(t1 - 1, max(t0, 1) - 1, -1):
+        path[t - 1] = back[t - t0, path[t]]
+
+
+def viterbi(config: Config, grid_loglik: np.ndarray, *,
+            checkpoint: int | None = CHECKPOINT) -> Path:
+    """Most probable state sequence of the grid chain (Viterbi, log domain, O(n N B)).
+
+    Checkpointed like :func:`smooth`: the recursion's state (N+1 log scores) is kept every
+    ``checkpoint`` samples; the traceback, from the last segment to the first, recomputes each
+    segment's back pointers from its checkpoint (bitwise the whole-log result,
+    ``checkpoint=None``): back pointers for one segment instead of (n, N+1) int32."""
+    lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
+    gll = _emissions(grid_loglik, grid.size)
+    n, N1 = gll.shape
+    tabs = _viterbi_tables(kb, B, u, eps, p_off, p_on, config.has_null)
+    K = n if checkpoint is None else int(checkpoint)
+    if K < 1:
+        raise ValueError(f"checkpoint must be at least 1 sample, got {checkpoint}")
+    K = min(K, n)
+    starts = np.arange(0, n, K)
+    states = np.empty((starts.size, N1))
+    delta, nd = np.empty(N1), np.empty(N1)
+    back = np.empty((K, N1), dtype=np.int32)
+    for s, t0 in enumerate(starts):  # forward: delta before each segment
+        states[s] = delta
+        _viterbi_range(gll, t0, min(t0 + K, n), lw, delta, nd, back, B, config.has_null, *tabs)
+    path = np.empty(n, dtype=np.int64)
     k = 0
     for j in range(N1):
         if delta[j] > delta[k]:
             k = j
-    lj = delta[k]
-    path[n_s - 1] = k
-    for t in range(n_s - 1, 0, -1):
-        k = back[t, k]
-        path[t - 1] = k
-    return path, lj
-
-
-def viterbi(config: Config, grid_loglik: np.ndarray) -> Path:
-    """Most probable state sequence of the grid chain (Viterbi, log domain, O(n N B))."""
-    lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
-    gll = np.ascontiguousarray(grid_loglik, dtype=np.float64)
-    path, lj = _viterbi(gll, lw, kb, B, u, eps, p_off, p_on, config.has_null)
+    lj = float(delta[k])
+    path[n - 1] = k
+    for s in range(starts.size - 1, -1, -1):  # traceback, segment by segment
+        t0 = int(starts[s])
+        t1 = min(t0 + K, n)
+        if starts.size > 1:  # one segment: its back pointers are still there
+            delta[:] = states[s]
+            _viterbi_range(gll, t0, t1, lw, delta, nd, back, B, config.has_null, *tabs)
+        _trace(back, t0, t1, path)
     om = np.where(path < grid.size, grid[np.minimum(path, grid.size - 1)], np.nan)
-    return Path(path, om, float(lj))
+    return Path(path, om, lj)
