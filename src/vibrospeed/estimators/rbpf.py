@@ -13,9 +13,12 @@ the phasor states and a log-weight. One iteration for sample ``y_k`` (state = pr
    proposal ``omega_i += sqrt(T var(v^omega)) z``, ``z ~ N(0, 1)``, reflected into
    ``[omega_min, omega_max]``.
 
-Randomness only through the ``rng`` passed to :func:`init`, :func:`step` and :func:`run`; each
-step draws, in this order, the resampling uniforms (only when it resamples) and ``K`` normals.
-``run`` is a Python loop over the compiled step pieces and equals repeated :func:`step`.
+Randomness only through the generator the state carries (:func:`init` seeds it from
+``Config.seed`` unless given one; :func:`step` and :func:`run` draw from a copy and return it
+advanced in the new state); each step draws, in this order, the resampling uniforms (only when
+it resamples) and ``K`` normals. ``run`` is a Python loop over the compiled step pieces and
+equals repeated :func:`step`. Pre-filter and scaling are the grid tracker's
+(:func:`vibrospeed.estimators.grid.app.prepare`).
 """
 
 from __future__ import annotations
@@ -30,8 +33,9 @@ from numba import njit
 from vibrospeed.config import flat_dict
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import resampling
+from vibrospeed.estimators.grid.app import prepare
+from vibrospeed.estimators.grid.config import DEFAULT_R
 from vibrospeed.estimators.kalman import predict_one, rotation_blocks, update_one
-from vibrospeed.estimators.rbpmf import DEFAULT_R, prepare
 from vibrospeed.estimators.scaling import DEFAULT_SIGNAL_RMS, DEFAULT_TAU
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Estimate, Recording, Track
@@ -50,7 +54,7 @@ class Config:
         initial particles uniform on it unless ``omega0`` is given; proposals are reflected).
     scheme : "multinomial" (paper) or "systematic". ess_threshold : resample when
         ESS < ess_threshold * K (0: never; > 1: every step, the plain bootstrap filter).
-    seed : seed of the generator :func:`estimate` creates (recorded in the Track's params).
+    seed : seed of the generator :func:`init` creates (recorded in the Track's params).
     level, prefilter, scaling, rms_tau, signal_rms, nyquist : as for the RBPMF.
     """
 
