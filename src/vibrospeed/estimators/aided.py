@@ -123,10 +123,9 @@ STANDSTILL_KINDS = {"none": 0, "window": 1, "cusum": 2, "broadband": 3}
 
 def _thesis_model() -> HarmonicModel:
     # thesis 3.5: M = 2 best; R = 0.0022 (table 3.1; the text says 0.0008); q_amp from ch. 2
-    # (Q = 4e-5 per step at 100 Hz). q_omega: the ch. 2 value 16 (rad/s)^2/s makes the
-    # vibration-mode omega wander by +-2 rad/s on the simulated cart (RMSE 1.1 rad/s on
-    # stop-and-go); 0.5 gives 0.39 (benchmarks/aided/RESULTS.md), the aiding handles the fast
-    # changes.
+    # (Q = 4e-5 per step at 100 Hz). q_omega 0.5 instead of the ch. 2 value 16 (rad/s)^2/s,
+    # which makes the vibration-mode omega wander on the cart: the aiding handles the fast
+    # changes (benchmarks/aided/RESULTS.md).
     return HarmonicModel(M=2, dt=0.01, q_omega=0.5, q_amp=0.004, r=0.0022, p0_amp=0.1)
 
 
@@ -148,17 +147,15 @@ class Config:
     ss_window, ss_mu : window length (s) and threshold (m/s^2) of the window test (thesis: 20
         samples at 100 Hz = 0.2 s, 0.019); ``ss_n`` (samples) overrides the length when set.
         In seconds, so a 400 Hz log looks at the same 0.2 s: 20 samples there (0.05 s) read a
-        slow wheel's vibration as flat, i.e. standstill while driving (cart at 400 Hz: RMSE
-        8.3 instead of 0.48 rad/s).
+        slow wheel's vibration as flat, i.e. standstill while driving.
     r_ss : variance of the virtual standstill measurement omega = 0 (thesis: 1).
     cusum_sigma : residual level (m/s^2) separating quiet from moving; cusum_nu, cusum_h :
         drift and threshold of the CUSUM on ``eps = 1 - (e / sigma)^2``; the standstill flag is
         held for :func:`vibrospeed.signal.detectors.cusum_hold` samples after an alarm.
     cusum_fs : Hz, the sample rate at which ``cusum_h`` holds (the thesis' 100 Hz); a log at fs
         uses the threshold ``cusum_h fs / cusum_fs`` (:attr:`cusum_threshold`) and so the same
-        detection delay and hold in seconds (with 10 at 400 Hz the CUSUM alarmed within 0.05 s
-        of quiet residuals while driving: cart RMSE 8.4 instead of 0.48 rad/s). None: per
-        sample, as written in the thesis.
+        detection delay and hold in seconds (a per-sample threshold at 400 Hz alarms within
+        0.05 s of quiet residuals while driving). None: per sample, as written in the thesis.
     mode_window, mode_mu : window length (s) and threshold (m/s^2) of the mode detector
         (0.2 s = the thesis' 20 samples at 100 Hz, 0.20); ``mode_n`` (samples) overrides.
     boost : apply the boost of eq. 3.15 (``N_mode`` T ubar / r) when acceleration mode starts.

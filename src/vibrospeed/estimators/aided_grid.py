@@ -84,15 +84,11 @@ STANDSTILL_KINDS = ("none", "window")
 def _cart_tracker(dt: float = 0.01) -> rbpmf.Config:
     """Grid tracker for the thesis' cart: the aided EKF's model (M = 2, R = 0.0022 and q_amp
     0.004 in m/s^2 units, q_omega 0.5 (rad/s)^2/s, no scaling, thesis HP + LP pre-filter),
-    161 points on [0, 40] rad/s (dx = 0.25 rad/s). On the simulated cart q_omega = 0.5 gives a
-    stop-and-go RMSE of 0.45-0.59 rad/s (seeds 0, 1, 11), 1 gives 0.48-0.67, the paper's 4 gives
-    0.66-0.98; 321 points (dx 0.125) were no better. Those q values were tuned on the paper's
-    *sampled* kernel at 100 Hz, whose variance on this grid is far below ``T q_omega`` (0.5:
-    5 %, so about 0.025 effective; 1: 53 %); the kernel is now variance-matched
-    (``kernel_var="matched"``) with those effective values, q_omega 0.025 and
-    ``q_omega_accel`` 0.5: the same tracker at 100 Hz (stop_and_go seeds 1-8: mean RMSE 0.474
-    either way) and the same meaning at any sample rate (400 Hz: 0.758 -> 0.425 rad/s; the
-    sampled walk freezes there; benchmarks/aided/RESULTS.md)."""
+    161 points on [0, 40] rad/s (dx = 0.25 rad/s). The kernel is variance-matched
+    (``kernel_var="matched"``): q_omega 0.025 (rad/s)^2/s is the walk's variance on this grid
+    at any sample rate (the paper's *sampled* kernel, on which the values were first chosen,
+    shrinks it by the grid spacing: 0.5 there is about 0.025 effective at 100 Hz, and the walk
+    freezes at 400 Hz); measured in benchmarks/aided/RESULTS.md."""
     model = HarmonicModel(M=2, dt=dt, q_omega=0.025, q_amp=0.004, r=0.0022, p0_amp=0.1)
     return rbpmf.Config(model=model, n_grid=161, omega_min=0.0, omega_max=40.0,
                         prefilter="thesis-hplp", scaling="none", kernel_var="matched")

@@ -14,9 +14,8 @@ transition of any weight vector moves it by at most ``2 kernel_tol`` in L1; the 
 are weighted by these same numbers. The bound is per transition and in L1: it does not bound
 the *relative* weight of far-off grid points (banded: at the floor; exact: hundreds of nats
 above it), which a later likelihood can magnify, so during an acquisition (a cart start-up)
-banded and exact runs can differ by more than the bound suggests (benchmarks/reference/RESULTS.md:
-up to
-7.5 rad/s for a moment on one cart drive, RMSE 0.816 vs 0.802 rad/s). Work per sample is
+banded and exact runs can differ by more than the bound suggests (measured:
+benchmarks/reference/RESULTS.md). Work per sample is
 O(N B (2M)^2). ``kernel="exact"`` keeps the full rows (B = N - 1; O(N^2) kernel memory) as
 the reference. The optional two-component walk (``Config.q_omega_fast``, ``p_fast``) uses the
 mixture rows ``(1 - p) K_slow + p K_fast`` with the same band rule and bound (B then follows
