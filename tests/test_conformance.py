@@ -61,6 +61,12 @@ def _case(method: str):
     if method == "aided":
         u = 0.3 * np.sin(np.arange(N) * DT)
         return aided, aided.Config(wheel_radius=0.3), Sample(0.2 * y, u)
+    if method == "aided_grid":  # ``aided`` with ``tracker=rbpmf`` or ``grid``
+        from vibrospeed.estimators import aided_grid
+
+        u = 0.3 * np.sin(np.arange(N) * DT)
+        tr = dataclasses.replace(aided_grid._cart_tracker(DT), n_grid=81)
+        return aided_grid, aided_grid.Config(tracker=tr, wheel_radius=0.3), Sample(0.2 * y, u)
     if method == "gps-riss":
         from vibrospeed.estimators import gps_riss
 
@@ -87,8 +93,8 @@ NOT_YET = {
     "fuse": "new method, joins the protocol later",
 }
 
-PROTOCOL = [m for m in estimators.METHODS if m not in NOT_YET]
-ALL = list(estimators.METHODS)
+#: the methods, and method variants whose state and step are their own (``method:variant``)
+ALL = list(estimators.METHODS) + ["aided_grid"]
 
 
 def _protocol(method: str):
@@ -149,7 +155,7 @@ def _per_batch(res, n: int) -> bool:
     return len(np.atleast_1d(_primary(res))) != n
 
 
-@pytest.mark.parametrize("method", ALL)
+@pytest.mark.parametrize("method", list(estimators.METHODS))
 def test_module_has_the_protocol(method):
     if method in NOT_YET:
         pytest.skip(f"{method}: {NOT_YET[method]}")
@@ -234,7 +240,7 @@ def test_config_and_state_pickle(method):
                           _bits(_primary(mod.run(cfg, rest, state=init))))
 
 
-@pytest.mark.parametrize("method", ALL)
+@pytest.mark.parametrize("method", list(estimators.METHODS))
 def test_unknown_config_field_is_a_parameter_error(method):
     mod = estimators.get(method)
     with pytest.raises(ParameterError, match="no_such_parameter"):
@@ -246,7 +252,7 @@ def car():
     return sim.simulate("car", seed=1, duration=8.0)
 
 
-@pytest.mark.parametrize("method", ALL)
+@pytest.mark.parametrize("method", list(estimators.METHODS))
 def test_estimate_rejects_an_unknown_parameter(method, car):
     mod = estimators.get(method)
     kw = {"axis": "x"} if method == "gps-riss" else {}

@@ -73,10 +73,11 @@ from numba import njit
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
-from vibrospeed.estimators.aiding import aiding_inputs, input_arrays, running_gain
+from vibrospeed.estimators.aiding import Sample, aiding_inputs, input_arrays, running_gain
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
 from vibrospeed.signal.detectors import _mode_core, _window_core
+from vibrospeed.types import Estimate
 
 STANDSTILL_KINDS = ("none", "window")
 
@@ -219,8 +220,9 @@ class State(NamedTuple):
     count: int = 0
 
 
-class Estimate(NamedTuple):
-    """Posterior at one sample (rad/s); band = the tracker's credible interval."""
+class _Posterior(NamedTuple):
+    """Posterior at one sample (rad/s); band = the tracker's credible interval (the first six
+    fields are the run's columns in this order)."""
 
     omega: float
     omega_std: float
@@ -345,7 +347,7 @@ def _decide(config: Config, window: det.WindowState, mode: det.ModeState, y: flo
 
 def _core(config: Config, g: rbpmf.State, offset: float, y: float, u: float, gain: float,
           ref: float, ref_var: float, ss: bool, acc: bool, boost: bool,
-          ubar: float, ext: np.ndarray | None = None) -> tuple[rbpmf.State, float, Estimate]:
+          ubar: float, ext: np.ndarray | None = None) -> tuple[rbpmf.State, float, _Posterior]:
     """One sample on a detector decision; ``g`` is modified in place before the RBPMF step;
     ``ext`` the comb evidence of a frame ending here (None: none)."""
     T = config.tracker.model.dt
@@ -381,17 +383,26 @@ def _core(config: Config, g: rbpmf.State, offset: float, y: float, u: float, gai
     return g, offset, est
 
 
-def _output(om, sd, omap, lo, hi, p_null, offset, ss, acc, boost, ubar, amps) -> Estimate:
-    return Estimate(max(om + offset, 0.0), float(sd), max(omap + offset, 0.0),
+#: extras of :func:`step`'s :class:`~vibrospeed.types.Estimate`: MAP (rad/s), mass of the
+#: "no line" state, acceleration / boost modes, ubar (m/s^2, mean of the last a_x), amplitudes
+ESTIMATE_EXTRAS = ("omega_map", "p_null", "accelerating", "boost", "ubar", "amplitudes")
+
+
+def _output(om, sd, omap, lo, hi, p_null, offset, ss, acc, boost, ubar, amps) -> _Posterior:
+    return _Posterior(max(om + offset, 0.0), float(sd), max(omap + offset, 0.0),
                     max(lo + offset, 0.0), max(hi + offset, 0.0), float(p_null), bool(ss),
                     bool(acc), bool(boost), float(ubar), np.asarray(amps))
 
 
-def step(config: Config, state: State, y: float, u: float, *, gain: float = 1.0,
-         ref: float = np.nan, ref_var: float = np.nan) -> tuple[State, Estimate]:
-    """Process one sample (inputs as :func:`vibrospeed.estimators.aided.step`: ``y`` the
-    pre-filtered vibration sample in m/s^2 read by the standstill test, ``y * gain`` fed to the
-    RBPMF, ``u`` = a_x in m/s^2, ``ref``/``ref_var`` an omega fix)."""
+def step(config: Config, state: State, y: float | Sample, u: float = np.nan, *,
+         gain: float = 1.0, ref: float = np.nan, ref_var: float = np.nan
+         ) -> tuple[State, Estimate]:
+    """Process one sample (inputs as :func:`vibrospeed.estimators.aided.step`, or its
+    :class:`~vibrospeed.estimators.aiding.Sample`: ``y`` the pre-filtered vibration sample in
+    m/s^2 read by the standstill test, ``y * gain`` fed to the RBPMF, ``u`` = a_x in m/s^2,
+    ``ref``/``ref_var`` an omega fix; this tracker has no ``still`` / ``comb`` inputs)."""
+    if isinstance(y, Sample):
+        y, u, gain, ref, ref_var = y[:5]
     window = det.WindowState(state.window.buf.copy(), state.window.pos_count.copy(),
                              state.window.flag.copy())
     mode = det.ModeState(state.mode.buf.copy(), state.mode.pos_count.copy(),
@@ -407,11 +418,15 @@ def step(config: Config, state: State, y: float, u: float, *, gain: float = 1.0,
     g = _copy_grid(state.grid)
     g, offset, est = _core(config, g, float(state.offset), float(y), float(u), float(gain),
                            float(ref), float(ref_var), ss, acc, boost, ubar, ext)
-    return State(g, offset, window, mode, buf, state.count + 1), est
+    extras = {k: getattr(est, k) for k in ESTIMATE_EXTRAS}
+    return State(g, offset, window, mode, buf, state.count + 1), Estimate(
+        est.omega, est.omega_std, est.omega_lo, est.omega_hi,
+        has_signal=float(1.0 - est.p_null >= 0.5), standstill=float(est.standstill),
+        extras=extras)
 
 
 class Result(NamedTuple):
-    """Batch output over samples (n,) unless noted."""
+    """Batch output over samples (n,) unless noted: the columns of :func:`step`'s estimates."""
 
     omega: np.ndarray
     omega_std: np.ndarray
@@ -427,15 +442,20 @@ class Result(NamedTuple):
     final: State
 
 
-def run(config: Config, y: np.ndarray, u: np.ndarray, *, gain: np.ndarray | None = None,
-        ref: np.ndarray | None = None, ref_var: np.ndarray | None = None,
-        state: State | None = None) -> Result:
-    """Run over whole signals; identical to repeated :func:`step`.
+def run(config: Config, y: np.ndarray | Sample, u: np.ndarray | None = None, *,
+        gain: np.ndarray | None = None, ref: np.ndarray | None = None,
+        ref_var: np.ndarray | None = None, state: State | None = None) -> Result:
+    """Run over whole signals (``y`` may be a :class:`~vibrospeed.estimators.aiding.Sample` of
+    arrays; scalars hold for every sample); identical to repeated :func:`step`.
 
     The detectors depend on the inputs only, so they run first (same compiled cores);
     stretches of plain vibration samples (no standstill, no fix, no acceleration mode, offset 0)
     go to :func:`rbpmf.run` in one call, the other samples through the per-sample core.
     """
+    if isinstance(y, Sample):
+        n = np.size(y.y)
+        y, u, gain, ref, ref_var = (np.full(n, v, dtype=np.float64) if np.ndim(v) == 0 else v
+                                    for v in y[:5])
     y = np.ascontiguousarray(y, dtype=np.float64)
     n = y.size
     u, gain, ref, ref_var = input_arrays(n, u, gain, ref, ref_var, "aided_grid.run")
