@@ -97,7 +97,13 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
             rh = max(x[3], 1e-3)
             var = s**2 + (cfg.vib_rel * om) ** 2
             costs = []
-            for k in (1.0, 0.5, 2.0):
+            known = math.sqrt(P[3, 3]) < cfg.octave_rel * abs(x[3])
+            for k in ((1.0, 0.5, 2.0) if known else (1.0,)):
+                sv3 = 3 * math.sqrt(P[0, 0])
+                if not (cfg.radius_min * k * om <= x[0] + sv3
+                        and x[0] - sv3 <= cfg.radius_max * k * om):
+                    costs.append(math.inf)
+                    continue
                 h = e[0] - k * om * e[3]
                 R = (rh * k) ** 2 * var * cfg.vib_corr / dt
                 costs.append((h @ x) ** 2 / (h @ P @ h + R) + (0 if k == 1.0 else cfg.vib_penalty))
@@ -441,6 +447,10 @@ def test_no_radius_from_a_line_claimed_at_a_standstill():
     _, o = fuse.run(cfg, arrays)
     assert np.all(o.radius > 0.2)
     assert abs(o.radius[-1] - 0.31) < 0.005
+    # rolling off at 1-2 m/s with the engine line still claimed: no physical radius fits
+    arrays["omega"] = np.where(v < 2.0, 110.0, arrays["omega"])
+    _, o = fuse.run(cfg, arrays)
+    assert np.all(o.radius > 0.2)
 
 
 def test_negative_speed_is_projected_onto_zero():

@@ -32,7 +32,11 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    ``nu^2 / S`` plus ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate``; else
    the sample has no vibration update. No line is used where the filter knows the vehicle to be
    slower than ``vib_min_speed`` (``v + 3 sqrt(P_vv) < vib_min_speed``): a line claimed at a
-   standstill (an idling engine) would otherwise teach ``r = v / omega = 0``. So the speed
+   standstill (an idling engine) would otherwise teach ``r = v / omega = 0``; nor a hypothesis
+   whose radius cannot be physical for any speed within 3 sigma:
+   ``(v + 3 sqrt(P_vv)) / (k omega) < radius_min`` or ``(v - 3 sqrt(P_vv)) / (k omega) >
+   radius_max`` (an engine line while the vehicle starts to roll). Octaves are relative to a
+   known radius: while r is not known within ``octave_rel`` only k = 1 is tried. So the speed
    prior (GPS, the accelerometer, the radius learned so far) decides an octave, not the
    tracker's guess. The radius is defined by the
    line the tracker reports most of the time: an exponential average (time constant
@@ -129,6 +133,7 @@ class Config:
         (m; overridden by ``radius_from`` / a given wheel radius in :func:`estimate`).
     octave_tau : s, time constant of the octave average (item 3).
     vib_min_speed : m/s; no wheel-frequency update where the speed is surely below it (item 3).
+    radius_min, radius_max : m, the physical range of the effective radius (item 3).
     octave_rel : relative radius std below which the octave average and the re-lock act.
     vib_relock : s of consecutive gated-out lines without GPS before the re-lock (item 3).
     vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
@@ -172,6 +177,8 @@ class Config:
     octave_tau: float = 10.0
     vib_use: str = "line"
     vib_min_speed: float = 1.0
+    radius_min: float = 0.03
+    radius_max: float = 1.0
     octave_rel: float = 0.05
     vib_relock: float = 5.0
     nonneg: bool = True
@@ -186,7 +193,7 @@ class Config:
                 raise ParameterError(f"fuse: {name} must be > 0, got {getattr(self, name)}")
         for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "e_max", "min_sats",
                      "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
-                     "vib_min_speed", "octave_rel", "vib_relock"):
+                     "vib_min_speed", "octave_rel", "vib_relock", "radius_min", "radius_max"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
         if self.vib_use not in ("line", "all"):
@@ -221,7 +228,7 @@ class Config:
             self.vib_corr, self.vib_gate, self.vib_penalty, self.r_still, self.r_still_acc,
             self.still_gate, self.still_speed, self.gps_still, self.gps_hold, self.source_hold,
             self.octave_tau, float(self.nonneg), self.vib_min_speed, self.octave_rel,
-            self.vib_relock,
+            self.vib_relock, self.radius_min, self.radius_max,
         ], dtype=np.float64)
         return Ac, qc, p
 
@@ -378,8 +385,12 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         r_hat = max(x[IR], 1e-3)
         var_om = om_std * om_std + (p[5] * om) ** 2
         infl = p[6] / dt
-        for j in range(3):
+        sv3 = 3.0 * math.sqrt(max(P[IV, IV], 0.0))
+        known = math.sqrt(max(P[IR, IR], 0.0)) < p[19] * abs(x[IR])
+        for j in range(3 if known else 1):
             k = 1.0 if j == 0 else (0.5 if j == 1 else 2.0)
+            if (x[IV] + sv3) < p[21] * k * om or (x[IV] - sv3) > p[22] * k * om:
+                continue  # no physical radius explains this line at this speed
             hr = -k * om
             nu = -(x[IV] + hr * x[IR])
             s = (P[IV, IV] + 2.0 * hr * P[IV, IR] + hr * hr * P[IR, IR]
@@ -388,7 +399,6 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             if cost < best:
                 best = cost
                 kk = k
-        known = math.sqrt(max(P[IR, IR], 0.0)) < p[19] * abs(x[IR])
         if best > p[7]:
             if math.isnan(sc[6]):
                 sc[6] = t
