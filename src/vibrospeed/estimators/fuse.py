@@ -126,7 +126,9 @@ class Config:
         of the tracker's errors.  vib_gate, vib_penalty : acceptance gate and octave penalty on
         the normalised innovation squared (item 3).
     r_still, r_still_acc : variances of the zero-speed and zero-acceleration pseudo-measurements.
-    still_gate, still_speed : the integrated speed must be consistent with zero (item 4).
+    still_gate, still_speed : the integrated speed must be consistent with zero (item 4); the
+        default gate (the 98 % chi-square quantile, 2.326^2) keeps the step a stop makes inside
+        the 98 % band.
     gps_still, gps_hold : a valid fix within ``gps_hold`` s above ``gps_still`` m/s vetoes a stop.
     source_hold : s an accepted fix keeps ``source`` at gps.
     p0_speed, p0_accel, p0_offset : initial variances.  radius0, radius_std0 : radius prior
@@ -164,7 +166,7 @@ class Config:
     vib_penalty: float = 9.0
     r_still: float = 1e-4
     r_still_acc: float = 1.0
-    still_gate: float = 9.0
+    still_gate: float = 5.41
     still_speed: float = 0.5
     gps_still: float = 0.5
     gps_hold: float = 2.0
