@@ -16,7 +16,8 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
 2. GPS speed ``g = x3 + e`` (GPS/RISS paper section VI): used only with ``sats >= min_sats``
    (a NaN count counts as valid); its variance grows with the part of the innovation the model
    does not explain, ``R = r_gps + r_gps_sq min(E^2, e_max^2)``, ``E^2 = max(nu^2 - S0, 0)``
-   (paper eq. 13, 18). The change of v this update makes is then at most
+   (paper eq. 13, 18; ``e_max`` large, see :class:`Config`). The change of v this update makes
+   is then at most
    ``sqrt(P_vv) / (2 sqrt(c (1 - c)))``, c = ``r_gps_sq``, whatever the innovation (from
    ``S >= (1 - c) S0 + c nu^2 >= 2 sqrt(c (1 - c) S0) |nu|`` and ``|P_v3| <= sqrt(P_vv S0)``):
    one standard deviation for c = 1/2, so the speed does not jump out of its band when GPS
@@ -121,7 +122,10 @@ class Config:
         (on the simulated family this weighting was best, benchmarks/fuse).
     r_gps : GPS speed variance per fix ((m/s)^2).  r_gps_sq : growth of that variance with the
         unexplained innovation squared (module notes, item 2; in (0, 1) bounds the jump).
-    e_max : clip of the GPS error E (m/s).  min_sats : satellite gate.
+    e_max : clip of the GPS error E (m/s; the paper clips at 5). The default 1000 m/s does not
+        clip in practice, so the jump bound of item 2 holds: with a clip, a fix far from a
+        speed that drifted in an outage is weighted as if E were ``e_max`` and moves the speed
+        by more than its band.  min_sats : satellite gate.
     vib_rel : relative floor on the wheel frequency's spread.  vib_corr : correlation time (s)
         of the tracker's errors.  vib_gate, vib_penalty : acceptance gate and octave penalty on
         the normalised innovation squared (item 3).
@@ -158,7 +162,7 @@ class Config:
     acc_psd: float = 0.1
     r_gps: float = 0.01
     r_gps_sq: float = 0.5
-    e_max: float = 5.0
+    e_max: float = 1000.0
     min_sats: float = 7.0
     vib_rel: float = 0.005
     vib_corr: float = 0.05
