@@ -316,8 +316,7 @@ def render(rows: list[dict], a, done: bool = True) -> str:
         "faults: the whole drive under 'in'), each beside the clean drive's share on the "
         "same samples. Wall time and peak RSS of the CLI process (start-up included) on the "
         "shared 2-core VM (heavily loaded while these ran: wall time is 2-5x the CPU time). "
-        "The faults are defined in the script's docstring. Peak MiB n/a: that part ran before "
-        "the launcher measured it (the benchmark's own RSS was counted instead).",
+        "The faults are defined in the script's docstring.",
         "",
         "| drive | fault | exit | rows out | NaN % | acc out % | clean out % | acc in % | "
         "clean in % | wall s | peak MiB | message |",

@@ -17,12 +17,14 @@ Parts (all in fresh child processes so that peak memory is the run's own):
 * ``startup``: ``python -m vibrospeed estimate`` on a 10 s canonical CSV with an empty numba
   cache directory (``NUMBA_CACHE_DIR``: every ``cache=True`` kernel compiles) and again with the
   cache it left; ``python -c "import vibrospeed.cli.app"`` for reference.
+* ``grid``: ``lengths`` for the default grid tracker alone (its own section, so that a
+  change to it is measured without running every method again).
 * ``read``: peak RSS of reading a 1 h CSV / Parquet whole (``io.read``) and chunk by chunk
   (:class:`vibrospeed.io.chunks.ChunkedRecording`, 65 536 rows) over the child's baseline.
 
 Usage (``--write``: ``benchmarks/scale/RESULTS.md`` and ``docs/img/scale.png``)::
 
-    PYTHONPATH=src .venv/bin/python benchmarks/scale.py [lengths] [online] [startup] [read]
+    PYTHONPATH=src .venv/bin/python benchmarks/scale.py [lengths] [grid] [online] [startup] [read]
         [--lengths 60,600,3600] [--methods grid,grid-causal,rbpmf,ekf,stft] [--write]
 """
 
@@ -422,6 +424,10 @@ def main(argv=None) -> None:
         if "lengths" in a.parts:
             rows = part_lengths(lengths, methods, tmp)
             text += render_lengths(rows, lengths) + [""]
+        if "grid" in a.parts:  # the default alone, e.g. after a change to it
+            grows = part_lengths(lengths, ["grid"], tmp)
+            text += ["## The default grid tracker alone (this tree)", ""]
+            text += render_lengths(grows, lengths)[3:] + [""]
         if "online" in a.parts:
             text += part_online(a.whiten_ref) + [""]
         if "startup" in a.parts:
