@@ -493,3 +493,23 @@ def test_relock_when_the_filter_diverged_in_an_outage():
     assert np.median(np.abs(stuck.speed[late] - v[late])) > 10.0
     assert np.all(np.abs(o.speed[late] - v[late]) < 0.03 * v[late])
     assert np.all(o.source[late] == fuse.SRC_VIBRATION)
+
+
+def test_a_long_stop_is_taken_even_when_the_integrated_speed_drifted():
+    """In an outage a wrong offset makes the integrated speed drift before a stop; the stop
+    evidence is refused at first (the speed disagrees) and taken after still_relock s."""
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=12, T=160.0, outage=(90.0, 160.0), no_line=(90.0, 160.0),
+                      still=(120.0, 140.0))
+    t = arrays["t"]
+    arrays["accel"] = np.where((t >= 90.0) & (t < 120.0), arrays["accel"] + 1.0,
+                               arrays["accel"])
+    _, stuck = fuse.run(fuse.Config(acc_psd=0.01, still_relock=1e9), arrays)
+    _, o = fuse.run(cfg, arrays)
+    stop = (t >= 120.0) & (t < 140.0)
+    first = (t >= 120.0) & (t < 126.0)
+    assert np.all(stuck.source[first] != fuse.SRC_STANDSTILL)
+    assert np.all(np.abs(stuck.speed[first]) > 10.0)
+    late = stop & (t >= 120.0 + cfg.still_relock + 0.1)
+    assert np.all(o.source[late] == fuse.SRC_STANDSTILL)
+    assert np.all(np.abs(o.speed[late]) < 0.05)

@@ -56,6 +56,9 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    integrated is consistent with zero (``v^2 / (P_vv + r_still) <= still_gate`` or
    ``|v| <= still_speed``), the pseudo-measurements ``v = 0`` and ``a = 0`` (variance
    ``r_still``, ``r_still_acc``) are applied: zero-velocity updates that also calibrate b.
+   If the other evidence has said "stop" for ``still_relock`` s while only the integrated
+   speed disagrees and no GPS fix came, the integrated speed is what drifted: ``P_vv`` is
+   increased by ``v^2`` and the stop is taken (a step to 0, by design).
 
 5. speed is a magnitude (GPS speed and a wheel frequency are): where the updates leave
    ``v < 0`` the state is projected onto ``v = 0`` (``x <- x - P[:, v] v / P_vv``, the
@@ -142,6 +145,8 @@ class Config:
     radius_min, radius_max : m, the physical range of the effective radius (item 3).
     octave_rel : relative radius std below which the octave average and the re-lock act.
     vib_relock : s of consecutive gated-out lines without GPS before the re-lock (item 3).
+    still_relock : s of stop evidence refused by the integrated speed, without GPS, before the
+        stop is taken anyway (item 4).
     vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
         (where the tracker claims a line, ``has_signal``) or ``"all"`` (every positive omega,
         its posterior spread and the gate decide: for trackers whose null state dominates on a
@@ -187,6 +192,7 @@ class Config:
     radius_max: float = 1.0
     octave_rel: float = 0.05
     vib_relock: float = 5.0
+    still_relock: float = 3.0
     nonneg: bool = True
     fuse_rate: float = 25.0
 
@@ -199,7 +205,8 @@ class Config:
                 raise ParameterError(f"fuse: {name} must be > 0, got {getattr(self, name)}")
         for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "e_max", "min_sats",
                      "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
-                     "vib_min_speed", "octave_rel", "vib_relock", "radius_min", "radius_max"):
+                     "vib_min_speed", "octave_rel", "vib_relock", "radius_min", "radius_max",
+                     "still_relock"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
         if self.vib_use not in ("line", "all"):
@@ -234,7 +241,7 @@ class Config:
             self.vib_corr, self.vib_gate, self.vib_penalty, self.r_still, self.r_still_acc,
             self.still_gate, self.still_speed, self.gps_still, self.gps_hold, self.source_hold,
             self.octave_tau, float(self.nonneg), self.vib_min_speed, self.octave_rel,
-            self.vib_relock, self.radius_min, self.radius_max,
+            self.vib_relock, self.radius_min, self.radius_max, self.still_relock,
         ], dtype=np.float64)
         return Ac, qc, p
 
@@ -246,7 +253,8 @@ class State(NamedTuple):
     t : time of the last sample (NaN before the first).  t_gps : time of the last accepted
     fix (-inf: none).  t_fix, v_fix : time and value of the last valid fix (for the standstill
     veto).  octave : average of log2 k over recent wheel-frequency updates (module notes, 3).
-    t_reject : start of the current run of gated-out lines (NaN: none).
+    t_reject : start of the current run of gated-out lines (NaN: none).  t_still : start of
+    the current run of refused stop evidence (NaN: none).
     """
 
     x: np.ndarray
@@ -257,6 +265,7 @@ class State(NamedTuple):
     v_fix: float
     octave: float = 0.0
     t_reject: float = math.nan
+    t_still: float = math.nan
 
 
 class Estimate(NamedTuple):
@@ -339,7 +348,7 @@ def _update_row(x, P, h, z, r):
 @njit(cache=True)
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, out, xp, Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
-    t_reject]``;
+    t_reject, t_still]``;
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
     prediction (for the smoother). Returns dt."""
     n = x.size
@@ -434,10 +443,20 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             kk = math.nan
     # 4. standstill from all evidence
     stopped = False
-    if still:
+    if not still:
+        sc[7] = math.nan
+    else:
         gps_ok = math.isnan(sc[3]) or (t - sc[2]) > p[14] or sc[3] <= p[13]
         consistent = (x[IV] * x[IV] / (P[IV, IV] + p[9]) <= p[11]) or abs(x[IV]) <= p[12]
+        if gps_ok and not consistent:
+            if math.isnan(sc[7]):
+                sc[7] = t
+            elif t - sc[7] >= p[23] and t - sc[1] > p[23]:
+                # re-lock: the integrated speed, not the stop, is wrong
+                P[IV, IV] += x[IV] * x[IV]
+                consistent = True
         if gps_ok and consistent:
+            sc[7] = math.nan
             h[IV] = 1.0
             _update_row(x, P, h, 0.0, p[9])
             h[IV] = 0.0
@@ -488,13 +507,13 @@ def _unpack(state: State, n: int):
                              "(GPS delay on/off changed?)")
     P = np.array(state.P, dtype=np.float64)
     sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0, state.octave,
-                   state.t_reject])
+                   state.t_reject, state.t_still])
     return x, P, sc
 
 
 def _pack(x, P, sc) -> State:
     return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]),
-                 float(sc[6]))
+                 float(sc[6]), float(sc[7]))
 
 
 _SAMPLE = ("t", "accel", "gps_speed", "gps_sats", "omega", "omega_std", "line", "still")
