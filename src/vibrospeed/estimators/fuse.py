@@ -421,6 +421,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 # re-lock: the filter, not the line, has diverged
                 nu = x[IV] - x[IR] * om
                 P[IV, IV] += nu * nu
+                Pp[IV, IV] += nu * nu  # process noise of this step, for the smoother
                 kk = 1.0
                 best = 0.0
         if best <= p[7]:
@@ -453,6 +454,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 sc[7] = t
             elif t - sc[7] >= p[23] and t - sc[1] > p[23]:
                 # re-lock: the integrated speed, not the stop, is wrong
+                Pp[IV, IV] += x[IV] * x[IV]  # process noise of this step, for the smoother
                 P[IV, IV] += x[IV] * x[IV]
                 consistent = True
         if gps_ok and consistent:
