@@ -513,3 +513,23 @@ def test_a_long_stop_is_taken_even_when_the_integrated_speed_drifted():
     late = stop & (t >= 120.0 + cfg.still_relock + 0.1)
     assert np.all(o.source[late] == fuse.SRC_STANDSTILL)
     assert np.all(np.abs(o.speed[late]) < 0.05)
+
+
+def test_rts_smoother_against_a_numpy_reference():
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=13, T=40.0, outage=(15.0, 30.0), no_line=(18.0, 26.0))
+    _, o = fuse.run(cfg, arrays)
+    xs, Ps = fuse.smooth(cfg, o)
+    Ac = cfg._arrays()[0]
+    n = o.xf.shape[0]
+    ref_x, ref_P = o.xf.copy(), o.Pf.copy()
+    for k in range(n - 2, -1, -1):
+        F = expm(Ac * o.dt[k + 1])
+        C = np.linalg.solve(o.Pp[k + 1].T, (o.Pf[k] @ F.T).T).T
+        ref_x[k] = o.xf[k] + C @ (ref_x[k + 1] - o.xp[k + 1])
+        ref_P[k] = o.Pf[k] + C @ (ref_P[k + 1] - o.Pp[k + 1]) @ C.T
+    np.testing.assert_allclose(xs, ref_x, atol=1e-6)
+    np.testing.assert_allclose(Ps, ref_P, atol=1e-8)
+    # the smoother also uses what comes after: never a wider spread than the filter's
+    assert np.all(Ps[:, 0, 0] <= o.Pf[:, 0, 0] + 1e-12)
+    np.testing.assert_array_equal(xs[-1], o.xf[-1])
