@@ -85,21 +85,27 @@ def _case(method: str):
         gz = np.where((t > 2.0) & (t < 4.0), 0.1, 0.0)
         Z = np.stack([gz, 0.8 * np.cos(0.4 * t), gz * vx, vx / 0.31], axis=1)
         return algebraic, algebraic.Config(dt=DT), Z + 0.02 * rng.normal(size=Z.shape)
+    if method == "fuse":
+        from vibrospeed.estimators import fuse
+
+        t = np.arange(N) * DT
+        rng = np.random.default_rng(4)
+        v = 12.0 + 2.0 * np.sin(0.5 * t)
+        gps = np.full(N, np.nan)
+        gps[::10] = v[::10] + 0.1 * rng.normal(size=gps[::10].size)
+        gps[300:450] = np.nan  # an outage
+        omega = v / 0.3 + 0.5 * rng.normal(size=N)
+        return fuse, fuse.Config(), fuse.Sample(
+            t, np.cos(0.5 * t) + 0.05 * rng.normal(size=N), gps, np.full(N, 9.0), omega,
+            np.full(N, 0.5), (np.arange(N) % 50) < 40, np.zeros(N, bool))
     raise AssertionError(method)
 
-
-#: methods not (yet) following the protocol, with the reason
-NOT_YET = {
-    "fuse": "new method, joins the protocol later",
-}
 
 #: the methods, and method variants whose state and step are their own (``method:variant``)
 ALL = list(estimators.METHODS) + ["aided_grid"]
 
 
 def _protocol(method: str):
-    if method in NOT_YET:
-        pytest.skip(f"{method}: {NOT_YET[method]}")
     return _case(method)
 
 
@@ -157,8 +163,6 @@ def _per_batch(res, n: int) -> bool:
 
 @pytest.mark.parametrize("method", list(estimators.METHODS))
 def test_module_has_the_protocol(method):
-    if method in NOT_YET:
-        pytest.skip(f"{method}: {NOT_YET[method]}")
     mod = estimators.get(method)
     assert dataclasses.is_dataclass(mod.Config) and mod.Config.__dataclass_params__.frozen
     assert issubclass(mod.State, tuple)

@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import glob
 import hashlib
-import inspect
 import json
 import math
 import os
@@ -184,7 +183,7 @@ def estimate_recording(
     rec = load_recording(input, options.fmt, options.columns, options.mapping, options.rate,
                          options.sort, topic=options.topic)
     extra_kw: dict[str, Any] = {}
-    if keep_posterior and "return_posterior" in inspect.signature(mod.estimate).parameters:
+    if keep_posterior:  # every method's estimate() takes it (the estimator protocol)
         extra_kw["return_posterior"] = True
     axis = options.axis
     axis_note = None

@@ -95,7 +95,7 @@ from numba import njit
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.models.gps_riss import GpsLagModel, receiver_matrices, transition
-from vibrospeed.types import Recording, Track
+from vibrospeed.types import Estimate, Recording, Track
 
 #: ``source`` codes (the CSV column holds the number)
 SOURCES = {0: "inertial", 1: "gps", 2: "vibration", 3: "standstill"}
@@ -268,16 +268,26 @@ class State(NamedTuple):
     t_still: float = math.nan
 
 
-class Estimate(NamedTuple):
-    """One sample's output (forward filter)."""
+class Sample(NamedTuple):
+    """One fusion sample, or (n,) arrays of them (:func:`step`, :func:`run`): time (s), mean
+    longitudinal acceleration since the previous sample (m/s^2, NaN: none), GPS speed (m/s,
+    NaN: no fix now), satellites (NaN: unknown), the tracker's omega and spread (rad/s),
+    whether it claims a line, whether the vibration reports a stop."""
 
-    speed: float
-    speed_std: float
-    radius: float
-    radius_std: float
-    offset: float
-    source: int
-    harmonic: float  # k of the wheel-frequency update (NaN: none)
+    t: float
+    accel: float = math.nan
+    gps_speed: float = math.nan
+    gps_sats: float = math.nan
+    omega: float = math.nan
+    omega_std: float = math.nan
+    line: bool = False
+    still: bool = False
+
+
+#: the per-sample values of :func:`step`'s Estimate besides ``speed`` / ``speed_std``: radius
+#: and its std (m), accelerometer offset (m/s^2), source (:data:`SOURCES`), the harmonic k of
+#: the wheel-frequency update (NaN: none)
+EXTRAS = ("radius", "radius_std", "offset", "source", "harmonic")
 
 
 class Output(NamedTuple):
@@ -295,6 +305,17 @@ class Output(NamedTuple):
     xf: np.ndarray
     Pf: np.ndarray
     dt: np.ndarray
+
+
+class Result(NamedTuple):
+    """:func:`run`'s result: the state after the last sample and the per-sample output; the
+    output's columns read as attributes too (``result.speed``); unpacks as ``final, output``."""
+
+    final: State
+    output: Output
+
+    def __getattr__(self, name):
+        return getattr(self.output, name)
 
 
 def init(config: Config, v0: float = 0.0, *, radius: float | None = None,
@@ -518,15 +539,14 @@ def _pack(x, P, sc) -> State:
                  float(sc[6]), float(sc[7]))
 
 
-_SAMPLE = ("t", "accel", "gps_speed", "gps_sats", "omega", "omega_std", "line", "still")
+_SAMPLE = Sample._fields
 
 
-def step(config: Config, state: State, sample) -> tuple[State, Estimate]:
-    """One fusion sample ``(t, accel, gps_speed, gps_sats, omega, omega_std, line, still)``:
-    time (s), mean longitudinal acceleration since the previous sample (m/s^2, NaN: none), GPS
-    speed (m/s, NaN: no fix now), satellites (NaN: unknown), the tracker's omega and spread
-    (rad/s), whether it claims a line, whether the vibration reports a stop."""
-    t, am, g, sats, om, om_std, line, still = sample
+def step(config: Config, state: State, y) -> tuple[State, Estimate]:
+    """One fusion sample ``y``, a :class:`Sample` or the tuple ``(t, accel, gps_speed,
+    gps_sats, omega, omega_std, line, still)``; the Estimate holds ``speed``, ``speed_std`` and
+    the :data:`EXTRAS`."""
+    t, am, g, sats, om, om_std, line, still = y
     t = float(t)
     if not math.isnan(state.t) and not t >= state.t:
         raise InputError(f"fuse: time goes backwards at t = {t} s (previous {state.t} s)")
@@ -536,12 +556,15 @@ def step(config: Config, state: State, sample) -> tuple[State, Estimate]:
     n = x.size
     _step_core(Ac, qc, p, x, P, sc, np.eye(n), t, float(am), float(g), float(sats), float(om),
                float(om_std), bool(line), bool(still), out, np.empty(n), np.empty((n, n)))
-    est = Estimate(float(out[0]), float(out[1]), float(out[2]), float(out[3]), float(out[4]),
-                   int(out[5]), float(out[6]))
+    est = Estimate(speed=float(out[0]), speed_std=float(out[1]),
+                   extras=dict(zip(EXTRAS, (float(out[2]), float(out[3]), float(out[4]),
+                                            int(out[5]), float(out[6])), strict=True)))
     return _pack(x, P, sc), est
 
 
-def _as_inputs(arrays: dict) -> list[np.ndarray]:
+def _as_inputs(arrays) -> list[np.ndarray]:
+    if hasattr(arrays, "_fields"):  # a Sample of arrays
+        arrays = arrays._asdict()
     t = np.ascontiguousarray(arrays["t"], dtype=np.float64)
     n = t.size
     out = [t]
@@ -560,14 +583,15 @@ def _as_inputs(arrays: dict) -> list[np.ndarray]:
     return out
 
 
-def run(config: Config, arrays: dict, *, state: State | None = None) -> tuple[State, Output]:
+def run(config: Config, y, state: State | None = None) -> Result:
     """Forward filter over fusion samples; the numbers of repeated :func:`step`.
 
-    ``arrays`` maps the names of :func:`step`'s sample (``t``, ``accel``, ``gps_speed``,
-    ``gps_sats``, ``omega``, ``omega_std``, ``line``, ``still``) to (n,) arrays; a missing one
-    is "none" (NaN / False). ``state`` defaults to :func:`init` at the first valid fix (or 0).
+    ``y``: a :class:`Sample` of (n,) arrays, or a mapping of its names (``t``, ``accel``,
+    ``gps_speed``, ``gps_sats``, ``omega``, ``omega_std``, ``line``, ``still``) to arrays; a
+    missing one is "none" (NaN / False). ``state`` defaults to :func:`init` at the first valid
+    fix (or 0).
     """
-    ins = _as_inputs(arrays)
+    ins = _as_inputs(y)
     t, g, s = ins[0], ins[2], ins[3]
     if state is None:
         fin = np.flatnonzero(np.isfinite(g) & ~(s < config.min_sats))
@@ -582,7 +606,7 @@ def run(config: Config, arrays: dict, *, state: State | None = None) -> tuple[St
     _run_core(Ac, qc, p, x, P, sc, *ins, out, xp, Pp, xf, Pf, dts)
     o = Output(*(np.ascontiguousarray(out[:, i]) for i in range(5)),
                out[:, 5].astype(np.int8), np.ascontiguousarray(out[:, 6]), xp, Pp, xf, Pf, dts)
-    return _pack(x, P, sc), o
+    return Result(_pack(x, P, sc), o)
 
 
 @njit(cache=True)
@@ -703,6 +727,7 @@ def _truthy(v) -> bool:
 
 def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | None = None,
              params: dict | None = None, progress: bool = False,
+             return_posterior: bool = False,
              radius_from: str | os.PathLike[str] | None = None,
              vibration: Track | None = None) -> Track:
     """Fused speed of a recording: vibration tracker on ``axis``, then the filter.
@@ -714,6 +739,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     name goes to the grid tracker (e.g. ``omega_min``, ``omega_max``). A given ``wheel_radius``
     seeds the prior with 1 % spread. ``gps_speed`` / ``gps_sats`` are used where present;
     without GPS the radius prior must come from ``radius_from`` or ``wheel_radius``.
+    ``return_posterior``: the vibration tracker's omega posterior in ``extras["posterior"]``.
     ``vibration``: a grid track of this recording already at hand (then no tracker runs; it
     must be the causal one for ``online``).
 
@@ -753,7 +779,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     if online:
         tparams["smooth"] = "none"
     if vibration is None:
-        vib = get("grid").estimate(recording, axis=axis, params=tparams, progress=progress)
+        vib = get("grid").estimate(recording, axis=axis, params=tparams, progress=progress,
+                                   return_posterior=return_posterior)
     elif len(vibration) != len(recording):
         raise InputError(f"{name}: the vibration track has {len(vibration)} samples, the "
                          f"recording {len(recording)}")
@@ -810,6 +837,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         "radius_std": back(rrs), "offset": back(off), "harmonic": o.harmonic[blk],
         "omega_vib": vib.omega, "has_signal": claim.astype(np.float64),
     }
+    if return_posterior and "posterior" in vib.extras:  # the vibration tracker's omega posterior
+        extras["posterior"] = vib.extras["posterior"]
     return Track.from_speed(t, speed, speed_std, wheel_radius=r_fin, method="fuse",
                             params=pdict, extras=extras, notes=[*vib.notes, *notes])
 
