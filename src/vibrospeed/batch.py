@@ -1,3 +1,5 @@
+# Over 500 lines: one job (many recordings -> estimates, resumable, on local processes or Dask);
+# its options, the per-recording step, the pool and the summary table share one record.
 """Many recordings at once: estimate each, resume, summarise; on local processes or Dask.
 
 :func:`estimate_recording` is what ``vibrospeed estimate`` does for one recording (read, pick the

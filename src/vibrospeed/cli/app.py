@@ -1,3 +1,5 @@
+# Over 500 lines: the command line's subcommands, each a short function over the library, with
+# their --help texts and examples; one place to read what the CLI offers.
 """The ``vibrospeed`` commands: simulate, estimate, batch, report, evaluate, plot, methods."""
 
 from __future__ import annotations

@@ -1,3 +1,5 @@
+# Over 500 lines: one filter (state model, measurement updates with their gates, compiled loop,
+# RTS smoother) and its entry point, which wires the vibration tracker and the GPS into it.
 """One speed from every sensor a log has: longitudinal acceleration, GPS speed and the wheel
 vibration's frequency, with the effective wheel radius learned on the way (``--method fuse``).
 

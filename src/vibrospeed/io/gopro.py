@@ -1,3 +1,5 @@
+# Over 500 lines: a self-contained MP4 box walker and GPMF parser (no ffmpeg), bounded on any
+# input; the format's rules and their checks stay together.
 """GoPro MP4 telemetry (GPMF in the ``gpmd`` metadata track, HERO5 and later), read by a small
 self-contained parser: no ffmpeg, no compiled code, bounded work on any input.
 

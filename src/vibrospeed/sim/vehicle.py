@@ -1,3 +1,5 @@
+# Over 500 lines: one vehicle model (two-track body, wheel dynamics, tyre forces) in one compiled
+# loop, with its manoeuvres and randomised drives; the parameters and equations belong together.
 """Planar two-track vehicle simulator with wheel dynamics and a friction-limited tyre model.
 
 Ground truth for the algebraic Vx / Vy estimator (METHODS.md section 4; the seed used a 14-DOF
