@@ -153,3 +153,19 @@ def test_scenario_knob_errors_name_the_dotted_knob():
     with pytest.raises(ParameterError, match=r"unknown parameter 'vibraton.harmonic_amps' for "
                        r"CartConfig \(did you mean 'vibration'"):
         sim.simulate("cart", duration=5, **parse_params(["vibraton.harmonic_amps=1"]))
+
+
+@pytest.mark.parametrize("method,name", [("ekf", "comb"), ("aided", "causal"),
+                                         ("fuse", "online"), ("rbpmf", "improved")])
+def test_an_estimator_switch_outside_the_configs_is_read_strictly(method, name):
+    """A switch that is not a Config field (read by the method's estimate) takes true/false,
+    1/0, yes/no, on/off; other text is a one-line ParameterError naming it."""
+    from vibrospeed import estimators, sim
+    from vibrospeed.config import parse_flag
+    from vibrospeed.errors import ParameterError
+
+    assert parse_flag("Yes", name) is True and parse_flag("off", name) is False
+    assert parse_flag(0, name) is False and parse_flag(True, name) is True
+    rec = sim.simulate("car", seed=1, duration=4.0)
+    with pytest.raises(ParameterError, match=f"'{name}'.*'perhaps'"):
+        estimators.get(method).estimate(rec, wheel_radius=0.3, params={name: "perhaps"})

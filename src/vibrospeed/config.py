@@ -161,6 +161,12 @@ def parse_value(text: str, typ: Any, name: str = "value") -> Any:
                          f"('{text}')")
 
 
+def parse_flag(value: Any, name: str) -> bool:
+    """A switch given as bool, number or text (``true/false``, ``1/0``, ``yes/no``, ``on/off``);
+    other text is a :class:`ParameterError` naming ``name``."""
+    return bool(parse_value(value, bool, name))
+
+
 def format_value(value: Any) -> str:
     """``value`` as the text :func:`parse_value` reads back to an equal value (floats by
     ``repr``, so the round trip is exact; sequences comma-separated; None as ``none``)."""

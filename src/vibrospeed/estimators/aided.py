@@ -83,13 +83,12 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vibrospeed.config import config_from_params
+from vibrospeed.config import config_from_params, parse_flag
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators.aiding import (  # noqa: F401 (re-exported: the aided API)
     BROADBAND_LO,
     Sample,
     _channel,
-    _flag,
     aiding_inputs,
     input_arrays,
     running_gain,
@@ -670,7 +669,7 @@ def estimate(
     reference = str(cfg_kw.pop("reference", "none"))
     wheelbase = cfg_kw.pop("wheelbase", None)
     detrend = float(cfg_kw.pop("accel_detrend", 0.0))
-    causal = _flag(cfg_kw.pop("causal", False))
+    causal = parse_flag(cfg_kw.pop("causal", False), "causal")
     offset_kind = str(cfg_kw.pop("accel_offset", "standstill"))
     if offset_kind not in ("standstill", "none"):
         raise ParameterError(f"accel_offset must be 'standstill' or 'none', got '{offset_kind}'")
@@ -731,7 +730,7 @@ def estimate(
     notes += more
     if nyq_note:
         notes.append(nyq_note)
-    comb = _flag(cfg_kw_comb)
+    comb = parse_flag(cfg_kw_comb, "comb")
     c_om = None
     if comb:
         c_om, c_rng = comb_candidates(x, dt, om_min, config.omega_limit, still=still,

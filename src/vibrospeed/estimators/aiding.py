@@ -101,13 +101,6 @@ def standstill_offset(u: np.ndarray, still: np.ndarray, *, causal: bool = False)
     return np.where(n_st > 0, m_st, np.where(n_all > 0, m_all, 0.0))
 
 
-def _flag(v) -> bool:
-    """A boolean parameter given as bool, number or text ('true', '1', 'yes')."""
-    if isinstance(v, str):
-        return v.strip().lower() in ("1", "true", "yes", "on")
-    return bool(v)
-
-
 def _channel(recording: Recording, spec: str) -> np.ndarray:
     """'ax', 'x', '-ay' (negated)... -> channel values."""
     from vibrospeed.estimators.common import axis_channel

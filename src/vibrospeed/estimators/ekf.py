@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vibrospeed.config import config_from_params
+from vibrospeed.config import config_from_params, parse_flag
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.kalman import joseph_update
 from vibrospeed.models.harmonic import HarmonicModel
@@ -320,13 +320,6 @@ def run(config: Config, y: np.ndarray, state: State | None = None,
                   outs[:, 4] > 0.5, State(x, P, cv))
 
 
-def _flag(v) -> bool:
-    """A boolean parameter given as bool, number or text ('true', '1', 'yes')."""
-    if isinstance(v, str):
-        return v.strip().lower() in ("1", "true", "yes", "on")
-    return bool(v)
-
-
 # ---------------------------------------------------------------------------------------------
 #: defaults of :func:`estimate` for a running-RMS-normalised (unit power) signal: M = 2 (the
 #: thesis' best, table 3.1; an EKF with more harmonics than the signal carries is easily dragged
@@ -383,7 +376,7 @@ def estimate(
     model_kw.pop("dt", None)
     pre = str(cfg_kw.pop("prefilter", "thesis-hp"))
     tau = float(cfg_kw.pop("normalize_tau", 5.0))
-    comb_on = _flag(cfg_kw.pop("comb", True))
+    comb_on = parse_flag(cfg_kw.pop("comb", True), "comb")
     cfg_kw.setdefault("acquire", comb_on and "omega0" not in cfg_kw)
     defaults = dict(UNIT_RMS_MODEL) if tau > 0 else HarmonicModel.from_thesis().to_dict()
     defaults.pop("dt", None)

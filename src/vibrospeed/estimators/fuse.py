@@ -94,7 +94,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vibrospeed.config import config_from_params
+from vibrospeed.config import config_from_params, parse_flag
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.models.gps_riss import GpsLagModel, receiver_matrices, transition
 from vibrospeed.types import Estimate, Recording, Track
@@ -716,17 +716,6 @@ def _split(params: dict) -> tuple[dict, dict, dict]:
     return fuse_kw, own, rest
 
 
-def _truthy(v) -> bool:
-    if isinstance(v, str):
-        low = v.strip().lower()
-        if low in ("1", "true", "yes", "on"):
-            return True
-        if low in ("0", "false", "no", "off", ""):
-            return False
-        raise ParameterError(f"fuse: online must be true or false, got '{v}'")
-    return bool(v)
-
-
 def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | None = None,
              params: dict | None = None, progress: bool = False,
              return_posterior: bool = False,
@@ -756,7 +745,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     params = dict(params or {})
     fuse_kw, own, rest = _split(params)
     cfg = config_from_params(Config, fuse_kw)
-    online = _truthy(own.get("online", False))
+    online = parse_flag(own.get("online", False), "online")
     rf = radius_from if radius_from is not None else own.get("radius_from")
     acc_ch = _axis_channel(str(own.get("accel_axis", "x")))
     name = recording.source or "recording"

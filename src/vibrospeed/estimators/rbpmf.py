@@ -12,6 +12,7 @@ paper's filter.
 
 from __future__ import annotations
 
+from vibrospeed.config import parse_flag
 from vibrospeed.estimators.grid.app import (  # noqa: F401 (the filter's API, re-exported)
     fit_for_track,
     prefilter_note,
@@ -91,15 +92,9 @@ def estimate(
                  progress=progress, return_posterior=return_posterior, method="rbpmf")
 
 
-def _truthy(v) -> bool:
-    if isinstance(v, str):
-        return v.strip().lower() in ("1", "true", "yes", "on")
-    return bool(v)
-
-
 def _with_improved(params: dict | None) -> dict:
     params = dict(params or {})
-    if _truthy(params.pop("improved", False)):
+    if parse_flag(params.pop("improved", False), "improved"):
         params = {**IMPROVED, **params}
     return params
 
