@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 
+import vibrospeed.estimators.grid.fit as _fit
+import vibrospeed.estimators.grid.smoother as grid_smoother
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import scaling as _scaling
-from vibrospeed.estimators.grid import fit as _fit
-from vibrospeed.estimators.grid import smoother as grid_smoother
 from vibrospeed.estimators.grid.config import Config
 from vibrospeed.estimators.grid.filter import Result, init, run
 from vibrospeed.estimators.grid.kernel import check_grid_spacing

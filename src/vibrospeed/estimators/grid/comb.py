@@ -65,16 +65,14 @@ limit is ``A comb_lead`` and the evidence is weighted ``A ** -0.834`` (0.4 for t
 axes' noise is neither independent, weight 1, nor one signal seen A times, 1 / A; chosen on the
 simulated car's transient). The time-domain likelihood stays on the tracked axis (measured:
 benchmarks/trackers/RESULTS.md).
+
+``config`` and ``state`` below are the grid method's
+:class:`~vibrospeed.estimators.grid.method.Config` and ``State`` (that module imports this one).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
-
-if TYPE_CHECKING:
-    from vibrospeed.estimators.grid.method import Config, State
 
 
 def _folded(x: np.ndarray, fs: float) -> np.ndarray:
@@ -123,7 +121,7 @@ def running_median(P: np.ndarray, width: int) -> np.ndarray:
     return med[:, j] * (1.0 - fr) + med[:, j + 1] * fr
 
 
-def _comb_terms(config: Config, x: np.ndarray, dt: float,
+def _comb_terms(config, x: np.ndarray, dt: float,
                 good: np.ndarray | None = None) -> np.ndarray:
     """(M, F, N) capped per-harmonic log likelihood ratios of the (A, F, L) zero-mean frames
     of A axes sampled every ``dt`` (their tau spacing when warped); the terms of the axes
@@ -161,7 +159,7 @@ def _comb_terms(config: Config, x: np.ndarray, dt: float,
     return lk
 
 
-def frame_evidence(config: Config, frames: np.ndarray, centre: bool = False) -> np.ndarray:
+def frame_evidence(config, frames: np.ndarray, centre: bool = False) -> np.ndarray:
     """(F, N + 1) comb log-evidence of the (F, L) sample frames, or of the (A, F, L) frames
     of A axes (``comb_axes``), per the module docstring; NaN samples count as 0; frames with
     more than half NaN give no evidence (zeros). With several ``comb_rates`` the frame is also
@@ -207,7 +205,7 @@ def frame_evidence(config: Config, frames: np.ndarray, centre: bool = False) -> 
     return out
 
 
-def _frames_of(config: Config, history: np.ndarray, y: np.ndarray, count0: int):
+def _frames_of(config, history: np.ndarray, y: np.ndarray, count0: int):
     """Frame-end indices into ``y`` and the frames (A, F, L), given the ``L`` samples before
     ``y`` (``history`` (L, A), oldest first), ``y`` (n, A) and the number of samples seen
     before ``y``."""
@@ -223,7 +221,7 @@ def _frames_of(config: Config, history: np.ndarray, y: np.ndarray, count0: int):
     return ends.astype(np.int64), np.moveaxis(win[ends + 1], 1, 0)
 
 
-def _growing_frames(config: Config, history: np.ndarray, y: np.ndarray, count0: int):
+def _growing_frames(config, history: np.ndarray, y: np.ndarray, count0: int):
     """The growing start-up frames (``comb_min_window``): frame-end indices into ``y`` and,
     per end, the (A, 1, g + 1) frame of every sample seen up to it (global index g < L - 1)."""
     L, H = config.frame_len, config.hop_len
@@ -237,7 +235,7 @@ def _growing_frames(config: Config, history: np.ndarray, y: np.ndarray, count0: 
     return ends.astype(np.int64), [full[e + L - g[e] : e + L + 1].T[:, None, :] for e in ends]
 
 
-def _shrinking_frames(config: Config, y: np.ndarray, last_end: int):
+def _shrinking_frames(config, y: np.ndarray, last_end: int):
     """The recording's end, for centre-referred evidence (the mirror of the growing frames):
     every hop after the start of the last full frame (ending at ``last_end``), a frame over all
     samples to the end while at least ``comb_min_window`` s remain; returns their middle
@@ -255,7 +253,7 @@ def _as_signal(y: np.ndarray) -> np.ndarray:
     return y[:, None] if y.ndim == 1 else y
 
 
-def evidence(config: Config, y: np.ndarray, state: State | None = None, *,
+def evidence(config, y: np.ndarray, state=None, *,
              centre: bool = False):
     """``(idx, values)`` comb evidence for ``y`` (n,) or, with several comb axes, (n, A)
     (indices into ``y``), continuing ``state``.
@@ -301,7 +299,7 @@ def evidence(config: Config, y: np.ndarray, state: State | None = None, *,
     return idx, vals
 
 
-def _ordered(state: State) -> np.ndarray:
+def _ordered(state) -> np.ndarray:
     L = state.buf.shape[0]
     p = state.count % L
     return np.concatenate([state.buf[p:], state.buf[:p]])

@@ -33,8 +33,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+import vibrospeed.estimators.grid.summary as cols
 from vibrospeed.errors import ParameterError
-from vibrospeed.estimators.grid import summary as cols
 from vibrospeed.estimators.grid.config import Config
 from vibrospeed.estimators.grid.core import Tables, _run, _step
 from vibrospeed.estimators.grid.summary import N_OUT_FIXED

@@ -1,5 +1,7 @@
 """The omega grid and the random-walk transition kernel of the grid tracker (banded or exact,
 one- or two-component), with the rotation blocks ``F(omega_j)`` of the harmonic model.
+``config`` below is the tracker's :class:`~vibrospeed.estimators.grid.config.Config`, which
+builds its kernel here (so this module does not import it).
 
 
 Banded kernel and its error bound
@@ -29,15 +31,12 @@ for the grid), the weights cannot underflow, and the floor changes the posterior
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from vibrospeed.estimators.kalman import blocks_from_F
-
-if TYPE_CHECKING:
-    from vibrospeed.estimators.grid.config import Config
 
 
 class Kernel(NamedTuple):
@@ -98,7 +97,7 @@ def matched_sigmas(sigma: float, widths: np.ndarray) -> np.ndarray:
     return out * widths
 
 
-def row_sigmas(config: Config, sigma: float, widths: np.ndarray) -> np.ndarray:
+def row_sigmas(config, sigma: float, widths: np.ndarray) -> np.ndarray:
     """(N,) the random walk's per-row sigma for ``config.kernel_var``."""
     if config.kernel_var == "matched" and sigma > 0.0:
         return matched_sigmas(sigma, widths)
@@ -222,7 +221,7 @@ def _band_kernel_mix(grid, widths, sigmas, probs, B):
     return kb
 
 
-def _build_mix(config: Config, grid: np.ndarray, widths: np.ndarray) -> tuple:
+def _build_mix(config, grid: np.ndarray, widths: np.ndarray) -> tuple:
     """(kb, B, tail) of the two-component random walk (``Config.q_omega_fast``, ``p_fast``)."""
     model = config.model
     T = model.dt
@@ -242,7 +241,7 @@ def _build_mix(config: Config, grid: np.ndarray, widths: np.ndarray) -> tuple:
     return _band_kernel_mix(grid, widths, sigmas, probs, B), B, tail
 
 
-def build_kernel(config: Config) -> Kernel:
+def build_kernel(config) -> Kernel:
     """Grid, cell widths, the (banded or exact) transition kernel and the F blocks."""
     model = config.model
     grid = make_grid(config.n_grid, config.omega_min, config.omega_max, config.spacing)
@@ -269,7 +268,7 @@ def build_kernel(config: Config) -> Kernel:
     return Kernel(grid, edges, widths, kb, B, tail, blocks)
 
 
-def check_grid_spacing(config: Config) -> str | None:
+def check_grid_spacing(config) -> str | None:
     """A note when the random-walk step is much smaller than the grid spacing (STYLE 11).
 
     With the paper's values at 100 Hz: step 0.2 rad/s, spacing 0.55 rad/s; the posterior then

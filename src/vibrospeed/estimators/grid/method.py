@@ -19,11 +19,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+import vibrospeed.estimators.grid.app as _app
+import vibrospeed.estimators.grid.config as _cfg
+import vibrospeed.estimators.grid.filter as _filt
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import ParameterError
-from vibrospeed.estimators.grid import app as _app
-from vibrospeed.estimators.grid import config as _cfg
-from vibrospeed.estimators.grid import filter as _filt
 from vibrospeed.estimators.grid.comb import evidence, frame_evidence  # noqa: F401 (API)
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Estimate, Recording, Track

@@ -48,7 +48,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vibrospeed.estimators.grid import summary as cols
+import vibrospeed.estimators.grid.summary as cols
 from vibrospeed.estimators.grid.config import Config
 from vibrospeed.estimators.grid.filter import init
 from vibrospeed.estimators.grid.summary import COL_LOGLIK, N_OUT_FIXED, _summary
