@@ -113,13 +113,10 @@ def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, 
     if config.kern.B > 0:
         notes.append(f"banded kernel: B = {config.kern.B}, discarded row mass <= "
                      f"{config.kern.tail:.2g}")
-    M = config.model.M
+    sm = None
     if config.smooth == "none":
         res = _run_chunked(config, y, return_posterior, progress, extra)
-        omega, std, lo, hi = res.omega, res.omega_std, res.omega_lo, res.omega_hi
-        omap, p_null, p_half, p_double = res.omega_map, res.p_null, res.p_half, res.p_double
-        p_third, p_triple = res.p_third, res.p_triple
-        post = res.posterior
+        omap, post = res.omega_map, res.posterior
     else:
         res = run(config, y, return_grid_loglik=True, extra=extra)
         if config.smooth == "fb":
@@ -132,18 +129,40 @@ def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, 
                                          return_posterior=return_posterior)
             omap = sm.omega_map
             notes.append(f"fixed-lag smoother, lag {config.lag:g} s (delay <= 2 lag)")
-        omega, std, lo, hi = sm.omega, sm.omega_std, sm.omega_lo, sm.omega_hi
-        p_null, p_half, p_double, post = sm.p_null, sm.p_half, sm.p_double, sm.posterior
-        p_third, p_triple = sm.p_third, sm.p_triple
-    if config.smooth == "none":  # res.omega is already the chosen point estimate
-        o_mode, p_mode, o_mean = res.omega_mode, res.p_mode, res.omega_mean
-    else:
-        o_mode, p_mode, o_mean = sm.omega_mode, sm.p_mode, sm.omega
-        if config.point == "mode":
-            omega = o_mode
+        post = sm.posterior
     if config.point == "mode":
         notes.append("omega = mean of the MAP mode (point='mode'); the posterior mean is in "
                      "extras['omega_mean']")
+    (omega, std, lo, hi), extras = columns(config, res, sm, omap, rms)
+    if return_posterior:
+        extras["posterior"] = post
+        extras["grid"] = config.grid.copy()
+    return Track.from_omega(
+        recording.t, omega, std, lo=lo, hi=hi,
+        level=config.level, wheel_radius=wheel_radius or recording.wheel_radius, method=method,
+        params={**config.to_dict(), **(extra_params or {}), "axis": axis}, extras=extras,
+        notes=notes,
+    )
+
+
+def columns(config: Config, res: Result, sm, omap: np.ndarray,
+            rms: np.ndarray) -> tuple[tuple[np.ndarray, ...], dict[str, np.ndarray]]:
+    """``(omega, omega_std, omega_lo, omega_hi)`` and the extras of the Track from the filter's
+    result ``res`` and, when smoothed, the smoother's ``sm`` (None: the causal filter's own
+    columns), the MAP path ``omap`` and the scaling ``rms``, row for row (so that a block of
+    rows gives that block's columns)."""
+    if sm is None:  # res.omega is already the chosen point estimate
+        omega, std, lo, hi = res.omega, res.omega_std, res.omega_lo, res.omega_hi
+        p_null, p_half, p_double = res.p_null, res.p_half, res.p_double
+        p_third, p_triple = res.p_third, res.p_triple
+        o_mode, p_mode, o_mean = res.omega_mode, res.p_mode, res.omega_mean
+    else:
+        omega, std, lo, hi = sm.omega, sm.omega_std, sm.omega_lo, sm.omega_hi
+        p_null, p_half, p_double = sm.p_null, sm.p_half, sm.p_double
+        p_third, p_triple = sm.p_third, sm.p_triple
+        o_mode, p_mode, o_mean = sm.omega_mode, sm.p_mode, sm.omega
+        if config.point == "mode":
+            omega = o_mode
     conf = 1.0 - p_null
     amb = np.maximum(np.maximum(p_half, p_double), np.maximum(p_third, p_triple))
     extras: dict[str, np.ndarray] = {
@@ -156,17 +175,9 @@ def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, 
     }
     if config.point == "mode":
         extras["omega_mean"] = o_mean
-    for m in range(M):
+    for m in range(config.model.M):
         extras[f"amp{m + 1}"] = res.amplitudes[:, m] * rms / config.signal_rms
-    if return_posterior:
-        extras["posterior"] = post
-        extras["grid"] = config.grid.copy()
-    return Track.from_omega(
-        recording.t, omega, std, lo=lo, hi=hi,
-        level=config.level, wheel_radius=wheel_radius or recording.wheel_radius, method=method,
-        params={**config.to_dict(), **(extra_params or {}), "axis": axis}, extras=extras,
-        notes=notes,
-    )
+    return (omega, std, lo, hi), extras
 
 
 def _run_chunked(config: Config, y: np.ndarray, return_posterior: bool, progress: bool,

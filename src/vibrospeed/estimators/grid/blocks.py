@@ -1,0 +1,302 @@
+"""The offline grid tracker over a long recording in blocks: memory bounded by a block, not by
+the log.
+
+The whole-log estimate (:func:`vibrospeed.estimators.grid.method.estimate`) keeps, per sample,
+the filter's emissions (N + 1 float32), its output columns and the comb evidence: about 1.5 kB
+per sample, 12 GiB for a day at 100 Hz. Here the log is cut into blocks of ``block_s`` s:
+
+- the comb evidence is computed for the frames placed in the samples the filter is about to
+  process (the same frames, batched as the whole-log pass batches them: bitwise its values);
+- the forward filter runs once over the log, its state carried from block to block (exactly
+  the whole-log filter: its columns ``loglik``, ``amp*`` are bitwise the whole log's);
+- each block is smoothed over the block plus a look-ahead of ``lookahead_s`` s, whose
+  emissions are kept as the start of the next block: the forward recursion (probabilities
+  and Viterbi scores) is carried exactly from block to block; the backward recursion starts
+  (beta = 1) at the end of the look-ahead instead of the end of the log, and the Viterbi path
+  is traced back from the best state there. That is the one approximation: a sample's
+  marginal ignores the data more than ``lookahead_s`` s after it (the grid chain forgets its
+  start within a few seconds: random walk, jumps, "no line" switches, so two minutes change
+  nothing measurable, benchmarks/scale/RESULTS.md); the last block, whose look-ahead reaches the
+  log's end, is the whole-log smoother's exactly;
+- each block's columns (the Track's, with the standstill and the causal columns) are handed
+  out before the next block starts (:meth:`Blocks.__iter__`).
+
+The pre-filter, the scaling and the standstill detector run on the whole tracked signal
+(float64 arrays of the log's length, ~70 MB per channel for 24 h at 100 Hz), as in the whole-log
+estimate.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterator
+
+import numpy as np
+
+import vibrospeed.estimators.grid.app as _app
+import vibrospeed.estimators.grid.comb as _comb
+import vibrospeed.estimators.grid.method as _method
+import vibrospeed.estimators.grid.smoother as _sm
+from vibrospeed.errors import ParameterError
+from vibrospeed.estimators.grid.filter import Result, init, run
+from vibrospeed.estimators.grid.kernel import check_grid_spacing
+from vibrospeed.types import Recording, Track
+
+#: s, samples per block (the unit of memory) and the smoother's look-ahead past each block
+BLOCK_S = 600.0
+LOOKAHEAD_S = 120.0
+#: frames per batch of the comb evidence: the whole-log pass's (:func:`comb.evidence`)
+_CHUNK = 128
+
+
+class _EvidencePlan:
+    """Where :func:`vibrospeed.estimators.grid.comb.evidence` (whole log, from the start) places
+    each frame's evidence, and its values for a range of samples on demand: the growing frames
+    at the start, the full frames (batched ``_CHUNK`` at a time from the first, as there) and,
+    with ``centre``, the shrinking frames at the end, near-duplicate places dropped as there."""
+
+    def __init__(self, config, Y: np.ndarray, centre: bool):
+        self.config, self.centre = config, centre
+        self.Y = np.ascontiguousarray(_comb._as_signal(Y))
+        n = self.Y.shape[0]
+        L, H, L0 = config.frame_len, config.hop_len, config.min_frame_len
+        g = np.arange(n)
+        if config.comb_weight == 0:
+            ends = g_ends = np.zeros(0, np.int64)
+        else:
+            ends = np.flatnonzero((g >= L - 1) & ((g - (L - 1)) % H == 0))
+            g_ends = np.flatnonzero((g + 1 >= L0) & (g < L - 1) & ((g + 1 - L0) % H == 0))
+        self.ends = ends
+        c = 1 if centre else 0  # centre: each frame's evidence at its middle sample
+        idx = [g_ends - c * (g_ends // 2), ends - c * ((L - 1) // 2)]
+        kind = [np.zeros(g_ends.size, np.int8), np.ones(ends.size, np.int8)]
+        key = [g_ends, np.arange(ends.size)]
+        if ends.size and centre:
+            s0 = np.arange(ends[-1] - L + 1 + H, n - L0 + 1, H)
+            idx.append(s0 + (n - s0 - 1) // 2)
+            kind.append(np.full(s0.size, 2, np.int8))
+            key.append(s0)
+        self.idx = np.concatenate(idx).astype(np.int64)
+        self.kind = np.concatenate(kind)
+        self.key = np.concatenate(key).astype(np.int64)
+        if centre and self.idx.size > 1:
+            keep = np.r_[True, self.idx[1:] > np.maximum.accumulate(self.idx)[:-1]]
+            self.idx, self.kind, self.key = self.idx[keep], self.kind[keep], self.key[keep]
+        self._cache: tuple[int, np.ndarray] | None = None
+
+    def _chunk(self, c: int) -> np.ndarray:
+        if self._cache is None or self._cache[0] != c:
+            e = self.ends[c * _CHUNK : (c + 1) * _CHUNK]
+            L = self.config.frame_len
+            win = np.lib.stride_tricks.sliding_window_view(self.Y, L, axis=0)
+            fr = np.moveaxis(win[e - L + 1], 1, 0)
+            self._cache = (c, _comb.frame_evidence(self.config, fr, self.centre))
+        return self._cache[1]
+
+    def rows(self, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(idx, values)`` of the evidence placed in samples ``lo <= idx < hi``."""
+        a, b = np.searchsorted(self.idx, [lo, hi])
+        N1 = self.config.tracker.n_grid + 1
+        vals = np.zeros((b - a, N1))
+        for r in range(a, b):
+            k, key = self.kind[r], int(self.key[r])
+            if k == 1:
+                vals[r - a] = self._chunk(key // _CHUNK)[key % _CHUNK]
+            elif k == 0:
+                vals[r - a] = _comb.frame_evidence(self.config, self.Y[: key + 1].T[:, None, :],
+                                                   self.centre)[0]
+            else:
+                vals[r - a] = _comb.frame_evidence(self.config, self.Y[key:].T[:, None, :],
+                                                   self.centre)[0]
+        return self.idx[a:b].copy(), vals
+
+
+def _rows(res: Result, a: int, b: int) -> Result:
+    """Rows ``a:b`` of the filter's per-sample columns (``grid_loglik`` included)."""
+    return res._replace(**{f: getattr(res, f)[a:b] for f in Result._fields
+                           if f not in ("final", "posterior") and getattr(res, f) is not None})
+
+
+def _cat(parts: list[Result]) -> Result:
+    if len(parts) == 1:
+        return parts[0]
+    return parts[-1]._replace(**{f: np.concatenate([getattr(p, f) for p in parts])
+                                 for f in Result._fields
+                                 if f not in ("final", "posterior")
+                                 and getattr(parts[-1], f) is not None})
+
+
+class Blocks:
+    """The offline grid estimate of ``recording`` block by block (module docstring).
+
+    Iterating yields one :class:`~vibrospeed.types.Track` per block (its rows of the log, in
+    order, each with the whole-log estimate's columns and extras, ``standstill`` included);
+    ``notes``, ``params``, ``level``, ``wheel_radius`` are the whole-log Track's (the notes
+    are complete once the iteration has ended). :meth:`track` puts the blocks together.
+    Smoothing ``fb`` (the default) or ``none`` (the causal filter: exactly the whole-log
+    estimate); no parameter fit.
+    """
+
+    def __init__(self, recording: Recording, *, axis: str = "y",
+                 wheel_radius: float | None = None, params: dict | None = None,
+                 block_s: float = BLOCK_S, lookahead_s: float = LOOKAHEAD_S,
+                 progress=None):
+        config, Y, rms, notes = _method._prepare(recording, axis, params)
+        tr = config.tracker
+        if tr.smooth not in ("fb", "none"):
+            raise ParameterError(f"block mode: smooth must be fb or none, not '{tr.smooth}'")
+        if tr.fit_names:
+            raise ParameterError("block mode: no parameter fit (fit= needs the whole log)")
+        if not (block_s > 0 and lookahead_s >= 0):
+            raise ParameterError(f"block mode: block_s > 0 and lookahead_s >= 0 s, got "
+                                 f"{block_s:g} and {lookahead_s:g}")
+        self.recording, self.config, self.axis = recording, config, axis
+        self.Y, self.rms = Y, rms
+        self.y = Y if Y.ndim == 1 else np.ascontiguousarray(Y[:, 0])
+        dt = tr.model.dt
+        self.nb = max(1, int(round(block_s / dt)))
+        self.la = max(0, int(round(lookahead_s / dt))) if tr.smooth == "fb" else 0
+        self.progress = progress
+        self.plan = _EvidencePlan(config, Y, centre=tr.smooth == "fb")
+        L = config.frame_len
+        if config.comb_weight > 0:
+            notes.append(f"harmonic-comb evidence: {config.comb_window:g} s frames every "
+                         f"{config.comb_hop:g} s, weight {config.comb_weight:g}, SNR "
+                         f"{config.comb_snr:g}, cap {config.comb_cap:g} nats "
+                         f"({self.plan.idx.size} frames; full {L}-sample frames, growing ones "
+                         f"from {config.comb_min_window:g} s before)")
+        for note in (check_grid_spacing(tr), _app.prefilter_note(tr, 1.0 / dt)):
+            if note:
+                notes.append(note)
+        if tr.kern.B > 0:
+            notes.append(f"banded kernel: B = {tr.kern.B}, discarded row mass <= "
+                         f"{tr.kern.tail:.2g}")
+        if tr.smooth == "fb":
+            notes.append("forward-backward smoother on the grid; omega_map = Viterbi path")
+        if tr.point == "mode":
+            notes.append("omega = mean of the MAP mode (point='mode'); the posterior mean is "
+                         "in extras['omega_mean']")
+        notes.append(f"block mode: {self.nb * dt:g} s blocks"
+                     + (f", each smoothed with {self.la * dt:g} s of look-ahead"
+                        if tr.smooth == "fb" else ""))
+        self.notes = notes
+        comb = {k: getattr(config, k) for k in _method._COMB}
+        self.params = {**tr.to_dict(), **comb, "axis": axis}
+        self.level = tr.level
+        self.wheel_radius = wheel_radius or recording.wheel_radius
+        self.still = self._standstill()
+
+    def _standstill(self) -> np.ndarray:
+        from vibrospeed.estimators.common import axis_channel
+        from vibrospeed.signal import standstill as ss
+
+        rec, tr = self.recording, self.config.tracker
+        fs = 1.0 / tr.model.dt
+        band = (tr.omega_min, min(tr.model.M * tr.omega_max, np.pi * fs))
+        ax = axis_channel(self.axis)
+        chans = [ax] + [c for c in ("ax", "ay", "az")
+                        if c != ax and c in rec and np.isfinite(rec.channel(c)).any()]
+        X = np.column_stack([rec.channel(c) for c in chans])
+        still = ss.standstill(X, tr.model.dt, band, causal=tr.smooth == "none")
+        self._still_chans = chans
+        return still
+
+    def __len__(self) -> int:
+        return int(self.y.size)
+
+    def __iter__(self) -> Iterator[Track]:
+        cfg = self.config.tracker
+        n, nb, la = self.y.size, self.nb, self.la
+        lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _sm._setup(cfg)
+        N1 = grid.size + 1
+        fwd = (kb, B, u, eps, p_off, p_on, cfg.has_null, float(cfg.log_floor))
+        cmn = (kb, B, grid, edges, u, eps, p_off, p_on, cfg.has_null, q, 1.0 - q,
+               float(cfg.amb_rel), float(cfg.amb_abs))
+        tabs = _sm._viterbi_tables(kb, B, u, eps, p_off, p_on, cfg.has_null)
+        lw_f = lw.copy()  # forward recursion: log predicted weights before the block
+        delta, nd = np.empty(N1), np.empty(N1)  # Viterbi scores at the sample before it
+        a_s, pr = np.empty(N1), np.empty(N1)
+        fstate = init(cfg)
+        pending: list[Result] = []  # filter rows from (block start - 1) on
+        pos = 0  # next sample for the filter
+        smooth = cfg.smooth == "fb"
+        for a in range(0, n, nb):
+            b = min(a + nb, n)
+            e = min(b + la, n)
+            if e > pos:  # filter up to the look-ahead's end, carrying its state
+                idx, vals = self.plan.rows(pos, e)
+                res = run(cfg, self.y[pos:e], fstate, return_grid_loglik=smooth,
+                          extra=(idx - pos, vals))
+                fstate = res.final
+                pending.append(res)
+                pos = e
+            rows = _cat(pending)  # rows [a - off, e)
+            off = 1 if a > 0 else 0
+            blk = _rows(rows, off, off + b - a)
+            omap = blk.omega_map
+            sm = None
+            if smooth:
+                gll = _sm._emissions(rows.grid_loglik, grid.size)
+                m = gll.shape[0]
+                alpha = np.empty((b - a, N1), dtype=np.float32)
+                _sm._forward_range(gll, off, off + b - a, lw_f, *fwd, alpha, a_s, pr)
+                outs = np.zeros((m, _sm.N_OUT_FIXED))
+                posts = np.zeros((1, grid.size), dtype=np.float32)
+                _sm._smooth_range(alpha, off, gll, m - 1, off, off + b - a, np.ones(N1), *cmn,
+                                  outs, posts, False)
+                sm = _sm._result(outs[off:off + b - a], None)
+                back = np.empty((m - off, N1), dtype=np.int32)
+                _sm._viterbi_range(gll, off, off + b - a, lw, delta, nd, back, B, cfg.has_null,
+                                   *tabs)
+                carry = delta.copy()
+                _sm._viterbi_range(gll, off + b - a, m, lw, delta, nd, back[b - a:], B,
+                                   cfg.has_null, *tabs)
+                path = np.empty(m, dtype=np.int64)
+                k = 0
+                for j in range(N1):
+                    if delta[j] > delta[k]:
+                        k = j
+                path[m - 1] = k
+                _sm._trace(back, off, m, path)
+                path = path[off:off + b - a]
+                omap = np.where(path < grid.size, grid[np.minimum(path, grid.size - 1)], np.nan)
+                delta[:] = carry
+            (omega, std, lo, hi), extras = _app.columns(cfg, blk, sm, omap, self.rms[a:b])
+            track = Track.from_omega(self.recording.t[a:b], omega, std, lo=lo, hi=hi,
+                                     level=self.level, wheel_radius=self.wheel_radius,
+                                     method="grid", params=self.params, extras=extras,
+                                     notes=self.notes)
+            _apply_standstill(track, self.still[a:b])
+            pending = [_rows(rows, off + b - a - 1, rows.omega.size)]
+            if self.progress is not None:
+                self.progress(b, n)
+            yield track
+        share = self.still.mean() if n else 0.0
+        if self.still.any():
+            causal = cfg.smooth == "none"
+            self.notes.append(
+                f"standstill on {100 * share:.1f} % of the samples (vibration and body motion "
+                f"at their floors on {', '.join(self._still_chans)}; "
+                f"{'causal' if causal else 'whole-log'} detector): omega = 0 there")
+
+    def track(self) -> Track:
+        """The blocks put together in one Track (for tests and comparisons)."""
+        parts = list(self)
+        first = parts[0]
+        cat = {f: np.concatenate([getattr(p, f) for p in parts])
+               for f in ("t", "omega", "omega_std", "omega_lo", "omega_hi", "speed",
+                         "speed_std", "speed_lo", "speed_hi")}
+        extras = {k: np.concatenate([p.extras[k] for p in parts]) for k in first.extras}
+        return dataclasses.replace(first, **cat, extras=extras, notes=list(self.notes))
+
+
+def _apply_standstill(track: Track, still: np.ndarray) -> None:
+    """As :func:`vibrospeed.estimators.grid.method.with_standstill`, with the detector's
+    per-sample decision for these rows given."""
+    track.extras["standstill"] = still.astype(np.float64)
+    if still.any():
+        for name in ("omega", "omega_std", "omega_lo", "omega_hi", "speed", "speed_std",
+                     "speed_lo", "speed_hi"):
+            arr = getattr(track, name)
+            arr[still & np.isfinite(arr)] = 0.0
+        track.extras["has_signal"][still] = 0.0
