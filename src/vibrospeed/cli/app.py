@@ -285,7 +285,19 @@ def estimate(
                            wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
                            lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
                            mapping=mapping, rate=rate, sort=sort, topic=topic)
+    from vibrospeed.estimators.grid import stream
+
     try:
+        if stream.wants_stream(input, method=method, params=opts.estimator_params(), fmt=fmt,
+                               plain_read=not (columns or mapping or rate or sort or topic),
+                               plot=plot is not None):  # a long log: in blocks, bounded memory
+            st = stream.estimate_file(input, output, params=opts.estimator_params(), axis=axis,
+                                      wheel_radius=wheel_radius, fmt=fmt,
+                                      meta={"preset": preset}, progress=sys.stderr.isatty())
+            for note in st.recording_notes + st.notes:
+                err.print(f"note: {note}")
+            err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)")
+            return
         est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
                                  keep_posterior=plot is not None, meta={"preset": preset})
     except ParameterError as exc:

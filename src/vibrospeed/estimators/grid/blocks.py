@@ -134,13 +134,16 @@ class Blocks:
     ``notes``, ``params``, ``level``, ``wheel_radius`` are the whole-log Track's (the notes
     are complete once the iteration has ended). :meth:`track` puts the blocks together.
     Smoothing ``fb`` (the default) or ``none`` (the causal filter: exactly the whole-log
-    estimate); no parameter fit.
+    estimate); no parameter fit. ``block_s``, ``lookahead_s``: default :data:`BLOCK_S`,
+    :data:`LOOKAHEAD_S`; ``progress(done, total)`` is called after each block.
     """
 
     def __init__(self, recording: Recording, *, axis: str = "y",
                  wheel_radius: float | None = None, params: dict | None = None,
-                 block_s: float = BLOCK_S, lookahead_s: float = LOOKAHEAD_S,
+                 block_s: float | None = None, lookahead_s: float | None = None,
                  progress=None):
+        block_s = BLOCK_S if block_s is None else float(block_s)
+        lookahead_s = LOOKAHEAD_S if lookahead_s is None else float(lookahead_s)
         config, Y, rms, notes = _method._prepare(recording, axis, params)
         tr = config.tracker
         if tr.smooth not in ("fb", "none"):

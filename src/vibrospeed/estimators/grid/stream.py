@@ -1,0 +1,214 @@
+"""``vibrospeed estimate`` on a long log: read in chunks, estimate in blocks, write as it goes.
+
+Above :data:`STREAM_ROWS` rows a canonical CSV or Parquet recording estimated with the grid
+tracker (offline ``fb`` or causal ``none``, no fit, no plot) takes this path instead of the
+whole-log one (:func:`vibrospeed.batch.estimate_recording`):
+
+1. the file is read ``chunk_rows`` rows at a time (:class:`vibrospeed.io.chunks.ChunkedRecording`,
+   the same values and errors as the whole-file reader), keeping the time line and the
+   accelerometer channels only (the grid tracker, its standstill detector and the quality flags
+   use nothing else); non-uniform time stamps are resampled as the whole-log path does;
+2. the estimate runs block by block (:class:`vibrospeed.estimators.grid.blocks.Blocks`), and
+   each block's rows (with the ``quality`` column) are appended to a temporary file beside the
+   output, renamed to the output at the end (atomic: an interrupted run leaves the old output),
+   then the JSON sidecar, as :func:`vibrospeed.io.write_track` writes it.
+
+Below the threshold, and for anything else, the whole-log path runs: its output is unchanged.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: rows above which ``vibrospeed estimate`` streams a grid estimate (1 h 23 min at 100 Hz; the
+#: whole-log estimate of 1 h peaks at about 0.8 GiB)
+STREAM_ROWS = 500_000
+#: rows read at a time
+CHUNK_ROWS = 65_536
+_CHANNELS = ("ax", "ay", "az")
+
+
+def count_rows(path: str | os.PathLike[str], fmt: str = "auto") -> int | None:
+    """Data rows of a canonical CSV (lines after the header, counted in binary blocks) or a
+    Parquet file (its metadata); None for other formats, folders or unreadable files."""
+    p = Path(path)
+    if not p.is_file():
+        return None
+    kind = fmt if fmt != "auto" else ("parquet" if p.suffix.lower() in (".parquet", ".pq")
+                                      else "csv" if p.suffix.lower() == ".csv" else None)
+    try:
+        if kind == "parquet":
+            import pyarrow.parquet as pq
+
+            return int(pq.ParquetFile(p).metadata.num_rows)
+        if kind == "csv":
+            lines, last = 0, b"\n"
+            with open(p, "rb") as fh:
+                while block := fh.read(1 << 22):
+                    lines += block.count(b"\n")
+                    last = block[-1:]
+            return lines + (last != b"\n") - 1
+    except Exception:  # noqa: BLE001 - not a file this path can read: the whole-log path says why
+        return None
+    return None
+
+
+def wants_stream(path, *, method: str, params: dict, fmt: str = "auto",
+                 plain_read: bool = True, plot: bool = False,
+                 rows: int | None = None) -> bool:
+    """Whether ``vibrospeed estimate`` takes the streaming path: the grid method, smoothed
+    (``fb``) or causal, no fit, no plot, a canonical CSV / Parquet file read as it is
+    (``plain_read``: no column mapping, rate, sort or topic) of at least :data:`STREAM_ROWS`
+    rows (``rows``: the threshold instead)."""
+    if method != "grid" or plot or not plain_read:
+        return False
+    smooth = str(params.get("smooth", "fb"))
+    if smooth not in ("fb", "none") or str(params.get("fit", "")).strip():
+        return False
+    n = count_rows(path, fmt)
+    return n is not None and n >= (STREAM_ROWS if rows is None else rows)
+
+
+@dataclass
+class Streamed:
+    """What :func:`estimate_file` wrote: rows, the recording's notes, the track's notes, the
+    axis used."""
+
+    rows: int
+    recording_notes: list[str]
+    notes: list[str]
+    axis: str | None
+
+
+def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
+                       chunk_rows: int = CHUNK_ROWS):
+    """The recording's time line and accelerometer channels (and ``axis``'s channel), read in
+    chunks; non-uniform time stamps resampled to the median rate as the whole-log path does."""
+    from vibrospeed.estimators.common import axis_channel
+    from vibrospeed.io import timebase
+    from vibrospeed.io.chunks import ChunkedRecording
+    from vibrospeed.types import Recording
+
+    src = ChunkedRecording(path, chunk_rows=chunk_rows, fmt=fmt)
+    keep = [c for c in src.channels
+            if c in _CHANNELS or (axis is not None and c == axis_channel(axis))]
+    ts: list[np.ndarray] = []
+    cols: dict[str, list[np.ndarray]] = {c: [] for c in keep}
+    for chunk in src:
+        ts.append(chunk.t)
+        for c in keep:
+            cols[c].append(chunk.channels[c])
+    t = np.concatenate(ts) if ts else np.empty(0)
+    del ts
+    ch = {}
+    for c in keep:
+        ch[c] = np.concatenate(cols[c]) if cols[c] else np.empty(0)
+        cols[c] = []
+    kw = {"axes": src.axes} if src.axes else {}
+    rec = Recording(t, ch, units={k: v for k, v in src.units.items() if k in ch},
+                    source=str(Path(path)), wheel_radius=src.wheel_radius, notes=list(src.notes),
+                    meta=dict(src.meta), **kw)
+    if len(rec) > 2 and not rec.is_uniform(rtol=0.05):
+        rec = timebase.resample_uniform(rec)
+    return rec
+
+
+def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
+                  wheel_radius: float | None = None, fmt: str = "auto",
+                  meta: dict[str, Any] | None = None, progress: bool = False,
+                  block_s: float | None = None, lookahead_s: float | None = None,
+                  chunk_rows: int = CHUNK_ROWS) -> Streamed:
+    """Estimate ``input_path`` with the grid tracker block by block and write ``output`` (CSV)
+    and ``output.json`` as ``vibrospeed estimate`` does (module docstring)."""
+    from vibrospeed import __version__
+    from vibrospeed.estimators.grid import blocks as _blocks
+    from vibrospeed.io._common import jsonable, sha256_path
+    from vibrospeed.io.atomic import atomic_path, atomic_write_text
+    from vibrospeed.io.canonical import _fmt
+    from vibrospeed.io.track import TRACK_COLUMNS
+    from vibrospeed.signal.quality import flags_at, recording_quality
+
+    rec = read_accelerometer(input_path, fmt, axis=axis, chunk_rows=chunk_rows)
+    axis_note = None
+    if axis is None and "ay" not in rec:
+        have = [c for c in ("ax", "az") if c in rec]
+        if len(have) == 1:
+            axis = have[0][1]
+            axis_note = (f"no 'ay' in the recording: using its only accelerometer axis "
+                         f"'{have[0]}' (--axis to choose)")
+    use_axis = axis or "y"
+    kw = {k: v for k, v in (("block_s", block_s), ("lookahead_s", lookahead_s)) if v is not None}
+    bar = _Bar(progress)
+    blk = _blocks.Blocks(rec, axis=use_axis, wheel_radius=wheel_radius, params=dict(params),
+                         progress=bar.update, **kw)
+    if axis_note:
+        blk.notes.insert(0, axis_note)
+    qs, q_notes = recording_quality(rec)
+    from vibrospeed.estimators.common import axis_channel
+
+    ch = axis_channel(use_axis)
+    if ch not in qs and ch in rec.channels:
+        qs.update(recording_quality(rec, (ch,))[0])
+    use_q = ch if ch in qs else next(iter(qs), None)
+    names: list[str] | None = None
+    rows = 0
+    out = Path(output)
+    with bar, atomic_path(out) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        for track in blk:
+            if use_q is not None:
+                track.extras["quality"] = flags_at(rec.t, qs[use_q].flags,
+                                                   track.t).astype(np.float64)
+            if names is None:
+                names = [*TRACK_COLUMNS, *track.extras]
+                w.writerow(names)
+            cols = [np.asarray(getattr(track, k), dtype=np.float64) for k in TRACK_COLUMNS]
+            cols += [np.asarray(track.extras[k], dtype=np.float64) for k in names[9:]]
+            for a in range(0, len(track), 20000):
+                w.writerows(zip(*(_fmt(c[a:a + 20000]) for c in cols), strict=True))
+            rows += len(track)
+    notes = [*blk.notes, *q_notes]
+    side_meta = {"version": __version__, "axis": use_axis, "recording_notes": rec.notes,
+                 **(meta or {})}
+    side = {
+        "kind": "track", "method": "grid", "params": jsonable(blk.params), "level": blk.level,
+        "wheel_radius": blk.wheel_radius, "version": __version__,
+        "input": os.fspath(input_path), "input_sha256": sha256_path(input_path),
+        "columns": names or list(TRACK_COLUMNS), "notes": notes, "meta": jsonable(side_meta),
+    }
+    atomic_write_text(Path(f"{out}.json"), json.dumps(side, indent=1, allow_nan=False) + "\n")
+    return Streamed(rows, list(rec.notes), notes, use_axis)
+
+
+class _Bar:
+    """A transient rich progress bar over the samples (when ``on``)."""
+
+    def __init__(self, on: bool):
+        self.on = on
+        self._bar = None
+        self._task = None
+
+    def __enter__(self):
+        if self.on:
+            from rich.progress import Progress
+
+            self._bar = Progress(transient=True)
+            self._bar.__enter__()
+            self._task = self._bar.add_task("grid, in blocks", total=None)
+        return self
+
+    def update(self, done: int, total: int) -> None:
+        if self._bar is not None:
+            self._bar.update(self._task, completed=done, total=total)
+
+    def __exit__(self, *exc) -> None:
+        if self._bar is not None:
+            self._bar.__exit__(*exc)
+
