@@ -73,7 +73,21 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
         x = x + K * (z - h @ x)
         P = P - np.outer(K, K) * S
 
+    def upd_consider(h, z, r, keep):
+        """Schmidt update: gain 0 on state ``keep``; covariance by the Joseph form."""
+        nonlocal x, P
+        S = h @ P @ h + r
+        K = P @ h / S
+        if keep is not None:
+            K[keep] = 0.0
+        x = x + K * (z - h @ x)
+        A = np.eye(n) - np.outer(K, h)
+        P = A @ P @ A.T + np.outer(K, K) * r
+
     speeds, radii, ks = [], [], []
+    t_gps = -math.inf
+    acq = None  # (start, mean log ratio) of the consistent run while r is unknown
+    run = None  # (start, mean gap, line speed at start) of the re-lock run
     for i in range(arrays["t"].size):
         t = arrays["t"][i]
         dt = 0.0 if math.isnan(t_prev) else t - t_prev
@@ -90,28 +104,56 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
             nu = g - x[4]
             E2 = min(max(nu**2 - (P[4, 4] + cfg.r_gps), 0.0), cfg.e_max**2)
             upd(e[4], g, cfg.r_gps + cfg.r_gps_sq * E2)
+            t_gps = t
         k_used = math.nan
         om, s = arrays["omega"][i], arrays["omega_std"][i]
         moving = x[0] + 3 * math.sqrt(P[0, 0]) >= cfg.vib_min_speed
+        fresh = t - t_gps <= cfg.learn_hold
+        known = math.sqrt(P[3, 3]) < cfg.octave_rel * abs(x[3])
+        if not (fresh and x[0] >= cfg.vib_min_speed):
+            acq = None
         if arrays["line"][i] and moving and dt > 0 and om > 0:
+            ready = known
+            if not known and fresh and x[0] >= cfg.vib_min_speed:
+                z = math.log(x[0] / om)
+                if acq is None or abs(z - acq[1]) > cfg.acq_rel:
+                    acq = (t, z)
+                else:
+                    acq = (acq[0], acq[1] + (z - acq[1]) * min(1.0, dt / cfg.acq_time))
+                ready = t - acq[0] >= cfg.acq_time
             rh = max(x[3], 1e-3)
             var = s**2 + (cfg.vib_rel * om) ** 2
-            costs = []
-            known = math.sqrt(P[3, 3]) < cfg.octave_rel * abs(x[3])
-            for k in ((1.0, 0.5, 2.0) if known else (1.0,)):
-                sv3 = 3 * math.sqrt(P[0, 0])
+            R = {k: (rh * k) ** 2 * var * cfg.vib_corr / dt for k in (1.0, 0.5, 2.0)}
+            sv3 = 3 * math.sqrt(P[0, 0])
+            costs = {}
+            for k in ((1.0, 0.5, 2.0) if known else (1.0,)) if ready else ():
                 if not (cfg.radius_min * k * om <= x[0] + sv3
                         and x[0] - sv3 <= cfg.radius_max * k * om):
-                    costs.append(math.inf)
                     continue
                 h = e[0] - k * om * e[3]
-                R = (rh * k) ** 2 * var * cfg.vib_corr / dt
-                costs.append((h @ x) ** 2 / (h @ P @ h + R) + (0 if k == 1.0 else cfg.vib_penalty))
-            j = int(np.argmin(costs))
-            if costs[j] <= cfg.vib_gate:
-                k_used = (1.0, 0.5, 2.0)[j]
-                upd(e[0] - k_used * om * e[3], 0.0,
-                    (rh * k_used) ** 2 * var * cfg.vib_corr / dt)
+                S = h @ P @ h + R[k]
+                costs[k] = ((h @ x) ** 2 / S + (0 if k == 1.0 else cfg.vib_penalty), S)
+            take = None
+            if costs:
+                kb = min(costs, key=lambda k: costs[k][0])
+                if costs[kb][0] <= cfg.vib_gate and (
+                        fresh or 3 * math.sqrt(costs[kb][1]) <= cfg.vib_sep * rh * kb * om):
+                    take = kb
+            if ready and known and take is None:
+                u = x[3] * om
+                d = u - x[0]
+                if run is None or t - t_gps <= cfg.vib_relock or abs(d - run[1]) > cfg.acq_rel * u:
+                    run = (t, d, u)
+                else:
+                    run = (run[0], run[1] + (d - run[1]) * min(1.0, dt / cfg.acq_time), run[2])
+                    if t - run[0] >= cfg.vib_relock and (abs(u - run[2]) >= cfg.acq_change * u
+                                                         or abs(d) <= sv3):
+                        P[0, 0] += (x[0] - x[3] * om) ** 2
+                        take = 1.0
+                        run = None
+            if take is not None:
+                k_used = take
+                upd_consider(e[0] - take * om * e[3], 0.0, R[take], None if fresh else 3)
         speeds.append(x[0])
         radii.append(x[3])
         ks.append(k_used)
@@ -481,7 +523,9 @@ def test_negative_speed_is_projected_onto_zero():
 
 def test_relock_when_the_filter_diverged_in_an_outage():
     """A wrong offset (a false stop) makes the inertial speed run away in an outage while the
-    line is gated out; after vib_relock s of rejections the line is taken again."""
+    line is gated out. The line returns at 130 s far outside the filter's band, with a constant
+    gap to the filter's speed: it is taken once it has moved with the speed by acq_change (a
+    constant line so far away may be an idling engine), not before."""
     cfg = fuse.Config(acc_psd=0.01)
     arrays, v = synth(seed=11, T=200.0, outage=(100.0, 200.0), no_line=(100.0, 130.0))
     t = arrays["t"]
@@ -489,7 +533,14 @@ def test_relock_when_the_filter_diverged_in_an_outage():
                                arrays["accel"])  # the speed runs 45 m/s away
     _, o = fuse.run(cfg, arrays)
     _, stuck = fuse.run(fuse.Config(acc_psd=0.01, vib_relock=1e9), arrays)
-    late = t >= 140.0
+    # the line's speed (= v) has moved by acq_change since it came back
+    i0 = np.flatnonzero(t >= 130.0)[0]
+    moved = (t >= 130.0 + cfg.vib_relock) & (np.abs(v - v[i0]) >= cfg.acq_change * v)
+    t_move = t[np.flatnonzero(moved)[0]]
+    assert 135.0 < t_move < 150.0
+    before = (t >= 130.0) & (t < t_move - 0.5)
+    assert np.all(np.abs(o.speed[before] - v[before]) > 10.0)
+    late = t >= t_move + 0.5
     assert np.median(np.abs(stuck.speed[late] - v[late])) > 10.0
     assert np.all(np.abs(o.speed[late] - v[late]) < 0.03 * v[late])
     assert np.all(o.source[late] == fuse.SRC_VIBRATION)

@@ -32,8 +32,12 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    vib_corr / dt``: the tracker's spread plus a relative floor, inflated by the number of fusion
    samples per correlation time of the tracker's errors (its outputs are not independent from
    sample to sample). The hypothesis with the smallest normalised innovation squared
-   ``nu^2 / S`` plus ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate``; else
-   the sample has no vibration update. No line is used where the filter knows the vehicle to be
+   ``nu^2 / S`` plus ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate`` and
+   the gate is decisive: GPS holds the speed (a fix in the past ``learn_hold`` s), or
+   ``3 sqrt(S) <= vib_sep r k omega`` (the band is narrow against the spacing of the octaves;
+   after a long stretch on the accelerometer alone it is not, and a gate of 4 sigma would pass
+   an idling engine's line or the wrong octave); else the sample has no direct vibration
+   update (re-lock below). No line is used where the filter knows the vehicle to be
    slower than ``vib_min_speed`` (``v + 3 sqrt(P_vv) < vib_min_speed``): a line claimed at a
    standstill (an idling engine) would otherwise teach ``r = v / omega = 0``; nor a hypothesis
    whose radius cannot be physical for any speed within 3 sigma:
@@ -47,11 +51,27 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    that most recent updates used k = 2 (or 1/2), e.g. after a tracker that locked on the
    second harmonic at the start taught the radius; then, if r is known within
    ``octave_rel`` (relative std), ``r <- k r`` (its variance by k^2) and the average restarts at
-   0. The speed is unchanged by this, only the octave of r. Re-lock: when a claimed line is
-   gated out and no line has been accepted for ``vib_relock`` s since the first one was (and
-   no GPS fix in that time, and r known within ``octave_rel``), the filter has diverged (e.g.
-   an offset learned at a false stop): ``P_vv`` is increased by the k = 1 innovation squared,
-   so the line is taken again.
+   0. The speed is unchanged by this, only the octave of r; the average moves only where GPS
+   holds the speed.
+
+   The radius learns only from GPS and a line together. Away from GPS (no fix in the past
+   ``learn_hold`` s) a wheel-frequency update carries the speed but leaves r alone (r is a
+   "consider" state, Schmidt: its gain is set to 0 and the Joseph form keeps P exact for that
+   gain), so a wrong line taken in an outage cannot corrupt the radius the next drive reuses.
+   The first radius (r not yet known within ``octave_rel``) comes from a line whose ratio
+   ``ln(v / omega)`` to the GPS-held speed has stayed within ``acq_rel`` of its running mean
+   (time constant ``acq_time``) for ``acq_time`` s: a wheel line scales with the speed, an
+   idling engine's line while the vehicle starts to roll does not, and a radius learned from
+   it would gate out the wheel line for the rest of the drive.
+
+   Re-lock (no GPS fix for ``vib_relock`` s, r known): where a claimed line is not taken
+   directly, the gap ``d = r omega - v`` between the line's speed (k = 1, the octave that
+   taught r) and the filter's is followed; if it has stayed within ``acq_rel r omega`` of its
+   running mean for ``vib_relock`` s (the line moves as the accelerometer says the speed
+   does) and either ``|d| <= 3 sqrt(P_vv)`` or the line's speed has changed by ``acq_change``
+   of itself in that run, the filter, not the line, has drifted: ``P_vv`` is increased by
+   ``d^2`` and the line is taken. A constant line far outside the band (an idling engine at a
+   stop in a tunnel) is not taken until it moves with the speed.
 4. standstill: where the vibration tracker reports a stop (no wheel line, broadband vibration and
    body motion at their floors: the ``standstill`` input), the last valid GPS fix in the past
    ``gps_hold`` s (if any) is below ``gps_still``, and the speed the accelerometer has
@@ -146,7 +166,13 @@ class Config:
     vib_min_speed : m/s; no wheel-frequency update where the speed is surely below it (item 3).
     radius_min, radius_max : m, the physical range of the effective radius (item 3).
     octave_rel : relative radius std below which the octave average and the re-lock act.
-    vib_relock : s of consecutive gated-out lines without GPS before the re-lock (item 3).
+    vib_relock : s of a consistent line (and of no GPS) before the re-lock (item 3).
+    learn_hold : s after an accepted fix in which a line may teach the radius and decides the
+        octave without ``vib_sep`` (item 3).
+    acq_time, acq_rel : s and relative tolerance of the consistency runs (first radius,
+        re-lock; item 3).  acq_change : relative change of the line's speed that lets a
+        re-lock outside the band happen (item 3).
+    vib_sep : decisive gate, ``3 sqrt(S) <= vib_sep r k omega`` (item 3).
     still_relock : s of stop evidence refused by the integrated speed, without GPS, before the
         stop is taken anyway (item 4).
     vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
@@ -193,8 +219,13 @@ class Config:
     radius_min: float = 0.03
     radius_max: float = 1.0
     octave_rel: float = 0.05
-    vib_relock: float = 5.0
+    vib_relock: float = 1.0
     still_relock: float = 3.0
+    learn_hold: float = 1.5
+    acq_time: float = 2.0
+    acq_rel: float = 0.03
+    acq_change: float = 0.1
+    vib_sep: float = 0.25
     nonneg: bool = True
     fuse_rate: float = 25.0
 
@@ -208,7 +239,8 @@ class Config:
         for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "e_max", "min_sats",
                      "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
                      "vib_min_speed", "octave_rel", "vib_relock", "radius_min", "radius_max",
-                     "still_relock"):
+                     "still_relock", "learn_hold", "acq_time", "acq_rel", "acq_change",
+                     "vib_sep"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
         if self.vib_use not in ("line", "all"):
@@ -244,6 +276,7 @@ class Config:
             self.still_gate, self.still_speed, self.gps_still, self.gps_hold, self.source_hold,
             self.octave_tau, float(self.nonneg), self.vib_min_speed, self.octave_rel,
             self.vib_relock, self.radius_min, self.radius_max, self.still_relock,
+            self.learn_hold, self.acq_time, self.acq_rel, self.acq_change, self.vib_sep,
         ], dtype=np.float64)
         return Ac, qc, p
 
@@ -256,7 +289,9 @@ class State(NamedTuple):
     fix (-inf: none).  t_fix, v_fix : time and value of the last valid fix (for the standstill
     veto).  octave : average of log2 k over recent wheel-frequency updates (module notes, 3).
     t_reject : start of the current run of gated-out lines (NaN: none).  t_still : start of
-    the current run of refused stop evidence (NaN: none).
+    the current run of refused stop evidence (NaN: none).  t_acq, z_acq : start and mean log
+    ratio ``ln(v / omega)`` of the current run of consistent lines while the radius is not
+    known yet (NaN: none; module notes, 3).
     """
 
     x: np.ndarray
@@ -268,6 +303,9 @@ class State(NamedTuple):
     octave: float = 0.0
     t_reject: float = math.nan
     t_still: float = math.nan
+    t_acq: float = math.nan
+    z_acq: float = math.nan
+    runs: tuple = (math.nan,) * 9
 
 
 class Sample(NamedTuple):
@@ -351,12 +389,16 @@ def init(config: Config, v0: float = 0.0, *, radius: float | None = None,
 # -- compiled core ------------------------------------------------------------------------------
 
 @njit(cache=True)
-def _update_row(x, P, h, z, r):
-    """Scalar Kalman update with row ``h``, Joseph form; returns the innovation."""
+def _update_row(x, P, h, z, r, keep=-1):
+    """Scalar Kalman update with row ``h``, Joseph form; returns the innovation. ``keep >= 0``:
+    that state is a "consider" state (Schmidt): its gain is 0, so the update leaves its mean
+    and variance unchanged; the Joseph form keeps P the exact covariance for that gain."""
     n = x.size
     Ph = P @ h
     s = h @ Ph + r
     k = Ph / s
+    if keep >= 0:
+        k[keep] = 0.0
     nu = z - h @ x
     for i in range(n):
         x[i] += k[i] * nu
@@ -371,7 +413,7 @@ def _update_row(x, P, h, z, r):
 @njit(cache=True)
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, out, xp, Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
-    t_reject, t_still]``;
+    t_reject, t_still, t_acq, z_acq, run start (3), run gap (3), run line speed (3)]``;
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
     prediction (for the smoother). Returns dt."""
     n = x.size
@@ -417,15 +459,30 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
     # 3. wheel frequency, octave chosen by the speed prior
     kk = math.nan
     moving = x[IV] + 3.0 * math.sqrt(max(P[IV, IV], 0.0)) >= p[18]
+    fresh = t - sc[1] <= p[24]  # GPS pins the speed: the radius may learn
+    known = math.sqrt(max(P[IR, IR], 0.0)) < p[19] * abs(x[IR])
+    if not (fresh and x[IV] >= p[18]):
+        sc[8] = math.nan  # an acquisition run needs the GPS speed
     if (line and moving and dt > 0.0 and om > 0.0 and not math.isnan(om)
             and not math.isnan(om_std)):
+        ready = known
+        if not known and fresh and x[IV] >= p[18]:
+            # acquisition: the ratio v / omega must hold for acq_time s (a wheel line scales
+            # with the speed; an idling engine's or a resonance's does not)
+            z = math.log(x[IV] / om)
+            if math.isnan(sc[8]) or abs(z - sc[9]) > p[26]:
+                sc[8] = t
+                sc[9] = z
+            else:
+                sc[9] += (z - sc[9]) * min(1.0, dt / p[25])
+            ready = t - sc[8] >= p[25]
         best = math.inf
+        s_best = math.inf
         r_hat = max(x[IR], 1e-3)
         var_om = om_std * om_std + (p[5] * om) ** 2
         infl = p[6] / dt
         sv3 = 3.0 * math.sqrt(max(P[IV, IV], 0.0))
-        known = math.sqrt(max(P[IR, IR], 0.0)) < p[19] * abs(x[IR])
-        for j in range(3 if known else 1):
+        for j in range((3 if known else 1) if ready else 0):
             k = 1.0 if j == 0 else (0.5 if j == 1 else 2.0)
             if (x[IV] + sv3) < p[21] * k * om or (x[IV] - sv3) > p[22] * k * om:
                 continue  # no physical radius explains this line at this speed
@@ -436,26 +493,56 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             cost = nu * nu / s + (0.0 if j == 0 else p[8])
             if cost < best:
                 best = cost
+                s_best = s
                 kk = k
-        if best > p[7]:
-            if math.isnan(sc[6]):
-                sc[6] = t
-            elif known and t - sc[6] >= p[20] and t - sc[1] > p[20]:
-                # re-lock: the filter, not the line, has diverged
-                nu = x[IV] - x[IR] * om
+        # direct use needs a decisive gate: the band narrow against the octaves' spacing
+        decisive = not math.isnan(kk) and (fresh or 3.0 * math.sqrt(s_best) <= p[28] * r_hat
+                                           * kk * om)
+        if ready and known and not (best <= p[7] and decisive):
+            # re-lock runs, one per octave k: the gap d_k = r k omega - v between the line's
+            # speed and the filter's must hold for vib_relock s (no GPS in that time), and the
+            # line must have moved with the speed (by acq_change) or lie inside the 3-sigma band
+            # (a constant line far outside it may be an idling engine at a stop)
+            best = math.inf
+            kk = math.nan
+            for j in range(1):
+                k = 1.0
+                u = x[IR] * k * om
+                d = u - x[IV]
+                if (math.isnan(sc[10 + j]) or t - sc[1] <= p[20]
+                        or abs(d - sc[13 + j]) > p[26] * u):
+                    sc[10 + j] = t
+                    sc[13 + j] = d
+                    sc[16 + j] = u
+                    continue
+                sc[13 + j] += (d - sc[13 + j]) * min(1.0, dt / p[25])
+                if t - sc[10 + j] >= p[20] and (abs(u - sc[16 + j]) >= p[27] * u
+                                                or abs(d) <= sv3):
+                    cost = d * d / (P[IV, IV] + sv3 * sv3)
+                    if cost < best:
+                        best = cost
+                        kk = k
+            if not math.isnan(kk):
+                nu = x[IV] - x[IR] * kk * om
                 P[IV, IV] += nu * nu
                 Pp[IV, IV] += nu * nu  # process noise of this step, for the smoother
-                kk = 1.0
                 best = 0.0
+                for j in range(3):
+                    sc[10 + j] = math.nan
+            else:
+                best = math.inf
         if best <= p[7]:
             sc[6] = math.nan
             h[IV] = 1.0
             h[IR] = -kk * om
-            _update_row(x, P, h, 0.0, (r_hat * kk) ** 2 * var_om * infl)
+            # away from GPS the radius is a consider state: a line there carries the speed
+            # but does not teach r (a wrong line accepted in an outage would corrupt it)
+            _update_row(x, P, h, 0.0, (r_hat * kk) ** 2 * var_om * infl, -1 if fresh else IR)
             h[IV] = 0.0
             h[IR] = 0.0
-            # the radius follows the octave most updates use
-            sc[5] += (math.log2(kk) - sc[5]) * min(1.0, dt / p[16])
+            # the radius follows the octave most updates use (where GPS confirms them)
+            if fresh:
+                sc[5] += (math.log2(kk) - sc[5]) * min(1.0, dt / p[16])
             if abs(sc[5]) > 0.5 and known:
                 c = 2.0 if sc[5] > 0.0 else 0.5
                 x[IR] *= c
@@ -532,13 +619,14 @@ def _unpack(state: State, n: int):
                              "(GPS delay on/off changed?)")
     P = np.array(state.P, dtype=np.float64)
     sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0, state.octave,
-                   state.t_reject, state.t_still])
+                   state.t_reject, state.t_still, state.t_acq, state.z_acq, *state.runs])
     return x, P, sc
 
 
 def _pack(x, P, sc) -> State:
     return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]),
-                 float(sc[6]), float(sc[7]))
+                 float(sc[6]), float(sc[7]), float(sc[8]), float(sc[9]),
+                 tuple(float(v) for v in sc[10:19]))
 
 
 _SAMPLE = Sample._fields
