@@ -479,6 +479,53 @@ def test_cli_fuse_and_radius_from(tmp_path):
     assert "Traceback" not in res.output
 
 
+@pytest.mark.slow
+def test_cli_default_method_is_fuse_where_gps_speed_is_present(tmp_path):
+    """``vibrospeed estimate`` without -m: fuse (with a note naming -m grid) on a recording
+    with GPS fixes and ax; grid without GPS or with a grid option (--smooth, a grid-only
+    preset); a fuse preset (online) keeps fuse."""
+    import pandas as pd
+    from typer.testing import CliRunner
+
+    from vibrospeed import io
+    from vibrospeed.cli.app import app
+
+    runner = CliRunner()
+    rec = _recording_with_line(seed=5, T=30.0, r=0.3)
+    files = {"gps": rec, "none": _recording_with_line(seed=6, T=30.0, r=0.3, gps=False)}
+    # what decides (a file cannot hold an all-empty channel: the reader refuses it)
+    assert fuse.suits(rec) and not fuse.suits(files["none"])
+    assert not fuse.suits(rec.with_channels(gps_speed=np.full(len(rec), np.nan)))
+    assert not fuse.suits(Recording(rec.t, {"ay": rec["ay"], "gps_speed": rec["gps_speed"]}))
+    assert fuse.suits(Recording(rec.t, {"az": rec["ax"], "gps_speed": rec["gps_speed"]}), "z")
+    for name, r in files.items():
+        io.write(r, tmp_path / f"{name}.csv")
+    rng = ["-p", "omega_min=10", "-p", "omega_max=120"]
+
+    def run(name, *extra):
+        out = tmp_path / f"{name}{len(extra)}.csv"
+        res = runner.invoke(app, ["estimate", str(tmp_path / f"{name}.csv"), *rng, *extra,
+                                  "-o", str(out)])
+        assert res.exit_code == 0, res.output
+        side = json.loads(out.with_name(out.name + ".json").read_text())
+        return res.output, side, pd.read_csv(out)
+
+    text, side, df = run("gps")
+    assert side["method"] == "fuse" and side["params"]["online"] is False
+    assert "GPS speed" in text and "method fuse" in text and "-m grid" in text
+    # the fused output keeps omega (speed / learned radius) and the tracker's own omega
+    for col in ("omega", "speed", "speed_lo", "speed_hi", "source", "omega_vib", "has_signal"):
+        assert col in df.columns
+    np.testing.assert_allclose(df["omega"], df["speed"] / side["wheel_radius"], rtol=1e-6)
+    for name, extra in (("none", ()), ("gps", ("--smooth",)),
+                        ("gps", ("--preset", "lock"))):
+        text, side, _ = run(name, *extra)
+        assert side["method"] == "grid", (name, extra)
+        assert "method fuse" not in text
+    text, side, _ = run("gps", "--preset", "online")
+    assert side["method"] == "fuse" and side["params"]["online"] is True
+
+
 def test_no_radius_from_a_line_claimed_at_a_standstill():
     """GPS says 0 and the tracker claims a line (an idling engine): r must not become 0."""
     cfg = fuse.Config(acc_psd=0.01)

@@ -99,14 +99,15 @@ def test_streamed_cli_output_equals_the_in_memory_one(tmp_path, monkeypatch):
     rec = sim.simulate("car", seed=2, duration=60)
     path = tmp_path / "drive.csv"
     io.write(rec, path)
-    r = _cli("estimate", path, "-o", tmp_path / "whole.csv")
+    # -m grid: this drive has GPS speed, where estimate's default is fuse (not streamed)
+    r = _cli("estimate", path, "-m", "grid", "-o", tmp_path / "whole.csv")
     assert r.exit_code == 0, r.output
     assert "in blocks" not in r.output
     monkeypatch.setattr(stream, "STREAM_ROWS", 1000)
     monkeypatch.setattr(stream, "CHUNK_ROWS", 777)
     monkeypatch.setattr(blocks, "BLOCK_S", 20.0)
     monkeypatch.setattr(blocks, "LOOKAHEAD_S", 100.0)
-    r = _cli("estimate", path, "-o", tmp_path / "streamed.csv")
+    r = _cli("estimate", path, "-m", "grid", "-o", tmp_path / "streamed.csv")
     assert r.exit_code == 0, r.output
     assert "in blocks" in r.output
     assert (tmp_path / "streamed.csv").read_bytes() == (tmp_path / "whole.csv").read_bytes()

@@ -194,15 +194,44 @@ def simulate(
               f"channels {', '.join(rec.channels)}")
 
 
+def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool, plot: bool,
+                    fmt, columns, mapping, rate, sort, topic) -> str:
+    """``vibrospeed estimate``'s method without ``--method``: ``fuse`` where the recording has
+    GPS speed (:func:`vibrospeed.estimators.fuse.suits`; a note says so), else ``grid``. Grid
+    options (``grid_only``, a preset fuse lacks) keep ``grid``, and so does a log the grid
+    streams (fuse holds the whole log in memory)."""
+    from vibrospeed import presets
+    from vibrospeed.batch import load_recording
+    from vibrospeed.config import parse_params
+    from vibrospeed.estimators import fuse
+    from vibrospeed.estimators.grid import stream
+
+    if radius_from is not None:
+        return "fuse"
+    if grid_only or (preset is not None and preset not in presets.presets("fuse")):
+        return "grid"
+    plain = not (columns or mapping or rate or sort or topic)
+    if stream.wants_stream(input, method="grid", params=_params("grid", preset, param), fmt=fmt,
+                           plain_read=plain, plot=plot):
+        return "grid"
+    rec = load_recording(input, fmt, columns, mapping, rate, sort, topic=topic)
+    if not fuse.suits(rec, str(parse_params(param).get("accel_axis", "x"))):
+        return "grid"
+    err.print("note: the recording has GPS speed: method fuse (vibration + acceleration + GPS, "
+              "one speed with its source per sample, wheel radius learned); -m grid for the "
+              "vibration tracker alone")
+    return "fuse"
+
+
 @app.command()
 @_friendly
 def estimate(
     input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
     output: Annotated[Path, typer.Option("-o", "--output", help="estimate CSV (t, omega, "
                       "omega_lo, omega_hi, speed, ...) + a .json sidecar")],
-    method: Annotated[str, typer.Option("--method", "-m", help="estimator (see `vibrospeed "
-                      "methods`; default grid, the most robust one-accelerometer tracker)")]
-    = "grid",
+    method: Annotated[str | None, typer.Option("--method", "-m", help="estimator (see "
+                      "`vibrospeed methods`); default: fuse where the recording has GPS speed "
+                      "and ax, else grid, the most robust one-accelerometer tracker")] = None,
     axis: Annotated[str | None, typer.Option(help="vibration axis (x, y, z or a channel name; "
                     "default y); for gps-riss the longitudinal axis (default x)")] = None,
     wheel_radius: Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]
@@ -232,12 +261,16 @@ def estimate(
 ) -> None:
     """Estimate omega / speed over a whole recording.
 
+    Without --method: fuse (vibration + acceleration + GPS) where the recording has a GPS speed
+    channel with fixes and ax (forward), else grid; grid too with --smooth, --lag,
+    --fit-params, --init-omega, a grid-only preset or a log long enough to be streamed.
+
     Non-uniform (phone) time stamps are resampled to the median rate by linear interpolation;
     NaN samples are bridged by prediction. The band columns are a 98 % credible interval.
 
     Examples:
 
-      vibrospeed estimate drive.csv -o est.csv --plot est.png        (grid tracker)
+      vibrospeed estimate drive.csv -o est.csv --plot est.png   (grid; fuse with GPS speed)
 
       vibrospeed estimate cart.csv -p omega_min=2 -p omega_max=30 -o est.csv
 
@@ -276,6 +309,12 @@ def estimate(
     """
     from vibrospeed.batch import EstimateOptions, estimate_recording, vibration_channel
 
+    if method is None:
+        method = _default_method(input, radius_from=radius_from, preset=preset, param=param,
+                                 grid_only=smooth or lag is not None or fit_params
+                                 or init_omega is not None, plot=plot is not None, fmt=fmt,
+                                 columns=columns, mapping=mapping, rate=rate, sort=sort,
+                                 topic=topic)
     if radius_from is not None:
         if method != "fuse":
             raise ParameterError("--radius-from is for --method fuse (the radius it learned)")

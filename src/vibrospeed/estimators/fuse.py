@@ -922,6 +922,15 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
                             params=pdict, extras=extras, notes=[*vib.notes, *notes])
 
 
+def suits(recording: Recording, accel_axis: str = "x") -> bool:
+    """Whether ``recording`` feeds ``fuse`` without a radius given: a ``gps_speed`` channel
+    with at least one finite fix and the longitudinal accelerometer channel (``accel_axis``).
+    ``vibrospeed estimate`` without ``--method`` picks ``fuse`` for such a recording."""
+    if "gps_speed" not in recording or _axis_channel(accel_axis) not in recording:
+        return False
+    return bool(np.isfinite(recording.channel("gps_speed")).any())
+
+
 def _axis_channel(axis: str) -> str:
     axis = axis.strip()
     return "a" + axis if axis in ("x", "y", "z") else axis
