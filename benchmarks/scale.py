@@ -21,11 +21,17 @@ Parts (all in fresh child processes so that peak memory is the run's own):
   change to it is measured without running every method again).
 * ``read``: peak RSS of reading a 1 h CSV / Parquet whole (``io.read``) and chunk by chunk
   (:class:`vibrospeed.io.chunks.ChunkedRecording`, 65 536 rows) over the child's baseline.
+* ``stream``: ``vibrospeed estimate`` (default grid) on Parquet files of ``--stream-lengths``
+  (the 1 h drive repeated end to end, time running on: the per-sample work does not depend on
+  the content), in a child that runs the CLI in-process after a 10 s run (compilation apart):
+  above :data:`vibrospeed.estimators.grid.stream.STREAM_ROWS` rows it reads in chunks,
+  estimates in blocks and appends to its output; CPU, wall and peak RSS of the command.
 
 Usage (``--write``: ``benchmarks/scale/RESULTS.md`` and ``docs/img/scale.png``)::
 
     PYTHONPATH=src .venv/bin/python benchmarks/scale.py [lengths] [grid] [online] [startup] [read]
-        [--lengths 60,600,3600] [--methods grid,grid-causal,rbpmf,ekf,stft] [--write]
+        [stream] [--lengths 60,600,3600] [--methods grid,grid-causal,rbpmf,ekf,stft]
+        [--stream-lengths 3600,21600] [--write]
 """
 
 from __future__ import annotations
@@ -128,6 +134,77 @@ def child_read(path: str, chunked: bool) -> dict:
         rec = io.read(path)
         n = len(rec)
     return {"wall": time.perf_counter() - t0, "peak": _peak_mib(), "before": base, "n": n}
+
+
+def child_stream(path: str, short: str) -> dict:
+    """``vibrospeed estimate path`` in this process, after one on ``short`` (compilation),
+    on the streaming path whatever the length (its threshold set to 0 rows)."""
+    from vibrospeed.cli.app import app
+    from vibrospeed.estimators.grid import stream
+
+    stream.STREAM_ROWS = 0
+
+    out = Path(tempfile.mkdtemp())
+    app(["estimate", short, "-o", str(out / "short.csv")], standalone_mode=False)
+    before = _rss_mib()
+    _reset_peak()
+    t0, c0 = time.perf_counter(), time.process_time()
+    app(["estimate", path, "-o", str(out / "est.csv")], standalone_mode=False)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    with open(out / "est.csv") as fh:
+        rows = sum(1 for _ in fh) - 1
+    return {"wall": wall, "cpu": cpu, "peak": _peak_mib(), "before": before, "n": rows}
+
+
+def _write_repeated(src: Path, dest: Path, times: int) -> None:
+    """``src`` (Parquet) ``times`` times end to end (time shifted), written a copy at a time."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    tab = pq.read_table(src)
+    t = tab.column("t").to_numpy()
+    period = float(t[-1] - t[0]) + float(t[1] - t[0])
+    with pq.ParquetWriter(dest, tab.schema) as w:
+        for k in range(times):
+            part = tab.set_column(0, "t", pa.array(t + k * period))
+            w.write_table(part, row_group_size=65536)
+
+
+def part_stream(lengths, tmp: Path) -> list[str]:
+    from vibrospeed import io, sim
+
+    base = tmp / "stream_1h.parquet"
+    io.write(_imu(sim.simulate("car", seed=1, duration=3600.0)), base)
+    short = tmp / "stream_short.csv"
+    io.write(_imu(sim.simulate("car", seed=1, duration=10.0)), short)
+    out = ["## Streaming: `vibrospeed estimate` on long logs", "",
+           "The default grid estimate through the CLI (`vibrospeed estimate day.parquet -o "
+           "est.csv`) on the 1 h `simulate(\"car\", seed=1)` drive (6 IMU channels, Parquet) "
+           "repeated end to end, on the streaming path (the CLI takes it above 500 000 rows; "
+           "here at every length): it reads in chunks, estimates in 600 s blocks (120 s "
+           "look-ahead) and appends each block to its output. CPU and wall time "
+           "and peak RSS of the command in a fresh process (after a 10 s run that compiles or "
+           "loads the kernels), the output CSV written.", "",
+           "| length | rows | CPU s | x real time (CPU) | wall s | peak MiB | before MiB |",
+           "|---|---|---|---|---|---|---|"]
+    for L in lengths:
+        k = max(1, int(round(L / 3600.0)))
+        p = tmp / f"stream_{k}h.parquet"
+        if k > 1:
+            _write_repeated(base, p, k)
+        else:
+            p = base
+        r = _child(["stream", str(p), str(short)])
+        if "error" in r:
+            out.append(f"| {_len(k * 3600.0)} | - | - | - | - | - | {r['error']} |")
+        else:
+            out.append(f"| {_len(k * 3600.0)} | {r['n']} | {r['cpu']:.0f} | "
+                       f"{k * 3600.0 / r['cpu']:.0f} | {r['wall']:.0f} | {r['peak']:.0f} | "
+                       f"{r['before']:.0f} |")
+        print(out[-1], flush=True)
+        if k > 1:
+            p.unlink()
+    return out
 
 
 def _child(args: list[str]) -> dict:
@@ -401,6 +478,8 @@ def main(argv=None) -> None:
     if argv and argv[0] == "_child":
         if argv[1] == "estimate":
             res = child_estimate(argv[2], argv[3])
+        elif argv[1] == "stream":
+            res = child_stream(argv[2], argv[3])
         else:
             res = child_read(argv[3], argv[2] == "1")
         print(json.dumps(res))
@@ -411,6 +490,7 @@ def main(argv=None) -> None:
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--whiten-ref", default=None)
     ap.add_argument("--read-length", type=float, default=3600.0)
+    ap.add_argument("--stream-lengths", default="3600,21600")
     ap.add_argument("--write", action="store_true")
     a = ap.parse_args(argv)
     lengths = [float(x) for x in a.lengths.split(",")]
@@ -434,6 +514,8 @@ def main(argv=None) -> None:
             text += part_startup(tmp) + [""]
         if "read" in a.parts:
             text += part_read(tmp, a.read_length) + [""]
+        if "stream" in a.parts:
+            text += part_stream([float(x) for x in a.stream_lengths.split(",")], tmp) + [""]
     body = "\n".join(text) + "\n"
     print(body)
     if a.write:

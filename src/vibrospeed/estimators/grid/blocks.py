@@ -199,8 +199,12 @@ class Blocks:
         ax = axis_channel(self.axis)
         chans = [ax] + [c for c in ("ax", "ay", "az")
                         if c != ax and c in rec and np.isfinite(rec.channel(c)).any()]
-        X = np.column_stack([rec.channel(c) for c in chans])
-        still = ss.standstill(X, tr.model.dt, band, causal=tr.smooth == "none")
+        # per axis (standing where every axis says so, as ss.standstill of the (n, A) array):
+        # no (n, A) copy of the channels, one axis' temporaries at a time
+        still = ss.standstill(rec.channel(chans[0]), tr.model.dt, band,
+                              causal=tr.smooth == "none")
+        for c in chans[1:]:
+            still &= ss.standstill(rec.channel(c), tr.model.dt, band, causal=tr.smooth == "none")
         self._still_chans = chans
         return still
 
