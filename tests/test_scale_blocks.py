@@ -119,7 +119,7 @@ def test_streamed_cli_output_equals_the_in_memory_one(tmp_path, monkeypatch):
     assert a["meta"]["axis"] == b["meta"]["axis"] == "y"
     # a 20 s look-ahead past each 20 s block: within the block mode's tolerance
     monkeypatch.setattr(blocks, "LOOKAHEAD_S", 20.0)
-    r = _cli("estimate", path, "-o", tmp_path / "short.csv")
+    r = _cli("estimate", path, "-m", "grid", "-o", tmp_path / "short.csv")
     assert r.exit_code == 0, r.output
     s, w = io.read_track(tmp_path / "short.csv"), io.read_track(tmp_path / "whole.csv")
     assert np.array_equal(np.isnan(s.omega), np.isnan(w.omega))
