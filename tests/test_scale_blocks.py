@@ -136,3 +136,38 @@ def test_count_rows(tmp_path):
     assert stream.count_rows(tmp_path / "missing.csv") is None
     (tmp_path / "b.csv").write_text("t,ay\n0,1\n0.01,2")  # no newline at the end
     assert stream.count_rows(tmp_path / "b.csv") == 2
+
+
+@pytest.mark.parametrize("causal", [False, True])
+def test_standstill_in_pieces_is_the_detector(monkeypatch, causal):
+    """The standstill detector in pieces (small pieces here, so that frames, running sums and
+    samples cross many boundaries) decides exactly as :func:`signal.standstill.standstill` on
+    drives with stops, NaN bursts included."""
+    from vibrospeed.signal import standstill as ss
+
+    monkeypatch.setattr(blocks, "_PIECE", 1000)
+    monkeypatch.setattr(blocks, "_PIECE_FRAMES", 37)
+    found = 0
+    for scen, seed in (("car", 1), ("random", 4), ("random", 9)):
+        rec = sim.simulate(scen, seed=seed, duration=150)
+        for ch in ("ax", "ay", "az"):
+            x = rec.channel(ch).copy()
+            x[3000:3100] = np.nan
+            want = ss.standstill(x, rec.dt, (10.0, 360.0), causal=causal)
+            got = blocks.standstill(x, rec.dt, (10.0, 360.0), causal=causal)
+            assert np.array_equal(got, want), (scen, seed, ch)
+            found += int(want.sum())
+    assert found > 0  # the drives have stops
+
+
+def test_motion_level_in_pieces_bitwise(monkeypatch):
+    from vibrospeed.signal import standstill as ss
+
+    monkeypatch.setattr(blocks, "_PIECE", 777)
+    rec = sim.simulate("car", seed=1, duration=60)
+    x = rec.channel("ax").copy()
+    x[100:130] = np.nan
+    ends = np.arange(99, x.size, 25)
+    want = ss.motion_level(x, rec.dt, ends, 2.0)
+    got = blocks._motion_level(x, rec.dt, ends, 2.0)
+    assert np.array_equal(got, want, equal_nan=True)

@@ -128,6 +128,7 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     """Estimate ``input_path`` with the grid tracker block by block and write ``output`` (CSV)
     and ``output.json`` as ``vibrospeed estimate`` does (module docstring)."""
     from vibrospeed import __version__
+    from vibrospeed.estimators.common import axis_channel
     from vibrospeed.estimators.grid import blocks as _blocks
     from vibrospeed.io._common import jsonable, sha256_path
     from vibrospeed.io.atomic import atomic_path, atomic_write_text
@@ -144,28 +145,28 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
             axis_note = (f"no 'ay' in the recording: using its only accelerometer axis "
                          f"'{have[0]}' (--axis to choose)")
     use_axis = axis or "y"
+    # the quality flags first (their temporaries are the largest per sample), then the estimate
+    qs, q_notes = recording_quality(rec)
+    ch = axis_channel(use_axis)
+    if ch not in qs and ch in rec.channels:
+        qs.update(recording_quality(rec, (ch,))[0])
+    use_q = ch if ch in qs else next(iter(qs), None)
+    flags = qs[use_q].flags if use_q is not None else None
+    del qs
     kw = {k: v for k, v in (("block_s", block_s), ("lookahead_s", lookahead_s)) if v is not None}
     bar = _Bar(progress)
     blk = _blocks.Blocks(rec, axis=use_axis, wheel_radius=wheel_radius, params=dict(params),
                          progress=bar.update, **kw)
     if axis_note:
         blk.notes.insert(0, axis_note)
-    qs, q_notes = recording_quality(rec)
-    from vibrospeed.estimators.common import axis_channel
-
-    ch = axis_channel(use_axis)
-    if ch not in qs and ch in rec.channels:
-        qs.update(recording_quality(rec, (ch,))[0])
-    use_q = ch if ch in qs else next(iter(qs), None)
     names: list[str] | None = None
     rows = 0
     out = Path(output)
     with bar, atomic_path(out) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
         w = csv.writer(fh, lineterminator="\n")
         for track in blk:
-            if use_q is not None:
-                track.extras["quality"] = flags_at(rec.t, qs[use_q].flags,
-                                                   track.t).astype(np.float64)
+            if flags is not None:
+                track.extras["quality"] = flags_at(rec.t, flags, track.t).astype(np.float64)
             if names is None:
                 names = [*TRACK_COLUMNS, *track.extras]
                 w.writerow(names)
