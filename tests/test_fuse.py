@@ -137,7 +137,8 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
             if costs:
                 kb = min(costs, key=lambda k: costs[k][0])
                 if costs[kb][0] <= cfg.vib_gate and (
-                        fresh or 3 * math.sqrt(costs[kb][1]) <= cfg.vib_sep * rh * kb * om):
+                        fresh or 3 * math.sqrt(P[0, 0] + (rh * kb) ** 2 * var)
+                        <= cfg.vib_sep * rh * kb * om):
                     take = kb
             if ready and known and take is None:
                 u = x[3] * om

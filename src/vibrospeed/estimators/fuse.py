@@ -34,7 +34,8 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    sample to sample). The hypothesis with the smallest normalised innovation squared
    ``nu^2 / S`` plus ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate`` and
    the gate is decisive: GPS holds the speed (a fix in the past ``learn_hold`` s), or
-   ``3 sqrt(S) <= vib_sep r k omega`` (the band is narrow against the spacing of the octaves;
+   ``3 sqrt(P_vv + (r k)^2 (s^2 + (vib_rel omega)^2)) <= vib_sep r k omega`` (the band and
+   the line's own spread are narrow against the spacing of the octaves;
    after a long stretch on the accelerometer alone it is not, and a gate of 4 sigma would pass
    an idling engine's line or the wrong octave); else the sample has no direct vibration
    update (re-lock below). No line is used where the filter knows the vehicle to be
@@ -172,7 +173,8 @@ class Config:
     acq_time, acq_rel : s and relative tolerance of the consistency runs (first radius,
         re-lock; item 3).  acq_change : relative change of the line's speed that lets a
         re-lock outside the band happen (item 3).
-    vib_sep : decisive gate, ``3 sqrt(S) <= vib_sep r k omega`` (item 3).
+    vib_sep : decisive gate: 3 sigma of the speed and the line within ``vib_sep r k omega``
+        (item 3).
     still_relock : s of stop evidence refused by the integrated speed, without GPS, before the
         stop is taken anyway (item 4).
     vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
@@ -477,7 +479,6 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 sc[9] += (z - sc[9]) * min(1.0, dt / p[25])
             ready = t - sc[8] >= p[25]
         best = math.inf
-        s_best = math.inf
         r_hat = max(x[IR], 1e-3)
         var_om = om_std * om_std + (p[5] * om) ** 2
         infl = p[6] / dt
@@ -493,11 +494,10 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             cost = nu * nu / s + (0.0 if j == 0 else p[8])
             if cost < best:
                 best = cost
-                s_best = s
                 kk = k
         # direct use needs a decisive gate: the band narrow against the octaves' spacing
-        decisive = not math.isnan(kk) and (fresh or 3.0 * math.sqrt(s_best) <= p[28] * r_hat
-                                           * kk * om)
+        decisive = not math.isnan(kk) and (fresh or 3.0 * math.sqrt(
+            P[IV, IV] + (r_hat * kk) ** 2 * var_om) <= p[28] * r_hat * kk * om)
         if ready and known and not (best <= p[7] and decisive):
             # re-lock runs, one per octave k: the gap d_k = r k omega - v between the line's
             # speed and the filter's must hold for vib_relock s (no GPS in that time), and the
