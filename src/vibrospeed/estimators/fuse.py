@@ -56,9 +56,11 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    holds the speed.
 
    The radius learns only from GPS and a line together. Away from GPS (no fix in the past
-   ``learn_hold`` s) a wheel-frequency update carries the speed but leaves r alone (r is a
-   "consider" state, Schmidt: its gain is set to 0 and the Joseph form keeps P exact for that
-   gain), so a wrong line taken in an outage cannot corrupt the radius the next drive reuses.
+   ``learn_hold`` s) a wheel-frequency update carries the speed but leaves r and the offset b
+   alone (they are "consider" states, Schmidt: their gains are set to 0 and the Joseph form
+   keeps P exact for those gains), so a wrong line taken in an outage cannot corrupt the
+   radius the next drive reuses, and a line that lags the speed while braking (a causal
+   tracker's) cannot teach the offset the inertial stretches of the outage rest on.
    The first radius (r not yet known within ``octave_rel``) comes from a line whose ratio
    ``ln(v / omega)`` to the GPS-held speed has stayed within ``acq_rel`` of its running mean
    (time constant ``acq_time``) for ``acq_time`` s: a wheel line scales with the speed, an
@@ -224,7 +226,7 @@ class Config:
     vib_relock: float = 1.0
     still_relock: float = 3.0
     learn_hold: float = 1.5
-    acq_time: float = 2.0
+    acq_time: float = 0.5
     acq_rel: float = 0.03
     acq_change: float = 0.1
     vib_sep: float = 0.25
@@ -391,16 +393,19 @@ def init(config: Config, v0: float = 0.0, *, radius: float | None = None,
 # -- compiled core ------------------------------------------------------------------------------
 
 @njit(cache=True)
-def _update_row(x, P, h, z, r, keep=-1):
-    """Scalar Kalman update with row ``h``, Joseph form; returns the innovation. ``keep >= 0``:
-    that state is a "consider" state (Schmidt): its gain is 0, so the update leaves its mean
-    and variance unchanged; the Joseph form keeps P the exact covariance for that gain."""
+def _update_row(x, P, h, z, r, keep=-1, keep2=-1):
+    """Scalar Kalman update with row ``h``, Joseph form; returns the innovation. ``keep``,
+    ``keep2 >= 0``: those states are "consider" states (Schmidt): their gain is 0, so the
+    update leaves their means and variances unchanged; the Joseph form keeps P the exact
+    covariance for that gain."""
     n = x.size
     Ph = P @ h
     s = h @ Ph + r
     k = Ph / s
     if keep >= 0:
         k[keep] = 0.0
+    if keep2 >= 0:
+        k[keep2] = 0.0
     nu = z - h @ x
     for i in range(n):
         x[i] += k[i] * nu
@@ -535,9 +540,11 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             sc[6] = math.nan
             h[IV] = 1.0
             h[IR] = -kk * om
-            # away from GPS the radius is a consider state: a line there carries the speed
-            # but does not teach r (a wrong line accepted in an outage would corrupt it)
-            _update_row(x, P, h, 0.0, (r_hat * kk) ** 2 * var_om * infl, -1 if fresh else IR)
+            # away from GPS the radius and the offset are consider states: a line there
+            # carries the speed but teaches neither (a wrong or lagging line accepted in an
+            # outage would corrupt the radius and the offset the inertial stretches rest on)
+            _update_row(x, P, h, 0.0, (r_hat * kk) ** 2 * var_om * infl, -1 if fresh else IR,
+                        -1 if fresh else IB)
             h[IV] = 0.0
             h[IR] = 0.0
             # the radius follows the octave most updates use (where GPS confirms them)
