@@ -527,6 +527,27 @@ def test_cli_default_method_is_fuse_where_gps_speed_is_present(tmp_path):
     assert side["method"] == "fuse" and side["params"]["online"] is True
 
 
+def test_omega_is_empty_where_the_radius_was_never_learned(tmp_path):
+    """GPS but no wheel line (ay is noise): the radius stays at its wide prior, so the output
+    has no omega (speed / an unknown radius is no wheel speed), says why, and still has the
+    fused speed and the tracker's columns; the plot draws it."""
+    from vibrospeed.eval.plot import plot_track
+
+    rec = _recording_with_line(seed=7, T=30.0, r=0.3)
+    rng = np.random.default_rng(7)
+    rec = rec.with_channels(ay=rng.normal(size=len(rec)))
+    tr = fuse.estimate(rec, params={"omega_min": 10.0, "omega_max": 120.0})
+    assert tr.params["learned_radius_std"] >= fuse.Config().octave_rel * tr.params[
+        "learned_radius"]
+    assert tr.wheel_radius is None and np.all(np.isnan(tr.omega))
+    assert any("omega is left empty" in n for n in tr.notes)
+    v = rec["speed_true"]
+    assert np.mean(np.abs(tr.speed - v) <= 0.03 * v) > 0.9  # GPS + accelerometer
+    for col in ("omega_vib", "has_signal", "standstill", "source"):
+        assert tr.extras[col].shape == (len(rec),)
+    assert plot_track(tmp_path / "p.png", rec, tr, axis="ay").read_bytes()[:4] == b"\x89PNG"
+
+
 def test_no_radius_from_a_line_claimed_at_a_standstill():
     """GPS says 0 and the tracker claims a line (an idling engine): r must not become 0."""
     cfg = fuse.Config(acc_psd=0.01)

@@ -829,9 +829,11 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     ``vibration``: a grid track of this recording already at hand (then no tracker runs; it
     must be the causal one for ``online``).
 
-    Columns: speed and its band (from the fused std); omega = speed / learned radius; extras
-    ``source`` (:data:`SOURCES` codes), ``radius``, ``radius_std``, ``offset``, ``harmonic``
-    (k of the wheel-frequency update) and the tracker's ``omega_vib``, ``has_signal``. The
+    Columns: speed and its band (from the fused std); omega = speed / learned radius where
+    the radius is known at the end (relative std below ``octave_rel``; else empty, with a
+    note); extras ``source`` (:data:`SOURCES` codes), ``radius``, ``radius_std``, ``offset``,
+    ``harmonic`` (k of the wheel-frequency update) and the tracker's ``omega_vib``,
+    ``has_signal``, ``standstill``. The
     learned radius and its std (the filter's at the end of the log) are in
     ``params["learned_radius"]``, ``params["learned_radius_std"]`` (the JSON sidecar).
     """
@@ -913,6 +915,10 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
                  f" of the fusion samples ({'forward filter' if online else 'RTS smoothed'})")
     notes.append(f"learned wheel radius {r_fin:.4f} +- {rs_fin:.4f} m"
                  + ("" if has_gps else " (no GPS: the prior, kept)"))
+    known = rs_fin < cfg.octave_rel * r_fin
+    if not known:
+        notes.append("the wheel radius is not known (no wheel line while GPS was good): omega "
+                     "is left empty; the vibration tracker's own omega is omega_vib")
     pdict = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(cfg).items()}
     pdict.update({"online": online, "accel_axis": acc_ch, "axis": axis,
                   "learned_radius": r_fin, "learned_radius_std": rs_fin,
@@ -923,9 +929,12 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         "radius_std": back(rrs), "offset": back(off), "harmonic": o.harmonic[blk],
         "omega_vib": vib.omega, "has_signal": claim.astype(np.float64),
     }
+    if "standstill" in vib.extras:
+        extras["standstill"] = np.asarray(vib.extras["standstill"], dtype=np.float64)
     if return_posterior and "posterior" in vib.extras:  # the vibration tracker's omega posterior
         extras["posterior"] = vib.extras["posterior"]
-    return Track.from_speed(t, speed, speed_std, wheel_radius=r_fin, method="fuse",
+    return Track.from_speed(t, speed, speed_std, wheel_radius=r_fin if known else None,
+                            method="fuse",
                             params=pdict, extras=extras, notes=[*vib.notes, *notes])
 
 
