@@ -229,7 +229,7 @@ class Config:
     acq_time: float = 0.5
     acq_rel: float = 0.03
     acq_change: float = 0.1
-    vib_sep: float = 0.25
+    vib_sep: float = 0.35
     nonneg: bool = True
     fuse_rate: float = 25.0
 
