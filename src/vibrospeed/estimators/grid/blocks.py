@@ -236,7 +236,9 @@ class Blocks:
                 fstate = res.final
                 pending.append(res)
                 pos = e
+                del res
             rows = _cat(pending)  # rows [a - off, e)
+            pending = []  # (the pieces' arrays are freed: one copy of the rows at a time)
             off = 1 if a > 0 else 0
             blk = _rows(rows, off, off + b - a)
             omap = blk.omega_map
@@ -273,7 +275,13 @@ class Blocks:
                                      method="grid", params=self.params, extras=extras,
                                      notes=self.notes)
             _apply_standstill(track, self.still[a:b])
-            pending = [_rows(rows, off + b - a - 1, rows.omega.size)]
+            # the rows from b - 1 on (copied: the block's arrays are freed before the next)
+            last = _rows(rows, off + b - a - 1, rows.omega.size)
+            pending = [last._replace(**{f: getattr(last, f).copy() for f in Result._fields
+                                        if isinstance(getattr(last, f), np.ndarray)})]
+            del rows, blk, last
+            if smooth:
+                del gll, alpha, outs, back, path
             if self.progress is not None:
                 self.progress(b, n)
             yield track

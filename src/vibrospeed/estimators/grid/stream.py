@@ -97,20 +97,24 @@ def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
     from vibrospeed.types import Recording
 
     src = ChunkedRecording(path, chunk_rows=chunk_rows, fmt=fmt)
-    keep = [c for c in src.channels
-            if c in _CHANNELS or (axis is not None and c == axis_channel(axis))]
-    ts: list[np.ndarray] = []
-    cols: dict[str, list[np.ndarray]] = {c: [] for c in keep}
+    keep = ["t", *[c for c in src.channels
+                   if c in _CHANNELS or (axis is not None and c == axis_channel(axis))]]
+    # copied chunk by chunk into arrays of the file's length (rows counted first; grown if the
+    # count was short): no list of chunks, no reader buffers kept alive by views into them
+    size = max(count_rows(path, src.fmt) or 0, 1)
+    out = {c: np.empty(size) for c in keep}
+    n = 0
     for chunk in src:
-        ts.append(chunk.t)
+        m = len(chunk)
+        if n + m > size:
+            size = max(2 * size, n + m)
+            out = {c: np.concatenate([v[:n], np.empty(size - n)]) for c, v in out.items()}
         for c in keep:
-            cols[c].append(chunk.channels[c])
-    t = np.concatenate(ts) if ts else np.empty(0)
-    del ts
-    ch = {}
-    for c in keep:
-        ch[c] = np.concatenate(cols[c]) if cols[c] else np.empty(0)
-        cols[c] = []
+            out[c][n:n + m] = chunk.t if c == "t" else chunk.channels[c]
+        n += m
+    _release_reader_memory()
+    t = out.pop("t")[:n]
+    ch = {c: v[:n] for c, v in out.items()}
     kw = {"axes": src.axes} if src.axes else {}
     rec = Recording(t, ch, units={k: v for k, v in src.units.items() if k in ch},
                     source=str(Path(path)), wheel_radius=src.wheel_radius, notes=list(src.notes),
@@ -118,6 +122,15 @@ def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
     if len(rec) > 2 and not rec.is_uniform(rtol=0.05):
         rec = timebase.resample_uniform(rec)
     return rec
+
+
+def _release_reader_memory() -> None:
+    """Hand the Parquet reader's freed buffers back (Arrow's allocator keeps them otherwise)."""
+    try:
+        import pyarrow as pa
+    except ImportError:  # pragma: no cover - CSV only
+        return
+    pa.default_memory_pool().release_unused()
 
 
 def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
