@@ -171,3 +171,22 @@ def test_motion_level_in_pieces_bitwise(monkeypatch):
     want = ss.motion_level(x, rec.dt, ends, 2.0)
     got = blocks._motion_level(x, rec.dt, ends, 2.0)
     assert np.array_equal(got, want, equal_nan=True)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+@pytest.mark.parametrize("counted", [True, False])
+def test_read_accelerometer_equals_the_whole_read(tmp_path, monkeypatch, suffix, counted):
+    """The streaming path's reader (chunks copied into arrays of the counted length, grown when
+    the count falls short) gives the whole-file reader's time line and accelerometer axes."""
+    rec = sim.simulate("car", seed=2, duration=20)
+    path = tmp_path / f"drive{suffix}"
+    io.write(rec, path)
+    if not counted:
+        monkeypatch.setattr(stream, "count_rows", lambda *a, **k: 10)
+    got = stream.read_accelerometer(path, chunk_rows=333)
+    want = io.read(path)
+    assert np.array_equal(got.t, want.t)
+    assert sorted(got.channels) == ["ax", "ay", "az"]
+    for c in got.channels:
+        assert np.array_equal(got.channels[c], want.channels[c], equal_nan=True)
+    assert got.wheel_radius == want.wheel_radius
