@@ -54,15 +54,20 @@ NO_AID = {"standstill": "none", "mode_mu": 1e9, "boost": False, "q_bias": 0.0,
           "p0_bias": 1e-300}
 #: the thesis' tracker (the defaults of aided.estimate before issue 13: window test, a_x as
 #: recorded, no comb check)
-THESIS = {"standstill": "window", "accel_offset": "none", "comb": False}
+THESIS = {"tracker": "ekf", "standstill": "window", "accel_offset": "none", "comb": False}
 VARIANTS = {
     "aided (window, thesis)": THESIS,
-    "aided (defaults: broadband standstill, a_x offset, comb check)": {},
+    "aided EKF (-p tracker=ekf: broadband standstill, a_x offset, comb check)":
+        {"tracker": "ekf"},
     "aided (CUSUM)": {**THESIS, "standstill": "cusum"},
     "aided (window, aid_always)": {**THESIS, "aid_always": True},
     "same kernel, no aiding": {**THESIS, **NO_AID},
     "aided RBPMF (window, -p tracker=rbpmf)": {"tracker": "rbpmf"},
-    "aided grid (window, -p tracker=grid)": {"tracker": "grid"},
+    "aided (default: grid tracker, mount, range 2-40 rad/s)": {"omega_min": 2.0,
+                                                                "omega_max": 40.0},
+    "aided grid on a_x (-p accel_axis=ax, range 2-40 rad/s)": {"omega_min": 2.0,
+                                                                 "omega_max": 40.0,
+                                                                 "accel_axis": "ax"},
 }
 PLAIN_RBPMF = dict(omega_min=0.0, omega_max=40.0, n_grid=161, M=2, prefilter="thesis-hplp")
 
@@ -200,7 +205,8 @@ HUNGARY_GRID_BASE = {"accel_detrend": 60.0, "reference": "turn", "prefilter": "t
 HUNGARY_GRID = {
     "aided RBPMF (tracker=rbpmf, as above)": {**HUNGARY_GRID_BASE, "tracker": "rbpmf",
                                               "r": rbpmf.DEFAULT_R, "q_amp": 0.001},
-    "aided grid (tracker=grid)": {**HUNGARY_GRID_BASE, "tracker": "grid", "r": 0.15,
+    "aided grid (tracker=grid)": {**HUNGARY_GRID_BASE, "tracker": "grid", "accel_axis": "ax",
+                                  "r": 0.15,
                                   "q_amp": 0.002},
 }
 

@@ -122,7 +122,7 @@ def _stop_latency(rec, track, tol=0.1):
 def test_issue4_done_when_one_seed(name):
     rec = SCENARIOS[name](seed=11)
     w = rec["omega_true"]
-    tr = aided.estimate(rec)
+    tr = aided.estimate(rec, params={"tracker": "ekf"})
     unaided = ekf.estimate(rec, params={"omega0": 0.0})
     rmse = np.sqrt(np.mean((tr.omega - w) ** 2))
     rmse_ekf = np.sqrt(np.mean((unaided.omega - w) ** 2))
@@ -136,7 +136,7 @@ def test_issue4_done_when_one_seed(name):
 
 def test_cusum_standstill_on_drive():
     rec = SCENARIOS["stop_and_go"](seed=3, duration=45)
-    tr = aided.estimate(rec, params={"standstill": "cusum"})
+    tr = aided.estimate(rec, params={"tracker": "ekf", "standstill": "cusum"})
     w = rec["omega_true"]
     assert _stop_latency(rec, tr) < 1.0
     assert np.mean(tr.extras["standstill"][w > 0.5] > 0) < 0.01
@@ -144,7 +144,7 @@ def test_cusum_standstill_on_drive():
 
 def test_reference_fixes_fed():
     rec = SCENARIOS["bumpy_floor"](seed=2, duration=40)
-    tr = aided.estimate(rec, params={"reference": "bump"})
+    tr = aided.estimate(rec, params={"tracker": "ekf", "reference": "bump"})
     assert any("reference-speed fixes" in n for n in tr.notes)
     w = rec["omega_true"]
     assert np.sqrt(np.mean((tr.omega - w) ** 2)) < 1.0
@@ -154,12 +154,13 @@ def test_errors():
     rec = SCENARIOS["start_from_rest"](seed=0, duration=10)
     bare = Recording(t=rec.t, channels={"ax": rec["ax"], "ay": rec["ay"]})
     with pytest.raises(ParameterError, match="wheel radius"):
-        aided.estimate(bare)
+        aided.estimate(bare, params={"tracker": "ekf"})
     with pytest.raises(ParameterError, match="unknown parameter"):
-        aided.estimate(rec, params={"bogus": 1})
+        aided.estimate(rec, params={"tracker": "ekf", "bogus": 1})
     with pytest.raises(ParameterError):
         aided.Config(standstill="maybe")
-    tr = aided.estimate(bare, wheel_radius=0.08, params={"accel_axis": "-ax"})
+    tr = aided.estimate(bare, wheel_radius=0.08,
+                        params={"tracker": "ekf", "accel_axis": "-ax"})
     assert tr.params["accel_axis"] == "-ax"
 
 
@@ -222,14 +223,16 @@ def test_detectors_are_defined_in_seconds_so_a_400_hz_log_works(standstill):
     vibration read as standstill while driving: RMSE 8.3 rad/s)."""
     rec = SCENARIOS["stop_and_go"](seed=1, duration=60, fs=400.0)
     w = rec["omega_true"]
-    tr = aided.estimate(rec, params={"standstill": standstill})
-    hand = aided.estimate(rec, params={"standstill": standstill, "ss_n": 80, "mode_n": 80,
+    tr = aided.estimate(rec, params={"tracker": "ekf", "standstill": standstill})
+    hand = aided.estimate(rec, params={"tracker": "ekf", "standstill": standstill, "ss_n": 80,
+                                       "mode_n": 80,
                                        "cusum_h": 40.0, "cusum_fs": None})
     np.testing.assert_array_equal(tr.omega, hand.omega)
     assert tr.params["ss_n"] == 80 and tr.params["mode_n"] == 80
     assert np.sqrt(np.mean((tr.omega - w) ** 2)) < 0.8
     assert np.mean(tr.extras["standstill"][w > 0.5] > 0) < 0.01
-    per_sample = aided.estimate(rec, params={"standstill": standstill, "ss_n": 20,
+    per_sample = aided.estimate(rec, params={"tracker": "ekf", "standstill": standstill,
+                                             "ss_n": 20,
                                              "mode_n": 20, "cusum_fs": None})
     assert np.sqrt(np.mean((per_sample.omega - w) ** 2)) > 2.0  # the thesis' sample counts
 

@@ -92,7 +92,7 @@ def test_estimate_defaults_on_a_synthetic_drive():
     from vibrospeed.types import Recording
 
     rec = Recording(t=t, channels={"ay": y, "ax": u}, wheel_radius=0.1)
-    tr = aided.estimate(rec)
+    tr = aided.estimate(rec, params={"tracker": "ekf"})
     assert tr.params["standstill"] == "broadband" and tr.params["accel_offset"] == "standstill"
     st = tr.extras["standstill"] > 0.5
     assert st[(t > 1.0) & (t < 4.0)].mean() > 0.9 and not st[t > 8].any()
@@ -107,7 +107,7 @@ def test_family_drive_with_stops(seed):
     rec = sim.simulate("random", seed=seed, duration=120)
     w = rec["omega_true"]
     lo = rec.meta["omega_range"][0]
-    tr = aided.estimate(rec)
+    tr = aided.estimate(rec, params={"tracker": "ekf"})
     st = tr.extras["standstill"] > 0.5
     k = int(round(rec.fs))
     stop = np.convolve((w <= 0).astype(float), np.ones(2 * k + 1), "same") >= 2 * k + 1
@@ -122,10 +122,10 @@ def test_causal_option_and_errors():
     from vibrospeed.types import Recording
 
     rec = Recording(t=t, channels={"ay": y, "ax": u}, wheel_radius=0.1)
-    tr = aided.estimate(rec, params={"causal": True})
+    tr = aided.estimate(rec, params={"tracker": "ekf", "causal": True})
     assert tr.params["causal"] is True
     with pytest.raises(Exception, match="accel_offset"):
-        aided.estimate(rec, params={"accel_offset": "maybe"})
+        aided.estimate(rec, params={"tracker": "ekf", "accel_offset": "maybe"})
     with pytest.raises(Exception, match="comb_count"):
         aided.Config(comb_count=0)
 

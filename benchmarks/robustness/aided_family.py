@@ -17,7 +17,8 @@ longitudinal acceleration input ``u``:
 Both are scored with ``benchmarks/robustness/robustness.py``'s ``score`` (search range of the
 vehicle class, ``meta["omega_range"]``, passed as ``omega_min`` / ``omega_max``), and split
 into mount "near the vehicle frame" (the family's N(0, 0.1) rad draw) and "anywhere".
-Baselines (``--baselines``): ``grid-causal`` and the causal / offline STFT harmonic sum,
+Baselines (``--baselines``): ``grid`` (offline), ``grid-causal`` and the causal / offline STFT
+harmonic sum,
 cached per seed in ``--cache`` (they do not depend on the aided tracker).
 """
 
@@ -37,11 +38,18 @@ sys.path.insert(0, str(HERE))
 #: aided variants: name -> params (``range`` True: omega_min / omega_max of the vehicle class)
 VARIANTS = {
     # the defaults before this work (window test, no offset removal, no comb, no range)
-    "before": dict(standstill="window", accel_offset="none", comb=False),
-    "after": dict(range=True),
-    "after-norange": dict(),
-    "after-causal": dict(range=True, causal=True),
+    "before": dict(tracker="ekf", standstill="window", accel_offset="none", comb=False),
+    "after": dict(tracker="ekf", range=True),
+    "after-norange": dict(tracker="ekf"),
+    "after-causal": dict(tracker="ekf", range=True, causal=True),
+    # the aiding around the grid product's tracker (accel_axis: the mount estimate)
+    "grid": dict(range=True, tracker="grid"),
+    "grid-noaid": dict(range=True, tracker="grid", aiding="none"),
+    "grid-mode": dict(range=True, tracker="grid", aiding="mode"),
+    "grid-ax": dict(range=True, tracker="grid", accel_axis="ax"),
 }
+#: variants whose own a_x input is the mount estimate (run once, not per raw / aligned)
+MOUNT = ("grid", "grid-noaid", "grid-mode")
 
 
 def _aided(rec, u, om_lo, om_hi, params):
@@ -50,9 +58,10 @@ def _aided(rec, u, om_lo, om_hi, params):
     p = dict(params)
     if p.pop("range", False):
         p["omega_min"], p["omega_max"] = om_lo, om_hi
-    r2 = rec.with_channels(ax=u)
+    r2 = rec if u is None else rec.with_channels(ax=u)
     tr = aided.estimate(r2, params=p)
-    return np.asarray(tr.omega, float), {"standstill": np.asarray(tr.extras["standstill"])}
+    return np.asarray(tr.omega, float), {"standstill": np.asarray(tr.extras["standstill"]),
+                                         "mount": bool(tr.params.get("mount_confident", False))}
 
 
 def one_seed(seed, variants, duration, baselines, cache):
@@ -70,32 +79,38 @@ def one_seed(seed, variants, duration, baselines, cache):
            "level": d["level"], "near": near}
     veh = mount_matrix(d["mount"]).T @ np.vstack([rec["ax"], rec["ay"], rec["az"]])
     for name in variants:
-        for inp, u in (("raw", rec["ax"]), ("aligned", veh[0])):
+        inputs = ((("mount", None),) if name in MOUNT
+                  else (("raw", rec["ax"]), ("aligned", veh[0])))
+        for inp, u in inputs:
             t0 = time.process_time()
             try:
                 om, ex = _aided(rec, u, om_lo, om_hi, VARIANTS[name])
                 row[f"{name}/{inp}"] = score(rec, om, ex, om_lo)
+                row[f"{name}/{inp}"]["mount"] = ex["mount"]
             except Exception as e:  # a crash is a result too
                 row[f"{name}/{inp}"] = {"error": f"{type(e).__name__}: {e}"}
             row[f"{name}/{inp}"]["cpu_s"] = time.process_time() - t0
     if baselines:
         f = Path(cache) / f"{seed}_{duration:g}.json" if cache else None
-        if f is not None and f.exists():
-            row.update(json.loads(f.read_text()))
-        else:
-            b = {}
-            y = pf.apply(pf.design("thesis-hp", rec.fs), np.nan_to_num(rec["ay"]))
-            for nm, causal in (("stft", False), ("stft-causal", True)):
-                om = stft_harmonic_sum(y, 1.0 / rec.fs, om_lo, om_hi, causal=causal)
-                b[nm] = score(rec, om, {}, om_lo)
+        b = json.loads(f.read_text()) if f is not None and f.exists() else {}
+        y = None
+        for nm in ("stft", "stft-causal", "grid-causal", "grid"):
+            if nm in b:
+                continue
             t0 = time.process_time()
-            om, ex = _run_method("grid-causal", rec, om_lo, om_hi)
-            b["grid-causal"] = score(rec, om, ex, om_lo)
-            b["grid-causal"]["cpu_s"] = time.process_time() - t0
-            if f is not None:
-                f.parent.mkdir(parents=True, exist_ok=True)
-                f.write_text(json.dumps(b))
-            row.update(b)
+            if nm.startswith("stft"):
+                if y is None:
+                    y = pf.apply(pf.design("thesis-hp", rec.fs), np.nan_to_num(rec["ay"]))
+                om = stft_harmonic_sum(y, 1.0 / rec.fs, om_lo, om_hi, causal=nm == "stft-causal")
+                ex = {}
+            else:
+                om, ex = _run_method(nm, rec, om_lo, om_hi)
+            b[nm] = score(rec, om, ex, om_lo)
+            b[nm]["cpu_s"] = time.process_time() - t0
+        if f is not None:
+            f.parent.mkdir(parents=True, exist_ok=True)
+            f.write_text(json.dumps(b))
+        row.update(b)
     return row
 
 
@@ -141,7 +156,8 @@ def main(argv=None):
     ap.add_argument("--duration", type=float, default=120.0)
     ap.add_argument("--variants", default="after,before")
     ap.add_argument("--baselines", action="store_true")
-    ap.add_argument("--cache", default="/tmp/aided_family_cache")
+    ap.add_argument("--cache", default="/tmp/aided_family_cache",
+                    help="baseline scores per seed (delete it when the grid tracker changes)")
     ap.add_argument("--out", default="", help="write the rows (json) here")
     a = ap.parse_args(argv)
     variants = [v for v in a.variants.split(",") if v]
@@ -151,9 +167,10 @@ def main(argv=None):
         rows.append(one_seed(s, variants, a.duration, a.baselines, a.cache))
         print(f"\r{i + 1}/{a.seeds} seeds", end="", file=sys.stderr)
     print(file=sys.stderr)
-    methods = [f"{v}/{i}" for v in variants for i in ("raw", "aligned")]
+    methods = [f"{v}/{i}" for v in variants
+               for i in (("mount",) if v in MOUNT else ("raw", "aligned"))]
     if a.baselines:
-        methods += ["grid-causal", "stft-causal", "stft"]
+        methods += ["grid", "grid-causal", "stft-causal", "stft"]
     text = [f"{len(rows)} seeds ({a.seed0}..{a.seed0 + a.seeds - 1}), {a.duration:g} s each, "
             f"{time.time() - t0:.0f} s wall", ""]
     for lab, sel in (("all seeds", rows), ("mount near the vehicle frame",
@@ -161,12 +178,17 @@ def main(argv=None):
                      ("mount anywhere", [r for r in rows if not r["near"]])):
         text += [f"### {lab} ({len(sel)} seeds)", "", table(sel, methods), ""]
         if a.baselines:
-            for m in methods[:-3]:
-                for b in ("grid-causal", "stft-causal"):
+            for m in methods[:-4]:
+                for b in ("grid", "grid-causal", "stft-causal"):
                     sh, dm = versus(sel, m, b)
                     text.append(f"- `{m}` moving-within >= `{b}` on {100 * sh:.0f} % of seeds "
                                 f"(mean difference {dm:+.3f})")
             text.append("")
+        for m in methods:
+            if m.endswith("/mount"):
+                k = sum(1 for r in sel if m in r and r[m].get("mount"))
+                text.append(f"- `{m}`: mount confident (aided) on {k} of {len(sel)} seeds")
+        text.append("")
     by = {}
     for r in rows:
         by.setdefault(r["vehicle"], []).append(r)

@@ -91,12 +91,14 @@ PRESETS: dict[str, dict[str, Preset]] = {
         "online": Preset({}, _CAUSAL),
     },
     "aided": {
-        "default": Preset({}, "standstill and a_x offset from the whole log (offline)"),
-        "paper": Preset({"standstill": "window", "accel_offset": "none", "comb": "false",
-                         "causal": "true"},
-                        "thesis ch. 3: window standstill test, a_x used as measured, "
-                        "no comb check"),
-        "online": Preset({"causal": "true"}, "causal standstill detector and a_x offset "
+        "default": Preset({}, "the grid tracker, aided by the longitudinal acceleration of "
+                          "the phone's estimated mount where that is confident; standstill "
+                          "from the whole log (offline, smoothed)"),
+        "paper": Preset({"tracker": "ekf", "standstill": "window", "accel_offset": "none",
+                         "comb": "false", "causal": "true"},
+                        "thesis ch. 3: the aided EKF, window standstill test, a_x used as "
+                        "measured, no comb check"),
+        "online": Preset({"causal": "true"}, "causal grid filter and standstill detector "
                          "(as a device decides)"),
     },
     "gps-riss": {
@@ -178,7 +180,8 @@ PARAMETERS: dict[str, dict[str, Parameter]] = {
         "standstill": Parameter("broadband", "standstill test: broadband (default), window, "
                                 "cusum, none"),
         "causal": Parameter("true", "causal standstill detector and a_x offset"),
-        "tracker": Parameter("ekf", "vibration tracker aided: ekf (default), rbpmf, grid"),
+        "tracker": Parameter("ekf", "vibration tracker aided: grid (default), ekf (the "
+                             "thesis' filter), rbpmf"),
         "M": Parameter("2", "harmonics in the model"),
     },
     "gps-riss": {

@@ -119,6 +119,11 @@ from vibrospeed.types import Estimate, Recording, Track
 
 STANDSTILL_KINDS = {"none": 0, "window": 1, "cusum": 2, "broadband": 3}
 
+#: vibration tracker of :func:`estimate` when ``params`` names none: the grid product's tracker
+#: (benchmarks/robustness/AIDED.md: on the randomised family it scores like ``-m grid``, the
+#: EKF below a tenth of that; on the thesis' cart the EKF is far better: ``tracker=ekf``)
+DEFAULT_TRACKER = "grid"
+
 
 def _thesis_model() -> HarmonicModel:
     # thesis 3.5: M = 2 best; R = 0.0022 (table 3.1; the text says 0.0008); q_amp from ch. 2
@@ -623,10 +628,12 @@ def estimate(
     ``wheelbase`` (m, for bump fixes); ``accel_detrend`` (s; subtract a causal running mean of
     a_x with this time constant, for a tilted phone whose a_x carries a large gravity offset that
     would hold the mode detector in acceleration mode; default 0 = off, as in the thesis).
-    ``tracker``: 'ekf' (default), 'rbpmf' (the aiding around the paper's grid filter) or
-    'grid' (around the grid product's filter: "no line" state, jumps, mode estimate and
-    harmonic-comb evidence); the grid trackers go to
-    :func:`vibrospeed.estimators.aided_grid.estimate`.
+    ``tracker``: 'grid' (default, :data:`DEFAULT_TRACKER`: the grid product's filter, its
+    smoothed estimate where the mount of the phone is not known well enough to aid it, see
+    :func:`vibrospeed.estimators.aided_grid.estimate`), 'ekf' (the thesis' aided EKF, this
+    function; ``--preset paper``) or 'rbpmf' (the aiding around the paper's grid filter on the
+    thesis cart's grid); the grid trackers go to
+    :func:`vibrospeed.estimators.aided_grid.estimate`. The parameters below are the EKF's.
 
     Defaults not in the thesis (measured in benchmarks/aided/RESULTS.md):
     ``standstill='broadband'`` (the
@@ -643,7 +650,7 @@ def estimate(
     from vibrospeed.signal import prefilter as pf
 
     params = dict(params or {})
-    tracker = str(params.pop("tracker", "ekf"))
+    tracker = str(params.pop("tracker", DEFAULT_TRACKER))
     if tracker in ("rbpmf", "grid"):
         from vibrospeed.estimators import aided_grid
 

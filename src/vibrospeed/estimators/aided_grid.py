@@ -38,6 +38,16 @@ leak to the next grid point every step and the posterior *mean* of a distributio
 would stay near one grid spacing instead of 0 (the EKF's Gaussian, clipped at 0, has no such
 bias).
 
+Continuous aiding (``aiding="continuous"``, the default of ``tracker=grid``): the thesis' mode
+detector reads an absolute threshold on a_x (0.2 m/s^2), which a car's body motion crosses most
+of the time, and then skips the vibration update. On a grid posterior the two sources combine
+without a switch: the integral of ``u + accel_bias`` over each hop of ``aid_len`` samples
+(``aid_hop`` s; standing samples and NaN add nothing) shifts the posterior at the hop's last
+sample (one linear split, so the sub-cell diffusion ``f (1 - f) dx^2`` is paid once per hop,
+not per sample), and the vibration update runs at every sample. The random walk ``q_omega``
+then only needs to cover the aiding's error. The mode detector's ``accelerating`` and
+``boost`` are never set.
+
 Bias: unlike the EKF version there is no bias state (a grid over (omega, b) would square the
 cost); ``accel_bias`` is a fixed known offset added to ``u``. On real data the offset of the
 forward axis is removed before (``accel_detrend`` in :func:`estimate`).
@@ -70,16 +80,29 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vibrospeed.errors import ParameterError
+from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
-from vibrospeed.estimators.aiding import Sample, aiding_inputs, input_arrays, running_gain
+from vibrospeed.estimators.aiding import (
+    Sample,
+    aiding_inputs,
+    input_arrays,
+    running_gain,
+    standstill_band,
+    standstill_flags,
+    standstill_offset,
+)
+from vibrospeed.estimators.grid.method import GRID_DEFAULTS
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
 from vibrospeed.signal.detectors import _mode_core, _window_core
-from vibrospeed.types import Estimate
+from vibrospeed.types import Estimate, Track
 
-STANDSTILL_KINDS = ("none", "window")
+STANDSTILL_KINDS = ("none", "window", "broadband")
+#: ``"mode"``: the thesis' mode detector (integrate a_x and skip the vibration update in
+#: acceleration mode); ``"continuous"``: integrate a_x every ``aid_hop`` s, never skip;
+#: ``"none"``: no aiding (the tracker with the standstill measurements only)
+AIDING_KINDS = ("mode", "continuous", "none")
 
 
 def _cart_tracker(dt: float = 0.01) -> rbpmf.Config:
@@ -112,6 +135,12 @@ class Config:
     comb : harmonic-comb evidence (:class:`vibrospeed.estimators.grid.Config`, its ``tracker``
         must have this tracker's grid and ``dt``) or None (none; the default).
     comb_in_accel : also apply the comb evidence in acceleration mode (default False).
+    standstill 'broadband' : the per-sample input ``still`` (flags of
+        :func:`vibrospeed.estimators.aiding.standstill_flags`) is the standstill decision.
+    aiding : 'mode' (thesis 3.3: a_x integrated and the vibration update skipped in
+        acceleration mode), 'continuous' (module docstring, "Continuous aiding") or 'none'.
+    aid_hop : s, with ``aiding='continuous'``: the posterior is shifted by the integral of
+        ``u + accel_bias`` over each hop of ``aid_len`` samples at the hop's last sample.
     """
 
     tracker: rbpmf.Config = field(default_factory=_cart_tracker)
@@ -130,6 +159,8 @@ class Config:
     boost: bool = True
     comb: gridmod.Config | None = None
     comb_in_accel: bool = False
+    aiding: str = "mode"
+    aid_hop: float = 0.1
 
     def __post_init__(self) -> None:
         tr = self.tracker
@@ -138,9 +169,10 @@ class Config:
         if tr.spacing != "linear" or tr.n_grid < 2:
             raise ParameterError("aided rbpmf needs a linear grid of >= 2 points "
                                  "(spacing='linear')")
-        if tr.omega_min != 0.0:
+        if tr.omega_min != 0.0 and self.standstill != "broadband":
             raise ParameterError(f"aided rbpmf needs omega_min = 0 (the grid point omega = 0 is "
-                                 f"standstill), got {tr.omega_min}")
+                                 f"standstill; standstill='broadband' reports it from its "
+                                 f"flags instead), got {tr.omega_min}")
         if tr.smooth != "none" or tr.fit_names:
             raise ParameterError("aided rbpmf is a causal filter: smooth and fit are not offered")
         if self.standstill not in STANDSTILL_KINDS:
@@ -162,6 +194,11 @@ class Config:
         for name in ("ss_window", "mode_window"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"{name} must be > 0 s, got {getattr(self, name)}")
+        if self.aiding not in AIDING_KINDS:
+            raise ParameterError(f"aiding must be one of {', '.join(AIDING_KINDS)}, got "
+                                 f"'{self.aiding}'")
+        if not self.aid_hop > 0:
+            raise ParameterError(f"aid_hop must be > 0 s, got {self.aid_hop}")
         if self.comb is not None:
             ct = self.comb.tracker
             if (ct.n_grid != tr.n_grid or not np.array_equal(ct.grid, tr.grid)
@@ -176,6 +213,18 @@ class Config:
     def ss_len(self) -> int:
         """Samples in the standstill window: ``ss_n``, else ``ss_window`` s."""
         return det.window_samples(self.ss_n, self.ss_window, self.tracker.model.dt)
+
+    @property
+    def ss_on_grid(self) -> bool:
+        """The standstill measurement omega = 0 acts on the grid (it starts at 0); otherwise
+        (``standstill='broadband'`` on a search range above 0) a standing sample is a plain
+        vibration sample whose omega is reported as 0 by the caller."""
+        return self.tracker.omega_min == 0.0
+
+    @property
+    def aid_len(self) -> int:
+        """Samples per aiding hop (``aid_hop`` s, at least 1)."""
+        return max(1, int(round(self.aid_hop / self.tracker.model.dt)))
 
     @property
     def mode_len(self) -> int:
@@ -210,7 +259,8 @@ class State(NamedTuple):
     """Prior for the next sample: ``grid`` (RBPMF state), ``offset`` (rad/s, sub-cell shift not
     yet applied to the grid), detector states ``window`` and ``mode``; with comb evidence the
     last ``comb.frame_len`` RBPMF inputs ``buf`` (ring buffer, oldest at ``count % L``) and the
-    number ``count`` of samples seen."""
+    number ``count`` of samples seen; ``usum`` (m/s^2 x samples) the sum of ``u + accel_bias`` in
+    the current aiding hop (``aiding='continuous'``)."""
 
     grid: rbpmf.State
     offset: float
@@ -218,6 +268,7 @@ class State(NamedTuple):
     mode: det.ModeState
     buf: np.ndarray | None = None
     count: int = 0
+    usum: float = 0.0
 
 
 class _Posterior(NamedTuple):
@@ -336,20 +387,47 @@ def _resolve(config: Config, g: rbpmf.State, offset: float) -> float:
 
 
 def _decide(config: Config, window: det.WindowState, mode: det.ModeState, y: float,
-            u: float) -> tuple[bool, bool, bool, float]:
+            u: float, still: float = np.nan) -> tuple[bool, bool, bool, float]:
     """Detectors in place -> (standstill, accelerating, boost, ubar)."""
     acc, boost, ubar = _mode_core(mode.buf, mode.pos_count, mode.flag, u, config.mode_mu)
+    if config.aiding != "mode":
+        acc = boost = False
+    if config.standstill == "broadband":
+        ss = bool(still > 0.5)
+        return ss, bool(acc) and not ss, bool(boost) and not ss, float(ubar)
     ss = False
     if config.standstill == "window":
         ss = bool(_window_core(window.buf, window.pos_count, window.flag, y, config.ss_mu))
     return ss and not acc, bool(acc), bool(boost), float(ubar)
 
 
+def _aid_sums(config: Config, u: np.ndarray, ss: np.ndarray, count: int,
+              usum: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """Continuous aiding over samples ``count .. count + n - 1``: ``(hop_end, total, usum)``
+    with ``hop_end`` (n,) the hops' last samples, ``total`` (n,) the sum of ``u + accel_bias``
+    over the hop ending there (0 elsewhere; standing and NaN samples add nothing) and the
+    running sum carried past the last sample."""
+    L = config.aid_len
+    n = u.size
+    add = np.where(np.isfinite(u) & ~ss, u + config.accel_bias, 0.0)
+    hop_end = (count + np.arange(n) + 1) % L == 0
+    total = np.zeros(n)
+    s = float(usum)
+    for k in range(n):  # sequential sums: the numbers of repeated step
+        s += float(add[k])
+        if hop_end[k]:
+            total[k] = s
+            s = 0.0
+    return hop_end, total, s
+
+
 def _core(config: Config, g: rbpmf.State, offset: float, y: float, u: float, gain: float,
           ref: float, ref_var: float, ss: bool, acc: bool, boost: bool,
-          ubar: float, ext: np.ndarray | None = None) -> tuple[rbpmf.State, float, _Posterior]:
+          ubar: float, ext: np.ndarray | None = None,
+          shift: float = 0.0) -> tuple[rbpmf.State, float, _Posterior]:
     """One sample on a detector decision; ``g`` is modified in place before the RBPMF step;
-    ``ext`` the comb evidence of a frame ending here (None: none)."""
+    ``ext`` the comb evidence of a frame ending here (None: none); ``shift`` rad/s of
+    continuous aiding applied after the step (one linear split)."""
     T = config.tracker.model.dt
     r = config.wheel_radius
     if boost and config.boost:
@@ -357,10 +435,11 @@ def _core(config: Config, g: rbpmf.State, offset: float, y: float, u: float, gai
     if not acc:
         offset = _resolve(config, g, offset)
     ll = None
-    if ss or (np.isfinite(ref) and np.isfinite(ref_var) and ref_var > 0):
+    ss_m = ss and config.ss_on_grid
+    if ss_m or (np.isfinite(ref) and np.isfinite(ref_var) and ref_var > 0):
         om = config.grid + offset
         ll = np.zeros(om.size)
-        if ss:
+        if ss_m:
             ll -= 0.5 * om * om / config.r_ss
         if np.isfinite(ref) and np.isfinite(ref_var) and ref_var > 0:
             ll -= 0.5 * (om - ref) ** 2 / ref_var
@@ -370,7 +449,7 @@ def _core(config: Config, g: rbpmf.State, offset: float, y: float, u: float, gai
             ll0 = ll0 + mx + np.log(np.mean(np.exp(ll - mx)))
         g = rbpmf.State(g.log_w + ll, g.mean, g.cov, ll0, g.mode_j)
     vib, accel, still = config.trackers
-    cfg = accel if acc else (still if ss else vib)
+    cfg = accel if acc else (still if ss_m else vib)
     yin = np.nan if acc else y * gain
     if acc and not config.comb_in_accel:
         ext = None
@@ -380,6 +459,9 @@ def _core(config: Config, g: rbpmf.State, offset: float, y: float, u: float, gai
     if acc and np.isfinite(u):
         g = _copy_grid(g)
         offset = _move(config, g, offset, T * (u + config.accel_bias) / r)
+    if shift != 0.0:
+        g = _copy_grid(g)
+        offset = _resolve(config, g, offset + shift)
     return g, offset, est
 
 
@@ -395,19 +477,27 @@ def _output(om, sd, omap, lo, hi, p_null, offset, ss, acc, boost, ubar, amps) ->
 
 
 def step(config: Config, state: State, y: float | Sample, u: float = np.nan, *,
-         gain: float = 1.0, ref: float = np.nan, ref_var: float = np.nan
-         ) -> tuple[State, Estimate]:
+         gain: float = 1.0, ref: float = np.nan, ref_var: float = np.nan,
+         still: float = np.nan) -> tuple[State, Estimate]:
     """Process one sample (inputs as :func:`vibrospeed.estimators.aided.step`, or its
     :class:`~vibrospeed.estimators.aiding.Sample`: ``y`` the pre-filtered vibration sample in
     m/s^2 read by the standstill test, ``y * gain`` fed to the RBPMF, ``u`` = a_x in m/s^2,
-    ``ref``/``ref_var`` an omega fix; this tracker has no ``still`` / ``comb`` inputs)."""
+    ``ref``/``ref_var`` an omega fix, ``still`` the standstill flag read with
+    ``standstill='broadband'``; this tracker has no ``comb`` input)."""
     if isinstance(y, Sample):
-        y, u, gain, ref, ref_var = y[:5]
+        y, u, gain, ref, ref_var, still = y[:6]
     window = det.WindowState(state.window.buf.copy(), state.window.pos_count.copy(),
                              state.window.flag.copy())
     mode = det.ModeState(state.mode.buf.copy(), state.mode.pos_count.copy(),
                          state.mode.flag.copy())
-    ss, acc, boost, ubar = _decide(config, window, mode, float(y), float(u))
+    ss, acc, boost, ubar = _decide(config, window, mode, float(y), float(u), float(still))
+    shift, usum = 0.0, float(state.usum)
+    if config.aiding == "continuous":
+        if np.isfinite(u) and not ss:
+            usum += float(u) + config.accel_bias
+        if (state.count + 1) % config.aid_len == 0:
+            shift = config.tracker.model.dt * usum / config.wheel_radius
+            usum = 0.0
     ext, buf = None, state.buf
     if config.comb is not None:
         yy = np.array([float(y) * float(gain)])
@@ -417,9 +507,9 @@ def step(config: Config, state: State, y: float | Sample, u: float = np.nan, *,
         buf = _push(state.buf, state.count, yy)
     g = _copy_grid(state.grid)
     g, offset, est = _core(config, g, float(state.offset), float(y), float(u), float(gain),
-                           float(ref), float(ref_var), ss, acc, boost, ubar, ext)
+                           float(ref), float(ref_var), ss, acc, boost, ubar, ext, shift)
     extras = {k: getattr(est, k) for k in ESTIMATE_EXTRAS}
-    return State(g, offset, window, mode, buf, state.count + 1), Estimate(
+    return State(g, offset, window, mode, buf, state.count + 1, usum), Estimate(
         est.omega, est.omega_std, est.omega_lo, est.omega_hi,
         has_signal=float(1.0 - est.p_null >= 0.5), standstill=float(est.standstill),
         extras=extras)
@@ -444,7 +534,8 @@ class Result(NamedTuple):
 
 def run(config: Config, y: np.ndarray | Sample, u: np.ndarray | None = None, *,
         gain: np.ndarray | None = None, ref: np.ndarray | None = None,
-        ref_var: np.ndarray | None = None, state: State | None = None) -> Result:
+        ref_var: np.ndarray | None = None, still: np.ndarray | None = None,
+        state: State | None = None) -> Result:
     """Run over whole signals (``y`` may be a :class:`~vibrospeed.estimators.aiding.Sample` of
     arrays; scalars hold for every sample); identical to repeated :func:`step`.
 
@@ -454,23 +545,39 @@ def run(config: Config, y: np.ndarray | Sample, u: np.ndarray | None = None, *,
     """
     if isinstance(y, Sample):
         n = np.size(y.y)
-        y, u, gain, ref, ref_var = (np.full(n, v, dtype=np.float64) if np.ndim(v) == 0 else v
-                                    for v in y[:5])
+        y, u, gain, ref, ref_var, still = (
+            np.full(n, v, dtype=np.float64) if np.ndim(v) == 0 else v for v in y[:6])
     y = np.ascontiguousarray(y, dtype=np.float64)
     n = y.size
     u, gain, ref, ref_var = input_arrays(n, u, gain, ref, ref_var, "aided_grid.run")
+    still = np.full(n, np.nan) if still is None else np.ascontiguousarray(still, np.float64)
+    if still.shape != (n,):
+        raise InputError(f"aided_grid.run: 'still' has shape {still.shape}, expected ({n},) "
+                         "like y")
     st = init(config) if state is None else state
     window = det.WindowState(st.window.buf.copy(), st.window.pos_count.copy(),
                              st.window.flag.copy())
     mode = det.ModeState(st.mode.buf.copy(), st.mode.pos_count.copy(), st.mode.flag.copy())
     acc, boost, ubar = det._mode_run(u, mode.buf, mode.pos_count, mode.flag, config.mode_mu)
-    if config.standstill == "window":
-        ss = det._window_run(y, window.buf, window.pos_count, window.flag, config.ss_mu)
+    if config.aiding != "mode":
+        acc, boost = np.zeros(n, np.bool_), np.zeros(n, np.bool_)
+    if config.standstill == "broadband":
+        ss = still > 0.5
+        acc, boost = acc & ~ss, boost & ~ss
     else:
-        ss = np.zeros(n, np.bool_)
-    ss = ss & ~acc
+        if config.standstill == "window":
+            ss = det._window_run(y, window.buf, window.pos_count, window.flag, config.ss_mu)
+        else:
+            ss = np.zeros(n, np.bool_)
+        ss = ss & ~acc
     has_ref = np.isfinite(ref) & np.isfinite(ref_var) & (ref_var > 0)
-    special = ss | acc | boost | has_ref
+    special = (ss if config.ss_on_grid else np.zeros(n, np.bool_)) | acc | boost | has_ref
+    shift = np.zeros(n)
+    usum = float(st.usum)
+    if config.aiding == "continuous":
+        hop_end, total, usum = _aid_sums(config, u, ss, st.count, usum)
+        shift[hop_end] = config.tracker.model.dt * total[hop_end] / config.wheel_radius
+        special = special | (shift != 0.0)
     yin = y * gain
     ev_row = np.full(n, -1, np.int64)
     ev_idx, ev_vals, buf = np.zeros(0, np.int64), np.zeros((0, 0)), st.buf
@@ -505,27 +612,70 @@ def run(config: Config, y: np.ndarray | Sample, u: np.ndarray | None = None, *,
         g, offset, est = _core(config, g, offset, float(y[k]), float(u[k]), float(gain[k]),
                                float(ref[k]), float(ref_var[k]), bool(ss[k]), bool(acc[k]),
                                bool(boost[k]), float(ubar[k]),
-                               ev_vals[ev_row[k]] if ev_row[k] >= 0 else None)
+                               ev_vals[ev_row[k]] if ev_row[k] >= 0 else None, float(shift[k]))
         out[k] = est[:6]
         amps[k] = est.amplitudes
         k += 1
     return Result(*(out[:, c] for c in range(6)), ss, acc, boost, ubar, amps,
-                  State(g, offset, window, mode, buf, st.count + n))
+                  State(g, offset, window, mode, buf, st.count + n, usum))
 
 
 # ---------------------------------------------------------------------------------------------
 #: parameters of :func:`estimate` that are neither Config, rbpmf.Config nor HarmonicModel fields
-INPUT_PARAMS = ("accel_axis", "lp_cutoff", "reference", "wheelbase", "accel_detrend")
+INPUT_PARAMS = ("accel_axis", "lp_cutoff", "reference", "wheelbase", "accel_detrend",
+                "accel_offset", "causal")
 
-#: ``tracker=grid``: the grid product's tracker settings
-#: (:data:`vibrospeed.estimators.grid.GRID_DEFAULTS`: jumps, "no line" state with the mixture
-#: null model, tempered likelihood, mode estimate) on the aided model, plus its comb evidence
-#: (:class:`vibrospeed.estimators.grid.Config` defaults). The noise levels and q_omega stay the
-#: aided ones (the aiding follows the accelerations that the product's q_omega = 16 covers).
-GRID_TRACKER = {"jump_rate": 0.05, "off_rate": 0.01, "on_rate": 0.5, "temper": 1.0,
-                "null_model": "mixture", "point": "mode"}
+#: ``tracker=grid``: the grid product's tracker and model settings
+#: (:data:`vibrospeed.estimators.grid.method.GRID_DEFAULTS`: jumps, "no line" state with the
+#: mixture null model, likelihood tempered to 0.05 per 10 ms, whitening pre-filter, running-RMS
+#: scaling, mode estimate; r, q_amp, q_omega of the product) plus its comb evidence
+#: (:class:`vibrospeed.estimators.grid.Config` defaults); the aiding: broadband standstill
+#: flags, continuous aiding, a_x from the mount estimate (:mod:`vibrospeed.signal.mount`).
+GRID_TRACKER = {**{k: v for k, v in GRID_DEFAULTS.items() if k != "smooth"},
+                "scaling": "rms", "standstill": "broadband", "aiding": "continuous",
+                "accel_axis": "mount"}
 #: comb-evidence parameters accepted by :func:`estimate` (grid.Config fields)
 COMB_PARAMS = tuple(f.name for f in dataclasses.fields(gridmod.Config) if f.name != "tracker")
+
+
+def _product_model(dt: float) -> HarmonicModel:
+    """The grid product's harmonic model at period ``dt`` (paper Table I with the product's
+    r, q_amp, q_omega)."""
+    mkw = {k: GRID_DEFAULTS[k] for k in ("r", "q_amp", "q_omega") if k in GRID_DEFAULTS}
+    return dataclasses.replace(rbpmf.Config.from_paper_table1(dt).model, **mkw)
+
+
+def _vibration(recording, vib_name: str, tracker: rbpmf.Config, lp: float | None,
+               dt: float) -> np.ndarray:
+    """The pre-filtered vibration axis (adaptive presets whitened after their SOS)."""
+    from vibrospeed.estimators.common import start_level
+    from vibrospeed.signal import prefilter as pf
+
+    x = recording.channel(vib_name)
+    sos = pf.design(tracker.prefilter, 1.0 / dt, M=tracker.model.M, lp_cutoff=lp,
+                    omega_range=(max(tracker.omega_min, 1e-3), tracker.omega_max))
+    y = pf.apply(sos, x, level=start_level(x, dt))
+    if tracker.prefilter in pf.ADAPTIVE:
+        from vibrospeed.signal import whiten
+
+        y = whiten.apply(y, 1.0 / dt)
+    return y
+
+
+def _standstill_input(recording, vib_name: str, dt: float, band, causal: bool,
+                      on_grid: bool) -> np.ndarray:
+    """Broadband standstill flags on the vibration axis and every other accelerometer axis;
+    ``on_grid`` (the tracker holds omega = 0 while standing): each stop shortened at both ends
+    (:func:`vibrospeed.estimators.aiding.standstill_flags`), else the detector's stops as
+    :func:`vibrospeed.estimators.grid.method.with_standstill` reports them."""
+    from vibrospeed.signal import standstill as ss
+
+    chans = [vib_name] + [c for c in ("ax", "ay", "az") if c != vib_name and c in recording
+                          and np.isfinite(recording.channel(c)).any()]
+    X = np.column_stack([recording.channel(c) for c in chans])
+    if on_grid:
+        return standstill_flags(X, dt, band, causal=causal)
+    return ss.standstill(X, dt, band, causal=causal).astype(np.float64)
 
 
 def estimate(
@@ -537,22 +687,30 @@ def estimate(
     progress: bool = False,
     kind: str = "rbpmf",
 ):
-    """Aided RBPMF tracking of omega (``--method aided -p tracker=rbpmf``, or ``kind="grid"``:
-    ``-p tracker=grid``, the grid product's "no line" state, jumps, tempering, mode estimate
-    (:data:`GRID_TRACKER`) and harmonic-comb evidence (``comb_*`` params, defaults of
+    """Aided RBPMF tracking of omega (``--method aided -p tracker=rbpmf``, the thesis cart's
+    grid, or ``kind="grid"``: ``-p tracker=grid``, the grid product's settings
+    (:data:`GRID_TRACKER`) with harmonic-comb evidence (``comb_*`` params, defaults of
     :class:`vibrospeed.estimators.grid.Config`)).
 
     ``params``: any :class:`Config` field, any :class:`rbpmf.Config` field (grid ``n_grid``,
-    ``omega_max``, ``prefilter``, ``scaling``, ``off_rate`` ...; defaults of
-    :func:`_cart_tracker`), any :class:`HarmonicModel` field (``dt`` from the data), and the
-    inputs shared with the EKF version (``accel_axis``, ``lp_cutoff``, ``reference``,
-    ``wheelbase``, ``accel_detrend``; see :func:`vibrospeed.estimators.aided.estimate`).
+    ``omega_max``, ``prefilter``, ``scaling``, ``off_rate`` ...), any :class:`HarmonicModel`
+    field (``dt`` from the data), and the inputs shared with the EKF version (``accel_axis``,
+    ``lp_cutoff``, ``reference``, ``wheelbase``, ``accel_detrend``, ``accel_offset``,
+    ``causal``; see :func:`vibrospeed.estimators.aided.estimate`).
+
+    ``kind="grid"``: ``omega_min`` / ``omega_max`` are the search range (the grid itself
+    spans [0, omega_max] at the product's spacing, :data:`GRID_POINTS` per range; an
+    ``omega_max`` above what the sample rate allows is clipped); standstill from the broadband
+    detector (whole log, ``causal=true``: the causal one) over the search band, omega = 0 on
+    its stops; ``accel_axis='mount'`` (default): the longitudinal acceleration from the
+    mount estimate of :mod:`vibrospeed.signal.mount` on ``ax, ay, az``, referenced to a first,
+    unaided pass of the same tracker; when the mount is not confident nothing is aided (the
+    unaided pass is the result). A named axis (``ax``, ``-ay`` ...) is used as given, minus
+    its mean while standing (``accel_offset='standstill'``).
     The Track's band is the grid posterior's credible interval (``level``).
     """
-    from vibrospeed.config import config_from_params
-    from vibrospeed.estimators.common import axis_channel, check_uniform, split_params, start_level
-    from vibrospeed.signal import prefilter as pf
-    from vibrospeed.types import Track
+    from vibrospeed.config import config_from_params, parse_flag
+    from vibrospeed.estimators.common import axis_channel, check_uniform, split_params
 
     del progress
     r = wheel_radius or recording.wheel_radius
@@ -563,6 +721,8 @@ def estimate(
     if kind not in ("rbpmf", "grid"):
         raise ParameterError(f"tracker must be 'ekf', 'rbpmf' or 'grid', got '{kind}'")
     params = dict(params or {})
+    src = recording.source or "recording"
+    dt = check_uniform(recording)
     if kind == "grid":
         params = {**GRID_TRACKER, **params}
     inp = {k: params.pop(k) for k in INPUT_PARAMS if k in params}
@@ -574,60 +734,142 @@ def estimate(
     tr_names = {f.name for f in dataclasses.fields(rbpmf.Config)} - {"model"}
     tr_kw = {k: v for k, v in rest.items() if k in tr_names}
     cfg_kw = {k: v for k, v in rest.items() if k not in tr_names}
-    dt = check_uniform(recording)
-    base = _cart_tracker(dt)
-    mdef = base.model.to_dict()
-    mdef["dt"] = dt
-    model = config_from_params(HarmonicModel, model_kw, **mdef)
-    tdef = {f.name: getattr(base, f.name) for f in dataclasses.fields(rbpmf.Config)
-            if f.name in ("n_grid", "omega_min", "omega_max", "prefilter", "scaling",
-                          "kernel_var")}
-    tracker = config_from_params(rbpmf.Config, tr_kw, model=model, **tdef)
+    lp = inp.get("lp_cutoff")
+    lp = None if lp in (None, "", "none") else float(lp)
+    vib_name = axis_channel(axis)
+    recording.require(vib_name)
+    gain = None
+    if kind == "grid":
+        # the grid product's pre-filter, scaling and Nyquist checks on the same config
+        tracker, y, _, notes = rbpmf.prepare(recording, axis, rbpmf.Config,
+                                             {**model_kw, **tr_kw, "smooth": "none"},
+                                             _product_model)
+    else:
+        base = _cart_tracker(dt)
+        tdef = {f.name: getattr(base, f.name) for f in dataclasses.fields(rbpmf.Config)
+                if f.name in ("n_grid", "omega_min", "omega_max", "prefilter", "scaling",
+                              "kernel_var")}
+        mdef = base.model.to_dict()
+        mdef["dt"] = dt
+        model = config_from_params(HarmonicModel, model_kw, **mdef)
+        tracker = config_from_params(rbpmf.Config, tr_kw, model=model, **tdef)
+        if tracker.omega_max >= np.pi / dt:
+            raise ParameterError(f"{src}: omega_max {tracker.omega_max:g} rad/s needs fs > "
+                                 f"{tracker.omega_max / np.pi:.4g} Hz (lower omega_max)")
+        y = _vibration(recording, vib_name, tracker, lp, dt)
+        notes = [f"pre-filter '{tracker.prefilter}' on '{vib_name}' at fs = {1 / dt:.4g} Hz"]
+        if tracker.scaling == "rms":
+            gain = tracker.signal_rms * running_gain(y, dt, tracker.rms_tau)
+            notes.append(f"RBPMF input normalised by a running RMS (tau = "
+                         f"{tracker.rms_tau:g} s)")
+    model = tracker.model
     comb = (config_from_params(gridmod.Config, comb_kw, tracker=tracker) if kind == "grid"
             else None)
     config = config_from_params(Config, cfg_kw, tracker=tracker, wheel_radius=float(r),
                                 comb=comb)
-    src = recording.source or "recording"
-    if tracker.omega_max >= np.pi / dt:
-        raise ParameterError(f"{src}: omega_max {tracker.omega_max:g} rad/s needs fs > "
-                             f"{tracker.omega_max / np.pi:.4g} Hz (lower omega_max)")
-    vib_name = axis_channel(axis)
-    recording.require(vib_name)
-    x = recording.channel(vib_name)
-    lp = inp.get("lp_cutoff")
-    lp = None if lp in (None, "", "none") else float(lp)
-    sos = pf.design(tracker.prefilter, 1.0 / dt, M=model.M, lp_cutoff=lp)
-    y = pf.apply(sos, x, level=start_level(x, dt))
-    u, ref, ref_var, notes = aiding_inputs(
-        recording, dt, float(r), accel_axis=str(inp.get("accel_axis", "ax")),
-        detrend=float(inp.get("accel_detrend", 0.0)),
-        reference=str(inp.get("reference", "none")), wheelbase=inp.get("wheelbase"))
-    notes = [f"pre-filter '{tracker.prefilter}' on '{vib_name}' at fs = {1 / dt:.4g} Hz",
-             f"aided rbpmf: {tracker.n_grid} grid points on [0, {tracker.omega_max:g}] rad/s, "
-             f"standstill test '{config.standstill}'"] + notes
+    causal = parse_flag(inp.get("causal", False), "causal")
+    notes.append(f"aided rbpmf: {tracker.n_grid} grid points on [{tracker.omega_min:g}, "
+                 f"{tracker.omega_max:g}] rad/s, standstill test '{config.standstill}', "
+                 f"aiding '{config.aiding}'")
+    accel_axis = str(inp.get("accel_axis", "ax"))
+    still = None
+    if config.standstill == "broadband" and accel_axis != "mount":
+        band = standstill_band(dt, model.M, tracker.omega_min if kind == "grid" else None,
+                               tracker.omega_max)
+        still = _standstill_input(recording, vib_name, dt, band, causal, config.ss_on_grid)
+        notes.append(f"standstill: broadband vibration and body motion at their floors "
+                     f"({'causal' if causal else 'whole-log'} detector, band "
+                     f"{band[0]:.3g}-{band[1]:.3g} rad/s), on {100 * still.mean():.1f} % of "
+                     "the samples")
+    ref = ref_var = None
+    mount_info = {}
+    if accel_axis == "mount":
+        if inp.get("reference", "none") != "none":
+            raise ParameterError("reference fixes need a named accel_axis (e.g. ax) with "
+                                 "tracker=grid")
+        # the grid product's estimate on the same settings: the mount's reference and,
+        # where the mount is not confident, the result
+        gparams = {**model_kw, **tr_kw, **comb_kw, "smooth": "none" if causal else "fb"}
+        base_tr = gridmod.estimate(recording, axis=axis, wheel_radius=float(r),
+                                   params=gparams)
+        u, mount_info, note = _mount_input(recording, base_tr, dt, float(r))
+        if u is None:
+            base_params = {**base_tr.params, "tracker": kind, "accel_axis": accel_axis,
+                           "causal": causal, **mount_info}
+            return dataclasses.replace(
+                base_tr, method="aided", params=base_params,
+                notes=[*base_tr.notes, f"{note}: the grid tracker's estimate (-m grid"
+                       f"{'' if not causal else ' -p smooth=none'}) alone"])
+        still = np.asarray(base_tr.extras["standstill"], dtype=np.float64)
+        more = [note]
+    else:
+        u, ref, ref_var, more = aiding_inputs(
+            recording, dt, float(r), accel_axis=accel_axis,
+            detrend=float(inp.get("accel_detrend", 0.0)),
+            reference=str(inp.get("reference", "none")), wheelbase=inp.get("wheelbase"))
+        if str(inp.get("accel_offset", "none" if kind == "rbpmf" else "standstill")) \
+                == "standstill" and still is not None:
+            off = standstill_offset(u, still, causal=causal)
+            u = u - off
+            more.append(f"'{accel_axis}' offset removed: its mean while standing "
+                        f"({off[-1]:.3g} m/s^2 at the end)")
     if comb is not None:
         notes.append(f"tracker=grid: 'no line' state (off {tracker.off_rate:g}/s, on "
                      f"{tracker.on_rate:g}/s, null model '{tracker.null_model}'), jumps "
                      f"{tracker.jump_rate:g}/s, temper {tracker.temper:g}, point "
                      f"'{tracker.point}'; harmonic-comb evidence ({comb.comb_window:g} s frames "
                      f"every {comb.comb_hop:g} s, weight {comb.comb_weight:g})")
-    gain = None
-    if tracker.scaling == "rms":
-        gain = tracker.signal_rms * running_gain(y, dt, tracker.rms_tau)
-        notes.append(f"RBPMF input normalised by a running RMS (tau = {tracker.rms_tau:g} s)")
-    res = run(config, y, u, gain=gain, ref=ref, ref_var=ref_var)
+    res = run(config, y, u, gain=gain, ref=ref, ref_var=ref_var, still=still)
+    notes += more
+    omega, std, lo, hi = res.omega.copy(), res.omega_std.copy(), res.omega_lo.copy(), \
+        res.omega_hi.copy()
+    if still is not None:
+        st = still > 0.5
+        for a in (omega, std, lo, hi):
+            a[st] = 0.0
     extras = {f"amp{m + 1}": res.amplitudes[:, m] for m in range(model.M)}
+    has_signal = (res.p_null <= 0.5).astype(np.float64)
+    if still is not None:
+        has_signal[still > 0.5] = 0.0
     extras.update(standstill=res.standstill.astype(np.float64),
                   accelerating=res.accelerating.astype(np.float64),
                   boost=res.boost.astype(np.float64), ubar=res.ubar, omega_map=res.omega_map,
-                  p_null=res.p_null, has_signal=(res.p_null <= 0.5).astype(np.float64))
+                  p_null=res.p_null, has_signal=has_signal)
     out_params = {**tracker.to_dict(), **{f.name: getattr(config, f.name)
                                           for f in dataclasses.fields(Config)
                                           if f.name not in ("tracker", "comb")},
                   **({k: getattr(comb, k) for k in COMB_PARAMS} if comb is not None else {}),
                   "ss_n": config.ss_len, "mode_n": config.mode_len,
                   "tracker": kind, "axis": axis, "lp_cutoff": lp,
+                  **mount_info,
                   **{k: inp.get(k) for k in INPUT_PARAMS if k != "lp_cutoff"}}
-    return Track.from_omega(recording.t, res.omega, res.omega_std, lo=res.omega_lo,
-                            hi=res.omega_hi, level=tracker.level, wheel_radius=float(r),
-                            method="aided", params=out_params, extras=extras, notes=notes)
+    out_params["accel_axis"] = accel_axis
+    return Track.from_omega(recording.t, omega, std, lo=lo, hi=hi, level=tracker.level,
+                            wheel_radius=float(r), method="aided", params=out_params,
+                            extras=extras, notes=notes)
+
+
+def _mount_input(recording, base: Track, dt: float, r: float
+                 ) -> tuple[np.ndarray | None, dict, str]:
+    """``accel_axis='mount'``: the longitudinal acceleration from the mount estimate of
+    :mod:`vibrospeed.signal.mount` on ``ax, ay, az``, referenced to the grid tracker's track
+    ``base`` where it claims a line; None when the mount is not confident. Returns
+    ``(u or None, mount params, note)``."""
+    from vibrospeed.signal import mount as mountmod
+
+    chans = ("ax", "ay", "az")
+    if not all(c in recording and np.isfinite(recording.channel(c)).any() for c in chans):
+        return None, {"mount_confident": False}, "not aided (the mount needs ax, ay and az)"
+    A = np.column_stack([recording.channel(c) for c in chans])
+    m = mountmod.estimate(A, dt, omega=np.asarray(base.omega, dtype=np.float64),
+                          wheel_radius=r, still=base.extras.get("standstill"),
+                          usable=base.extras.get("has_signal"))
+    info = {"mount_confident": m.confident, "mount_slope": m.slope, "mount_rho": m.rho,
+            "mount_t": m.t,
+            "mount_forward": [float(v) for v in m.forward]}
+    desc = (f"mount: forward axis {np.round(m.forward, 3).tolist()} in the sensor frame "
+            f"(correlation {m.rho:.2f}, t = {m.t:.1f}, slope {m.slope:.2f} against r d omega/dt of "
+            f"the grid tracker, {m.used_s:.0f} s used)")
+    if not m.confident:
+        return None, info, f"not aided: {desc} not confident"
+    return mountmod.longitudinal(A, m), info, f"aided by the longitudinal acceleration, {desc}"

@@ -54,10 +54,10 @@ BROADBAND_LO = 2.0
 def standstill_band(dt: float, M: int, omega_min: float | None = None,
                     omega_max: float | None = None) -> tuple[float, float]:
     """rad/s band of the standstill detector (:func:`vibrospeed.signal.standstill.standstill`
-    reads it as the search band): ``omega_min`` (default 2 rad/s) up to ``M omega_max`` (default
-    Nyquist), clipped to Nyquist."""
+    reads it as the search band): ``omega_min`` (default, or at most 0: 2 rad/s) up to
+    ``M omega_max`` (default Nyquist), clipped to Nyquist."""
     nyq = np.pi / dt
-    lo = BROADBAND_LO if omega_min is None else float(omega_min)
+    lo = BROADBAND_LO if omega_min is None or omega_min <= 0 else float(omega_min)
     hi = nyq if omega_max is None else min(nyq, M * float(omega_max))
     return min(lo, 0.5 * hi), hi
 
