@@ -397,3 +397,49 @@ def test_paper_preset_is_the_thesis_ekf():
     p = presets.preset_params("aided", "paper")
     assert p["tracker"] == "ekf" and p["standstill"] == "window"
     assert aided.DEFAULT_TRACKER == "grid"
+
+
+def _rotated_drive(seed=0, n=9000, dt=0.01):
+    """A phone at a known rotation: wheel harmonics on every axis, a stop, then smooth speed
+    changes (r = 0.3 m); returns the Recording, the rotation (vehicle -> sensor) and the
+    longitudinal acceleration."""
+    from vibrospeed.sim.sensors import mount_matrix
+    from vibrospeed.types import Recording
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * dt
+    v = np.where(t < 8.0, 0.0, 3.0 + 2.0 * np.sin(0.25 * (t - 8.0)) + np.minimum(t - 8.0, 2.0))
+    v = np.convolve(v, np.ones(101) / 101, "same")
+    v[t < 8.0] = 0.0
+    a_long = np.gradient(v, dt)
+    omega = v / 0.3
+    th = np.cumsum(omega) * dt
+    vib = 0.3 * np.sin(th) + 0.2 * np.sin(2 * th + 0.4) + 0.1 * np.sin(3 * th + 1.0)
+    veh = np.column_stack([a_long + 0.5 * vib, 0.3 * np.sin(0.4 * t) * (v > 0) + vib,
+                           9.80665 + vib])
+    rot = mount_matrix((0.4, -0.3, 2.0))
+    acc = veh @ rot.T + 0.05 * rng.normal(size=(n, 3))
+    rec = Recording(t, {"ax": acc[:, 0], "ay": acc[:, 1], "az": acc[:, 2],
+                        "omega_true": omega}, wheel_radius=0.3)
+    return rec, rot, a_long
+
+
+def test_mount_input_from_a_reference_track():
+    """The mount wiring of tracker=grid: referenced to a track of the true wheel speed, the
+    mount is confident, its forward axis is the vehicle's and u is the longitudinal
+    acceleration (gravity removed); a track that claims no line gives no aiding."""
+    from vibrospeed.types import Track
+
+    rec, rot, a_long = _rotated_drive()
+    w = rec["omega_true"]
+    base = Track.from_omega(rec.t, w, np.zeros_like(w), wheel_radius=0.3,
+                            extras={"standstill": (w == 0).astype(float),
+                                    "has_signal": np.ones_like(w)})
+    u, info, note = aided_grid._mount_input(rec, base, 0.01, 0.3)
+    assert info["mount_confident"] is True and "aided by" in note
+    assert np.dot(info["mount_forward"], rot[:, 0]) > 0.99
+    moving = w > 0
+    assert np.sqrt(np.mean((u - a_long)[moving] ** 2)) < 0.3
+    base.extras["has_signal"][:] = 0.0
+    u, info, note = aided_grid._mount_input(rec, base, 0.01, 0.3)
+    assert u is None and info["mount_confident"] is False and "not aided" in note

@@ -44,12 +44,13 @@ VARIANTS = {
     "after-causal": dict(tracker="ekf", range=True, causal=True),
     # the aiding around the grid product's tracker (accel_axis: the mount estimate)
     "grid": dict(range=True, tracker="grid"),
+    "grid-online": dict(range=True, tracker="grid", causal=True),
     "grid-noaid": dict(range=True, tracker="grid", aiding="none"),
     "grid-mode": dict(range=True, tracker="grid", aiding="mode"),
     "grid-ax": dict(range=True, tracker="grid", accel_axis="ax"),
 }
 #: variants whose own a_x input is the mount estimate (run once, not per raw / aligned)
-MOUNT = ("grid", "grid-noaid", "grid-mode")
+MOUNT = ("grid", "grid-online", "grid-noaid", "grid-mode")
 
 
 def _aided(rec, u, om_lo, om_hi, params):

@@ -30,8 +30,12 @@ grid posterior of :mod:`vibrospeed.estimators.rbpmf` they become:
   the posterior after its measurement update (the per-point Kalman filters do not depend on
   the weights), so the RBPMF's own step is used unchanged.
 
-Standstill representation: the grid must start at ``omega_min = 0``, so the point ``omega = 0``
-*is* standstill (linear spacing required: the exact whole-cell shift needs equal cells).
+Standstill representation: with the thesis' window test the grid must start at
+``omega_min = 0``, so the point ``omega = 0`` *is* standstill (linear spacing required: the
+exact whole-cell shift needs equal cells). With ``standstill='broadband'`` (flags computed
+before the loop) a grid above 0 is allowed: a standing sample is then a plain vibration sample
+that adds nothing to the aiding, and the caller reports omega = 0 there, as the grid product
+does.
 While the standstill flag is up the random walk uses ``q_omega_still`` (default 0: a standing
 vehicle keeps omega = 0 until the mode detector sees it start); with the walk on, mass would
 leak to the next grid point every step and the posterior *mean* of a distribution cut at 0
@@ -698,15 +702,19 @@ def estimate(
     ``lp_cutoff``, ``reference``, ``wheelbase``, ``accel_detrend``, ``accel_offset``,
     ``causal``; see :func:`vibrospeed.estimators.aided.estimate`).
 
-    ``kind="grid"``: ``omega_min`` / ``omega_max`` are the search range (the grid itself
-    spans [0, omega_max] at the product's spacing, :data:`GRID_POINTS` per range; an
-    ``omega_max`` above what the sample rate allows is clipped); standstill from the broadband
-    detector (whole log, ``causal=true``: the causal one) over the search band, omega = 0 on
-    its stops; ``accel_axis='mount'`` (default): the longitudinal acceleration from the
-    mount estimate of :mod:`vibrospeed.signal.mount` on ``ax, ay, az``, referenced to a first,
-    unaided pass of the same tracker; when the mount is not confident nothing is aided (the
-    unaided pass is the result). A named axis (``ax``, ``-ay`` ...) is used as given, minus
-    its mean while standing (``accel_offset='standstill'``).
+    ``kind="grid"``: the grid product's grid, pre-filter and scaling
+    (:func:`vibrospeed.estimators.rbpmf.prepare`, ``omega_min`` / ``omega_max`` the search
+    range); standstill from the broadband detector (whole log, ``causal=true``: the causal
+    one) over the search band, omega = 0 on its stops (reported from the flags: the grid need
+    not contain 0). ``accel_axis='mount'`` (default): first the grid product's own estimate
+    (:func:`vibrospeed.estimators.grid.estimate`, smoothed offline, ``smooth=none`` with
+    ``causal=true``); the mount estimate of :mod:`vibrospeed.signal.mount` on ``ax, ay, az``,
+    referenced to its speed where it claims a line. With ``causal=true`` and a confident mount
+    the aided causal filter runs on the longitudinal acceleration; otherwise the grid estimate
+    is the result (no trustworthy axis to aid with, or offline, where the smoother's
+    look-ahead scored above the aided causal filter on the randomised family). A named axis
+    (``ax``, ``-ay`` ...) is used as given, minus its
+    mean while standing (``accel_offset='standstill'``), in the aided causal filter.
     The Track's band is the grid posterior's credible interval (``level``).
     """
     from vibrospeed.config import config_from_params, parse_flag
@@ -793,13 +801,18 @@ def estimate(
         base_tr = gridmod.estimate(recording, axis=axis, wheel_radius=float(r),
                                    params=gparams)
         u, mount_info, note = _mount_input(recording, base_tr, dt, float(r))
+        if u is not None and not causal:
+            # offline the smoother's look-ahead beats the aided causal filter on the family
+            # even where the mount is confident (benchmarks/robustness/AIDED.md)
+            u, note = None, (f"{note}; offline the grid tracker's smoothed estimate is kept "
+                             "(the aiding is for the causal filter, causal=true)")
         if u is None:
             base_params = {**base_tr.params, "tracker": kind, "accel_axis": accel_axis,
                            "causal": causal, **mount_info}
             return dataclasses.replace(
                 base_tr, method="aided", params=base_params,
                 notes=[*base_tr.notes, f"{note}: the grid tracker's estimate (-m grid"
-                       f"{'' if not causal else ' -p smooth=none'}) alone"])
+                       f"{'' if not causal else ' -p smooth=none'})"])
         still = np.asarray(base_tr.extras["standstill"], dtype=np.float64)
         more = [note]
     else:
