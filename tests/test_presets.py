@@ -59,7 +59,8 @@ def test_each_preset_runs_on_a_short_drive(method, name, drives):
     params = {**presets.preset_params(method, name), **_extra(method)}
     track = estimators.get(method).estimate(rec, params=params, **_kw(method))
     assert len(track) == len(rec)
-    assert np.isfinite(track.speed if method in ("gps-riss", "algebraic")
+    # speed methods (fuse leaves omega empty where this short drive taught no radius)
+    assert np.isfinite(track.speed if method in ("gps-riss", "algebraic", "fuse")
                        else track.omega).mean() > 0.5
 
 
