@@ -292,10 +292,11 @@ class State(NamedTuple):
     t : time of the last sample (NaN before the first).  t_gps : time of the last accepted
     fix (-inf: none).  t_fix, v_fix : time and value of the last valid fix (for the standstill
     veto).  octave : average of log2 k over recent wheel-frequency updates (module notes, 3).
-    t_reject : start of the current run of gated-out lines (NaN: none).  t_still : start of
-    the current run of refused stop evidence (NaN: none).  t_acq, z_acq : start and mean log
-    ratio ``ln(v / omega)`` of the current run of consistent lines while the radius is not
-    known yet (NaN: none; module notes, 3).
+    t_run, d_run, u_run : start, mean gap ``r omega - v`` and line speed at the start of the
+    current re-lock run (NaN: none; module notes, 3).  t_still : start of the current run of
+    refused stop evidence (NaN: none).  t_acq, z_acq : start and mean log ratio
+    ``ln(v / omega)`` of the current run of consistent lines while the radius is not known
+    yet (NaN: none; module notes, 3).
     """
 
     x: np.ndarray
@@ -305,11 +306,12 @@ class State(NamedTuple):
     t_fix: float
     v_fix: float
     octave: float = 0.0
-    t_reject: float = math.nan
+    t_run: float = math.nan
     t_still: float = math.nan
     t_acq: float = math.nan
     z_acq: float = math.nan
-    runs: tuple = (math.nan,) * 9
+    d_run: float = math.nan
+    u_run: float = math.nan
 
 
 class Sample(NamedTuple):
@@ -420,7 +422,7 @@ def _update_row(x, P, h, z, r, keep=-1, keep2=-1):
 @njit(cache=True)
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, out, xp, Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
-    t_reject, t_still, t_acq, z_acq, run start (3), run gap (3), run line speed (3)]``;
+    t_run, t_still, t_acq, z_acq, d_run, u_run]``;
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
     prediction (for the smoother). Returns dt."""
     n = x.size
@@ -504,40 +506,28 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         decisive = not math.isnan(kk) and (fresh or 3.0 * math.sqrt(
             P[IV, IV] + (r_hat * kk) ** 2 * var_om) <= p[28] * r_hat * kk * om)
         if ready and known and not (best <= p[7] and decisive):
-            # re-lock runs, one per octave k: the gap d_k = r k omega - v between the line's
-            # speed and the filter's must hold for vib_relock s (no GPS in that time), and the
-            # line must have moved with the speed (by acq_change) or lie inside the 3-sigma band
-            # (a constant line far outside it may be an idling engine at a stop)
+            # re-lock run on the line at k = 1 (the octave that taught r): the gap
+            # d = r omega - v between the line's speed and the filter's must hold for
+            # vib_relock s (no GPS in that time), and the line must have moved with the speed
+            # (by acq_change) or lie inside the 3-sigma band (a constant line far outside it
+            # may be an idling engine at a stop)
             best = math.inf
             kk = math.nan
-            for j in range(1):
-                k = 1.0
-                u = x[IR] * k * om
-                d = u - x[IV]
-                if (math.isnan(sc[10 + j]) or t - sc[1] <= p[20]
-                        or abs(d - sc[13 + j]) > p[26] * u):
-                    sc[10 + j] = t
-                    sc[13 + j] = d
-                    sc[16 + j] = u
-                    continue
-                sc[13 + j] += (d - sc[13 + j]) * min(1.0, dt / p[25])
-                if t - sc[10 + j] >= p[20] and (abs(u - sc[16 + j]) >= p[27] * u
-                                                or abs(d) <= sv3):
-                    cost = d * d / (P[IV, IV] + sv3 * sv3)
-                    if cost < best:
-                        best = cost
-                        kk = k
-            if not math.isnan(kk):
-                nu = x[IV] - x[IR] * kk * om
-                P[IV, IV] += nu * nu
-                Pp[IV, IV] += nu * nu  # process noise of this step, for the smoother
-                best = 0.0
-                for j in range(3):
-                    sc[10 + j] = math.nan
+            u = x[IR] * om
+            d = u - x[IV]
+            if math.isnan(sc[6]) or t - sc[1] <= p[20] or abs(d - sc[10]) > p[26] * u:
+                sc[6] = t
+                sc[10] = d
+                sc[11] = u
             else:
-                best = math.inf
+                sc[10] += (d - sc[10]) * min(1.0, dt / p[25])
+                if t - sc[6] >= p[20] and (abs(u - sc[11]) >= p[27] * u or abs(d) <= sv3):
+                    P[IV, IV] += d * d
+                    Pp[IV, IV] += d * d  # process noise of this step, for the smoother
+                    best = 0.0
+                    kk = 1.0
+                    sc[6] = math.nan
         if best <= p[7]:
-            sc[6] = math.nan
             h[IV] = 1.0
             h[IR] = -kk * om
             # away from GPS the radius and the offset are consider states: a line there
@@ -626,14 +616,15 @@ def _unpack(state: State, n: int):
                              "(GPS delay on/off changed?)")
     P = np.array(state.P, dtype=np.float64)
     sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0, state.octave,
-                   state.t_reject, state.t_still, state.t_acq, state.z_acq, *state.runs])
+                   state.t_run, state.t_still, state.t_acq, state.z_acq, state.d_run,
+                   state.u_run])
     return x, P, sc
 
 
 def _pack(x, P, sc) -> State:
     return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]),
-                 float(sc[6]), float(sc[7]), float(sc[8]), float(sc[9]),
-                 tuple(float(v) for v in sc[10:19]))
+                 float(sc[6]), float(sc[7]), float(sc[8]), float(sc[9]), float(sc[10]),
+                 float(sc[11]))
 
 
 _SAMPLE = Sample._fields
