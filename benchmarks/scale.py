@@ -187,6 +187,7 @@ def part_stream(lengths, tmp: Path) -> list[str]:
            "loads the kernels), the output CSV written.", "",
            "| length | rows | CPU s | x real time (CPU) | wall s | peak MiB | before MiB |",
            "|---|---|---|---|---|---|---|"]
+    done = []
     for L in lengths:
         k = max(1, int(round(L / 3600.0)))
         p = tmp / f"stream_{k}h.parquet"
@@ -204,6 +205,17 @@ def part_stream(lengths, tmp: Path) -> list[str]:
         print(out[-1], flush=True)
         if k > 1:
             p.unlink()
+        if "error" not in r:
+            done.append((k * 3600.0, r))
+    if len(done) >= 2 and done[-1][0] < DAY:  # the straight line through the last two
+        (L0, r0), (L1, r1) = done[-2], done[-1]
+        k = (r1["peak"] - r0["peak"]) / (L1 - L0)
+        cpu = r1["cpu"] * DAY / L1
+        out.append(f"| 24 h | {int(DAY * r1['n'] / (L1 / 3600.0) / 3600.0)} | {cpu:.0f} | "
+                   f"{DAY / cpu:.0f} | - | {r1['peak'] + k * (DAY - L1):.0f} | - |")
+        out += ["", f"24 h *extrapolated*: CPU time in proportion to length, peak memory along "
+                f"the straight line through the two longest measured lengths "
+                f"({1000 * k:.1f} MiB per 1000 s of log)."]
     return out
 
 
