@@ -372,8 +372,9 @@ def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *,
     """:func:`vibrospeed.signal.standstill.standstill` of one axis ``x`` (n,), the same
     decision, in bounded temporaries: the frames' broadband levels a ``_PIECE_FRAMES`` batch at
     a time (each frame's level is its own), the body-motion level by :func:`_motion_level`, the
-    per-sample decision a ``_PIECE`` of samples at a time. About 40 bytes per sample at the
-    peak instead of 120 (24 h at 100 Hz: 0.35 GB instead of 1 GB)."""
+    per-sample decision a ``_PIECE`` of samples at a time. Temporaries of about 80 bytes per
+    sample at the peak instead of 120 (tracemalloc; the causal pre- and low-pass filters of the
+    whole axis are what is left)."""
     from vibrospeed.signal import prefilter as pf
     from vibrospeed.signal import standstill as ss
 
