@@ -199,7 +199,7 @@ class Blocks:
         chans = [ax] + [c for c in ("ax", "ay", "az")
                         if c != ax and c in rec and np.isfinite(rec.channel(c)).any()]
         # per axis (standing where every axis says so, as ss.standstill of the (n, A) array),
-        # each axis in pieces: the same decision, temporaries of a piece
+        # each axis in pieces: the same decision, smaller temporaries
         still = standstill(rec.channel(chans[0]), tr.model.dt, band,
                            causal=tr.smooth == "none")
         for c in chans[1:]:
