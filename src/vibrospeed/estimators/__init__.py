@@ -39,7 +39,7 @@ METHODS: dict[str, tuple[str, str]] = {
     "grid": (
         "vibrospeed.estimators.grid",
         "best vibration tracker: improved grid filter + harmonic-comb evidence, smoothed "
-        "offline (-p smooth=none: causal)",
+        "offline (-p smooth=none: causal); the default without GPS speed",
     ),
     "rbpf": ("vibrospeed.estimators.rbpf", "Rao-Blackwellized particle filter (paper III-C)"),
     "shs": ("vibrospeed.estimators.shs", "subharmonic summation per batch (Hermes 1988)"),
@@ -54,7 +54,7 @@ METHODS: dict[str, tuple[str, str]] = {
     "fuse": (
         "vibrospeed.estimators.fuse",
         "one speed from vibration + acceleration + GPS (where present), wheel radius learned "
-        "(-p radius_from=est.csv.json reuses it)",
+        "(-p radius_from=est.csv.json reuses it); the default where a recording has GPS speed",
     ),
     "algebraic": (
         "vibrospeed.estimators.algebraic",
