@@ -202,7 +202,7 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
 
 
 class _Bar:
-    """A transient rich progress bar over the samples (when ``on``)."""
+    """A transient rich progress bar over the samples, on stderr (when ``on``)."""
 
     def __init__(self, on: bool):
         self.on = on
@@ -211,9 +211,10 @@ class _Bar:
 
     def __enter__(self):
         if self.on:
+            from rich.console import Console
             from rich.progress import Progress
 
-            self._bar = Progress(transient=True)
+            self._bar = Progress(console=Console(stderr=True), transient=True)
             self._bar.__enter__()
             self._task = self._bar.add_task("grid, in blocks", total=None)
         return self
