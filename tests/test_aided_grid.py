@@ -357,15 +357,15 @@ def test_broadband_standstill_off_the_grid():
     assert a.standstill.all()
 
 
-def test_default_tracker_on_a_family_drive_is_the_grid_estimate():
-    """-m aided (tracker=grid, the default) on a family cart whose mount the grid tracker's
-    speed does not pin down: the grid product's smoothed estimate, bitwise, with its stops."""
+def test_grid_tracker_on_a_family_drive_is_the_grid_estimate():
+    """-m aided -p tracker=grid on a family cart whose mount the grid tracker's speed does not
+    pin down: the grid product's smoothed estimate, bitwise, with its stops."""
     from vibrospeed import sim
     from vibrospeed.estimators import grid
 
     rec = sim.simulate("random", seed=6, duration=60)
     lo, hi = rec.meta["omega_range"]
-    tr = aided.estimate(rec, params={"omega_min": lo, "omega_max": hi})
+    tr = aided.estimate(rec, params={"omega_min": lo, "omega_max": hi, "tracker": "grid"})
     assert tr.method == "aided" and tr.params["tracker"] == "grid"
     assert tr.params["mount_confident"] is False
     ref = grid.estimate(rec, params={"omega_min": lo, "omega_max": hi})
@@ -382,7 +382,7 @@ def test_named_accel_axis_aids_the_causal_filter():
 
     rec = sim.simulate("stop_and_go", seed=2, duration=60)
     w = rec["omega_true"]
-    p = {"omega_min": 2.0, "omega_max": 40.0}
+    p = {"omega_min": 2.0, "omega_max": 40.0, "tracker": "grid"}
     tr = aided.estimate(rec, params={**p, "accel_axis": "ax"})
     assert tr.params["accel_axis"] == "ax" and "mount_confident" not in tr.params
     un = aided.estimate(rec, params={**p, "accel_axis": "ax", "aiding": "none"})
@@ -396,7 +396,7 @@ def test_paper_preset_is_the_thesis_ekf():
 
     p = presets.preset_params("aided", "paper")
     assert p["tracker"] == "ekf" and p["standstill"] == "window"
-    assert aided.DEFAULT_TRACKER == "grid"
+    assert aided.DEFAULT_TRACKER == "ekf"
 
 
 def _rotated_drive(seed=0, n=9000, dt=0.01):

@@ -91,14 +91,13 @@ PRESETS: dict[str, dict[str, Preset]] = {
         "online": Preset({}, _CAUSAL),
     },
     "aided": {
-        "default": Preset({}, "the grid tracker, aided by the longitudinal acceleration of "
-                          "the phone's estimated mount where that is confident; standstill "
-                          "from the whole log (offline, smoothed)"),
+        "default": Preset({}, "the aided EKF with the broadband standstill detector (whole "
+                          "log), a_x offset from the standing samples and the comb check"),
         "paper": Preset({"tracker": "ekf", "standstill": "window", "accel_offset": "none",
                          "comb": "false", "causal": "true"},
                         "thesis ch. 3: the aided EKF, window standstill test, a_x used as "
                         "measured, no comb check"),
-        "online": Preset({"causal": "true"}, "causal grid filter and standstill detector "
+        "online": Preset({"causal": "true"}, "causal standstill detector and a_x offset "
                          "(as a device decides)"),
     },
     "gps-riss": {
@@ -180,8 +179,8 @@ PARAMETERS: dict[str, dict[str, Parameter]] = {
         "standstill": Parameter("broadband", "standstill test: broadband (default), window, "
                                 "cusum, none"),
         "causal": Parameter("true", "causal standstill detector and a_x offset"),
-        "tracker": Parameter("ekf", "vibration tracker aided: grid (default), ekf (the "
-                             "thesis' filter), rbpmf"),
+        "tracker": Parameter("grid", "vibration tracker aided: ekf (default, the "
+                             "thesis' filter), grid, rbpmf"),
         "M": Parameter("2", "harmonics in the model"),
     },
     "gps-riss": {

@@ -119,10 +119,11 @@ from vibrospeed.types import Estimate, Recording, Track
 
 STANDSTILL_KINDS = {"none": 0, "window": 1, "cusum": 2, "broadband": 3}
 
-#: vibration tracker of :func:`estimate` when ``params`` names none: the grid product's tracker
-#: (benchmarks/robustness/AIDED.md: on the randomised family it scores like ``-m grid``, the
-#: EKF below a tenth of that; on the thesis' cart the EKF is far better: ``tracker=ekf``)
-DEFAULT_TRACKER = "grid"
+#: vibration tracker of :func:`estimate` when ``params`` names none: the thesis' aided EKF.
+#: ``tracker=grid`` scores like ``-m grid`` on the randomised family (the EKF below a tenth of
+#: that), but offline its result *is* the grid tracker's estimate (nothing aided) and on the
+#: thesis' cart its RMSE is ~4x the EKF's (benchmarks/robustness/AIDED.md)
+DEFAULT_TRACKER = "ekf"
 
 
 def _thesis_model() -> HarmonicModel:
@@ -628,11 +629,11 @@ def estimate(
     ``wheelbase`` (m, for bump fixes); ``accel_detrend`` (s; subtract a causal running mean of
     a_x with this time constant, for a tilted phone whose a_x carries a large gravity offset that
     would hold the mode detector in acceleration mode; default 0 = off, as in the thesis).
-    ``tracker``: 'grid' (default, :data:`DEFAULT_TRACKER`: the grid product's filter, its
-    smoothed estimate where the mount of the phone is not known well enough to aid it, see
-    :func:`vibrospeed.estimators.aided_grid.estimate`), 'ekf' (the thesis' aided EKF, this
-    function; ``--preset paper``) or 'rbpmf' (the aiding around the paper's grid filter on the
-    thesis cart's grid); the grid trackers go to
+    ``tracker``: 'ekf' (default, :data:`DEFAULT_TRACKER`: the thesis' aided EKF, this
+    function; ``--preset paper`` with the thesis' tests), 'grid' (the grid product's filter, its
+    smoothed estimate offline or where the mount of the phone is not known well enough to aid
+    it, see :func:`vibrospeed.estimators.aided_grid.estimate`) or 'rbpmf' (the aiding around
+    the paper's grid filter on the thesis cart's grid); the grid trackers go to
     :func:`vibrospeed.estimators.aided_grid.estimate`. The parameters below are the EKF's.
 
     Defaults not in the thesis (measured in benchmarks/aided/RESULTS.md):
