@@ -313,6 +313,18 @@ def test_growing_start_frames_match_reference_and_stream():
     np.testing.assert_array_equal(idx2, full)
 
 
+def test_frame_ends_at_is_where_the_evidence_has_a_frame():
+    """frame_ends_at (the step's shortcut) against the batch evidence's frame ends, growing
+    frames included, over hop / window / start-frame combinations and a weight of 0."""
+    y = np.random.default_rng(2).normal(size=260)
+    for kw in ({}, {"comb_min_window": 0.2}, {"comb_min_window": 0.25, "comb_hop": 0.07},
+               {"comb_min_window": 1.0}, {"comb_weight": 0.0}):
+        cfg = dataclasses.replace(_small(), **kw)
+        idx, _ = grid.evidence(cfg, y)
+        got = np.flatnonzero([grid.frame_ends_at(cfg, g) for g in range(y.size)])
+        np.testing.assert_array_equal(got, idx)
+
+
 def test_short_start_frame_scores_a_clean_comb_in_full():
     """A 1 s start frame's Hann main lobe is 4 Hz wide: with a 2 Hz background the line
     would fill the running median and whiten itself away (each harmonic then scores ~0 instead

@@ -268,6 +268,17 @@ def frame_evidence(config, frames: np.ndarray, centre: bool = False) -> np.ndarr
     return out
 
 
+def frame_ends_at(config, g: int) -> bool:
+    """Whether a frame (full or growing, :func:`_frames_of`, :func:`_growing_frames`) ends at
+    the sample of global index ``g``: a one-sample step without one has no comb evidence."""
+    if config.comb_weight == 0:
+        return False
+    L, H, L0 = config.frame_len, config.hop_len, config.min_frame_len
+    if g >= L - 1:
+        return (g - (L - 1)) % H == 0
+    return g + 1 >= L0 and (g + 1 - L0) % H == 0
+
+
 def _frames_of(config, history: np.ndarray, y: np.ndarray, count0: int):
     """Frame-end indices into ``y`` and the frames (A, F, L), given the ``L`` samples before
     ``y`` (``history`` (L, A), oldest first), ``y`` (n, A) and the number of samples seen

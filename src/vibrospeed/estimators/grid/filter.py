@@ -125,7 +125,15 @@ def _check_h(model: HarmonicModel) -> None:
 
 
 def tables(config: Config) -> Tables:
-    """The constants of the compiled core for ``config``."""
+    """The constants of the compiled core for ``config``, built once per Config instance and
+    kept with it (as its cached ``kern``): :func:`step` runs per sample."""
+    tb = config.__dict__.get("_tables")
+    if tb is None:
+        tb = config.__dict__["_tables"] = _build_tables(config)
+    return tb
+
+
+def _build_tables(config: Config) -> Tables:
     k = config.kern
     m = config.model
     _check_h(m)

@@ -24,7 +24,11 @@ import vibrospeed.estimators.grid.config as _cfg
 import vibrospeed.estimators.grid.filter as _filt
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import ParameterError
-from vibrospeed.estimators.grid.comb import evidence, frame_evidence  # noqa: F401 (API)
+from vibrospeed.estimators.grid.comb import (  # noqa: F401 (frame_evidence: API)
+    evidence,
+    frame_ends_at,
+    frame_evidence,
+)
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Estimate, Recording, Track
 
@@ -276,9 +280,10 @@ def step(config: Config, state: State, y) -> tuple[State, Estimate]:
     yy = np.asarray(y, dtype=np.float64).reshape(1, -1)
     if state.buf.ndim == 1:
         yy = yy.reshape(1)
-    idx, vals = evidence(config, yy, state)
+    vals = (evidence(config, yy, state)[1] if frame_ends_at(config, state.count)
+            else np.zeros((0, 0)))
     g, est = _filt.step(config.tracker, state.grid, float(yy.flat[0]),
-                      extra=vals[0] if idx.size else None)
+                      extra=vals[0] if vals.shape[0] else None)
     return State(g, _push(state.buf, state.count, yy), state.count + 1), est
 
 
