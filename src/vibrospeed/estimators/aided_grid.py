@@ -814,7 +814,8 @@ def estimate(
                 notes=[*base_tr.notes, f"{note}: the grid tracker's estimate (-m grid"
                        f"{'' if not causal else ' -p smooth=none'})"])
         still = np.asarray(base_tr.extras["standstill"], dtype=np.float64)
-        more = [note]
+        more = [f"{note}; the mount itself is estimated from the whole log (a device needs it "
+                "calibrated beforehand: -p accel_axis=... names the longitudinal axis)"]
     else:
         u, ref, ref_var, more = aiding_inputs(
             recording, dt, float(r), accel_axis=accel_axis,
