@@ -185,17 +185,24 @@ def motion_level(x: np.ndarray, dt: float, ends: np.ndarray, upper_hz: float, *,
     def csum(v):
         return np.concatenate(([0.0], np.cumsum(v)))
 
-    c1, cy, cyy, ct, ctt, cty = (csum(ok.astype(float)), csum(y0), csum(y0 * y0), csum(t0),
-                                 csum(t0 * t0), csum(t0 * y0))
+    sums = np.stack([csum(ok.astype(float)), csum(y0), csum(y0 * y0), csum(t0), csum(t0 * t0),
+                     csum(t0 * y0)])
     L = max(3, int(round(frame_s / dt)))
     a = np.maximum(ends + 1 - L, 0)
-    e = ends + 1
-    k = c1[e] - c1[a]
+    return line_residual(sums[:, ends + 1], sums[:, a], L)
+
+
+def line_residual(end: np.ndarray, start: np.ndarray, L: int) -> np.ndarray:
+    """RMS residual from a least-squares line per window, from the running sums of ``(1, y,
+    y^2, t, t^2, t y)`` over the valid samples at each window's end and start (``end``,
+    ``start``: (6, F)); NaN where fewer than ``L // 2`` of the window's ``L`` samples are valid."""
+    c1, cy, cyy, ct, ctt, cty = range(6)
+    k = end[c1] - start[c1]
     with np.errstate(invalid="ignore", divide="ignore"):
-        my, mt = (cy[e] - cy[a]) / k, (ct[e] - ct[a]) / k
-        vy = (cyy[e] - cyy[a]) / k - my * my
-        vt = (ctt[e] - ctt[a]) / k - mt * mt
-        cv = (cty[e] - cty[a]) / k - mt * my
+        my, mt = (end[cy] - start[cy]) / k, (end[ct] - start[ct]) / k
+        vy = (end[cyy] - start[cyy]) / k - my * my
+        vt = (end[ctt] - start[ctt]) / k - mt * mt
+        cv = (end[cty] - start[cty]) / k - mt * my
         res = np.maximum(vy - cv * cv / vt, 0.0)
     out = np.sqrt(res)
     out[k < L // 2] = np.nan

@@ -274,7 +274,7 @@ class Blocks:
                                      level=self.level, wheel_radius=self.wheel_radius,
                                      method="grid", params=self.params, extras=extras,
                                      notes=self.notes)
-            _apply_standstill(track, self.still[a:b])
+            _method.apply_standstill(track, self.still[a:b])
             # the rows from b - 1 on (copied: the block's arrays are freed before the next)
             last = _rows(rows, off + b - a - 1, rows.omega.size)
             pending = [last._replace(**{f: getattr(last, f).copy() for f in Result._fields
@@ -302,18 +302,6 @@ class Blocks:
                          "speed_std", "speed_lo", "speed_hi")}
         extras = {k: np.concatenate([p.extras[k] for p in parts]) for k in first.extras}
         return dataclasses.replace(first, **cat, extras=extras, notes=list(self.notes))
-
-
-def _apply_standstill(track: Track, still: np.ndarray) -> None:
-    """As :func:`vibrospeed.estimators.grid.method.with_standstill`, with the detector's
-    per-sample decision for these rows given."""
-    track.extras["standstill"] = still.astype(np.float64)
-    if still.any():
-        for name in ("omega", "omega_std", "omega_lo", "omega_hi", "speed", "speed_std",
-                     "speed_lo", "speed_hi"):
-            arr = getattr(track, name)
-            arr[still & np.isfinite(arr)] = 0.0
-        track.extras["has_signal"][still] = 0.0
 
 
 # ---- the standstill detector in pieces ---------------------------------------------------------
@@ -354,17 +342,7 @@ def _motion_level(x: np.ndarray, dt: float, ends: np.ndarray, upper_hz: float) -
         for idx, dest in ((a, at), (e, et)):  # c[j] for p0 < j <= p1 is sums[:, j - p0 - 1]
             lo, hi = np.searchsorted(idx, [p0 + 1, p1 + 1])
             dest[:, lo:hi] = sums[:, idx[lo:hi] - p0 - 1]
-    c1, cy, cyy, ct, ctt, cty = range(6)
-    k = et[c1] - at[c1]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        my, mt = (et[cy] - at[cy]) / k, (et[ct] - at[ct]) / k
-        vy = (et[cyy] - at[cyy]) / k - my * my
-        vt = (et[ctt] - at[ctt]) / k - mt * mt
-        cv = (et[cty] - at[cty]) / k - mt * my
-        res = np.maximum(vy - cv * cv / vt, 0.0)
-    out = np.sqrt(res)
-    out[k < L // 2] = np.nan
-    return out
+    return ss.line_residual(et, at, L)
 
 
 def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *,

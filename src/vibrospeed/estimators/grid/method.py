@@ -429,6 +429,18 @@ def estimate(
     return with_standstill(tr, recording, axis, config, causal=config.tracker.smooth == "none")
 
 
+def apply_standstill(track: Track, still: np.ndarray) -> None:
+    """The standstill decision ``still`` (per sample) into ``track`` in place: the
+    ``standstill`` column, omega / speed and their bands 0 and ``has_signal`` 0 there."""
+    track.extras["standstill"] = still.astype(np.float64)
+    if still.any():
+        for name in ("omega", "omega_std", "omega_lo", "omega_hi", "speed", "speed_std",
+                     "speed_lo", "speed_hi"):
+            arr = getattr(track, name)
+            arr[still & np.isfinite(arr)] = 0.0
+        track.extras["has_signal"][still] = 0.0
+
+
 def with_standstill(track: Track, recording: Recording, axis: str, config: Config, *,
                     causal: bool) -> Track:
     """``track`` with the vehicle's stops: where the broadband vibration and the body motion
@@ -449,13 +461,8 @@ def with_standstill(track: Track, recording: Recording, axis: str, config: Confi
                                     and np.isfinite(recording.channel(c)).any()]
     X = np.column_stack([recording.channel(c) for c in chans])
     still = ss.standstill(X, tr.model.dt, band, causal=causal)
-    track.extras["standstill"] = still.astype(np.float64)
+    apply_standstill(track, still)
     if still.any():
-        for name in ("omega", "omega_std", "omega_lo", "omega_hi", "speed", "speed_std",
-                     "speed_lo", "speed_hi"):
-            arr = getattr(track, name)
-            arr[still & np.isfinite(arr)] = 0.0
-        track.extras["has_signal"][still] = 0.0
         share = still.mean()
         track.notes.append(f"standstill on {100 * share:.1f} % of the samples (vibration and "
                            f"body motion at their floors on {', '.join(chans)}; "
