@@ -168,6 +168,7 @@ def estimate_recording(
     keep_posterior: bool = False,
     meta: dict[str, Any] | None = None,
     describe: bool = False,
+    recording=None,
 ) -> Estimated:
     """Estimate one recording and write ``output`` (CSV) and ``output.json``, as
     ``vibrospeed estimate`` does.
@@ -175,15 +176,17 @@ def estimate_recording(
     ``keep_posterior``: ask a grid method for its posterior (returned in ``grids``, for a plot);
     ``meta``: extra entries for the sidecar's ``meta``; ``describe``: also record the options
     (``meta.options``) and the recording's format, duration and length (``meta.recording``), as
-    a batch does to resume. Raises the library's one-line errors.
+    a batch does to resume. ``recording``: ``input`` already read as :func:`load_recording`
+    reads it with these options (not read again). Raises the library's one-line errors.
     """
     from vibrospeed import __version__, estimators, io
 
     method = options.method
     params = options.estimator_params()
     mod = estimators.get(method)
-    rec = load_recording(input, options.fmt, options.columns, options.mapping, options.rate,
-                         options.sort, topic=options.topic)
+    rec = recording if recording is not None else load_recording(
+        input, options.fmt, options.columns, options.mapping, options.rate, options.sort,
+        topic=options.topic)
     extra_kw: dict[str, Any] = {}
     if keep_posterior:  # every method's estimate() takes it (the estimator protocol)
         extra_kw["return_posterior"] = True

@@ -195,11 +195,12 @@ def simulate(
 
 
 def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool, plot: bool,
-                    fmt, columns, mapping, rate, sort, topic) -> str:
+                    fmt, columns, mapping, rate, sort, topic):
     """``vibrospeed estimate``'s method without ``--method``: ``fuse`` where the recording has
     GPS speed (:func:`vibrospeed.estimators.fuse.suits`; a note says so), else ``grid``. Grid
     options (``grid_only``, a preset fuse lacks) keep ``grid``, and so does a log the grid
-    streams (fuse holds the whole log in memory)."""
+    streams (fuse holds the whole log in memory). Returns the method and the recording where
+    it was read to decide (then not read again), else None."""
     from vibrospeed import presets
     from vibrospeed.batch import load_recording
     from vibrospeed.config import parse_params
@@ -207,20 +208,20 @@ def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool,
     from vibrospeed.estimators.grid import stream
 
     if radius_from is not None:
-        return "fuse"
+        return "fuse", None
     if grid_only or (preset is not None and preset not in presets.presets("fuse")):
-        return "grid"
+        return "grid", None
     plain = not (columns or mapping or rate or sort or topic)
     if stream.wants_stream(input, method="grid", params=_params("grid", preset, param), fmt=fmt,
                            plain_read=plain, plot=plot):
-        return "grid"
+        return "grid", None
     rec = load_recording(input, fmt, columns, mapping, rate, sort, topic=topic)
     if not fuse.suits(rec, str(parse_params(param).get("accel_axis", "x"))):
-        return "grid"
+        return "grid", rec
     err.print("note: the recording has GPS speed: method fuse (vibration + acceleration + GPS, "
               "one speed with its source per sample, wheel radius learned); -m grid for the "
               "vibration tracker alone")
-    return "fuse"
+    return "fuse", rec
 
 
 @app.command()
@@ -309,12 +310,13 @@ def estimate(
     """
     from vibrospeed.batch import EstimateOptions, estimate_recording, vibration_channel
 
+    rec = None  # the recording, where choosing the method read it
     if method is None:
-        method = _default_method(input, radius_from=radius_from, preset=preset, param=param,
-                                 grid_only=smooth or lag is not None or fit_params
-                                 or init_omega is not None, plot=plot is not None, fmt=fmt,
-                                 columns=columns, mapping=mapping, rate=rate, sort=sort,
-                                 topic=topic)
+        method, rec = _default_method(input, radius_from=radius_from, preset=preset,
+                                      param=param, grid_only=smooth or lag is not None
+                                      or fit_params or init_omega is not None,
+                                      plot=plot is not None, fmt=fmt, columns=columns,
+                                      mapping=mapping, rate=rate, sort=sort, topic=topic)
     if radius_from is not None:
         if method != "fuse":
             raise ParameterError("--radius-from is for --method fuse (the radius it learned)")
@@ -327,9 +329,10 @@ def estimate(
     from vibrospeed.estimators.grid import stream
 
     try:
-        if stream.wants_stream(input, method=method, params=opts.estimator_params(), fmt=fmt,
-                               plain_read=not (columns or mapping or rate or sort or topic),
-                               plot=plot is not None):  # a long log: in blocks, bounded memory
+        if rec is None and stream.wants_stream(
+                input, method=method, params=opts.estimator_params(), fmt=fmt,
+                plain_read=not (columns or mapping or rate or sort or topic),
+                plot=plot is not None):  # a long log: in blocks, bounded memory
             st = stream.estimate_file(input, output, params=opts.estimator_params(), axis=axis,
                                       wheel_radius=wheel_radius, fmt=fmt,
                                       meta={"preset": preset}, progress=sys.stderr.isatty())
@@ -338,7 +341,8 @@ def estimate(
             err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)")
             return
         est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
-                                 keep_posterior=plot is not None, meta={"preset": preset})
+                                 keep_posterior=plot is not None, meta={"preset": preset},
+                                 recording=rec)
     except ParameterError as exc:
         raise _unknown_hint(method, exc) from None
     rec, track = est.recording, est.track
