@@ -190,15 +190,11 @@ def estimate_recording(
     extra_kw: dict[str, Any] = {}
     if keep_posterior:  # every method's estimate() takes it (the estimator protocol)
         extra_kw["return_posterior"] = True
-    axis = options.axis
-    axis_note = None
-    if axis is None and method not in ("gps-riss", "algebraic") and "ay" not in rec:
-        # the default vibration axis y is missing: a log with one accelerometer axis uses it
-        have = [c for c in ("ax", "az") if c in rec]
-        if len(have) == 1:
-            axis = have[0][1]
-            axis_note = (f"no 'ay' in the recording: using its only accelerometer axis "
-                         f"'{have[0]}' (--axis to choose)")
+    axis, axis_note = options.axis, None
+    if method not in ("gps-riss", "algebraic"):  # their axis is the longitudinal one
+        from vibrospeed.estimators.common import only_axis
+
+        axis, axis_note = only_axis(rec, axis)
     if axis is not None:
         extra_kw["axis"] = axis
     track = mod.estimate(rec, wheel_radius=options.wheel_radius, params=params,

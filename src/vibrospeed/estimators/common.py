@@ -24,6 +24,18 @@ def axis_channel(axis: str) -> str:
     return axis
 
 
+def only_axis(recording, axis: str | None) -> tuple[str | None, str | None]:
+    """The vibration axis when none is given and the default ``ay`` is missing: a recording
+    with a single other accelerometer axis uses it. Returns ``(axis, note)`` (note None where
+    nothing was chosen)."""
+    if axis is None and "ay" not in recording:
+        have = [c for c in ("ax", "az") if c in recording]
+        if len(have) == 1:
+            return have[0][1], (f"no 'ay' in the recording: using its only accelerometer axis "
+                                f"'{have[0]}' (--axis to choose)")
+    return axis, None
+
+
 def split_params(model_cls, params: dict) -> tuple[dict, dict]:
     """Split ``params`` into (fields of ``model_cls``, the rest)."""
     names = {f.name for f in dataclasses.fields(model_cls)}

@@ -141,7 +141,7 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     """Estimate ``input_path`` with the grid tracker block by block and write ``output`` (CSV)
     and ``output.json`` as ``vibrospeed estimate`` does (module docstring)."""
     from vibrospeed import __version__
-    from vibrospeed.estimators.common import axis_channel
+    from vibrospeed.estimators.common import axis_channel, only_axis
     from vibrospeed.estimators.grid import blocks as _blocks
     from vibrospeed.io._common import jsonable, sha256_path
     from vibrospeed.io.atomic import atomic_path, atomic_write_text
@@ -150,13 +150,7 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     from vibrospeed.signal.quality import flags_at, recording_quality
 
     rec = read_accelerometer(input_path, fmt, axis=axis, chunk_rows=chunk_rows)
-    axis_note = None
-    if axis is None and "ay" not in rec:
-        have = [c for c in ("ax", "az") if c in rec]
-        if len(have) == 1:
-            axis = have[0][1]
-            axis_note = (f"no 'ay' in the recording: using its only accelerometer axis "
-                         f"'{have[0]}' (--axis to choose)")
+    axis, axis_note = only_axis(rec, axis)
     use_axis = axis or "y"
     # the quality flags first (their temporaries are the largest per sample), then the estimate
     qs, q_notes = recording_quality(rec)
