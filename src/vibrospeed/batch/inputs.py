@@ -1,0 +1,127 @@
+"""What a batch reads and writes where: files, folders (one that is itself a recording, or its
+recordings) and glob patterns expanded to recordings, with an error row for an item that
+names none (:func:`expand_inputs`); one stable output base name per recording
+(:func:`output_names`)."""
+
+from __future__ import annotations
+
+import glob
+import hashlib
+import os
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+# files in a folder that are never recordings (outputs, sidecars, notes)
+_NOT_RECORDINGS = {".json", ".png", ".jpg", ".jpeg", ".svg", ".html", ".htm", ".md", ".toml",
+                   ".yaml", ".yml"}
+
+
+def _is_recording_dir(p: Path) -> bool:
+    from vibrospeed import io
+
+    try:
+        io.detect_format(p)
+    except Exception:  # noqa: BLE001 - not a recording (or a reader's detector failed on it)
+        return False
+    return True
+
+
+def _inside(p: Path, folder: Path) -> bool:
+    try:
+        p.resolve().relative_to(folder.resolve())
+    except ValueError:
+        return False
+    return True
+
+
+def _not_a_recording(q: Path) -> bool:
+    """Hidden and temporary files, sidecars, images, notes, and a canonical CSV's event sidecar
+    (``drive.wss_ticks.csv`` beside ``drive.csv``)."""
+    if q.name.startswith(".") or ".tmp" in q.name or q.suffix.lower() in _NOT_RECORDINGS:
+        return True
+    head, dot, _ = q.stem.partition(".")
+    return bool(dot) and q.with_name(f"{head}{q.suffix}").is_file()
+
+
+def _folder_entries(folder: Path, exclude: Path | None) -> list[Path]:
+    out = []
+    for q in sorted(folder.iterdir()):
+        if exclude is not None and _inside(q, exclude):
+            continue
+        if q.is_dir():
+            if not q.name.startswith(".") and _is_recording_dir(q):
+                out.append(q)
+        elif not _not_a_recording(q):
+            out.append(q)
+    return out
+
+
+def expand_inputs(items: Iterable[str | os.PathLike[str]], *,
+                  exclude: str | os.PathLike[str] | None = None) -> list[tuple[str, str | None]]:
+    """Recordings named by files, folders and glob patterns, in the order given.
+
+    A folder that is itself a recording (a phyphox export, a comma2k19 segment ...) is one
+    input; any other folder stands for its files and recording subfolders (not recursive; hidden
+    files, sidecars, images, HTML and anything under ``exclude`` left out); a pattern (``*``,
+    ``?``, ``[...]``, ``**``) for the files and recording folders it matches. A file named
+    explicitly is always an input. Returns ``(path, None)`` per recording and ``(item, error)``
+    for an item that names nothing, so that a batch can report it as a row.
+    """
+    excl = Path(exclude) if exclude is not None else None
+    found: list[tuple[str, str | None]] = []
+    seen: set[str] = set()
+
+    def add(p: Path) -> None:
+        key = os.path.realpath(p)
+        if key not in seen:
+            seen.add(key)
+            found.append((os.fspath(p), None))
+
+    for item in items:
+        s = os.fspath(item)
+        p = Path(s)
+        if p.exists():
+            if p.is_dir() and not _is_recording_dir(p):
+                entries = _folder_entries(p, excl)
+                if not entries:
+                    found.append((s, "no recording in this folder"))
+                for q in entries:
+                    add(q)
+            else:
+                add(p)
+        elif glob.has_magic(s):
+            matches = [Path(m) for m in sorted(glob.glob(s, recursive=True))]
+            matches = [q for q in matches if excl is None or not _inside(q, excl)]
+            matches = [q for q in matches
+                       if (q.is_dir() and _is_recording_dir(q))
+                       or (q.is_file() and not _not_a_recording(q))]
+            if not matches:
+                found.append((s, "no recording matches this pattern"))
+            for q in matches:
+                add(q)
+        else:
+            found.append((s, "file not found"))
+    return found
+
+
+def _stem(p: Path) -> str:
+    name = p.name if p.is_dir() else p.stem
+    safe = "".join(c if c.isalnum() or c in "-_.+" else "_" for c in name).strip(".")
+    return safe or "recording"
+
+
+def output_names(inputs: Sequence[str | os.PathLike[str]]) -> list[str]:
+    """A unique output base name per input: its file name without suffix (folder name for a
+    folder); inputs that share one get ``-<8 hex digits of their absolute path>`` added, so a
+    name stays the same from one run to the next."""
+    stems = [_stem(Path(p)) for p in inputs]
+    count: dict[str, int] = {}
+    for s in stems:
+        count[s.lower()] = count.get(s.lower(), 0) + 1
+    out = []
+    for p, s in zip(inputs, stems, strict=True):
+        if count[s.lower()] > 1:
+            h = hashlib.sha256(os.path.abspath(os.fspath(p)).encode()).hexdigest()[:8]
+            s = f"{s}-{h}"
+        out.append(s)
+    return out

@@ -1,0 +1,168 @@
+"""One recording, as ``vibrospeed estimate`` does it: its options (:class:`EstimateOptions`, the
+CLI's shortcuts folded into the estimator's parameters), reading (:func:`load_recording`:
+resampled to a uniform time line), the estimate with the axis rule, the quality annotation and
+the CSV + JSON sidecar written (:func:`estimate_recording`). A batch task calls the same code,
+so a batch output is the one ``vibrospeed estimate`` writes."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from vibrospeed.errors import ParameterError
+
+
+@dataclass(frozen=True)
+class EstimateOptions:
+    """The options of ``vibrospeed estimate`` (and of every recording in a batch).
+
+    ``params`` are the estimator's ``-p NAME=VALUE`` parameters (strings or values);
+    ``init_omega``, ``smooth``, ``lag`` and ``fit_params`` are the CLI's shortcuts for some of
+    them; ``fmt``, ``columns``, ``mapping``, ``rate`` and ``sort`` go to :func:`vibrospeed.io.read`.
+    """
+
+    method: str = "grid"
+    params: dict[str, Any] = field(default_factory=dict)
+    axis: str | None = None
+    wheel_radius: float | None = None
+    init_omega: float | None = None
+    smooth: bool = False
+    lag: float | None = None
+    fit_params: bool = False
+    fmt: str = "auto"
+    columns: str | None = None
+    mapping: str | None = None
+    rate: float | None = None
+    sort: bool = False
+    topic: str | None = None
+
+    def estimator_params(self) -> dict[str, Any]:
+        """``params`` with the shortcuts folded in (as the CLI always did)."""
+        params = dict(self.params)
+        if self.init_omega is not None:
+            params["omega0"] = str(self.init_omega)
+        if self.smooth or self.lag is not None or self.fit_params:
+            if self.method not in ("rbpmf", "grid"):
+                raise ParameterError("--smooth, --lag and --fit-params need --method rbpmf or grid")
+            if self.smooth:
+                params["smooth"] = "fb"
+            elif self.lag is not None:
+                params["smooth"] = "lag"
+                params["lag"] = str(self.lag)
+            if self.fit_params:
+                params["fit"] = "q_omega,q_amp,r"
+        return params
+
+    def to_json(self) -> dict[str, Any]:
+        """Plain JSON form, as stored in a batch output's sidecar (``meta.options``)."""
+        from vibrospeed.io._common import jsonable
+
+        d = asdict(self)
+        d["params"] = {str(k): str(v) for k, v in sorted(self.params.items())}
+        return jsonable(d)
+
+
+@dataclass
+class Estimated:
+    """What :func:`estimate_recording` produced: the recording (as read), the track (as
+    written), the vibration axis used, grid posteriors kept out of the CSV, the format read."""
+
+    recording: Any
+    track: Any
+    axis: str | None
+    grids: dict[str, np.ndarray]
+    format: str
+
+
+def load_recording(path: str | os.PathLike[str], fmt: str = "auto", columns: str | None = None,
+                   mapping: str | os.PathLike[str] | None = None, rate: float | None = None,
+                   sort: bool = False, uniform: bool = True, topic: str | None = None):
+    """Read a recording as the CLI does: :func:`vibrospeed.io.read`, then non-uniform time
+    stamps resampled to the median rate (unless ``uniform`` is false); ``topic``: a ROS
+    bag's IMU topic."""
+    from vibrospeed import io
+    from vibrospeed.io import timebase
+
+    rec = io.read(path, fmt, columns=columns, mapping_file=mapping, rate=rate, sort=sort,
+                  topic=topic)
+    if uniform and len(rec) > 2 and not rec.is_uniform(rtol=0.05):
+        rec = timebase.resample_uniform(rec)
+    return rec
+
+
+def estimate_recording(
+    input: str | os.PathLike[str],  # noqa: A002 - the CLI's word
+    output: str | os.PathLike[str],
+    options: EstimateOptions,
+    *,
+    progress: bool = False,
+    keep_posterior: bool = False,
+    meta: dict[str, Any] | None = None,
+    describe: bool = False,
+    recording=None,
+) -> Estimated:
+    """Estimate one recording and write ``output`` (CSV) and ``output.json``, as
+    ``vibrospeed estimate`` does.
+
+    ``keep_posterior``: ask a grid method for its posterior (returned in ``grids``, for a plot);
+    ``meta``: extra entries for the sidecar's ``meta``; ``describe``: also record the options
+    (``meta.options``) and the recording's format, duration and length (``meta.recording``), as
+    a batch does to resume. ``recording``: ``input`` already read as :func:`load_recording`
+    reads it with these options (not read again). Raises the library's one-line errors.
+    """
+    from vibrospeed import __version__, estimators, io
+
+    method = options.method
+    params = options.estimator_params()
+    mod = estimators.get(method)
+    rec = recording if recording is not None else load_recording(
+        input, options.fmt, options.columns, options.mapping, options.rate, options.sort,
+        topic=options.topic)
+    extra_kw: dict[str, Any] = {}
+    if keep_posterior:  # every method's estimate() takes it (the estimator protocol)
+        extra_kw["return_posterior"] = True
+    axis, axis_note = options.axis, None
+    if method not in ("gps-riss", "algebraic"):  # their axis is the longitudinal one
+        from vibrospeed.estimators.common import only_axis
+
+        axis, axis_note = only_axis(rec, axis)
+    if axis is not None:
+        extra_kw["axis"] = axis
+    track = mod.estimate(rec, wheel_radius=options.wheel_radius, params=params,
+                         progress=progress, **extra_kw)
+    if axis_note:
+        track.notes.insert(0, axis_note)
+    used = track.params.get("axis")  # the axis the estimator chose when --axis was not given
+    axis = used if isinstance(used, str) else axis
+    # saturated / stuck / spike samples: notes and a per-sample 'quality' column (bit flags)
+    from vibrospeed.signal.quality import annotate
+
+    annotate(track, rec, vibration_channel(rec, axis))
+    # per-sample columns go to the CSV; a grid posterior (n, N) only to the plot
+    grids = {k: v for k, v in track.extras.items() if np.shape(v) != (len(track),)}
+    for k in grids:
+        del track.extras[k]
+    fmt = options.fmt
+    if fmt == "auto":
+        mapped = (options.columns is not None or options.mapping is not None
+                  or options.rate is not None)
+        fmt = io.detect_format(input, mapping=mapped)
+    side_meta = {"version": __version__, "axis": axis, "recording_notes": rec.notes}
+    if describe:
+        side_meta["options"] = options.to_json()
+        side_meta["recording"] = {"format": fmt, "duration": float(rec.duration),
+                                  "samples": len(rec)}
+    side_meta.update(meta or {})
+    io.write_track(track, output, meta=side_meta, input_path=input)
+    return Estimated(rec, track, axis, grids, fmt)
+
+
+def vibration_channel(rec, axis: str | None) -> str:
+    """The channel to draw a spectrogram of: the axis used, else the first channel."""
+    from vibrospeed.estimators.common import axis_channel
+
+    ch = axis_channel(axis or "y")
+    return ch if ch in rec.channels else next(iter(rec.channels))

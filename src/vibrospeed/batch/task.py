@@ -1,0 +1,112 @@
+"""One batch task, run in a worker process (local or Dask): skip the recording when its output's
+sidecar records the same method, options, version and input checksum, else estimate it
+(:func:`vibrospeed.batch.single.estimate_recording`) and write its report; a failure is a row
+with a one-line error, never an exception, so one bad recording never stops the batch."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vibrospeed.batch.single import (
+    EstimateOptions,
+    estimate_recording,
+    load_recording,
+    vibration_channel,
+)
+from vibrospeed.errors import ReaderError, VibrospeedError
+from vibrospeed.eval.metrics import track_summary
+
+
+def _one_line(exc: BaseException) -> str:
+    if isinstance(exc, VibrospeedError):
+        text = str(exc)
+    elif isinstance(exc, (FileNotFoundError, IsADirectoryError, PermissionError)):
+        text = f"{exc.filename or ''}: {exc.strerror}"
+    else:
+        text = f"internal error: {type(exc).__name__}: {exc}"
+    return " ".join(text.split())
+
+
+def _up_to_date(job: dict[str, Any]) -> dict[str, Any] | None:
+    """The output's sidecar when it records the same method, options, version and input."""
+    from vibrospeed import __version__
+    from vibrospeed.io._common import sha256_path
+
+    out = Path(job["output"])
+    side_path = Path(f"{out}.json")
+    if not (out.is_file() and side_path.is_file()):
+        return None
+    try:
+        side = json.loads(side_path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return None
+    if not isinstance(side, dict) or not isinstance(side.get("meta"), dict):
+        return None
+    meta = side["meta"]
+    same = (side.get("method") == job["options"].method
+            and side.get("version") == __version__
+            and meta.get("options") == job["options"].to_json()
+            and side.get("input_sha256") is not None
+            and side.get("input_sha256") == sha256_path(job["input"]))
+    return side if same else None
+
+
+def _work(job: dict[str, Any]) -> dict[str, Any]:
+    """Estimate (or skip) one recording; never raises: a failure is a row with the error."""
+    from vibrospeed import io
+
+    t0 = time.perf_counter()
+    opts: EstimateOptions = job["options"]
+    row: dict[str, Any] = {"file": job["file"], "output": job["output"], "format": None,
+                           "duration_s": math.nan, "method": opts.method, "status": "error",
+                           "error": "", "report": job.get("report")}
+    try:
+        if job.get("error"):
+            raise ReaderError(job["file"], job["error"])
+        side = None if job.get("force") else _up_to_date(job)
+        rec = None
+        if side is not None:
+            track = io.read_track(job["output"])
+            info = side["meta"].get("recording") or {}
+            row["format"] = info.get("format")
+            row["duration_s"] = float(info.get("duration", math.nan) or math.nan)
+            row["status"] = "skipped"
+            axis = side["meta"].get("axis")
+            grids: dict[str, np.ndarray] = {}
+        else:
+            est = estimate_recording(job["input"], job["output"], opts, describe=True,
+                                     keep_posterior=bool(job.get("report")))
+            rec, track, axis, grids = est.recording, est.track, est.axis, est.grids
+            row["format"] = est.format
+            row["duration_s"] = float(rec.duration)
+            row["status"] = "ok"
+        row.update(track_summary(track))
+        report = job.get("report")
+        if report and (row["status"] == "ok" or not Path(report).is_file()):
+            from vibrospeed.eval.report import write_report
+
+            if rec is None:
+                rec = load_recording(job["input"], opts.fmt, opts.columns, opts.mapping,
+                                     opts.rate, opts.sort, topic=opts.topic)
+            write_report(report, rec, track, axis=vibration_channel(rec, axis),
+                         posterior=grids.get("posterior"), grid=grids.get("grid"),
+                         title=Path(job["file"]).name, input_path=job["file"],
+                         estimate_path=job["output"])
+    except Exception as exc:  # noqa: BLE001 - one bad recording never stops the batch
+        row["status"] = "error"
+        row["error"] = _one_line(exc)
+        row["report"] = None
+    row["wall_s"] = time.perf_counter() - t0
+    return row
+
+
+def _lost(job: dict[str, Any], why: str) -> dict[str, Any]:
+    return {"file": job["file"], "output": job["output"], "format": None,
+            "duration_s": math.nan, "method": job["options"].method, "status": "error",
+            "error": why, "wall_s": math.nan, "report": None}
