@@ -1,0 +1,310 @@
+"""The commands that estimate: ``estimate`` (one recording: the method chosen where none is
+given, streamed in blocks when the log is long, an optional plot), ``batch`` (many
+recordings through :func:`vibrospeed.batch.run`, a summary table) and ``methods`` (each
+estimator's presets and parameters)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from vibrospeed.cli.base import (
+    AxisOpt,
+    ColumnsOpt,
+    FormatOpt,
+    MappingOpt,
+    MethodOpt,
+    ParamOpt,
+    PresetOpt,
+    RadiusOpt,
+    RateOpt,
+    SortOpt,
+    TopicOpt,
+    _friendly,
+    _params,
+    _unknown_hint,
+    err,
+)
+from vibrospeed.errors import ParameterError
+
+
+def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool, plot: bool,
+                    fmt, columns, mapping, rate, sort, topic):
+    """``vibrospeed estimate``'s method without ``--method``: ``fuse`` where the recording has
+    GPS speed (:func:`vibrospeed.estimators.fuse.suits`; a note says so), else ``grid``. Grid
+    options (``grid_only``, a preset fuse lacks) keep ``grid``, and so does a log the grid
+    streams (fuse holds the whole log in memory). Returns the method and the recording where
+    it was read to decide (then not read again), else None."""
+    from vibrospeed import presets
+    from vibrospeed.batch import load_recording
+    from vibrospeed.config import parse_params
+    from vibrospeed.estimators import fuse
+    from vibrospeed.estimators.grid import stream
+
+    if radius_from is not None:
+        return "fuse", None
+    if grid_only or (preset is not None and preset not in presets.presets("fuse")):
+        return "grid", None
+    plain = not (columns or mapping or rate or sort or topic)
+    if stream.wants_stream(input, method="grid", params=_params("grid", preset, param), fmt=fmt,
+                           plain_read=plain, plot=plot):
+        return "grid", None
+    rec = load_recording(input, fmt, columns, mapping, rate, sort, topic=topic)
+    if not fuse.suits(rec, str(parse_params(param).get("accel_axis", "x"))):
+        return "grid", rec
+    err.print("note: the recording has GPS speed: method fuse (vibration + acceleration + GPS, "
+              "one speed with its source per sample, wheel radius learned); -m grid for the "
+              "vibration tracker alone")
+    return "fuse", rec
+
+
+@_friendly
+def estimate(
+    input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="estimate CSV (t, omega, "
+                      "omega_lo, omega_hi, speed, ...) + a .json sidecar")],
+    method: Annotated[str | None, typer.Option("--method", "-m", help="estimator (see "
+                      "`vibrospeed methods`); default: fuse where the recording has GPS speed "
+                      "and ax, else grid, the most robust one-accelerometer tracker")] = None,
+    axis: Annotated[str | None, typer.Option(help="vibration axis (x, y, z or a channel name; "
+                    "default y); for gps-riss the longitudinal axis (default x)")] = None,
+    wheel_radius: Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]
+    = None,
+    radius_from: Annotated[Path | None, typer.Option(
+        "--radius-from", help="fuse: wheel radius prior from an earlier fuse estimate's .json "
+        "sidecar of the same vehicle (m/s from vibration without GPS)")] = None,
+    init_omega: Annotated[float | None, typer.Option(help="initial omega guess in rad/s (EKF "
+                          "start; rbpmf/grid: centre of the initial prior)")] = None,
+    preset: PresetOpt = None,
+    param: ParamOpt = None,
+    plot: Annotated[Path | None, typer.Option(help="also write a spectrogram plot (PNG)")] = None,
+    smooth: Annotated[bool, typer.Option("--smooth", help="offline: forward-backward smoothing "
+                      "on the grid (rbpmf, grid; uses the whole log, so the past sees the "
+                      "future; grid smooths by default)")]
+    = False,
+    lag: Annotated[float | None, typer.Option(help="fixed-lag smoothing with this delay in s "
+                   "(rbpmf, grid; for devices that can wait)")] = None,
+    fit_params: Annotated[bool, typer.Option("--fit-params", help="fit q_omega, q_amp and r to "
+                          "this recording by marginal likelihood first (rbpmf, grid)")] = False,
+    fmt: FormatOpt = "auto",
+    topic: TopicOpt = None,
+    columns: ColumnsOpt = None,
+    mapping: MappingOpt = None,
+    rate: RateOpt = None,
+    sort: SortOpt = False,
+) -> None:
+    """Estimate omega / speed over a whole recording.
+
+    Without --method: fuse (vibration + acceleration + GPS) where the recording has a GPS speed
+    channel with fixes and ax (forward), else grid; grid too with --smooth, --lag,
+    --fit-params, --init-omega, a grid-only preset or a log long enough to be streamed.
+
+    Non-uniform (phone) time stamps are resampled to the median rate by linear interpolation;
+    NaN samples are bridged by prediction. The band columns are a 98 % credible interval.
+
+    Examples:
+
+      vibrospeed estimate drive.csv -o est.csv --plot est.png   (grid; fuse with GPS speed)
+
+      vibrospeed estimate cart.csv -p omega_min=2 -p omega_max=30 -o est.csv
+
+      (the grid covers 10-120 rad/s, a car's wheels; give a slow vehicle's range, v / r)
+
+      vibrospeed estimate drive.csv -p comb_axes=all -o est.csv
+
+      (comb evidence from ax, ay and az together; tracking stays on --axis)
+
+      vibrospeed estimate drive.csv --preset lock -o est.csv
+
+      (causal tracker switched on while the vehicle moves; `vibrospeed methods grid`)
+
+      vibrospeed estimate drive.csv --preset online -o est.csv   (causal, no smoothing)
+
+      vibrospeed estimate drive.csv -m rbpmf --preset paper -o est.csv   (the paper's filter)
+
+      vibrospeed estimate drive.csv --method ekf --init-omega 10 -o est.csv
+
+      vibrospeed estimate rsq_q2_00/ --format phyphox --axis y -o est.csv
+
+      vibrospeed estimate kart.csv --columns ax=c1,ay=c2,az=c3 --rate 198.4 -o est.csv
+
+      vibrospeed estimate kart.csv --columns ax=c1,ay=c2,az=c3 --rate 198.4 --axis z
+      -p omega_min=60 -p omega_max=300 -p prefilter=paper-hp -p M=2 -o est.csv
+
+      (range: v / r for the kart's speeds and radius; M = 2: its line has a weak 2nd only)
+
+      vibrospeed estimate drive.csv -p smooth=none -o est.csv   (causal grid filter, online)
+
+      vibrospeed estimate drive.csv --method rbpmf --smooth -p improved=true -o est.csv
+
+      vibrospeed estimate drive.csv -m fuse -o est.csv   (vibration + acceleration + GPS)
+
+      vibrospeed estimate nogps.csv -m fuse --radius-from est.csv.json -o est2.csv
+    """
+    from vibrospeed.batch import EstimateOptions, estimate_recording, vibration_channel
+
+    rec = None  # the recording, where choosing the method read it
+    if method is None:
+        method, rec = _default_method(input, radius_from=radius_from, preset=preset,
+                                      param=param, grid_only=smooth or lag is not None
+                                      or fit_params or init_omega is not None,
+                                      plot=plot is not None, fmt=fmt, columns=columns,
+                                      mapping=mapping, rate=rate, sort=sort, topic=topic)
+    if radius_from is not None:
+        if method != "fuse":
+            raise ParameterError("--radius-from is for --method fuse (the radius it learned)")
+        param = [*(param or []), f"radius_from={radius_from}"]
+
+    opts = EstimateOptions(method=method, params=_params(method, preset, param), axis=axis,
+                           wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
+                           lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
+                           mapping=mapping, rate=rate, sort=sort, topic=topic)
+    from vibrospeed.estimators.grid import stream
+
+    try:
+        if rec is None and stream.wants_stream(
+                input, method=method, params=opts.estimator_params(), fmt=fmt,
+                plain_read=not (columns or mapping or rate or sort or topic),
+                plot=plot is not None):  # a long log: in blocks, bounded memory
+            st = stream.estimate_file(input, output, params=opts.estimator_params(), axis=axis,
+                                      wheel_radius=wheel_radius, fmt=fmt,
+                                      meta={"preset": preset}, progress=sys.stderr.isatty())
+            for note in st.recording_notes + st.notes:
+                err.print(f"note: {note}")
+            err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)")
+            return
+        est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
+                                 keep_posterior=plot is not None, meta={"preset": preset},
+                                 recording=rec)
+    except ParameterError as exc:
+        raise _unknown_hint(method, exc) from None
+    rec, track = est.recording, est.track
+    for note in rec.notes + track.notes:
+        err.print(f"note: {note}")
+    err.print(f"wrote {output} ({len(track)} rows, method {method})")
+    if plot is not None:
+        from vibrospeed.eval.plot import plot_track
+
+        plot_track(plot, rec, track, axis=vibration_channel(rec, est.axis),
+                   posterior=est.grids.get("posterior"), grid=est.grids.get("grid"))
+        err.print(f"wrote {plot}")
+
+
+@_friendly
+def batch(
+    inputs: Annotated[list[str], typer.Argument(help="recordings: files, folders (a folder "
+                      "that is a recording, e.g. a phyphox export, counts as one) and glob "
+                      "patterns ('logs/**/*.csv', quoted)")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="output folder: one estimate "
+                      "(.csv + .json) per recording, summary.csv and summary.parquet")],
+    method: MethodOpt = "grid",
+    axis: AxisOpt = None,
+    wheel_radius: RadiusOpt = None,
+    init_omega: Annotated[float | None, typer.Option(help="initial omega guess in rad/s")]
+    = None,
+    preset: PresetOpt = None,
+    param: ParamOpt = None,
+    smooth: Annotated[bool, typer.Option("--smooth", help="as for estimate (rbpmf, grid)")]
+    = False,
+    lag: Annotated[float | None, typer.Option(help="as for estimate (rbpmf, grid)")] = None,
+    fit_params: Annotated[bool, typer.Option("--fit-params", help="as for estimate (rbpmf, "
+                          "grid)")] = False,
+    jobs: Annotated[int | None, typer.Option("--jobs", "-j", help="local worker processes "
+                    "(default min(4, CPU count); 1 runs in this process)")] = None,
+    scheduler: Annotated[str | None, typer.Option(help="run on a Dask cluster: its scheduler "
+                         "address, e.g. tcp://10.0.0.5:8786 (workers must see the same files)")]
+    = None,
+    report: Annotated[bool, typer.Option("--report", help="also one HTML report per recording "
+                      "and an index.html linking them")] = False,
+    force: Annotated[bool, typer.Option("--force", help="estimate again even where an "
+                     "up-to-date output exists")] = False,
+    fmt: FormatOpt = "auto",
+    topic: TopicOpt = None,
+    columns: ColumnsOpt = None,
+    mapping: MappingOpt = None,
+    rate: RateOpt = None,
+    sort: SortOpt = False,
+) -> None:
+    """Estimate many recordings with the same options; write a summary table.
+
+    Each recording gets <name>_<method>.csv and .json in the output folder (two inputs with the
+    same name get a short hash added). summary.csv (and summary.parquet with pyarrow) has per
+    recording: file, format, duration, method, share with a wheel line, median speed,
+    distance, status (ok / skipped / error), the error in one line and the wall time. Run it
+    again and every recording whose output has the same input checksum, method, options and
+    vibrospeed version is skipped; a bad file is an error row, never the end of the batch (exit
+    status 2 when any recording failed).
+
+    Examples:
+
+      vibrospeed batch 'logs/*.csv' -o out -p omega_min=2 -p omega_max=30
+
+      vibrospeed batch 'logs/*.csv' -o out --preset online   (causal estimates)
+
+      vibrospeed batch phone_logs/ --format phyphox --axis y -o out --report
+
+      vibrospeed batch 'fleet/**/*.parquet' -o out --scheduler tcp://10.0.0.5:8786
+    """
+    from vibrospeed import batch as vb
+
+    opts = vb.EstimateOptions(method=method, params=_params(method, preset, param), axis=axis,
+                              wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
+                              lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
+                              mapping=str(mapping) if mapping is not None else None, rate=rate,
+                              sort=sort, topic=topic)
+    if jobs is not None and jobs < 1:
+        raise ParameterError(f"--jobs must be at least 1, got {jobs}")
+    df = vb.run(inputs, output, options=opts, scheduler=scheduler, jobs=jobs, report=report,
+                force=force, progress=True)
+    for _, r in df[df["status"] == "error"].iterrows():  # one line each, never wrapped
+        msg = r["error"] if str(r["file"]) in r["error"] else f"{r['file']}: {r['error']}"
+        print(f"vibrospeed: error: {msg}", file=sys.stderr)
+    counts = df["status"].value_counts()
+    said = ", ".join(f"{counts.get(k, 0)} {k}" for k in ("ok", "skipped", "error"))
+    extra = " + index.html and a report per recording" if report else ""
+    print(f"wrote {output / 'summary.csv'}{extra}: {len(df)} recordings ({said})",
+          file=sys.stderr)
+    if counts.get("error", 0):
+        raise typer.Exit(2)
+
+
+@_friendly
+def methods(
+    method: Annotated[str | None, typer.Argument(help="one method to describe (default: all)")]
+    = None,
+) -> None:
+    """List the estimators: what each needs, its presets (--preset) and its parameters (-p).
+
+    Examples:
+
+      vibrospeed methods
+
+      vibrospeed methods grid
+    """
+    from vibrospeed import presets
+    from vibrospeed.estimators import METHODS, available, get
+
+    have = available()
+    names = have if method is None else [method]
+    if method is not None:
+        get(method)  # an unknown method is the usual one-line error
+    for name in names:
+        desc = METHODS[name][1]
+        print(f"{name}: {desc}")
+        table = presets.presets(name)
+        print("  presets (--preset NAME):")
+        width = max(len(p) for p in table)
+        for pname, pre in table.items():
+            flags = presets.as_flags(pre.params) or "(nothing set)"
+            print(f"    {pname:{width}s}  {pre.about}")
+            print(f"    {'':{width}s}  = {flags}")
+        params = presets.PARAMETERS.get(name, {})
+        if params:
+            print("  parameters (-p NAME=VALUE; all of them: the reference pages):")
+            width = max(len(k) + len(v.example) + 1 for k, v in params.items())
+            for pname, par in params.items():
+                print(f"    {pname + '=' + par.example:{width}s}  {par.about}")
+        print()

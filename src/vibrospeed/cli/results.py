@@ -1,0 +1,188 @@
+"""The commands that look at an estimate: ``report`` (an HTML drive report), ``evaluate``
+(metrics against a truth file, optionally as JSON) and ``plot`` (a spectrogram with the
+track)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from vibrospeed.cli.base import (
+    AxisOpt,
+    ColumnsOpt,
+    FormatOpt,
+    MappingOpt,
+    MethodOpt,
+    ParamOpt,
+    PresetOpt,
+    RadiusOpt,
+    RateOpt,
+    SortOpt,
+    _friendly,
+    _load,
+    _params,
+    err,
+    out,
+)
+
+
+@_friendly
+def report(
+    input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="HTML page to write")],
+    estimate_csv: Annotated[Path | None, typer.Option("--estimate", help="estimate CSV "
+                            "(from `estimate`); without it the recording is estimated first "
+                            "with --method and -p")] = None,
+    truth: Annotated[Path | None, typer.Option(help="truth recording (default: the input's "
+                     "omega_true / speed_true if any)")] = None,
+    method: MethodOpt = "grid",
+    axis: AxisOpt = None,
+    wheel_radius: RadiusOpt = None,
+    preset: PresetOpt = None,
+    param: ParamOpt = None,
+    fmt: FormatOpt = "auto",
+    columns: ColumnsOpt = None,
+    mapping: MappingOpt = None,
+    rate: RateOpt = None,
+    sort: SortOpt = False,
+) -> None:
+    """One self-contained HTML page for a drive: spectrogram with the estimate, band and truth
+    or GPS, speed over time, where a wheel line was seen, notes, summary numbers.
+
+    Images are embedded in the page; it has no external links and no scripts.
+
+    Examples:
+
+      vibrospeed report drive.csv --estimate est.csv -o drive.html
+
+      vibrospeed report drive.csv -p omega_min=2 -p omega_max=30 -o drive.html
+    """
+    import tempfile
+
+    from vibrospeed import batch as vb
+    from vibrospeed import io
+    from vibrospeed.eval.report import write_report
+
+    ref = io.read(truth) if truth else None
+    if estimate_csv is not None:
+        rec = _load(input, fmt, columns, mapping, rate, sort)
+        track = io.read_track(estimate_csv)
+        side_path = Path(f"{estimate_csv}.json")
+        meta = {}
+        if side_path.is_file():
+            try:
+                meta = json.loads(side_path.read_text(encoding="utf-8")).get("meta") or {}
+            except (OSError, ValueError):
+                meta = {}
+        used_axis = axis or meta.get("axis")
+        grids: dict = {}
+    else:
+        opts = vb.EstimateOptions(method=method, params=_params(method, preset, param),
+                                  axis=axis,
+                                  wheel_radius=wheel_radius, fmt=fmt, columns=columns,
+                                  mapping=mapping, rate=rate, sort=sort)
+        with tempfile.TemporaryDirectory(prefix="vibrospeed-") as d:
+            est = vb.estimate_recording(input, Path(d) / "estimate.csv", opts,
+                                        keep_posterior=True, progress=sys.stderr.isatty())
+        rec, track, used_axis, grids = est.recording, est.track, est.axis, est.grids
+    write_report(output, rec, track, axis=vb.vibration_channel(rec, used_axis), truth=ref,
+                 posterior=grids.get("posterior"), grid=grids.get("grid"),
+                 title=input.name or str(input), input_path=input, estimate_path=estimate_csv)
+    err.print(f"wrote {output}")
+
+
+@_friendly
+def evaluate(
+    estimate_csv: Annotated[Path, typer.Argument(help="estimate written by `estimate`")],
+    truth: Annotated[Path, typer.Option(help="recording with omega_true or speed_true")],
+    truth_format: Annotated[str, typer.Option(help="format of the truth file")] = "auto",
+    min_omega: Annotated[float, typer.Option(help="truth below this (rad/s) = standing, "
+                         "excluded")] = 1.0,
+    warmup: Annotated[float, typer.Option(help="seconds at the start excluded")] = 0.0,
+    json_out: Annotated[Path | None, typer.Option("--json", help="also write metrics as JSON")]
+    = None,
+) -> None:
+    """Compare an estimate with ground truth: RMSE (thesis eq. 3.18, truth linearly
+    interpolated, moving samples only), bias, relative error, band coverage, harmonic errors.
+
+    Example:
+
+      vibrospeed evaluate est.csv --truth drive.csv
+    """
+    from vibrospeed import io
+    from vibrospeed.eval.metrics import evaluate as ev
+    from vibrospeed.io.atomic import atomic_write_text
+
+    track = io.read_track(estimate_csv)
+    ref = io.read(truth, truth_format)
+    m = ev(track, ref, min_omega=min_omega, warmup=warmup)
+    tab = Table(title=f"{estimate_csv.name} vs truth {truth.name}", title_justify="left")
+    tab.add_column("metric")
+    tab.add_column("value", justify="right")
+    tab.add_column("unit")
+    rows = [
+        ("samples evaluated (moving)", f"{m.n}", ""),
+        ("moving share", f"{m.moving_share:.1%}", ""),
+        ("RMSE", f"{m.rmse:.3f}", m.unit),
+        ("MAE", f"{m.mae:.3f}", m.unit),
+        ("bias", f"{m.bias:+.3f}", m.unit),
+        ("relative error", f"{m.rel_error:.1%}", ""),
+        (f"coverage of the {m.level:.0%} band",
+         f"{m.coverage:.1%}" if m.coverage == m.coverage else "n/a (no band)", ""),
+    ]
+    if m.unit != "m/s":
+        rows += [("share within max(2 rad/s, 10 %)", f"{m.ok_share:.1%}", ""),
+                 ("share at omega/2", f"{m.half_share:.1%}", ""),
+                 ("share at 2 omega", f"{m.double_share:.1%}", "")]
+    if m.claimed_share == m.claimed_share:
+        rows += [("share where it claims a signal", f"{m.claimed_share:.1%}", ""),
+                 ("  RMSE there", f"{m.rmse_claimed:.3f}", m.unit),
+                 ("  within max(2 rad/s, 10 %) there", f"{m.ok_claimed:.1%}", ""),
+                 ("  band coverage there", f"{m.coverage_claimed:.1%}", "")]
+    if m.rmse_speed == m.rmse_speed and m.unit != "m/s":
+        rows.append(("RMSE speed", f"{m.rmse_speed:.3f}", "m/s"))
+    for row in rows:
+        tab.add_row(*row)
+    out.print(tab)
+    if json_out is not None:
+        atomic_write_text(json_out, json.dumps(m.to_dict(), indent=2))
+
+
+@_friendly
+def plot(
+    input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="PNG to write")],
+    estimate_csv: Annotated[Path | None, typer.Option("--estimate", help="estimate CSV to "
+                            "draw over the spectrogram")] = None,
+    truth: Annotated[Path | None, typer.Option(help="truth recording (default: the input's "
+                     "omega_true if any)")] = None,
+    axis: Annotated[str, typer.Option(help="channel or axis for the spectrogram")] = "y",
+    harmonics: Annotated[int, typer.Option(help="harmonics of the estimate to draw")] = 3,
+    window: Annotated[float, typer.Option(help="STFT window in s")] = 3.0,
+    fmt: FormatOpt = "auto",
+    columns: ColumnsOpt = None,
+    mapping: MappingOpt = None,
+    rate: RateOpt = None,
+    sort: SortOpt = False,
+) -> None:
+    """Spectrogram of a vibration axis with the estimate, its band, harmonics and truth.
+
+    Example:
+
+      vibrospeed plot drive.csv --estimate est.csv -o drive.png
+    """
+    from vibrospeed import io
+    from vibrospeed.estimators.common import axis_channel
+    from vibrospeed.eval.plot import plot_track
+
+    rec = _load(input, fmt, columns, mapping, rate, sort)
+    track = io.read_track(estimate_csv) if estimate_csv else None
+    ref = io.read(truth) if truth else None
+    plot_track(output, rec, track, axis=axis_channel(axis), truth=ref, harmonics=harmonics,
+               window_s=window)
+    err.print(f"wrote {output}")
