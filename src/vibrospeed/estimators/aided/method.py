@@ -1,0 +1,209 @@
+"""The aided method's entry point (:func:`estimate`, ``-m aided``): a recording in, a Track out.
+The vibration axis pre-filtered, the aiding inputs (:mod:`vibrospeed.estimators.aiding`:
+a_x, reference fixes), the broadband standstill flags, the accelerometer offset while standing
+and the comb candidates computed before the loop, then :func:`vibrospeed.estimators.aided.run`;
+``tracker=grid`` / ``rbpmf`` go to :mod:`vibrospeed.estimators.aided_grid`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from vibrospeed.config import config_from_params, parse_flag
+from vibrospeed.errors import ParameterError
+from vibrospeed.estimators.aided.config import Config, _thesis_model
+from vibrospeed.estimators.aided.filter import run
+from vibrospeed.estimators.aiding import (
+    aiding_inputs,
+    running_gain,
+    standstill_band,
+    standstill_flags,
+    standstill_offset,
+)
+from vibrospeed.models.harmonic import HarmonicModel
+from vibrospeed.signal.comb import COMB_FRAME_S, COMB_HOP_S, comb_candidates
+from vibrospeed.types import Recording, Track
+
+#: vibration tracker of :func:`estimate` when ``params`` names none: the thesis' aided EKF.
+#: ``tracker=grid`` scores like ``-m grid`` on the randomised family (the EKF below a tenth of
+#: that), but offline its result *is* the grid tracker's estimate (nothing aided) and on the
+#: thesis' cart its RMSE is ~4x the EKF's (benchmarks/robustness/AIDED.md)
+DEFAULT_TRACKER = "ekf"
+
+
+def estimate(
+    recording: Recording,
+    *,
+    axis: str = "y",
+    wheel_radius: float | None = None,
+    params: dict | None = None,
+    progress: bool = False,
+    return_posterior: bool = False,
+) -> Track:
+    """Aided tracking of omega from vibration axis ``axis`` and longitudinal acceleration.
+
+    ``params``: any :class:`Config` field; any :class:`HarmonicModel` field (``dt`` comes from
+    the data); ``accel_axis`` (default ``ax``; ``y``/``ay``, a leading ``-`` negates, e.g.
+    ``-ay``); ``prefilter`` (default ``thesis-hplp``, low-pass cut-off per M) and ``lp_cutoff``
+    (rad/s); ``normalize_tau`` (s, running-RMS normalisation of the EKF input; default 0 = off,
+    then the model is in m/s^2 units as in the thesis); ``reference`` ('none', 'bump', 'turn',
+    'both': speed fixes from :mod:`vibrospeed.signal.reference` fed as measurements) and
+    ``wheelbase`` (m, for bump fixes); ``accel_detrend`` (s; subtract a causal running mean of
+    a_x with this time constant, for a tilted phone whose a_x carries a large gravity offset that
+    would hold the mode detector in acceleration mode; default 0 = off, as in the thesis).
+    ``tracker``: 'ekf' (default, :data:`DEFAULT_TRACKER`: the thesis' aided EKF, this
+    function; ``--preset paper`` with the thesis' tests), 'grid' (the grid product's filter, its
+    smoothed estimate offline or where the mount of the phone is not known well enough to aid
+    it, see :func:`vibrospeed.estimators.aided_grid.estimate`) or 'rbpmf' (the aiding around
+    the paper's grid filter on the thesis cart's grid); the grid trackers go to
+    :func:`vibrospeed.estimators.aided_grid.estimate`. The parameters below are the EKF's.
+
+    Defaults not in the thesis (measured in benchmarks/aided/RESULTS.md):
+    ``standstill='broadband'`` (the
+    broadband-level detector on the vibration axis, whole-log; ``causal=True`` for the causal
+    detector, as a device would run it; 'window' / 'cusum' are the thesis' tests);
+    ``accel_offset='standstill'`` (the mean of a_x while standing is removed from it; 'none'
+    keeps a_x as it is); ``comb`` (default True: the comb check of :func:`comb_fixes` with
+    ``comb_clarity`` 3) over ``omega_min`` (rad/s, default 2 pi) .. ``omega_max``.
+
+    The wheel radius comes from ``wheel_radius`` or ``recording.wheel_radius``.
+    """
+    from vibrospeed.estimators.common import axis_channel, check_uniform, split_params, start_level
+    from vibrospeed.io.timebase import check_nyquist
+    from vibrospeed.signal import prefilter as pf
+
+    params = dict(params or {})
+    tracker = str(params.pop("tracker", DEFAULT_TRACKER))
+    if tracker in ("rbpmf", "grid"):
+        from vibrospeed.estimators import aided_grid
+
+        return aided_grid.estimate(recording, axis=axis, wheel_radius=wheel_radius,
+                                   params=params, progress=progress, kind=tracker)
+    if tracker != "ekf":
+        raise ParameterError(f"tracker must be 'ekf', 'rbpmf' or 'grid', got '{tracker}'")
+    del progress  # one compiled pass; nothing to report
+    r = wheel_radius or recording.wheel_radius
+    if not r:
+        raise ParameterError(
+            f"{recording.source or 'recording'}: the aided tracker needs the wheel radius "
+            "(pass wheel_radius=... / --wheel-radius, or use a recording that knows it)"
+        )
+    params = dict(params or {})
+    model_kw, cfg_kw = split_params(HarmonicModel, params)
+    model_kw.pop("dt", None)
+    accel_axis = str(cfg_kw.pop("accel_axis", "ax"))
+    pre = str(cfg_kw.pop("prefilter", "thesis-hplp"))
+    lp = cfg_kw.pop("lp_cutoff", None)
+    lp = None if lp in (None, "", "none") else float(lp)
+    tau = float(cfg_kw.pop("normalize_tau", 0.0))
+    reference = str(cfg_kw.pop("reference", "none"))
+    wheelbase = cfg_kw.pop("wheelbase", None)
+    detrend = float(cfg_kw.pop("accel_detrend", 0.0))
+    causal = parse_flag(cfg_kw.pop("causal", False), "causal")
+    offset_kind = str(cfg_kw.pop("accel_offset", "standstill"))
+    if offset_kind not in ("standstill", "none"):
+        raise ParameterError(f"accel_offset must be 'standstill' or 'none', got '{offset_kind}'")
+    om_min = cfg_kw.pop("omega_min", None)
+    om_min = None if om_min in (None, "", "none") else float(om_min)
+    cfg_kw.setdefault("standstill", "broadband")
+    cfg_kw_comb = cfg_kw.pop("comb", True)
+    comb_clarity = float(cfg_kw.pop("comb_clarity", 3.0))
+    dt = check_uniform(recording)
+    defaults = _thesis_model().to_dict()
+    if tau > 0:  # unit-power signal: the EKF's defaults for normalised input
+        from vibrospeed.estimators.ekf import UNIT_RMS_MODEL
+
+        defaults.update(UNIT_RMS_MODEL)
+        defaults.update(M=2, q_omega=0.5)
+    defaults["dt"] = dt
+    model = config_from_params(HarmonicModel, model_kw, **defaults)
+    config = config_from_params(Config, cfg_kw, model=model, wheel_radius=float(r))
+    src = recording.source or "recording"
+    nyq_note = None
+    if config.omega_max is not None and om_min is not None \
+            and model.M * config.omega_max >= np.pi / dt:
+        # a search range given with omega_min (as to the grid trackers): its top is clipped to
+        # what the sample rate allows instead of refused
+        nyq_note = (f"omega_max {config.omega_max:g} rad/s above what {1 / dt:g} Hz allows for "
+                    f"M = {model.M}: clipped to {model.omega_clip(None):.4g} rad/s")
+        config = dataclasses.replace(config, omega_max=None)
+    if config.omega_max is not None:
+        check_nyquist(1.0 / dt, model.M, config.omega_max, src)
+    vib_name = axis_channel(axis)
+    recording.require(vib_name)
+    x = recording.channel(vib_name)
+    rng = None
+    if pre == "range":
+        if om_min is None or config.omega_max is None:
+            raise ParameterError("pre-filter 'range' needs omega_min and omega_max")
+        rng = (om_min, config.omega_max)
+    sos = pf.design(pre, 1.0 / dt, M=model.M, lp_cutoff=lp, omega_range=rng)
+    y = pf.apply(sos, x, level=start_level(x, dt))
+    u, ref, ref_var, more = aiding_inputs(recording, dt, float(r), accel_axis=accel_axis,
+                                          detrend=detrend, reference=reference,
+                                          wheelbase=wheelbase)
+    still = None
+    notes = [f"pre-filter '{pre}' on '{vib_name}' at fs = {1 / dt:.4g} Hz"]
+    if config.standstill == "broadband":
+        band = standstill_band(dt, model.M, om_min, config.omega_max)
+        # the vibration axis and every other accelerometer axis (as the grid tracker does)
+        chans = [vib_name] + [c for c in ("ax", "ay", "az") if c != vib_name and c in recording
+                              and np.isfinite(recording.channel(c)).any()]
+        X = np.column_stack([recording.channel(c) for c in chans])
+        still = standstill_flags(X, dt, band, causal=causal)
+        notes.append(f"standstill: broadband vibration level at its floor "
+                     f"({'causal' if causal else 'whole-log'} detector, band "
+                     f"{band[0]:.3g}-{band[1]:.3g} rad/s), on {100 * still.mean():.1f} % of "
+                     "the samples")
+    else:
+        notes.append(f"standstill test '{config.standstill}'")
+    notes += more
+    if nyq_note:
+        notes.append(nyq_note)
+    comb = parse_flag(cfg_kw_comb, "comb")
+    c_om = None
+    if comb:
+        c_om, c_rng = comb_candidates(x, dt, om_min, config.omega_limit, still=still,
+                                      clarity=comb_clarity)
+        notes.append(f"comb check: {np.isfinite(c_om).sum()} candidates from the harmonic comb "
+                     f"({COMB_FRAME_S:g} s frames every {COMB_HOP_S:g} s, clarity >= "
+                     f"{comb_clarity:g}, range {c_rng[0]:.3g}-{c_rng[1]:.3g} rad/s); omega is "
+                     f"reset to it after {config.comb_count} disagreeing by > "
+                     f"{100 * config.comb_rel:g} % in a row")
+    if offset_kind == "standstill":
+        flags = still if still is not None else np.zeros(u.size)
+        off = standstill_offset(u, flags, causal=causal)
+        u = u - off
+        notes.append(f"'{accel_axis}' offset removed: its mean while standing "
+                     f"({'running' if causal else 'whole log'}; {off[-1]:.3g} m/s^2 at the end)")
+    gain = None
+    if tau > 0:
+        gain = running_gain(y, dt, tau)
+        notes.append(f"EKF input normalised by a running RMS (tau = {tau:g} s)")
+    res = run(config, y, u, gain=gain, ref=ref, ref_var=ref_var, still=still, comb=c_om)
+    extras = {f"amp{m + 1}": res.amplitudes[:, m] for m in range(model.M)}
+    extras.update(
+        standstill=res.standstill.astype(np.float64),
+        accelerating=res.accelerating.astype(np.float64),
+        boost=res.boost.astype(np.float64),
+        bias=res.bias,
+        ubar=res.ubar,
+        nis=res.innovation**2 / res.innovation_var,
+        line_share=res.line_share,
+        locked=res.locked.astype(np.float64),
+    )
+    out_params = {**model.to_dict(), **{k: getattr(config, k) for k in (
+        "omega0", "p0_omega", "amp0", "q_bias", "p0_bias", "q_omega_accel", "standstill",
+        "ss_window", "ss_mu", "r_ss", "cusum_sigma", "cusum_nu", "cusum_h", "cusum_fs",
+        "mode_window", "mode_mu", "boost", "aid_always", "line_min", "line_tau",
+        "line_omega_min", "init_ref")},
+        "ss_n": config.ss_len, "mode_n": config.mode_len,
+        "omega_max": config.omega_limit, "wheel_radius": float(r),
+        "prefilter": pre, "lp_cutoff": lp, "normalize_tau": tau, "accel_detrend": detrend,
+        "accel_offset": offset_kind, "causal": causal, "omega_min": om_min,
+        "axis": axis,
+        "accel_axis": accel_axis, "reference": reference, "tracker": "ekf"}
+    return Track.from_omega(recording.t, res.omega, res.omega_std, wheel_radius=float(r),
+                            method="aided", params=out_params, extras=extras, notes=notes)
