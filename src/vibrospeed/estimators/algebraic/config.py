@@ -1,0 +1,175 @@
+"""Parameters and state of the algebraic estimator: the inputs and outputs in their order,
+:class:`Config` (filter windows and degree, reset, slip and yaw thresholds, noise allowances;
+validated on construction, with the filter taps and the packed scalars the compiled core reads)
+and :class:`State` (ring buffers, Vx history, packed scalars)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from vibrospeed.errors import ParameterError
+from vibrospeed.estimators.algebraic.core import _LAST, _NS, _VX, _VY
+from vibrospeed.signal import differentiation as dif
+
+#: inputs, in this order, of :func:`step`
+INPUTS = ("gz", "ax", "ay", "omega_mean")
+#: per-sample outputs of :func:`step` / :func:`run`
+OUTPUTS = (
+    "vx", "vy", "gx", "gy", "dgx", "dgy", "slip_mode", "turn_mode",
+    "yaw_rate", "yaw_acc", "ax", "ay", "omega_mean", "omega_dot",
+    "vx_std", "vy_std", "sd_gz", "sd_ax", "sd_ay", "sd_omega",
+)
+
+
+@dataclass(frozen=True)
+class Config:
+    """Parameters of Algorithms 1 and 2 and of the uncertainty model.
+
+    Parameters
+    ----------
+    r : wheel radius in m. L1 : CG to front axle distance in m (``Ry = -L1 psi_dot``).
+    dt : sample period Ts in s.
+    window, window_d : algebraic filter windows in s for values / first derivatives.
+    N, kappa, mu, xi : differentiator degree, Jacobi weights and evaluation point
+        (:mod:`vibrospeed.signal.differentiation`); the seed uses N = 1, nu = 2
+        (kappa = mu = 0) and estimates at the newest sample (xi = 0).
+    eps1 : m/s^2, threshold on ``|dGx/dt|``; alpha : hold window in samples (``alpha Ts``).
+    eps2 : rad/s, threshold on ``|psi_dot|``; beta : hold window in samples (``beta Ts``).
+    reset_eps_x : m/s^2 on ``|r d(omega_mean)/dt|``; reset_eps_y : m/s^2 on
+        ``|L1 psi_ddot|``; reset_hold : samples (0 disables the reset of remark 4).
+    vy0 : initial lateral velocity in m/s (Algorithm 2 requires it).
+    backtrack : samples; at the onset of slip the integration restarts from ``Vx`` that many
+        samples before the switch (the wheels already slipped while ``dGx/dt`` was building
+        up); ``None`` -> ``alpha``, 0 -> the seed's restart from the previous sample.
+    eps_k : if > 0, the thresholds become ``max(eps1, eps_k sd(dGx/dt))`` and
+        ``max(eps2, eps_k sd(psi_dot))`` with the noise sds predicted from the sensor noise
+        measured on line (second differences); 0 (default) keeps the fixed thresholds.
+    Uncertainty: ``slip_sd`` relative allowance for undetected slip in wheel mode (sd of Vx
+    = ``slip_sd |Vx|``); ``acc_bias_sd`` m/s^2 and ``gyro_bias_sd`` rad/s, sds of the sensor
+    biases (integration drift ``b T``); ``handover_tau`` s, decay time of the disagreement
+    allowance at a switch back; ``noise_tau`` s, memory of the on-line noise estimates.
+    max_int : s, longest integration episode: after it the wheels are trusted again (the hold
+        window restarts); ``inf`` (default) is the seed's rule.
+    detect : ``"window"`` (default) or ``"seed"`` (Algorithm 1 as published: ``eps1``,
+        ``alpha``, ``backtrack`` and the reset only act there).
+    slip_tol : m/s, window detection: largest disagreement between the wheel speed and the
+        dead-reckoned speed taken as rolling (raised to ``eps_k`` sd of the measured noise).
+    slip_window : s, window detection: the window of that comparison and of the hold.
+    """
+
+    r: float = 0.31
+    L1: float = 1.2
+    dt: float = 0.01
+    window: float = 0.1
+    window_d: float = 0.2
+    N: int = 1
+    kappa: float = 0.0
+    mu: float = 0.0
+    xi: float = 0.0
+    eps1: float = 0.4
+    alpha: int = 20
+    eps2: float = 0.02
+    beta: int = 30
+    reset_eps_x: float = 0.3
+    reset_eps_y: float = 0.3
+    reset_hold: int = 50
+    vy0: float = 0.0
+    backtrack: int | None = None
+    eps_k: float = 0.0
+    slip_sd: float = 0.002
+    acc_bias_sd: float = 0.03
+    gyro_bias_sd: float = 0.001
+    handover_tau: float = 0.5
+    noise_tau: float = 5.0
+    max_int: float = float("inf")
+    detect: str = "window"
+    slip_tol: float = 0.3
+    slip_window: float = 0.5
+
+    def __post_init__(self) -> None:
+        for name in ("r", "L1", "dt", "window", "window_d", "eps1", "eps2", "handover_tau",
+                     "noise_tau", "max_int", "slip_tol", "slip_window"):
+            if not getattr(self, name) > 0:
+                raise ParameterError(f"algebraic: {name} must be > 0, got {getattr(self, name)}")
+        for name in ("eps_k", "slip_sd", "acc_bias_sd", "gyro_bias_sd"):
+            if not getattr(self, name) >= 0:
+                raise ParameterError(f"algebraic: {name} must be >= 0, got {getattr(self, name)}")
+        for name in ("alpha", "beta", "reset_hold", "backtrack"):
+            v = getattr(self, name)
+            if v is None and name == "backtrack":
+                continue
+            if int(v) != v or v < 0:
+                raise ParameterError(f"algebraic: {name} must be an integer >= 0, got {v}")
+        if self.detect not in ("window", "seed"):
+            raise ParameterError(f"algebraic: detect must be 'window' or 'seed', got "
+                                 f"{self.detect!r}")
+        if self.N < 1:
+            raise ParameterError(
+                f"algebraic: N must be >= 1 (derivatives are needed), got {self.N}")
+        self.filters()  # validates the windows against N
+
+    @property
+    def k_window(self) -> int:
+        """``slip_window`` in samples (at least 2)."""
+        return max(2, int(round(self.slip_window / self.dt)))
+
+    @property
+    def n_back(self) -> int:
+        """Backtracking depth in samples: ``k_window`` for the window detection, else
+        ``backtrack`` (default ``alpha``)."""
+        if self.detect == "window":
+            return self.k_window
+        return int(self.alpha if self.backtrack is None else self.backtrack)
+
+    def filters(self) -> tuple[dif.Config, dif.Config]:
+        """Differentiator configurations (value, first derivative)."""
+        kw = dict(N=self.N, kappa=self.kappa, mu=self.mu, xi=self.xi)
+        return (dif.Config.from_window(self.window, self.dt, n=0, **kw),
+                dif.Config.from_window(self.window_d, self.dt, n=1, **kw))
+
+    def taps(self) -> tuple[np.ndarray, np.ndarray]:
+        """FIR taps (value, derivative) zero-padded to one common length."""
+        c0, c1 = self.filters()
+        b0, b1 = c0.taps(), c1.taps()
+        L = max(b0.size, b1.size)
+        return np.pad(b0, (0, L - b0.size)), np.pad(b1, (0, L - b1.size))
+
+    def scalars(self) -> np.ndarray:
+        b0, b1 = self.taps()
+        return np.array([self.r, self.L1, self.dt, self.eps1, self.alpha, self.eps2, self.beta,
+                         self.reset_eps_x, self.reset_eps_y, self.reset_hold, self.vy0,
+                         self.n_back, self.eps_k, self.slip_sd, self.acc_bias_sd,
+                         self.gyro_bias_sd, self.handover_tau, self.noise_tau,
+                         float(np.linalg.norm(b0)), float(np.linalg.norm(b1)), self.max_int,
+                         1.0 if self.detect == "window" else 0.0, self.slip_tol,
+                         self.k_window])
+
+
+class State(NamedTuple):
+    """Ring buffers ``buf`` (4, L) of ``INPUTS``; ``hist`` (3, backtrack + 2) of past ``Vx``,
+    its variance and the integration increments ``Ts (gamma_x + psi_dot Vy)``; ``s`` (41,)
+    packed scalars (``G``, ``V``, hold counters, held inputs, noise statistics, variances;
+    see the ``_*`` indices in :mod:`vibrospeed.estimators.algebraic.core`)."""
+
+    buf: np.ndarray
+    hist: np.ndarray
+    s: np.ndarray
+
+    @property
+    def vx(self) -> float:
+        return float(self.s[_VX])
+
+    @property
+    def vy(self) -> float:
+        return float(self.s[_VY])
+
+
+def init(config: Config) -> State:
+    """Empty state: the first finite sample fills the buffers and sets ``Vx = r omega_mean``."""
+    L = config.taps()[0].size
+    s = np.zeros(_NS)
+    s[_LAST:_LAST + 4] = np.nan
+    return State(np.zeros((4, L)), np.zeros((4, config.n_back + 2)), s)

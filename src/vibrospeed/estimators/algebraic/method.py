@@ -1,0 +1,90 @@
+"""The algebraic method's entry point (:func:`estimate`, ``-m algebraic``): a recording's yaw
+rate, accelerations and four wheel speeds (their mean) in, Vx and Vy as a Track out; a
+non-uniform time line is resampled to its median period and the results interpolated back."""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+
+import numpy as np
+
+from vibrospeed.config import config_from_params
+from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators.algebraic.config import OUTPUTS, Config
+from vibrospeed.estimators.algebraic.filter import run
+from vibrospeed.types import WHEEL_CHANNELS, Recording, Track
+
+
+def _uniform_grid(recording: Recording) -> tuple[np.ndarray, bool]:
+    t = recording.t
+    if recording.is_uniform(0.05):
+        return t, False
+    dt = recording.dt
+    n = int(np.ceil((t[-1] - t[0]) / dt - 1e-9)) + 1  # the grid covers the last time stamp
+    return t[0] + dt * np.arange(n), True
+
+
+def _interp_finite(tq: np.ndarray, t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Linear interpolation over the finite samples, edge values held outside them."""
+    ok = np.isfinite(x)
+    if ok.sum() < 2:
+        return np.full(tq.shape, np.nan)
+    return np.interp(tq, t[ok], x[ok])
+
+
+def estimate(
+    recording: Recording,
+    *,
+    axis: str | None = None,
+    wheel_radius: float | None = None,
+    params: dict | None = None,
+    progress: bool = False,
+    return_posterior: bool = False,
+) -> Track:
+    """Vx (``speed``) and Vy (``extras['vy']``) of a recording with ``gz, ax, ay`` and the four
+    ``wheel_omega_*`` channels.
+
+    ``wheel_radius``: argument, else ``recording.wheel_radius``, else ``meta['wheel_radius']``.
+    ``params`` may set any :class:`Config` field; ``L1`` defaults to ``meta['L1']``. ``axis`` is
+    not used (the channels are fixed). A non-uniform time line is resampled (linear
+    interpolation) to its median period and the results interpolated back.
+    """
+    del axis, progress
+    src = recording.source or "recording"
+    params = dict(params or {})
+    recording.require("gz", "ax", "ay", *WHEEL_CHANNELS)
+    r = wheel_radius or params.pop("r", None) or recording.wheel_radius
+    r = r or recording.meta.get("wheel_radius")
+    if not r:
+        raise ParameterError(f"{src}: the algebraic method needs the wheel radius (--wheel-radius)")
+    L1 = params.pop("L1", None) or recording.meta.get("L1")
+    if not L1:
+        raise ParameterError(f"{src}: the algebraic method needs L1, the CG to front axle "
+                             "distance in m (--param L1=...)")
+    if len(recording) < 3:
+        raise InputError(f"{src}: fewer than 3 samples")
+    tg, resampled = _uniform_grid(recording)
+    dt = float(np.median(np.diff(tg)))
+    cfg = config_from_params(Config, params, r=float(r), L1=float(L1), dt=dt)
+    W = np.stack([recording.channel(c) for c in WHEEL_CHANNELS], axis=1)
+    fin = np.isfinite(W)
+    cnt = fin.sum(axis=1)
+    wm = np.full(len(recording), np.nan)
+    wm[cnt > 0] = np.where(fin, W, 0.0).sum(axis=1)[cnt > 0] / cnt[cnt > 0]  # mean of finite
+    cols = [recording.channel("gz"), recording.channel("ax"), recording.channel("ay"), wm]
+    if resampled:
+        cols = [_interp_finite(tg, recording.t, c) for c in cols]
+    _, out = run(cfg, np.stack(cols, axis=1))
+    notes = [f"algebraic: r = {cfg.r:g} m, L1 = {cfg.L1:g} m, Ts = {dt * 1e3:.4g} ms, windows "
+             f"{cfg.window:g} / {cfg.window_d:g} s, N = {cfg.N}"]
+    if resampled:
+        notes.append(f"non-uniform time line resampled to {dt * 1e3:.4g} ms and back (linear)")
+        out = np.stack([_interp_finite(recording.t, tg, out[:, j]) for j in range(out.shape[1])],
+                       axis=1)
+    extras = {name: out[:, j].copy() for j, name in enumerate(OUTPUTS)
+              if name not in ("vx", "vx_std")}
+    return Track.from_speed(
+        recording.t, out[:, 0], out[:, OUTPUTS.index("vx_std")], wheel_radius=float(r),
+        method="algebraic",
+        params={k: v for k, v in asdict(cfg).items()}, extras=extras, notes=notes,
+    )
