@@ -156,11 +156,13 @@ def columns(config: Config, res: Result, sm, omap: np.ndarray,
         p_null, p_half, p_double = res.p_null, res.p_half, res.p_double
         p_third, p_triple = res.p_third, res.p_triple
         o_mode, p_mode, o_mean = res.omega_mode, res.p_mode, res.omega_mean
+        o_mode_std = res.omega_mode_std
     else:
         omega, std, lo, hi = sm.omega, sm.omega_std, sm.omega_lo, sm.omega_hi
         p_null, p_half, p_double = sm.p_null, sm.p_half, sm.p_double
         p_third, p_triple = sm.p_third, sm.p_triple
         o_mode, p_mode, o_mean = sm.omega_mode, sm.p_mode, sm.omega
+        o_mode_std = sm.omega_mode_std
         if config.point == "mode":
             omega = o_mode
     conf = 1.0 - p_null
@@ -170,7 +172,7 @@ def columns(config: Config, res: Result, sm, omap: np.ndarray,
         "p_double": p_double, "p_third": p_third, "p_triple": p_triple, "confidence": conf,
         "has_signal": (conf >= 0.5).astype(np.float64),
         "ambiguous": (amb >= 0.05).astype(np.float64), "rms": rms,
-        "omega_mode": o_mode, "p_mode": p_mode,
+        "omega_mode": o_mode, "p_mode": p_mode, "omega_mode_std": o_mode_std,
         "multimodal": (p_mode < config.mode_share).astype(np.float64),
     }
     if config.point == "mode":

@@ -58,9 +58,11 @@ class State(NamedTuple):
 #: MAP grid point, predictive log-likelihood ``log p(y_k | y_1..k-1)``, mass of "no line",
 #: masses near MAP/2, 2 MAP, MAP/3, 3 MAP, amplitudes (M,) at the MAP point, the grid
 #: posterior (N,) of the signal part, the mode window's mean and its basin's mass, the
-#: posterior mean (``omega`` is the mode's mean with ``point="mode"``)
+#: posterior mean (``omega`` is the mode's mean with ``point="mode"``), the spread of omega
+#: within the mode's basin about the mode's mean
 ESTIMATE_EXTRAS = ("omega_map", "loglik", "p_null", "p_half", "p_double", "amplitudes",
-                   "posterior", "p_third", "p_triple", "omega_mode", "p_mode", "omega_mean")
+                   "posterior", "p_third", "p_triple", "omega_mode", "p_mode", "omega_mean",
+                   "omega_mode_std")
 
 
 class Result(NamedTuple):
@@ -85,6 +87,7 @@ class Result(NamedTuple):
     omega_mode: np.ndarray | None = None  # mean of the highest-mass window (the mode)
     p_mode: np.ndarray | None = None  # the basin's share of the signal mass
     omega_mean: np.ndarray | None = None  # the posterior mean (= omega unless point="mode")
+    omega_mode_std: np.ndarray | None = None  # spread within the mode's basin (rad/s)
 
     @property
     def has_signal(self) -> np.ndarray:
@@ -151,7 +154,8 @@ def _build_tables(config: Config) -> Tables:
 _HEAD = (cols.COL_STD, cols.COL_MAP, cols.COL_LO, cols.COL_HI, cols.COL_LOGLIK, cols.COL_P_NULL,
          cols.COL_P_HALF, cols.COL_P_DOUBLE)
 #: the fields after ``amplitudes, posterior`` (Estimate) / ``..., final`` (Result)
-_TAIL = (cols.COL_P_THIRD, cols.COL_P_TRIPLE, cols.COL_MODE, cols.COL_P_MODE, cols.COL_MEAN)
+_TAIL = (cols.COL_P_THIRD, cols.COL_P_TRIPLE, cols.COL_MODE, cols.COL_P_MODE, cols.COL_MEAN,
+         cols.COL_MODE_STD)
 
 
 def _point_and_columns(config: Config, rows: np.ndarray) -> list:
@@ -192,8 +196,8 @@ def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Est
     head = _point_and_columns(config, out)
     vals = dict(zip(("omega", "omega_std", "omega_map", "omega_lo", "omega_hi", "loglik",
                      "p_null", "p_half", "p_double"), head, strict=True))
-    vals.update(zip(("p_third", "p_triple", "omega_mode", "p_mode", "omega_mean"),
-                    (out[c] for c in _TAIL), strict=True))
+    vals.update(zip(("p_third", "p_triple", "omega_mode", "p_mode", "omega_mean",
+                     "omega_mode_std"), (out[c] for c in _TAIL), strict=True))
     vals["amplitudes"] = out[N_OUT_FIXED:].copy()
     vals["posterior"] = post
     est = Estimate(vals["omega"], vals["omega_std"], vals["omega_lo"], vals["omega_hi"],

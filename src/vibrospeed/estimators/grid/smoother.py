@@ -72,6 +72,7 @@ class Smoothed(NamedTuple):
     p_triple: np.ndarray | None = None
     omega_mode: np.ndarray | None = None  # mean of the highest-mass window (the mode)
     p_mode: np.ndarray | None = None  # the basin's share of the signal mass
+    omega_mode_std: np.ndarray | None = None  # spread within the basin about omega_mode
 
 
 class Path(NamedTuple):
@@ -243,7 +244,7 @@ def _result(outs: np.ndarray, posts: np.ndarray | None) -> Smoothed:
                                            c.COL_HI, c.COL_P_NULL, c.COL_P_HALF,
                                            c.COL_P_DOUBLE)),
                     posts, *(outs[:, i] for i in (c.COL_P_THIRD, c.COL_P_TRIPLE, c.COL_MODE,
-                                                  c.COL_P_MODE)))
+                                                  c.COL_P_MODE, c.COL_MODE_STD)))
 
 
 def _emissions(gll: np.ndarray, N: int) -> np.ndarray:

@@ -1,6 +1,7 @@
 """Posterior summaries of grid weights, shared by the filter and the smoother: mean, std,
-MAP, credible band (piecewise-uniform cells), mode window and its basin, masses near MAP/2,
-2 MAP, MAP/3, 3 MAP. The columns of a summary row are named here (``COL_*``)."""
+MAP, credible band (piecewise-uniform cells), mode window, its basin and the spread of omega
+within it, masses near MAP/2, 2 MAP, MAP/3, 3 MAP. The columns of a summary row are named
+here (``COL_*``)."""
 
 from __future__ import annotations
 
@@ -10,12 +11,13 @@ from numba import njit
 #: columns of a summary row: posterior mean given a line (rad/s), std and band of the mixture
 #: (the "no line" mass spread over the grid), MAP grid point, predictive log-likelihood (filter
 #: only), "no line" mass, masses near MAP/2, 2 MAP, MAP/3, 3 MAP (shares of the signal mass),
-#: mean of the mode window (rad/s) and its basin's share of the signal mass
+#: mean of the mode window (rad/s), its basin's share of the signal mass, and the spread of
+#: omega within that basin about the mode's mean (rad/s; the mixture's std covers all modes)
 COL_MEAN, COL_STD, COL_MAP, COL_LO, COL_HI, COL_LOGLIK = 0, 1, 2, 3, 4, 5
 COL_P_NULL, COL_P_HALF, COL_P_DOUBLE, COL_P_THIRD, COL_P_TRIPLE = 6, 7, 8, 9, 10
-COL_MODE, COL_P_MODE = 11, 12
+COL_MODE, COL_P_MODE, COL_MODE_STD = 11, 12, 13
 #: fixed columns per row; the filter appends the M amplitudes at the MAP point after them
-N_OUT_FIXED = 13
+N_OUT_FIXED = 14
 
 
 @njit(cache=True)
@@ -115,7 +117,10 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, 
     out[COL_MODE] = mb / sb if sb > 0.0 else grid[jb]
     # its basin: the windows reached from jb by non-increasing window mass; p_mode is the
     # signal mass they cover (1e-12: the running sums' rounding, so a flat posterior is one
-    # basin)
+    # basin); the within-mode spread is the root-mean-square distance of omega from the
+    # mode's mean over the basin, sqrt(sum_basin w_j (g_j - mode)^2 / sum_basin w_j): the
+    # spread of the posterior given the mode, about the point the mode reports
+    mode = out[COL_MODE]
     a = jb
     while a > 0 and v[a - 1] <= v[a] + 1e-12:
         a -= 1
@@ -125,11 +130,15 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, 
     x_lo = grid[a] - max(amb_abs, amb_rel * grid[a])
     x_hi = grid[b] + max(amb_abs, amb_rel * grid[b])
     sb = 0.0
+    ss = 0.0
     for j in range(N):
         if grid[j] >= x_lo and grid[j] <= x_hi:
             sb += w[j]
+            d = grid[j] - mode
+            ss += w[j] * d * d
     sig = 1.0 - w0
     out[COL_P_MODE] = min(1.0, sb / sig) if sig > 1e-300 else 1.0
+    out[COL_MODE_STD] = np.sqrt(ss / sb) if sb > 0.0 else 0.0
     if sig > 1e-300:
         x = grid[jmap]
         out[COL_P_HALF] = _mass_near(w, grid, x / 2.0, amb_rel, amb_abs) / sig
