@@ -1,6 +1,7 @@
 """Large recordings read in chunks: memory bounded by one chunk, not by the file.
 
-:func:`read` (canonical CSV, Parquet) builds the whole :class:`~vibrospeed.types.Recording`:
+:func:`read` (canonical CSV, Parquet, a CSV through a column mapping) builds the whole
+:class:`~vibrospeed.types.Recording`:
 a 24-hour 100 Hz log with six channels is ~400 MB of float64 once read, more while it is
 parsed. :class:`ChunkedRecording` hands the same samples out ``chunk_rows`` rows at a time
 (:class:`Chunk`), for work that streams: the causal trackers
@@ -8,7 +9,16 @@ parsed. :class:`ChunkedRecording` hands the same samples out ``chunk_rows`` rows
 the chunks gives exactly what the whole-file reader gives (same float64 values, same errors at
 the same file lines); the checks that need the whole file are done as the chunks pass: time
 strictly increasing across chunk boundaries (a stream cannot be sorted: ``--sort`` is for whole
-reads), a channel with no number at all (raised at the end), NaN counts (notes at the end).
+reads), a channel with no number at all, NaN counts (notes at the end). The whole-file readers
+raise a bad cell before an all-NaN channel before a time error, wherever each is in the file;
+so does a pass here: a time error is kept and raised when the file is exhausted (the chunks
+before it have been handed out by then).
+
+A CSV read through a column mapping (``columns="t=time:ms,ay=acc_y:g"``, a TOML
+``mapping_file``, ``rate`` for a file without a time column; :mod:`vibrospeed.io.mapped`)
+streams the same way: each chunk's columns scaled to SI as the whole-file reader scales them
+(``(raw * scale + offset) * factor``, element by element: the same float64 values), the time
+line ``i / rate`` counted from the file's first row, the same notes and errors.
 
 Example::
 
@@ -30,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from vibrospeed.errors import ReaderError
+from vibrospeed.errors import ParameterError, ReaderError
 from vibrospeed.io._csv import CHUNK_ROWS, CsvTable, open_text
 from vibrospeed.io.timebase import check_increasing
 from vibrospeed.types import Recording
@@ -55,7 +65,9 @@ class Chunk:
 
 @dataclass
 class ChunkedRecording:
-    """A canonical CSV or Parquet recording read ``chunk_rows`` rows at a time.
+    """A canonical CSV or Parquet recording, or a CSV through a column mapping (``columns``,
+    ``mapping_file``, ``rate`` as for :func:`vibrospeed.io.read`; format ``mapped``), read
+    ``chunk_rows`` rows at a time.
 
     Iterating yields :class:`Chunk` s (a new pass reads the file again). ``channels`` (names),
     ``units``, ``wheel_radius``, ``axes``, ``meta`` come from the header / metadata before the
@@ -66,6 +78,9 @@ class ChunkedRecording:
     path: str | os.PathLike[str]
     chunk_rows: int = CHUNK_ROWS
     fmt: str = "auto"
+    columns: str | None = None
+    mapping_file: str | os.PathLike[str] | None = None
+    rate: float | None = None
     channels: list[str] = field(init=False, default_factory=list)
     units: dict[str, str] = field(init=False, default_factory=dict)
     wheel_radius: float | None = field(init=False, default=None)
@@ -79,14 +94,23 @@ class ChunkedRecording:
         if self.chunk_rows < 1:
             raise ValueError(f"chunk_rows must be at least 1, got {self.chunk_rows}")
         fmt = self.fmt
+        mapped = self.columns is not None or self.mapping_file is not None or self.rate is not None
         if fmt == "auto":
-            fmt = "parquet" if p.suffix.lower() in (".parquet", ".pq") else "csv"
-        if fmt not in ("csv", "parquet"):
-            raise ReaderError(p, f"chunked reading supports csv and parquet, not '{fmt}'")
+            fmt = "mapped" if mapped else "parquet" if p.suffix.lower() in (".parquet", ".pq") \
+                else "csv"
+        if fmt not in ("csv", "parquet", "mapped"):
+            raise ReaderError(p, f"chunked reading supports csv, parquet and mapped, not '{fmt}'")
+        if mapped and fmt != "mapped":  # as vibrospeed.io.read says it
+            k = next(k for k in ("columns", "mapping_file", "rate")
+                     if getattr(self, k) is not None)
+            raise ParameterError(f"{p}: format '{fmt}' does not take option '{k}'")
         self.fmt = fmt
         self._side_notes: list[str] = []
+        self._tail_notes: list[str] = []
         if fmt == "csv":
             self._csv_header(p)
+        elif fmt == "mapped":
+            self._mapped_header(p)
         else:
             self._parquet_header(p)
 
@@ -136,6 +160,55 @@ class ChunkedRecording:
             side = side if isinstance(side, dict) else {}
         self._side(side)
 
+    def _mapped_header(self, p: Path) -> None:
+        """The mapping checked as :func:`vibrospeed.io.mapped.read_mapped` checks it (the same
+        messages, in the same order), the header read and every mapped column found."""
+        import math
+
+        from vibrospeed.io.mapped import UNITS, _check_unit, load_mapping, parse_mapping
+        from vibrospeed.types import CHANNEL_UNITS
+
+        spec: dict[str, Any] = {}
+        opts: dict[str, Any] = {}
+        if self.mapping_file is not None:
+            spec, opts = load_mapping(self.mapping_file)
+        if self.columns is not None:
+            spec.update(parse_mapping(self.columns) if isinstance(self.columns, str)
+                        else dict(self.columns))
+        if not spec:
+            raise ParameterError(f"{p}: a column mapping is needed (e.g. --columns "
+                                 "t=time,ay=acc_y)")
+        rate = self.rate if self.rate is not None else opts.get("rate")
+        if "t" in spec and rate is not None:
+            raise ParameterError(f"{p}: give either a time column 't' or a sample rate, not both")
+        if "t" not in spec:
+            if rate is None:
+                raise ParameterError(f"{p}: no time column mapped; map one (t=COLUMN) or give "
+                                     "the sample rate (rate=Hz)")
+            if not (math.isfinite(rate) and rate > 0):
+                raise ParameterError(f"{p}: sample rate must be positive, got {rate}")
+        for name, sp in spec.items():
+            if sp.unit is not None:
+                _check_unit(sp.unit, f"column mapping '{name}'")
+        self._spec, self._opts, self._rate = spec, opts, rate
+        self._srcs = list(dict.fromkeys(sp.column for sp in spec.values()))
+        with open_text(p) as fh:
+            tab = CsvTable(fh, str(p), delimiter=opts.get("delimiter"),
+                           decimal=opts.get("decimal", "."))
+            for c in self._srcs:
+                tab.index(c)  # a missing column: the whole-file reader's error, before any row
+        self.channels = [k for k in spec if k != "t"]
+        self.units = {k: UNITS[sp.unit][1] if sp.unit else CHANNEL_UNITS.get(k, "")
+                      for k, sp in spec.items() if k != "t"}
+        self.meta = {"mapping": {k: sp._asdict() for k, sp in spec.items()}, "rate": rate}
+        text = ", ".join(
+            f"{k}<-{sp.column}" + (f"*{sp.scale:g}" if sp.scale != 1 else "")
+            + (f"+{sp.offset:g}" if sp.offset else "") + (f" [{sp.unit}]" if sp.unit else "")
+            for k, sp in spec.items())
+        self._tail_notes = [f"columns mapped: {text}"]
+        if "t" not in spec:
+            self._tail_notes.append(f"no time column: t = i / {rate:g} Hz")
+
     def _side(self, side: dict[str, Any]) -> None:
         units = side.get("units") if isinstance(side.get("units"), dict) else {}
         self.units = {k: str(v) for k, v in units.items() if k in self.channels}
@@ -147,7 +220,10 @@ class ChunkedRecording:
         self._side_notes = [str(x) for x in notes]
 
     # ---- chunks ---------------------------------------------------------------------------
-    def _raw(self) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray], np.ndarray, list[str]]]:
+    def _raw(self) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray], np.ndarray, list[str],
+                                     dict[str, np.ndarray]]]:
+        """``(t, channels, lines, reader notes, the columns whose NaN are counted)`` per chunk
+        (the file's columns, as the whole-file reader counts them)."""
         p = Path(self.path)
         if self.fmt == "csv":
             with open_text(p) as fh:
@@ -155,7 +231,10 @@ class ChunkedRecording:
                 names = ["t", *self.channels]
                 for cols, lines in tab.iter_chunks(names, chunk_rows=self.chunk_rows):
                     t = cols.pop("t")
-                    yield t, cols, lines, tab.notes
+                    yield t, cols, lines, tab.notes, cols
+            return
+        if self.fmt == "mapped":
+            yield from self._raw_mapped(p)
             return
         from vibrospeed.io.parquet import _pyarrow
 
@@ -170,30 +249,55 @@ class ChunkedRecording:
                 t = cols.pop("t")
                 lines = np.arange(row, row + t.size)
                 row += t.size
-                yield t, cols, lines, []
+                yield t, cols, lines, [], cols
         except (pa.ArrowException, OSError) as exc:
             raise ReaderError(p, f"not a readable Parquet file ({exc})") from None
         if row == 1:
             raise ReaderError(p, "no data rows")
 
+    def _raw_mapped(self, p: Path):
+        spec, tcol = self._spec, (self._spec["t"].column if "t" in self._spec else None)
+        start = 0
+        with open_text(p) as fh:
+            tab = CsvTable(fh, str(p), delimiter=self._opts.get("delimiter"),
+                           decimal=self._opts.get("decimal", "."))
+            for raw, lines in tab.iter_chunks(self._srcs, chunk_rows=self.chunk_rows):
+                chans = {}
+                for name, sp in spec.items():
+                    x = raw[sp.column]
+                    if sp.scale != 1.0 or sp.offset != 0.0 or sp.unit is not None:
+                        x = (x * sp.scale + sp.offset) * sp.factor()
+                    chans[name] = x
+                # t = i / rate: the same float64 division of the same integers as the whole file
+                t = chans.pop("t") if tcol is not None else \
+                    np.arange(start, start + lines.size) / self._rate
+                start += lines.size
+                yield t, chans, lines, tab.notes, {c: x for c, x in raw.items() if c != tcol}
+
     def __iter__(self) -> Iterator[Chunk]:
         src = str(Path(self.path))
-        nan_count = dict.fromkeys(self.channels, 0)
+        nan_count: dict[str, int] = {}
         last: tuple[float, int] | None = None  # (time, line) of the previous chunk's last row
         n = 0
         reader_notes: list[str] = []
-        for t, cols, lines, rnotes in self._raw():
-            if last is None:
-                check_increasing(t, src, rows=lines)
-            else:
-                check_increasing(np.concatenate(([last[0]], t)), src,
-                                 rows=np.concatenate(([last[1]], lines)))
+        late: ReaderError | None = None  # the first time error, raised when the file is read
+        for t, cols, lines, rnotes, counted in self._raw():
+            if late is None:
+                try:
+                    if last is None:
+                        check_increasing(t, src, rows=lines)
+                    else:
+                        check_increasing(np.concatenate(([last[0]], t)), src,
+                                         rows=np.concatenate(([last[1]], lines)))
+                except ReaderError as exc:
+                    late = exc
             if t.size:
                 last = (float(t[-1]), int(lines[-1]))
-            for k, x in cols.items():
-                nan_count[k] += int(np.count_nonzero(np.isnan(x)))
+            for k, x in counted.items():
+                nan_count[k] = nan_count.get(k, 0) + int(np.count_nonzero(np.isnan(x)))
             reader_notes = rnotes
-            yield Chunk(t, cols, lines, n)
+            if late is None:
+                yield Chunk(t, cols, lines, n)
             n += t.size
         notes = []
         for k, nbad in nan_count.items():
@@ -202,8 +306,10 @@ class ChunkedRecording:
                                   column=k)
             if nbad:
                 notes.append(f"channel '{k}': {nbad} empty or NaN cell(s) of {n}")
+        if late is not None:
+            raise late
         self.n = n
-        self.notes = [*self._side_notes, *reader_notes, *notes]
+        self.notes = [*self._side_notes, *reader_notes, *notes, *self._tail_notes]
 
     def read(self) -> Recording:
         """All chunks as one :class:`Recording` (what the whole-file reader gives, without its
