@@ -47,6 +47,33 @@ def test_blocks_equal_whole_log_when_the_look_ahead_reaches_the_end(drive, param
     assert whole.notes == [x for x in blk.notes if not x.startswith("block mode")]
 
 
+@pytest.mark.parametrize("lag, block_s", [(3.0, 13.0), (3.0, 0.5), (1.0, 7.77), (2.2, 30.0),
+                                          (0.05, 4.0)])
+def test_fixed_lag_in_blocks_is_the_whole_log_fixed_lag(drive, lag, block_s):
+    """``smooth=lag``: blocks rounded to whole sub-blocks of the fixed-lag smoother, each with
+    one sub-block of look-ahead, the forward recursion carried: bitwise the whole-log
+    fixed-lag estimate, notes and params included, whatever the block length (shorter than a
+    sub-block too) and whether the evidence is placed mid-frame (lag >= 1.5 s + dt here) or at
+    the frame's end (shorter lags)."""
+    params = {"smooth": "lag", "lag": str(lag)}
+    whole = gm.estimate(drive, axis="y", params=dict(params))
+    blk = blocks.Blocks(drive, axis="y", params=dict(params), block_s=block_s)
+    got = blk.track()
+    _assert_same(whole, got)
+    assert whole.notes == [x for x in got.notes if not x.startswith("block mode")]
+    assert whole.params == blk.params
+    assert blk.nb % blk.L == 0 and blk.la == blk.L
+    assert any("fixed-lag smoother, lag" in x for x in got.notes)
+    assert ("comb evidence placed mid-frame" in " ".join(got.notes)) == (lag >= 1.51)
+
+
+def test_fixed_lag_in_blocks_with_all_axes(drive):
+    params = {"smooth": "lag", "lag": "2.5", "comb_axes": "all"}
+    whole = gm.estimate(drive, axis="y", params=dict(params))
+    _assert_same(whole, blocks.Blocks(drive, axis="y", params=dict(params),
+                                      block_s=11.0).track())
+
+
 def test_blocks_with_a_short_look_ahead_within_tolerance(drive):
     """A 20 s look-ahead (blocks of 10 s): the backward pass starts 20..30 s after a sample
     instead of at the log's end; the chain has forgotten that by then: omega within 1e-6 rad/s,
@@ -81,8 +108,8 @@ def test_evidence_plan_is_the_whole_log_evidence(drive, centre):
 def test_block_mode_refuses_what_it_cannot_do(drive):
     from vibrospeed.errors import ParameterError
 
-    with pytest.raises(ParameterError, match="smooth must be fb or none"):
-        blocks.Blocks(drive, params={"smooth": "lag"})
+    with pytest.raises(ParameterError, match="smooth must be 'none', 'fb' or 'lag'"):
+        blocks.Blocks(drive, params={"smooth": "rts"})
     with pytest.raises(ParameterError, match="no parameter fit"):
         blocks.Blocks(drive, params={"fit": "r"})
 
@@ -190,3 +217,207 @@ def test_read_accelerometer_equals_the_whole_read(tmp_path, monkeypatch, suffix,
     for c in got.channels:
         assert np.array_equal(got.channels[c], want.channels[c], equal_nan=True)
     assert got.wheel_radius == want.wheel_radius
+
+
+# ---- what streams, counted once, and says so -------------------------------------------------
+def _small_blocks(monkeypatch, look_ahead=100.0):
+    monkeypatch.setattr(stream, "STREAM_ROWS", 1000)
+    monkeypatch.setattr(stream, "CHUNK_ROWS", 777)
+    monkeypatch.setattr(blocks, "BLOCK_S", 20.0)
+    monkeypatch.setattr(blocks, "LOOKAHEAD_S", look_ahead)
+
+
+def _whole_and_streamed(tmp_path, monkeypatch, path, *args, look_ahead=100.0):
+    """``vibrospeed estimate path *args`` on the whole-log path, then streamed (small blocks
+    and chunks): the two results' paths and CLI outputs."""
+    r = _cli("estimate", path, *args, "-o", tmp_path / "whole.csv")
+    assert r.exit_code == 0, r.output
+    assert "in blocks" not in r.output
+    with monkeypatch.context() as m:
+        _small_blocks(m, look_ahead)
+        s = _cli("estimate", path, *args, "-o", tmp_path / "streamed.csv")
+    assert s.exit_code == 0, s.output
+    assert "in blocks" in s.output
+    return tmp_path / "whole.csv", tmp_path / "streamed.csv", r.output, s.output
+
+
+def _assert_same_files(whole, streamed, extra_notes=()):
+    """Byte-identical CSVs; sidecars equal but for the block-mode note (and ``extra_notes``
+    put first)."""
+    assert streamed.read_bytes() == whole.read_bytes()
+    a = json.loads(whole.with_name(whole.name + ".json").read_text())
+    b = json.loads(streamed.with_name(streamed.name + ".json").read_text())
+    assert sorted(a) == sorted(b)
+    for k in a:
+        if k not in ("notes", "input"):
+            assert a[k] == b[k], k
+    assert b["notes"][: len(extra_notes)] == list(extra_notes)
+    assert [x for x in b["notes"][len(extra_notes):] if not x.startswith("block mode")] \
+        == a["notes"]
+
+
+def _accel(rec):
+    from vibrospeed.types import Recording
+
+    return Recording(rec.t, {c: rec.channel(c) for c in ("ax", "ay", "az")})
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())  # rich wraps long notes
+
+
+def test_default_method_on_a_streamed_log_with_gps_says_grid(tmp_path, monkeypatch):
+    """Without -m, a log with GPS speed long enough to stream is estimated with grid (fuse
+    holds the whole log): a note says so on stderr and in the sidecar; the output is the
+    whole-log grid estimate's, byte for byte. Short, it is fused (no such note)."""
+    rec = sim.simulate("car", seed=2, duration=60)
+    path = tmp_path / "drive.csv"
+    io.write(rec, path)
+    assert np.isfinite(rec.channel("gps_speed")).any()
+    r = _cli("estimate", path, "-o", tmp_path / "fused.csv")
+    assert r.exit_code == 0 and "method fuse" in r.output
+    assert "are estimated with grid in blocks" not in _one_line(r.output)
+    r = _cli("estimate", path, "-m", "grid", "-o", tmp_path / "whole.csv")
+    assert r.exit_code == 0, r.output
+    _small_blocks(monkeypatch)
+    s = _cli("estimate", path, "-o", tmp_path / "streamed.csv")
+    assert s.exit_code == 0, s.output
+    note = ("the recording has GPS speed, but its 6000 rows are estimated with grid in blocks "
+            "(bounded memory; fuse holds the whole log in memory): -m fuse to fuse it anyway")
+    assert f"note: {note}" in _one_line(s.output)
+    assert "method grid, in blocks" in _one_line(s.output)
+    _assert_same_files(tmp_path / "whole.csv", tmp_path / "streamed.csv", [note])
+    # no GPS speed channel: no such note
+    io.write(_accel(rec), tmp_path / "nogps.csv")
+    s = _cli("estimate", tmp_path / "nogps.csv", "-o", tmp_path / "n.csv")
+    assert s.exit_code == 0 and "in blocks" in s.output
+    assert "GPS" not in s.output
+    assert not any("GPS" in x for x in json.loads((tmp_path / "n.csv.json").read_text())["notes"])
+
+
+@pytest.mark.parametrize("args", [(), ("-m", "grid"), ("-m", "grid", "--lag", "3"),
+                                  ("--smooth",)])
+@pytest.mark.parametrize("streams", [True, False])
+def test_rows_are_counted_once(tmp_path, monkeypatch, args, streams):
+    """Deciding to stream counts the file's rows; the count then sizes the reader's arrays:
+    one count per run, streamed or not, with or without -m."""
+    rec = sim.simulate("car", seed=2, duration=20)
+    path = tmp_path / "drive.csv"
+    io.write(_accel(rec), path)
+    calls = []
+    real = stream.count_rows
+
+    def counting(*a, **k):
+        calls.append(a)
+        return real(*a, **k)
+
+    monkeypatch.setattr(stream, "count_rows", counting)
+    _small_blocks(monkeypatch)
+    if not streams:
+        monkeypatch.setattr(stream, "STREAM_ROWS", 10**9)
+    r = _cli("estimate", path, *args, "-o", tmp_path / "o.csv")
+    assert r.exit_code == 0, r.output
+    assert ("in blocks" in r.output) == streams
+    assert len(calls) == 1
+
+
+def test_streamed_non_uniform_time_line_has_the_whole_logs_notes(tmp_path, monkeypatch):
+    """Jittered time stamps: both paths note the time line and resample it; the same notes,
+    the same bytes."""
+    from vibrospeed.types import Recording
+
+    rec = _accel(sim.simulate("car", seed=2, duration=40))
+    rng = np.random.default_rng(3)
+    t = rec.t + rng.uniform(-2e-3, 2e-3, rec.t.size)
+    io.write(Recording(t, dict(rec.channels)), tmp_path / "jit.csv")
+    whole, streamed, _, out = _whole_and_streamed(tmp_path, monkeypatch, tmp_path / "jit.csv",
+                                                  "-m", "grid")
+    _assert_same_files(whole, streamed)
+    notes = json.loads(whole.with_name("whole.csv.json").read_text())["meta"]["recording_notes"]
+    assert any(n.startswith("non-uniform time line") for n in notes)
+    assert "non-uniform time line" in _one_line(out)
+
+
+def _mapped_file(tmp_path, rec, with_time=True):
+    """``rec``'s accelerometer in g (and time in ms) under other names, a text column first,
+    semicolons."""
+    p = tmp_path / "logger.txt"
+    rows = ["date;time_ms;acc_x;acc_y;acc_z" if with_time else "date;acc_x;acc_y;acc_z"]
+    g = 9.80665
+    for i in range(len(rec)):
+        cells = ["2026-01-01"] + ([repr(float(rec.t[i] * 1e3))] if with_time else [])
+        cells += [repr(float(rec.channel(c)[i] / g)) for c in ("ax", "ay", "az")]
+        rows.append(";".join(cells))
+    p.write_text("\n".join(rows) + "\n")
+    return p
+
+
+def test_streamed_mapped_columns_equal_the_whole_log(tmp_path, monkeypatch):
+    """``--columns "t=time_ms:ms,ax=acc_x:g,..."``: read in chunks through the mapping, the
+    same bytes and sidecar as the whole-file reader's estimate (units, scaling, time line,
+    notes)."""
+    rec = sim.simulate("car", seed=2, duration=45)
+    p = _mapped_file(tmp_path, rec)
+    cols = "t=time_ms:ms,ax=acc_x:g,ay=acc_y:g,az=acc_z:g"
+    whole, streamed, _, out = _whole_and_streamed(tmp_path, monkeypatch, p, "--columns", cols)
+    _assert_same_files(whole, streamed)
+    assert "columns mapped: t<-time_ms [ms]" in _one_line(out)
+
+
+@pytest.mark.parametrize("how", ["toml", "cli"])
+def test_streamed_rate_without_a_time_column_equals_the_whole_log(tmp_path, monkeypatch, how):
+    """No time column: ``t = i / rate`` from a TOML mapping's ``rate`` or ``--rate``, counted
+    from the file's first row in every chunk; scale and offset applied as the whole reader
+    does: the same bytes."""
+    rec = sim.simulate("car", seed=2, duration=45)
+    p = _mapped_file(tmp_path, rec, with_time=False)
+    if how == "toml":
+        m = tmp_path / "map.toml"
+        m.write_text('rate = 100.0\n[columns]\n'
+                     'ax = { column = "acc_x", unit = "g" }\n'
+                     'ay = { column = "acc_y", scale = 2.0, offset = 0.01, unit = "g" }\n'
+                     'az = { column = "acc_z", unit = "g" }\n')
+        args = ("--mapping", m, "-m", "grid")
+    else:
+        args = ("--columns", "ax=acc_x:g,ay=acc_y*2:g,az=acc_z:g", "--rate", "100")
+    whole, streamed, _, out = _whole_and_streamed(tmp_path, monkeypatch, p, *args)
+    _assert_same_files(whole, streamed)
+    assert "no time column: t = i / 100 Hz" in _one_line(out)
+
+
+@pytest.mark.parametrize("bad", ["cell", "time"])
+def test_streamed_mapped_errors_are_the_whole_logs(tmp_path, monkeypatch, bad):
+    """A text cell or time going back far into a mapped file: exit status 2 and the same
+    one-line error, naming the file line and column, on both paths."""
+    rec = sim.simulate("car", seed=2, duration=30)
+    p = _mapped_file(tmp_path, rec)
+    lines = p.read_text().splitlines()
+    parts = lines[2500].split(";")
+    if bad == "cell":
+        parts[3] = "oops"
+    else:
+        parts[1] = "5.0"
+    lines[2500] = ";".join(parts)
+    p.write_text("\n".join(lines) + "\n")
+    cols = "t=time_ms:ms,ax=acc_x:g,ay=acc_y:g,az=acc_z:g"
+    r = _cli("estimate", p, "--columns", cols, "-o", tmp_path / "w.csv")
+    _small_blocks(monkeypatch)
+    s = _cli("estimate", p, "--columns", cols, "-o", tmp_path / "s.csv")
+    assert r.exit_code == s.exit_code == 2
+    assert _one_line(s.output) == _one_line(r.output)
+    assert "line 2501" in _one_line(s.output)
+    assert not (tmp_path / "s.csv").exists()
+
+
+@pytest.mark.parametrize("args", [("--lag", "3"), ("-p", "smooth=lag", "-p", "lag=1.0")])
+def test_streamed_fixed_lag_equals_the_whole_log(tmp_path, monkeypatch, args):
+    """``--lag`` on a streamed log: 20 s blocks (rounded to whole sub-blocks), each with the
+    fixed-lag smoother's own look-ahead (the look-ahead setting is not used: 0 here): the
+    whole-log fixed-lag output byte for byte."""
+    rec = sim.simulate("car", seed=2, duration=45)
+    io.write(_accel(rec), tmp_path / "drive.parquet")
+    whole, streamed, _, out = _whole_and_streamed(tmp_path, monkeypatch,
+                                                  tmp_path / "drive.parquet", "-m", "grid",
+                                                  *args, look_ahead=0.0)
+    _assert_same_files(whole, streamed)
+    assert "fixed-lag smoother exactly as on the whole log" in _one_line(out)

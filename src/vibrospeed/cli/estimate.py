@@ -36,29 +36,42 @@ def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool,
     """``vibrospeed estimate``'s method without ``--method``: ``fuse`` where the recording has
     GPS speed (:func:`vibrospeed.estimators.fuse.suits`; a note says so), else ``grid``. Grid
     options (``grid_only``, a preset fuse lacks) keep ``grid``, and so does a log the grid
-    streams (fuse holds the whole log in memory). Returns the method and the recording where
-    it was read to decide (then not read again), else None."""
+    streams (fuse holds the whole log in memory; where the recording has GPS speed, a note says
+    that too). Returns the method, the recording where it was read to decide (then not read
+    again), else None, and ``(rows, notes)`` where the log streams (its rows counted once,
+    here), False where it was counted and does not, None where it was not counted."""
     from vibrospeed import presets
     from vibrospeed.batch import load_recording
     from vibrospeed.config import parse_params
     from vibrospeed.estimators import fuse
+    from vibrospeed.estimators.common import axis_channel
     from vibrospeed.estimators.grid import stream
 
     if radius_from is not None:
-        return "fuse", None
+        return "fuse", None, None
     if grid_only or (preset is not None and preset not in presets.presets("fuse")):
-        return "grid", None
-    plain = not (columns or mapping or rate or sort or topic)
-    if stream.wants_stream(input, method="grid", params=_params("grid", preset, param), fmt=fmt,
-                           plain_read=plain, plot=plot):
-        return "grid", None
+        return "grid", None, None
+    accel = str(parse_params(param).get("accel_axis", "x"))
+    rows = stream.stream_rows(input, method="grid", params=_params("grid", preset, param),
+                              fmt=fmt, columns=columns, mapping=mapping, rate=rate, sort=sort,
+                              topic=topic, plot=plot)
+    if rows is not None:
+        # fuse.suits from the header: a gps_speed channel with no fix at all is refused by the
+        # reader, so a named one has a fix once the file reads
+        chans = stream.channel_names(input, fmt, columns=columns, mapping=mapping, rate=rate)
+        notes = []
+        if "gps_speed" in chans and axis_channel(accel) in chans:
+            notes.append(f"the recording has GPS speed, but its {rows} rows are estimated with "
+                         "grid in blocks (bounded memory; fuse holds the whole log in memory): "
+                         "-m fuse to fuse it anyway")
+        return "grid", None, (rows, notes)
     rec = load_recording(input, fmt, columns, mapping, rate, sort, topic=topic)
-    if not fuse.suits(rec, str(parse_params(param).get("accel_axis", "x"))):
-        return "grid", rec
+    if not fuse.suits(rec, accel):
+        return "grid", rec, False
     err.print("note: the recording has GPS speed: method fuse (vibration + acceleration + GPS, "
               "one speed with its source per sample, wheel radius learned); -m grid for the "
               "vibration tracker alone")
-    return "fuse", rec
+    return "fuse", rec, False
 
 
 @_friendly
@@ -100,7 +113,8 @@ def estimate(
 
     Without --method: fuse (vibration + acceleration + GPS) where the recording has a GPS speed
     channel with fixes and ax (forward), else grid; grid too with --smooth, --lag,
-    --fit-params, --init-omega, a grid-only preset or a log long enough to be streamed.
+    --fit-params, --init-omega, a grid-only preset or a log long enough to be streamed (a
+    note says so where that log has GPS speed).
 
     Non-uniform (phone) time stamps are resampled to the median rate by linear interpolation;
     NaN samples are bridged by prediction. The band columns are a 98 % credible interval.
@@ -147,12 +161,13 @@ def estimate(
     from vibrospeed.batch import EstimateOptions, estimate_recording, vibration_channel
 
     rec = None  # the recording, where choosing the method read it
+    streamed = None  # (rows, notes) / False where choosing the method counted the rows
     if method is None:
-        method, rec = _default_method(input, radius_from=radius_from, preset=preset,
-                                      param=param, grid_only=smooth or lag is not None
-                                      or fit_params or init_omega is not None,
-                                      plot=plot is not None, fmt=fmt, columns=columns,
-                                      mapping=mapping, rate=rate, sort=sort, topic=topic)
+        method, rec, streamed = _default_method(
+            input, radius_from=radius_from, preset=preset, param=param,
+            grid_only=smooth or lag is not None or fit_params or init_omega is not None,
+            plot=plot is not None, fmt=fmt, columns=columns, mapping=mapping, rate=rate,
+            sort=sort, topic=topic)
     if radius_from is not None:
         if method != "fuse":
             raise ParameterError("--radius-from is for --method fuse (the radius it learned)")
@@ -165,15 +180,19 @@ def estimate(
     from vibrospeed.estimators.grid import stream
 
     try:
-        if rec is None and stream.wants_stream(
-                input, method=method, params=opts.estimator_params(), fmt=fmt,
-                plain_read=not (columns or mapping or rate or sort or topic),
-                plot=plot is not None):  # a long log: in blocks, bounded memory
+        if streamed is None:  # the rows counted once, here or while choosing the method
+            rows = stream.stream_rows(input, method=method, params=opts.estimator_params(),
+                                      fmt=fmt, columns=columns, mapping=mapping, rate=rate,
+                                      sort=sort, topic=topic, plot=plot is not None)
+            streamed = False if rows is None else (rows, [])
+        if rec is None and streamed:  # a long log: in blocks, bounded memory
             st = stream.estimate_file(input, output, params=opts.estimator_params(), axis=axis,
                                       wheel_radius=wheel_radius, fmt=fmt,
-                                      meta={"preset": preset}, progress=sys.stderr.isatty())
+                                      meta={"preset": preset}, progress=sys.stderr.isatty(),
+                                      rows=streamed[0], notes=streamed[1], columns=columns,
+                                      mapping=mapping, rate=rate)
             for note in st.recording_notes + st.notes:
-                err.print(f"note: {note}")
+                err.print(f"note: {note}", markup=False)  # [ms] is a unit here
             err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)")
             return
         est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
@@ -183,7 +202,7 @@ def estimate(
         raise _unknown_hint(method, exc) from None
     rec, track = est.recording, est.track
     for note in rec.notes + track.notes:
-        err.print(f"note: {note}")
+        err.print(f"note: {note}", markup=False)
     err.print(f"wrote {output} ({len(track)} rows, method {method})")
     if plot is not None:
         from vibrospeed.eval.plot import plot_track

@@ -21,6 +21,13 @@ per sample, 12 GiB for a day at 100 Hz. Here the log is cut into blocks of ``blo
 - each block's columns (the Track's, with the standstill and the causal columns) are handed
   out before the next block starts (:meth:`Blocks.__iter__`).
 
+The fixed-lag smoother (``smooth="lag"``) is causal with a delay: its sub-blocks of ``L`` samples
+(:func:`vibrospeed.estimators.grid.smoother.fixed_lag`) each need the data up to ``L`` samples
+past their end and nothing later, so a block (a whole number of sub-blocks) is smoothed with a
+look-ahead of exactly ``L`` samples, its forward recursion carried from the block before, the
+same operations on the same emissions: bitwise the whole-log fixed-lag estimate, no
+approximation.
+
 The pre-filter, the scaling and the standstill detector run on the whole tracked signal
 (float64 arrays of the log's length, ~70 MB per channel for 24 h at 100 Hz), as in the whole-log
 estimate.
@@ -133,9 +140,11 @@ class Blocks:
     order, each with the whole-log estimate's columns and extras, ``standstill`` included);
     ``notes``, ``params``, ``level``, ``wheel_radius`` are the whole-log Track's (the notes
     are complete once the iteration has ended). :meth:`track` puts the blocks together.
-    Smoothing ``fb`` (the default) or ``none`` (the causal filter: exactly the whole-log
-    estimate); no parameter fit. ``block_s``, ``lookahead_s``: default :data:`BLOCK_S`,
-    :data:`LOOKAHEAD_S`; ``progress(done, total)`` is called after each block.
+    Smoothing ``fb`` (the default), ``lag`` (the fixed-lag smoother: blocks rounded to a whole
+    number of its sub-blocks, its own look-ahead; exactly the whole-log estimate) or ``none``
+    (the causal filter: exactly the whole-log estimate); no parameter fit. ``block_s``,
+    ``lookahead_s`` (``fb`` only): default :data:`BLOCK_S`, :data:`LOOKAHEAD_S`;
+    ``progress(done, total)`` is called after each block.
     """
 
     def __init__(self, recording: Recording, *, axis: str = "y",
@@ -146,21 +155,37 @@ class Blocks:
         lookahead_s = LOOKAHEAD_S if lookahead_s is None else float(lookahead_s)
         config, Y, rms, notes = _method._prepare(recording, axis, params)
         tr = config.tracker
-        if tr.smooth not in ("fb", "none"):
-            raise ParameterError(f"block mode: smooth must be fb or none, not '{tr.smooth}'")
         if tr.fit_names:
             raise ParameterError("block mode: no parameter fit (fit= needs the whole log)")
         if not (block_s > 0 and lookahead_s >= 0):
             raise ParameterError(f"block mode: block_s > 0 and lookahead_s >= 0 s, got "
                                  f"{block_s:g} and {lookahead_s:g}")
+        dt = tr.model.dt
+        # as the whole-log estimate (grid.method.estimate): smoothing places each frame's
+        # evidence at its middle; the fixed-lag smoother then runs sub-blocks of lag - W/2 s
+        half = 0.5 * config.frame_len * dt
+        centre = tr.smooth == "fb" or (tr.smooth == "lag" and tr.lag >= half + dt)
+        comb = {k: getattr(config, k) for k in _method._COMB}
+        if tr.smooth == "lag" and centre:
+            comb["lag"] = tr.lag  # the delay the user asked for, recorded as such
+            config = dataclasses.replace(config, tracker=dataclasses.replace(tr,
+                                                                             lag=tr.lag - half))
+            notes.append(f"comb evidence placed mid-frame: fixed-lag blocks of "
+                         f"{tr.lag - half:g} s (= lag - {half:g} s), each sample uses data up "
+                         f"to {tr.lag:g}..{2 * tr.lag - half:g} s after it")
+            tr = config.tracker
         self.recording, self.config, self.axis = recording, config, axis
         self.Y, self.rms = Y, rms
         self.y = Y if Y.ndim == 1 else np.ascontiguousarray(Y[:, 0])
-        dt = tr.model.dt
         self.nb = max(1, int(round(block_s / dt)))
         self.la = max(0, int(round(lookahead_s / dt))) if tr.smooth == "fb" else 0
+        #: samples per fixed-lag sub-block (0: not fixed-lag); blocks hold whole sub-blocks
+        self.L = max(1, int(round(tr.lag / dt))) if tr.smooth == "lag" else 0
+        if self.L:
+            self.nb = max(self.L, self.nb // self.L * self.L)
+            self.la = self.L
         self.progress = progress
-        self.plan = _EvidencePlan(config, Y, centre=tr.smooth == "fb")
+        self.plan = _EvidencePlan(config, Y, centre=centre)
         L = config.frame_len
         if config.comb_weight > 0:
             notes.append(f"harmonic-comb evidence: {config.comb_window:g} s frames every "
@@ -176,14 +201,17 @@ class Blocks:
                          f"{tr.kern.tail:.2g}")
         if tr.smooth == "fb":
             notes.append("forward-backward smoother on the grid; omega_map = Viterbi path")
+        elif tr.smooth == "lag":
+            notes.append(f"fixed-lag smoother, lag {tr.lag:g} s (delay <= 2 lag)")
         if tr.point == "mode":
             notes.append("omega = mean of the MAP mode (point='mode'); the posterior mean is "
                          "in extras['omega_mean']")
         notes.append(f"block mode: {self.nb * dt:g} s blocks"
                      + (f", each smoothed with {self.la * dt:g} s of look-ahead"
-                        if tr.smooth == "fb" else ""))
+                        if tr.smooth == "fb" else "")
+                     + (", the fixed-lag smoother exactly as on the whole log" if self.L
+                        else ""))
         self.notes = notes
-        comb = {k: getattr(config, k) for k in _method._COMB}
         self.params = {**tr.to_dict(), **comb, "axis": axis}
         self.level = tr.level
         self.wheel_radius = wheel_radius or recording.wheel_radius
@@ -226,12 +254,14 @@ class Blocks:
         pending: list[Result] = []  # filter rows from (block start - 1) on
         pos = 0  # next sample for the filter
         smooth = cfg.smooth == "fb"
+        L = self.L  # fixed lag: sub-blocks of L samples, each smoothed with the next L
+        alpha_l = np.empty((min(L, n), N1), dtype=np.float32) if L else None
         for a in range(0, n, nb):
             b = min(a + nb, n)
             e = min(b + la, n)
             if e > pos:  # filter up to the look-ahead's end, carrying its state
                 idx, vals = self.plan.rows(pos, e)
-                res = run(cfg, self.y[pos:e], fstate, return_grid_loglik=smooth,
+                res = run(cfg, self.y[pos:e], fstate, return_grid_loglik=smooth or L > 0,
                           extra=(idx - pos, vals))
                 fstate = res.final
                 pending.append(res)
@@ -269,6 +299,20 @@ class Blocks:
                 path = path[off:off + b - a]
                 omap = np.where(path < grid.size, grid[np.minimum(path, grid.size - 1)], np.nan)
                 delta[:] = carry
+            elif L:  # grid.smoother.fixed_lag's sub-blocks from a, rows counted from a - off
+                gll = _sm._emissions(rows.grid_loglik, grid.size)
+                base = a - off
+                outs = np.zeros((gll.shape[0], _sm.N_OUT_FIXED))
+                posts = np.zeros((1, grid.size), dtype=np.float32)
+                for s0 in range(a, b, L):
+                    s1 = min(s0 + L, n)
+                    _sm._forward_range(gll, s0 - base, s1 - base, lw_f, *fwd, alpha_l, a_s, pr)
+                    t_end = min(s0 + 2 * L, n) - 1 - base
+                    _sm._smooth_range(alpha_l, s0 - base, gll, t_end, s0 - base, s1 - base,
+                                      np.ones(N1), *cmn, outs, posts, False)
+                sm = _sm._result(outs[off:off + b - a], None)
+                omap = sm.omega_map
+                del gll, outs
             (omega, std, lo, hi), extras = _app.columns(cfg, blk, sm, omap, self.rms[a:b])
             track = Track.from_omega(self.recording.t[a:b], omega, std, lo=lo, hi=hi,
                                      level=self.level, wheel_radius=self.wheel_radius,

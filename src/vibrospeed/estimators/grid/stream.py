@@ -1,11 +1,12 @@
 """``vibrospeed estimate`` on a long log: read in chunks, estimate in blocks, write as it goes.
 
-Above :data:`STREAM_ROWS` rows a canonical CSV or Parquet recording estimated with the grid
-tracker (offline ``fb`` or causal ``none``, no fit, no plot) takes this path instead of the
-whole-log one (:func:`vibrospeed.batch.estimate_recording`):
+Above :data:`STREAM_ROWS` rows a recording estimated with the grid tracker (offline ``fb``,
+fixed-lag ``lag`` or causal ``none``; no fit, no plot) takes this path instead of the whole-log
+one (:func:`vibrospeed.batch.estimate_recording`) when it is a canonical CSV or Parquet file or
+a CSV read through a column mapping (``--columns``, ``--mapping``, ``--rate``):
 
 1. the file is read ``chunk_rows`` rows at a time (:class:`vibrospeed.io.chunks.ChunkedRecording`,
-   the same values and errors as the whole-file reader), keeping the time line and the
+   the same values, notes and errors as the whole-file reader), keeping the time line and the
    accelerometer channels only (the grid tracker, its standstill detector and the quality flags
    use nothing else); non-uniform time stamps are resampled as the whole-log path does;
 2. the estimate runs block by block (:class:`vibrospeed.estimators.grid.blocks.Blocks`), and
@@ -13,7 +14,9 @@ whole-log one (:func:`vibrospeed.batch.estimate_recording`):
    output, renamed to the output at the end (atomic: an interrupted run leaves the old output),
    then the JSON sidecar, as :func:`vibrospeed.io.write_track` writes it.
 
-Below the threshold, and for anything else, the whole-log path runs: its output is unchanged.
+The file's rows are counted once (:func:`stream_rows`, which decides), and the count sizes the
+arrays the chunks are copied into. Below the threshold, and for anything else, the whole-log
+path runs: its output is unchanged.
 """
 
 from __future__ import annotations
@@ -36,13 +39,15 @@ _CHANNELS = ("ax", "ay", "az")
 
 
 def count_rows(path: str | os.PathLike[str], fmt: str = "auto") -> int | None:
-    """Data rows of a canonical CSV (lines after the header, counted in binary blocks) or a
-    Parquet file (its metadata); None for other formats, folders or unreadable files."""
+    """Data rows of a canonical CSV or a mapped text file (``fmt="mapped"``; lines after the
+    header, counted in binary blocks) or a Parquet file (its metadata); None for other formats,
+    folders or unreadable files."""
     p = Path(path)
     if not p.is_file():
         return None
     kind = fmt if fmt != "auto" else ("parquet" if p.suffix.lower() in (".parquet", ".pq")
                                       else "csv" if p.suffix.lower() == ".csv" else None)
+    kind = "csv" if kind == "mapped" else kind
     try:
         if kind == "parquet":
             import pyarrow.parquet as pq
@@ -60,20 +65,42 @@ def count_rows(path: str | os.PathLike[str], fmt: str = "auto") -> int | None:
     return None
 
 
-def wants_stream(path, *, method: str, params: dict, fmt: str = "auto",
-                 plain_read: bool = True, plot: bool = False,
-                 rows: int | None = None) -> bool:
-    """Whether ``vibrospeed estimate`` takes the streaming path: the grid method, smoothed
-    (``fb``) or causal, no fit, no plot, a canonical CSV / Parquet file read as it is
-    (``plain_read``: no column mapping, rate, sort or topic) of at least :data:`STREAM_ROWS`
-    rows (``rows``: the threshold instead)."""
-    if method != "grid" or plot or not plain_read:
-        return False
+def _mapped(columns, mapping, rate) -> bool:
+    return columns is not None or mapping is not None or rate is not None
+
+
+def stream_rows(path, *, method: str, params: dict, fmt: str = "auto",
+                columns: str | None = None, mapping=None, rate: float | None = None,
+                sort: bool = False, topic: str | None = None, plot: bool = False,
+                threshold: int | None = None) -> int | None:
+    """The file's row count where ``vibrospeed estimate`` takes the streaming path, else None:
+    the grid method, smoothed (``fb``), fixed-lag or causal, no fit, no plot, no sort, no
+    topic, a canonical CSV / Parquet file or a text file through a column mapping
+    (``columns``, ``mapping``, ``rate``; format ``auto`` or ``mapped``) of at least
+    :data:`STREAM_ROWS` rows (or ``threshold``)."""
+    if method != "grid" or plot or sort or topic:
+        return None
     smooth = str(params.get("smooth", "fb"))
-    if smooth not in ("fb", "none") or str(params.get("fit", "")).strip():
-        return False
-    n = count_rows(path, fmt)
-    return n is not None and n >= (STREAM_ROWS if rows is None else rows)
+    if smooth not in ("fb", "none", "lag") or str(params.get("fit", "")).strip():
+        return None
+    kind = fmt
+    if _mapped(columns, mapping, rate):
+        if fmt not in ("auto", "mapped"):
+            return None  # the whole-file reader says why that does not go together
+        kind = "mapped"
+    n = count_rows(path, kind)
+    return n if n is not None and n >= (STREAM_ROWS if threshold is None else threshold) \
+        else None
+
+
+def channel_names(path, fmt: str = "auto", *, columns: str | None = None, mapping=None,
+                  rate: float | None = None) -> list[str]:
+    """The recording's channels as its header (or mapping) names them, nothing read past the
+    header; a channel with no number at all is refused by the reader before any estimate."""
+    from vibrospeed.io.chunks import ChunkedRecording
+
+    return list(ChunkedRecording(path, fmt=fmt, columns=columns, mapping_file=mapping,
+                                 rate=rate).channels)
 
 
 @dataclass
@@ -88,20 +115,25 @@ class Streamed:
 
 
 def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
-                       chunk_rows: int = CHUNK_ROWS):
+                       chunk_rows: int = CHUNK_ROWS, rows: int | None = None,
+                       columns: str | None = None, mapping=None, rate: float | None = None):
     """The recording's time line and accelerometer channels (and ``axis``'s channel), read in
-    chunks; non-uniform time stamps resampled to the median rate as the whole-log path does."""
+    chunks (``columns``, ``mapping``, ``rate``: through a column mapping); the whole-file
+    reader's notes, time-base notes included; non-uniform time stamps resampled to the median
+    rate as the whole-log path does. ``rows``: the file's row count where known (else counted
+    here), the size of the arrays the chunks are copied into."""
     from vibrospeed.estimators.common import axis_channel
     from vibrospeed.io import timebase
     from vibrospeed.io.chunks import ChunkedRecording
     from vibrospeed.types import Recording
 
-    src = ChunkedRecording(path, chunk_rows=chunk_rows, fmt=fmt)
+    src = ChunkedRecording(path, chunk_rows=chunk_rows, fmt=fmt, columns=columns,
+                           mapping_file=mapping, rate=rate)
     keep = ["t", *[c for c in src.channels
                    if c in _CHANNELS or (axis is not None and c == axis_channel(axis))]]
-    # copied chunk by chunk into arrays of the file's length (rows counted first; grown if the
-    # count was short): no list of chunks, no reader buffers kept alive by views into them
-    size = max(count_rows(path, src.fmt) or 0, 1)
+    # copied chunk by chunk into arrays of the file's length (grown if the count was short):
+    # no list of chunks, no reader buffers kept alive by views into them
+    size = max((count_rows(path, src.fmt) if rows is None else rows) or 0, 1)
     out = {c: np.empty(size) for c in keep}
     n = 0
     for chunk in src:
@@ -119,6 +151,7 @@ def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
     rec = Recording(t, ch, units={k: v for k, v in src.units.items() if k in ch},
                     source=str(Path(path)), wheel_radius=src.wheel_radius, notes=list(src.notes),
                     meta=dict(src.meta), **kw)
+    rec.notes.extend(timebase.describe_timebase(rec))  # as the whole-file readers end
     if len(rec) > 2 and not rec.is_uniform(rtol=0.05):
         rec = timebase.resample_uniform(rec)
     return rec
@@ -137,9 +170,14 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
                   wheel_radius: float | None = None, fmt: str = "auto",
                   meta: dict[str, Any] | None = None, progress: bool = False,
                   block_s: float | None = None, lookahead_s: float | None = None,
-                  chunk_rows: int = CHUNK_ROWS) -> Streamed:
+                  chunk_rows: int = CHUNK_ROWS, rows: int | None = None,
+                  columns: str | None = None, mapping=None, rate: float | None = None,
+                  notes: list[str] | None = None) -> Streamed:
     """Estimate ``input_path`` with the grid tracker block by block and write ``output`` (CSV)
-    and ``output.json`` as ``vibrospeed estimate`` does (module docstring)."""
+    and ``output.json`` as ``vibrospeed estimate`` does (module docstring). ``rows``: the
+    file's row count from :func:`stream_rows` (not counted again); ``columns``, ``mapping``,
+    ``rate``: a column mapping; ``notes``: notes put before the estimate's (the sidecar's and
+    the returned ones)."""
     from vibrospeed import __version__
     from vibrospeed.estimators.common import axis_channel, only_axis
     from vibrospeed.estimators.grid import blocks as _blocks
@@ -149,7 +187,8 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     from vibrospeed.io.track import TRACK_COLUMNS
     from vibrospeed.signal.quality import flags_at, recording_quality
 
-    rec = read_accelerometer(input_path, fmt, axis=axis, chunk_rows=chunk_rows)
+    rec = read_accelerometer(input_path, fmt, axis=axis, chunk_rows=chunk_rows, rows=rows,
+                             columns=columns, mapping=mapping, rate=rate)
     axis, axis_note = only_axis(rec, axis)
     use_axis = axis or "y"
     # the quality flags first (their temporaries are the largest per sample), then the estimate
@@ -166,8 +205,9 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
                          progress=bar.update, **kw)
     if axis_note:
         blk.notes.insert(0, axis_note)
+    blk.notes[:0] = list(notes or [])
     names: list[str] | None = None
-    rows = 0
+    n_out = 0
     out = Path(output)
     with bar, atomic_path(out) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
         w = csv.writer(fh, lineterminator="\n")
@@ -181,18 +221,19 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
             cols += [np.asarray(track.extras[k], dtype=np.float64) for k in names[9:]]
             for a in range(0, len(track), 20000):
                 w.writerows(zip(*(_fmt(c[a:a + 20000]) for c in cols), strict=True))
-            rows += len(track)
-    notes = [*blk.notes, *q_notes]
+            n_out += len(track)
+    all_notes = [*blk.notes, *q_notes]
     side_meta = {"version": __version__, "axis": use_axis, "recording_notes": rec.notes,
                  **(meta or {})}
     side = {
         "kind": "track", "method": "grid", "params": jsonable(blk.params), "level": blk.level,
         "wheel_radius": blk.wheel_radius, "version": __version__,
         "input": os.fspath(input_path), "input_sha256": sha256_path(input_path),
-        "columns": names or list(TRACK_COLUMNS), "notes": notes, "meta": jsonable(side_meta),
+        "columns": names or list(TRACK_COLUMNS), "notes": all_notes,
+        "meta": jsonable(side_meta),
     }
     atomic_write_text(Path(f"{out}.json"), json.dumps(side, indent=1, allow_nan=False) + "\n")
-    return Streamed(rows, list(rec.notes), notes, use_axis)
+    return Streamed(n_out, list(rec.notes), all_notes, use_axis)
 
 
 class _Bar:
