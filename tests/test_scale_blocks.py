@@ -3,6 +3,7 @@ and the streamed ``vibrospeed estimate`` against the in-memory one."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -421,3 +422,67 @@ def test_streamed_fixed_lag_equals_the_whole_log(tmp_path, monkeypatch, args):
                                                   *args, look_ahead=0.0)
     _assert_same_files(whole, streamed)
     assert "fixed-lag smoother exactly as on the whole log" in _one_line(out)
+
+
+# ---- the streamed plot ---------------------------------------------------------------------
+def test_stream_plot_spectrogram_is_the_whole_logs(drive):
+    """Frames every 0.25 window (a short log): the whole-log plot's spectrogram
+    (:func:`signal.spectral.spectrogram`, scipy), to rounding, NaN gaps included."""
+    from vibrospeed.signal.spectral import spectrogram
+    from vibrospeed.types import Recording
+
+    x = drive.channel("ay").copy()
+    x[1000:1200] = np.nan
+    rec = Recording(drive.t, {"ay": x})
+    sp = stream.StreamPlot(rec, "ay", len(rec), batch=7)
+    want = spectrogram(x, rec.fs, window_s=3.0, t0=rec.t[0])
+    np.testing.assert_allclose(sp.t, want.t, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(sp.omega, want.omega, rtol=1e-12)
+    np.testing.assert_allclose(sp.power, want.power, rtol=1e-9, atol=1e-12 * want.power.max())
+    assert sp.hop_s == pytest.approx(0.75)
+
+
+def test_stream_plot_decimates_to_its_bounds(drive, monkeypatch):
+    """At most PLOT_FRAMES columns, each the periodogram of its own 3 s window (scipy's,
+    computed here frame by frame), and every k-th sample of the blocks' estimate, however the
+    blocks cut the log."""
+    from scipy.signal import periodogram
+
+    monkeypatch.setattr(stream, "PLOT_FRAMES", 50)
+    monkeypatch.setattr(stream, "PLOT_POINTS", 333)
+    x = drive.channel("ay")
+    sp = stream.StreamPlot(drive, "ay", len(drive))
+    assert sp.power.shape[1] <= 50 and sp.hop_s > 0.75
+    hop = int(round(sp.hop_s * drive.fs))
+    x0 = np.nan_to_num(x - np.nanmean(x))
+    for j in (0, 17, sp.power.shape[1] - 1):
+        _, pw = periodogram(x0[j * hop: j * hop + 300], fs=drive.fs, window="hann",
+                            detrend="constant", scaling="density")
+        np.testing.assert_allclose(sp.power[:, j], pw, rtol=1e-9, atol=1e-12 * pw.max())
+    tr = blocks.Blocks(drive, axis="y", params={"smooth": "none"}, block_s=7.3).track()
+    cuts = [0, 5, 6, 731, 2000, 2001, len(tr)]
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+        part = dataclasses.replace(tr, t=tr.t[a:b], omega=tr.omega[a:b],
+                                   omega_lo=tr.omega_lo[a:b], omega_hi=tr.omega_hi[a:b],
+                                   extras={k: v[a:b] for k, v in tr.extras.items()})
+        sp.add(part)
+    k = sp.k
+    assert k == -(-len(drive) // 333)
+    got = [np.concatenate([p[i] for p in sp._parts]) for i in range(5)]
+    for g, w in zip(got, (tr.t, tr.omega, tr.omega_lo, tr.omega_hi, tr.extras["has_signal"]),
+                    strict=True):
+        assert np.array_equal(g, w[::k], equal_nan=True)
+    assert sp.top == np.nanmax(tr.omega_hi)
+
+
+def test_streamed_plot_is_written_and_the_output_unchanged(tmp_path, monkeypatch):
+    """``--plot`` no longer keeps a long log off the streaming path: the PNG is written, the
+    estimate is the whole-log path's byte for byte."""
+    rec = sim.simulate("car", seed=2, duration=45)
+    io.write(_accel(rec), tmp_path / "drive.csv")
+    whole, streamed, _, out = _whole_and_streamed(
+        tmp_path, monkeypatch, tmp_path / "drive.csv", "--plot", tmp_path / "p.png")
+    _assert_same_files(whole, streamed)
+    assert "decimated spectrogram" in _one_line(out)
+    png = (tmp_path / "p.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000

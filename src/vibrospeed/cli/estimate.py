@@ -93,7 +93,8 @@ def estimate(
                           "start; rbpmf/grid: centre of the initial prior)")] = None,
     preset: PresetOpt = None,
     param: ParamOpt = None,
-    plot: Annotated[Path | None, typer.Option(help="also write a spectrogram plot (PNG)")] = None,
+    plot: Annotated[Path | None, typer.Option(help="also write a spectrogram plot (PNG; on a "
+                    "streamed long log a decimated one, no posterior image)")] = None,
     smooth: Annotated[bool, typer.Option("--smooth", help="offline: forward-backward smoothing "
                       "on the grid (rbpmf, grid; uses the whole log, so the past sees the "
                       "future; grid smooths by default)")]
@@ -190,10 +191,12 @@ def estimate(
                                       wheel_radius=wheel_radius, fmt=fmt,
                                       meta={"preset": preset}, progress=sys.stderr.isatty(),
                                       rows=streamed[0], notes=streamed[1], columns=columns,
-                                      mapping=mapping, rate=rate)
+                                      mapping=mapping, rate=rate, plot=plot)
             for note in st.recording_notes + st.notes:
                 err.print(f"note: {note}", markup=False)  # [ms] is a unit here
             err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)")
+            if plot is not None:
+                err.print(f"wrote {plot} (decimated spectrogram, no posterior image)")
             return
         est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
                                  keep_posterior=plot is not None, meta={"preset": preset},

@@ -35,6 +35,9 @@ import numpy as np
 STREAM_ROWS = 500_000
 #: rows read at a time
 CHUNK_ROWS = 65_536
+#: the streamed plot: spectrogram columns and estimate points, at most
+PLOT_FRAMES = 3000
+PLOT_POINTS = 20_000
 _CHANNELS = ("ax", "ay", "az")
 
 
@@ -74,11 +77,11 @@ def stream_rows(path, *, method: str, params: dict, fmt: str = "auto",
                 sort: bool = False, topic: str | None = None, plot: bool = False,
                 threshold: int | None = None) -> int | None:
     """The file's row count where ``vibrospeed estimate`` takes the streaming path, else None:
-    the grid method, smoothed (``fb``), fixed-lag or causal, no fit, no plot, no sort, no
-    topic, a canonical CSV / Parquet file or a text file through a column mapping
-    (``columns``, ``mapping``, ``rate``; format ``auto`` or ``mapped``) of at least
-    :data:`STREAM_ROWS` rows (or ``threshold``)."""
-    if method != "grid" or plot or sort or topic:
+    the grid method, smoothed (``fb``), fixed-lag or causal, no fit, no sort, no topic, a
+    canonical CSV / Parquet file or a text file through a column mapping (``columns``,
+    ``mapping``, ``rate``; format ``auto`` or ``mapped``) of at least :data:`STREAM_ROWS` rows
+    (or ``threshold``). ``plot`` does not change that (the streamed plot, :class:`StreamPlot`)."""
+    if method != "grid" or sort or topic:
         return None
     smooth = str(params.get("smooth", "fb"))
     if smooth not in ("fb", "none", "lag") or str(params.get("fit", "")).strip():
@@ -172,12 +175,13 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
                   block_s: float | None = None, lookahead_s: float | None = None,
                   chunk_rows: int = CHUNK_ROWS, rows: int | None = None,
                   columns: str | None = None, mapping=None, rate: float | None = None,
-                  notes: list[str] | None = None) -> Streamed:
+                  notes: list[str] | None = None, plot=None) -> Streamed:
     """Estimate ``input_path`` with the grid tracker block by block and write ``output`` (CSV)
     and ``output.json`` as ``vibrospeed estimate`` does (module docstring). ``rows``: the
     file's row count from :func:`stream_rows` (not counted again); ``columns``, ``mapping``,
     ``rate``: a column mapping; ``notes``: notes put before the estimate's (the sidecar's and
-    the returned ones)."""
+    the returned ones); ``plot``: also a PNG of a decimated spectrogram with the estimate
+    (:class:`StreamPlot`), written after the sidecar."""
     from vibrospeed import __version__
     from vibrospeed.estimators.common import axis_channel, only_axis
     from vibrospeed.estimators.grid import blocks as _blocks
@@ -208,6 +212,11 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     blk.notes[:0] = list(notes or [])
     names: list[str] | None = None
     n_out = 0
+    drawing = None
+    if plot is not None:
+        from vibrospeed.batch import vibration_channel
+
+        drawing = StreamPlot(rec, vibration_channel(rec, use_axis), len(rec))
     out = Path(output)
     with bar, atomic_path(out) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
         w = csv.writer(fh, lineterminator="\n")
@@ -222,6 +231,8 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
             for a in range(0, len(track), 20000):
                 w.writerows(zip(*(_fmt(c[a:a + 20000]) for c in cols), strict=True))
             n_out += len(track)
+            if drawing is not None:
+                drawing.add(track)
     all_notes = [*blk.notes, *q_notes]
     side_meta = {"version": __version__, "axis": use_axis, "recording_notes": rec.notes,
                  **(meta or {})}
@@ -233,7 +244,121 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
         "meta": jsonable(side_meta),
     }
     atomic_write_text(Path(f"{out}.json"), json.dumps(side, indent=1, allow_nan=False) + "\n")
+    if drawing is not None:
+        drawing.draw(plot, level=blk.level, method="grid", M=int(blk.params["M"]),
+                     wheel_radius=blk.wheel_radius)
     return Streamed(n_out, list(rec.notes), all_notes, use_axis)
+
+
+class StreamPlot:
+    """What ``vibrospeed estimate --plot`` draws for a streamed log, in bounded memory.
+
+    The spectrogram of ``channel`` (the whole-log plot's: Hann windows of ``window_s``, power
+    density of the mean-removed, NaN-zeroed signal, each segment's mean removed, as
+    :func:`vibrospeed.signal.spectral.spectrogram`) at most :data:`PLOT_FRAMES` columns: frames
+    every 0.25 window (the whole-log plot's hop) or, on a long log, further apart, computed a
+    batch of frames at a time. :meth:`add` keeps every k-th sample of each block's estimate,
+    band and ``has_signal`` (at most :data:`PLOT_POINTS` points) and the largest upper band
+    edge (which sets the spectrogram's height, as in the whole-log plot). No posterior image,
+    no truth or GPS overlay: the streamed reader keeps the accelerometer only.
+    """
+
+    def __init__(self, rec, channel: str, n: int, window_s: float = 3.0, batch: int = 256):
+        from scipy.signal import get_window
+
+        self.channel, self.source = channel, rec.source
+        x = rec.channel(channel)
+        fs = 1.0 / rec.dt
+        nper = int(max(1, min(x.size, max(16, round(window_s * fs)))))
+        hop = max(nper - int(min(nper - 1, round(0.75 * nper))),
+                  -(-(x.size - nper + 1) // PLOT_FRAMES))
+        starts = np.arange(0, max(x.size - nper + 1, 1), hop)
+        mean = np.nanmean(x)
+        win = get_window("hann", nper)
+        scale = 1.0 / (fs * float((win * win).sum()))
+        nf = nper // 2 + 1
+        self.power = np.empty((nf, starts.size))
+        frames = np.lib.stride_tricks.sliding_window_view(x, nper)
+        for i in range(0, starts.size, batch):
+            seg = np.nan_to_num(frames[starts[i:i + batch]] - mean)
+            seg = seg - seg.mean(axis=1, keepdims=True)
+            pw = np.abs(np.fft.rfft(seg * win, axis=1)) ** 2 * scale
+            pw[:, 1:nf - 1 if nper % 2 == 0 else nf] *= 2.0  # one-sided
+            self.power[:, i:i + batch] = pw.T
+        self.t = rec.t[0] + (starts + nper / 2) / fs
+        self.omega = 2 * np.pi * np.fft.rfftfreq(nper, 1.0 / fs)
+        self.hop_s = hop / fs
+        self.fs = fs
+        self.k = max(1, -(-n // PLOT_POINTS))
+        self._done = 0
+        self._parts: list[tuple[np.ndarray, ...]] = []
+        self.top = -np.inf
+
+    def add(self, track) -> None:
+        """Keep the samples of ``track`` (the log's next rows) whose index is a multiple of k."""
+        m = len(track)
+        first = (-self._done) % self.k
+        sel = slice(first, m, self.k)
+        sig = track.extras.get("has_signal")
+        self._parts.append(tuple(np.array(v[sel], dtype=np.float64) for v in (
+            track.t, track.omega, track.omega_lo, track.omega_hi,
+            sig if sig is not None else np.ones(m))))
+        hi = np.asarray(track.omega_hi)
+        if np.isfinite(hi).any():
+            self.top = max(self.top, float(np.nanmax(hi)))
+        self._done += m
+
+    def draw(self, path, *, level: float, method: str, M: int,
+             wheel_radius: float | None) -> None:
+        """The figure: spectrogram with the estimate's harmonics over it; below, the estimate
+        and its band (dimmed where the tracker sees no line); written atomically."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from vibrospeed.io.atomic import atomic_path
+
+        t, om, lo, hi, sig = (np.concatenate([p[i] for p in self._parts]) if self._parts
+                              else np.empty(0) for i in range(5))
+        top = self.top if np.isfinite(self.top) else 60.0
+        omega_max = float(min(np.pi * self.fs, max(30.0, 1.2 * M * top)))
+        keep = self.omega <= omega_max
+        fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(11, 7), sharex=True,
+                                       gridspec_kw={"height_ratios": [3, 2]})
+        db = 10 * np.log10(self.power[keep] + 1e-20)
+        vmax = np.percentile(db, 99.5)
+        ax0.pcolormesh(self.t, self.omega[keep], db, shading="auto", cmap="magma",
+                       vmin=vmax - 45, vmax=vmax)
+        ax0.set_ylabel(f"{self.channel}: omega [rad/s]")
+        ax0.set_ylim(0, omega_max)
+        on = sig > 0.5
+        for m in range(1, M + 1):
+            ax0.plot(t, m * np.where(on, om, np.nan), color="cyan", lw=0.8, alpha=0.9,
+                     label="estimate x m" if m == 1 else None)
+        ax1.fill_between(t, lo, hi, color="tab:blue", alpha=0.25, lw=0,
+                         label=f"{level:.0%} band")
+        ax1.plot(t, np.where(on, np.nan, om), color="tab:blue", lw=0.6, alpha=0.35,
+                 label="estimate, no line seen")
+        ax1.plot(t, np.where(on, om, np.nan), color="tab:blue", lw=1.0,
+                 label=f"estimate ({method})")
+        ax0.legend(loc="upper right", fontsize=8)
+        ax1.set_ylabel("omega [rad/s]")
+        ax1.set_xlabel("t [s]")
+        ax1.legend(loc="upper right", fontsize=8)
+        ax1.grid(alpha=0.3)
+        if wheel_radius:
+            r = wheel_radius
+            sec = ax1.secondary_yaxis("right", functions=(lambda w: w * r, lambda v: v / r))
+            sec.set_ylabel("speed [m/s]")
+        ax0.set_title(f"{self.source or 'recording'} (streamed: spectrogram every "
+                      f"{self.hop_s:.3g} s, estimate every {self.k} samples)")
+        fig.tight_layout()
+        out = Path(path)
+        with atomic_path(out) as tmp:
+            fig.savefig(tmp, dpi=110, format=out.suffix.lstrip(".") or "png",
+                        bbox_inches="tight")
+        plt.close(fig)
 
 
 class _Bar:
