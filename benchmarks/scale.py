@@ -26,12 +26,18 @@ Parts (all in fresh child processes so that peak memory is the run's own):
   the content), in a child that runs the CLI in-process after a 10 s run (compilation apart):
   above :data:`vibrospeed.estimators.grid.stream.STREAM_ROWS` rows it reads in chunks,
   estimates in blocks and appends to its output; CPU, wall and peak RSS of the command.
+* ``options``: the same measurement for what else streams, each through the streaming path and
+  (its threshold raised) the whole-log path, on the 1 h drive (``--options-lengths``): a
+  logger CSV read through ``--columns`` (time in ms, the axes in g, a text column,
+  semicolons), ``--lag 3`` and ``--plot`` on the Parquet file (``--options-modes stream``:
+  the streaming path alone).
 
 Usage (``--write``: ``benchmarks/scale/RESULTS.md`` and ``docs/img/scale.png``)::
 
     PYTHONPATH=src .venv/bin/python benchmarks/scale.py [lengths] [grid] [online] [startup] [read]
-        [stream] [--lengths 60,600,3600] [--methods grid,grid-causal,rbpmf,ekf,stft]
-        [--stream-lengths 3600,21600] [--write]
+        [stream] [options] [--lengths 60,600,3600] [--methods grid,grid-causal,rbpmf,ekf,stft]
+        [--stream-lengths 3600,21600] [--options-lengths 3600] [--options-modes stream,whole]
+        [--write]
 """
 
 from __future__ import annotations
@@ -154,6 +160,100 @@ def child_stream(path: str, short: str) -> dict:
     with open(out / "est.csv") as fh:
         rows = sum(1 for _ in fh) - 1
     return {"wall": wall, "cpu": cpu, "peak": _peak_mib(), "before": before, "n": rows}
+
+
+def child_cli(mode: str, path: str, short: str, args_json: str) -> dict:
+    """``vibrospeed estimate path *args`` in this process after the same on ``short``, on the
+    streaming path (``mode`` "stream": threshold 0 rows) or the whole-log one ("whole")."""
+    from vibrospeed.cli.app import app
+    from vibrospeed.estimators.grid import stream
+
+    stream.STREAM_ROWS = 0 if mode == "stream" else 10**15
+    out = Path(tempfile.mkdtemp())
+    args = [a.replace("{out}", str(out)) for a in json.loads(args_json)]
+    app(["estimate", short, *args, "-o", str(out / "short.csv")], standalone_mode=False)
+    before = _rss_mib()
+    _reset_peak()
+    t0, c0 = time.perf_counter(), time.process_time()
+    app(["estimate", path, *args, "-o", str(out / "est.csv")], standalone_mode=False)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    with open(out / "est.csv") as fh:
+        rows = sum(1 for _ in fh) - 1
+    return {"wall": wall, "cpu": cpu, "peak": _peak_mib(), "before": before, "n": rows}
+
+
+def _write_logger_csv(rec, dest: Path) -> None:
+    """``rec``'s accelerometer as a data logger might write it: ``date;time_ms;acc_x;acc_y;
+    acc_z`` (ms, g, shortest round-trip floats), a chunk of rows at a time."""
+    g = 9.80665
+    with open(dest, "w") as fh:
+        fh.write("date;time_ms;acc_x;acc_y;acc_z\n")
+        for a in range(0, len(rec), 50_000):
+            b = min(a + 50_000, len(rec))
+            cols = [rec.t[a:b] * 1e3, *(rec.channel(c)[a:b] / g for c in ("ax", "ay", "az"))]
+            fh.write("".join(f"2026-01-01;{t!r};{x!r};{y!r};{z!r}\n"
+                             for t, x, y, z in zip(*(c.tolist() for c in cols), strict=True)))
+
+
+OPTIONS = (
+    ("mapped CSV (`--columns t=time_ms:ms,ax=acc_x:g,...`)", "csv",
+     ["-m", "grid", "--columns", "t=time_ms:ms,ax=acc_x:g,ay=acc_y:g,az=acc_z:g"]),
+    ("`--lag 3`", "parquet", ["-m", "grid", "--lag", "3"]),
+    ("`--plot`", "parquet", ["-m", "grid", "--plot", "{out}/p.png"]),
+)
+
+
+def part_options(lengths, tmp: Path, modes=("stream", "whole")) -> list[str]:
+    from vibrospeed import io, sim
+
+    out = ["## What else streams: mapped CSVs, `--lag`, `--plot`", "",
+           "`vibrospeed estimate` on the 1 h `simulate(\"car\", seed=1)` drive (repeated end "
+           "to end for longer logs), each option through the streaming path (the CLI takes it "
+           "above 500 000 rows; here at every length) and through the whole-log path (the "
+           "threshold raised), in fresh processes after a 10 s run of the same command; CPU "
+           "time and peak RSS of the command, the output written. The mapped CSV is a logger's "
+           "file (`date;time_ms;acc_x;acc_y;acc_z`, ms and g, 3 axes only); the others the "
+           "Parquet file of 6 IMU channels.", "",
+           "| what | length | path | CPU s | wall s | peak MiB | before MiB |",
+           "|---|---|---|---|---|---|---|"]
+    short = _imu(sim.simulate("car", seed=1, duration=10.0))
+    io.write(short, tmp / "opt_short.parquet")
+    _write_logger_csv(short, tmp / "opt_short.txt")
+    for L in lengths:
+        k = max(1, int(round(L / 3600.0)))
+        base = tmp / "opt_1h.parquet"
+        rec = _imu(sim.simulate("car", seed=1, duration=min(L, 3600.0)))
+        io.write(rec, base)
+        files = {"parquet": base}
+        if k > 1:
+            files["parquet"] = tmp / f"opt_{k}h.parquet"
+            _write_repeated(base, files["parquet"], k)
+            import pyarrow.parquet as pq
+
+            from vibrospeed.types import Recording
+
+            tab = pq.read_table(files["parquet"], columns=["t", "ax", "ay", "az"])
+            rec = Recording(tab.column("t").to_numpy(),
+                            {c: tab.column(c).to_numpy() for c in ("ax", "ay", "az")})
+            del tab
+        files["csv"] = tmp / f"opt_{k}h.txt"
+        _write_logger_csv(rec, files["csv"])
+        del rec
+        for what, kind, args in OPTIONS:
+            short_p = tmp / ("opt_short.txt" if kind == "csv" else "opt_short.parquet")
+            for mode in modes:
+                r = _child(["cli", mode, str(files[kind]), str(short_p), json.dumps(args)])
+                path = "streamed" if mode == "stream" else "whole log"
+                if "error" in r:
+                    out.append(f"| {what} | {_len(L)} | {path} | - | - | - | {r['error']} |")
+                else:
+                    out.append(f"| {what} | {_len(L)} | {path} | {r['cpu']:.0f} | "
+                               f"{r['wall']:.0f} | {r['peak']:.0f} | {r['before']:.0f} |")
+                print(out[-1], flush=True)
+        for f in files.values():
+            if f != base:
+                f.unlink()
+    return out
 
 
 def _write_repeated(src: Path, dest: Path, times: int) -> None:
@@ -492,6 +592,8 @@ def main(argv=None) -> None:
             res = child_estimate(argv[2], argv[3])
         elif argv[1] == "stream":
             res = child_stream(argv[2], argv[3])
+        elif argv[1] == "cli":
+            res = child_cli(argv[2], argv[3], argv[4], argv[5])
         else:
             res = child_read(argv[3], argv[2] == "1")
         print(json.dumps(res))
@@ -503,6 +605,8 @@ def main(argv=None) -> None:
     ap.add_argument("--whiten-ref", default=None)
     ap.add_argument("--read-length", type=float, default=3600.0)
     ap.add_argument("--stream-lengths", default="3600,21600")
+    ap.add_argument("--options-lengths", default="3600")
+    ap.add_argument("--options-modes", default="stream,whole")
     ap.add_argument("--write", action="store_true")
     a = ap.parse_args(argv)
     lengths = [float(x) for x in a.lengths.split(",")]
@@ -528,6 +632,9 @@ def main(argv=None) -> None:
             text += part_read(tmp, a.read_length) + [""]
         if "stream" in a.parts:
             text += part_stream([float(x) for x in a.stream_lengths.split(",")], tmp) + [""]
+        if "options" in a.parts:
+            text += part_options([float(x) for x in a.options_lengths.split(",")], tmp,
+                                 a.options_modes.split(",")) + [""]
     body = "\n".join(text) + "\n"
     print(body)
     if a.write:
