@@ -119,7 +119,8 @@ from numba import njit
 
 from vibrospeed.config import config_from_params, parse_flag
 from vibrospeed.errors import InputError, ParameterError
-from vibrospeed.models.gps_riss import GpsLagModel, receiver_matrices, transition
+from vibrospeed.estimators.gps_riss import GpsFields
+from vibrospeed.models.gps_riss import receiver_matrices, transition
 from vibrospeed.types import Estimate, Recording, Track
 
 #: ``source`` codes (the CSV column holds the number)
@@ -134,13 +135,14 @@ IV, IA, IB, IR, IG = 0, 1, 2, 3, 4
 
 
 @dataclass(frozen=True)
-class Config:
+class Config(GpsFields):
     """Fusion parameters (SI units).
 
     Parameters
     ----------
-    gps_a, gps_b, gps_delay, gps_pade : GPS receiver lag model (GPS/RISS paper eq. 3-4, see
-        :class:`vibrospeed.models.gps_riss.GpsLagModel`).
+    gps_a, gps_b, gps_delay, gps_pade, min_sats : the GPS receiver lag model (GPS/RISS paper
+        eq. 3-4) and the satellite gate, shared with ``gps-riss``
+        (:class:`vibrospeed.estimators.gps_riss.GpsFields`).
     q_speed, q_accel, q_offset, q_gps, q_radius : process noise intensities per second of v
         ((m/s)^2/s), a (jerk, (m/s^2)^2/s), b ((m/s^2)^2/s), the receiver states and r (m^2/s).
     acc_psd : accelerometer white-noise density ((m/s^2)^2 s = (m/s^2)^2/Hz); a fusion sample
@@ -153,7 +155,7 @@ class Config:
     e_max : clip of the GPS error E (m/s; the paper clips at 5). The default 1000 m/s does not
         clip in practice, so the jump bound of item 2 holds: with a clip, a fix far from a
         speed that drifted in an outage is weighted as if E were ``e_max`` and moves the speed
-        by more than its band.  min_sats : satellite gate.
+        by more than its band.
     vib_rel : relative floor on the wheel frequency's spread.  vib_corr : correlation time (s)
         of the tracker's errors.  vib_gate, vib_penalty : acceptance gate and octave penalty on
         the normalised innovation squared (item 3).
@@ -187,10 +189,6 @@ class Config:
     fuse_rate : Hz of the fusion samples in :func:`estimate` (plus one per GPS fix).
     """
 
-    gps_a: tuple[float, ...] = (0.0, 1.0, -1427.2, -114.2)
-    gps_b: tuple[float, ...] = (0.0, 1427.2)
-    gps_delay: float = 0.0
-    gps_pade: int = 2
     q_speed: float = 1e-4
     q_accel: float = 10.0
     q_offset: float = 5e-3
@@ -200,7 +198,6 @@ class Config:
     r_gps: float = 0.01
     r_gps_sq: float = 0.5
     e_max: float = 1000.0
-    min_sats: float = 7.0
     vib_rel: float = 0.005
     vib_corr: float = 0.05
     vib_gate: float = 16.0
@@ -234,13 +231,13 @@ class Config:
     fuse_rate: float = 25.0
 
     def __post_init__(self) -> None:
-        _ = self.lag
+        self._check_gps("fuse: ")
         for name in ("acc_psd", "r_gps", "vib_rel", "vib_corr", "vib_gate", "r_still",
                      "r_still_acc", "still_gate", "p0_speed", "p0_accel", "p0_offset",
                      "radius0", "radius_std0", "fuse_rate", "octave_tau"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"fuse: {name} must be > 0, got {getattr(self, name)}")
-        for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "e_max", "min_sats",
+        for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "e_max",
                      "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
                      "vib_min_speed", "octave_rel", "vib_relock", "radius_min", "radius_max",
                      "still_relock", "learn_hold", "acq_time", "acq_rel", "acq_change",
@@ -252,12 +249,6 @@ class Config:
         if not 0.0 < self.r_gps_sq < 1.0:
             raise ParameterError(f"fuse: r_gps_sq must be in (0, 1) (it bounds the speed's jump "
                                  f"on a GPS fix), got {self.r_gps_sq}")
-
-    @property
-    def lag(self) -> GpsLagModel:
-        """The GPS receiver model."""
-        return GpsLagModel(a=tuple(self.gps_a), b=tuple(self.gps_b),  # type: ignore[arg-type]
-                           delay=float(self.gps_delay), pade=int(self.gps_pade))
 
     @property
     def n_states(self) -> int:
@@ -682,7 +673,7 @@ def run(config: Config, y, state: State | None = None) -> Result:
     ins = _as_inputs(y)
     t, g, s = ins[0], ins[2], ins[3]
     if state is None:
-        fin = np.flatnonzero(np.isfinite(g) & ~(s < config.min_sats))
+        fin = np.flatnonzero(config.valid_fixes(g, s))
         state = init(config, float(g[fin[0]]) if fin.size else 0.0)
     Ac, qc, p = config._arrays()
     x, P, sc = _unpack(state, Ac.shape[0])
@@ -879,7 +870,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         "gps_speed": g[ends], "gps_sats": s[ends], "omega": vib.omega[ends],
         "omega_std": vib.omega_std[ends], "line": line[ends], "still": _block_all(still, ends),
     }
-    fin = np.flatnonzero(fix & ~(s < cfg.min_sats))
+    fin = np.flatnonzero(cfg.valid_fixes(g, s))
     v0 = float(g[fin[0]]) if fin.size else 0.0
     state0 = init(cfg, v0, radius=r0, radius_std=rs0)
     end, o = run(cfg, arrays, state=state0)

@@ -71,14 +71,52 @@ _OFFSET_MODES = ("state", "integrator", "off")
 
 
 @dataclass(frozen=True)
-class Config:
+class GpsFields:
+    """The GPS receiver and its satellite gate, one definition for every filter that fuses GPS
+    speed (``gps-riss``, ``fuse``: their Configs start with these fields).
+
+    gps_a, gps_b : GPS lag model A_gps (row-major) and B_gps, paper eq. 3-4 (default: the
+        paper's second-order receiver).
+    gps_delay : pure GPS delay (s) in front of the lag, Pade order ``gps_pade`` (1 or 2).
+    min_sats : satellite-count gate (paper: 7): a fix is valid where ``gps_sats >= min_sats``
+        or the count is unknown (NaN).
+    """
+
+    gps_a: tuple[float, ...] = (0.0, 1.0, -1427.2, -114.2)
+    gps_b: tuple[float, ...] = (0.0, 1427.2)
+    gps_delay: float = 0.0
+    gps_pade: int = 2
+    min_sats: float = 7.0
+
+    @property
+    def lag(self) -> GpsLagModel:
+        """The GPS receiver model."""
+        return GpsLagModel(a=tuple(self.gps_a), b=tuple(self.gps_b),  # type: ignore[arg-type]
+                           delay=float(self.gps_delay), pade=int(self.gps_pade))
+
+    def valid_fixes(self, gps_speed: np.ndarray, gps_sats: np.ndarray | None) -> np.ndarray:
+        """Where a fix is valid: finite speed and not fewer than ``min_sats`` satellites."""
+        g = np.asarray(gps_speed, dtype=np.float64)
+        if gps_sats is None:
+            return np.isfinite(g)
+        return np.isfinite(g) & ~(np.asarray(gps_sats, dtype=np.float64) < self.min_sats)
+
+    def _check_gps(self, prefix: str = "") -> None:
+        """Validates the lag model and the gate (the Configs' ``__post_init__``)."""
+        _ = self.lag
+        if not self.min_sats >= 0:
+            raise ParameterError(f"{prefix}min_sats must be >= 0, got {self.min_sats}")
+
+
+@dataclass(frozen=True)
+class Config(GpsFields):
     """Parameters (SI units; physical noise defaults, see the module notes; paper set:
     :meth:`paper`).
 
     Parameters
     ----------
-    gps_a, gps_b : GPS lag model A_gps (row-major) and B_gps, paper eq. 3-4.
-    gps_delay : pure GPS delay (s) in front of the lag, Pade order ``gps_pade`` (1 or 2).
+    gps_a, gps_b, gps_delay, gps_pade, min_sats : the GPS receiver and its satellite gate
+        (:class:`GpsFields`).
     q_speed, q_accel, q_offset, q_gps : process noise intensities per second of the speed
         ((m/s)^2/s, model error), acceleration ((m/s^2)^2/s, jerk), offset ((m/s^2)^2/s, grade
         changes) and receiver states (paper eq. 11 "P" = 5, 4, -, 1).
@@ -87,7 +125,7 @@ class Config:
     r_gps_slope, r_gps_sq : R22 growth per m/s and per (m/s)^2 of the GPS error E (paper: 72, 0).
     e_max : clip of E in m/s (paper: 5).  adaptive : use the adaptive R22 (else r_gps).
     error_mode : "innovation", "kf2" or "states" (module notes, step 4).
-    min_sats : satellite-count gate (paper: 7).  gain : accelerometer calibration gain.
+    gain : accelerometer calibration gain.
     pitch_compensation : apply ``pitch_poly`` (deg, highest power first; paper eq. 14, fitted for
         a motorcycle, so off by default).
     offset_mode : "state", "integrator" (paper VI-b) or "off".
@@ -95,10 +133,6 @@ class Config:
     p0_speed, p0_accel, p0_offset : initial variances.
     """
 
-    gps_a: tuple[float, ...] = (0.0, 1.0, -1427.2, -114.2)
-    gps_b: tuple[float, ...] = (0.0, 1427.2)
-    gps_delay: float = 0.0
-    gps_pade: int = 2
     q_speed: float = 1e-4
     q_accel: float = 10.0
     q_offset: float = 5e-3
@@ -111,7 +145,6 @@ class Config:
     e_max: float = 5.0
     adaptive: bool = True
     error_mode: str = "innovation"
-    min_sats: float = 7.0
     gain: float = 1.0
     pitch_compensation: bool = False
     pitch_poly: tuple[float, ...] = (-0.0183, 0.2822, 0.0207)
@@ -123,13 +156,13 @@ class Config:
     p0_offset: float = 0.25
 
     def __post_init__(self) -> None:
-        _ = self.lag  # validates the lag model
+        self._check_gps()
         for name in ("r_acc_ins", "r_acc_gps", "r_gps", "r_drift", "p0_offset", "p0_speed",
                      "p0_accel", "gain"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
         for name in ("q_speed", "q_accel", "q_offset", "q_gps", "r_gps_slope", "r_gps_sq",
-                     "e_max", "q_drift", "min_sats"):
+                     "e_max", "q_drift"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
         if self.error_mode not in _ERROR_MODES:
@@ -151,12 +184,6 @@ class Config:
                     error_mode="kf2", offset_mode="integrator", p0_speed=100.0, p0_accel=5.0)
         base.update(kw)
         return cls(**base)
-
-    @property
-    def lag(self) -> GpsLagModel:
-        """The GPS receiver model."""
-        return GpsLagModel(a=tuple(self.gps_a), b=tuple(self.gps_b),  # type: ignore[arg-type]
-                           delay=float(self.gps_delay), pade=int(self.gps_pade))
 
     @classmethod
     def with_lag(cls, lag: GpsLagModel, **kw) -> Config:
@@ -525,7 +552,7 @@ def run(config: Config, y: Sample, state: State | None = None) -> Result:
         bad = int(np.flatnonzero(np.diff(t) < 0)[0]) + 1
         raise InputError(f"time goes backwards at sample {bad}")
     if state is None:
-        fin = np.flatnonzero(np.isfinite(g) & ~(s < config.min_sats))
+        fin = np.flatnonzero(config.valid_fixes(g, s))
         state = init(config, float(g[fin[0]]) if fin.size else 0.0)
     Ac, qc, ha, hg, p, poly = config._arrays()
     arrs = _copy_state(state, Ac.shape[0])
@@ -549,8 +576,7 @@ def _run_progress(config: Config, t, ax, g, s, chunk: int = 200_000,
         for k0 in range(0, t.size, chunk):
             sl = slice(k0, k0 + chunk)
             if state is None:
-                fin = np.flatnonzero(np.isfinite(g) & ~(np.asarray(s, float) < config.min_sats)
-                                     ) if s is not None else np.flatnonzero(np.isfinite(g))
+                fin = np.flatnonzero(config.valid_fixes(g, s))
                 state = init(config, float(g[fin[0]]) if fin.size else 0.0)
             o = run(config, Sample(t[sl], ax[sl], g[sl], None if s is None else s[sl]),
                     state=state)
