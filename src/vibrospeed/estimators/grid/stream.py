@@ -213,10 +213,9 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     names: list[str] | None = None
     n_out = 0
     drawing = None
-    if plot is not None:
-        from vibrospeed.batch import vibration_channel
-
-        drawing = StreamPlot(rec, vibration_channel(rec, use_axis), len(rec))
+    if plot is not None:  # the whole-log plot's channel: the axis used, else the first one
+        drawing = StreamPlot(rec, ch if ch in rec.channels else next(iter(rec.channels)),
+                             len(rec))
     out = Path(output)
     with bar, atomic_path(out) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
         w = csv.writer(fh, lineterminator="\n")
