@@ -264,10 +264,13 @@ def _resonance(seed=0, n=3000):
 def test_grid_band_widens_without_a_wheel_line():
     """A single resonance (14 Hz = 88 rad/s) is no wheel comb; the wheel turns at 30 rad/s.
     tracker=rbpmf claims a line at 88 or 44 (its 2nd harmonic) and its band misses the truth;
-    tracker=grid gives the "no line" state weight and its band covers the truth."""
+    tracker=grid gives the "no line" state weight and its band covers the truth. (With the
+    product's walk, q_omega 16: a walk as slow as 1-4 (rad/s)^2/s holds a single steady line
+    long enough for the comb at SNR 1 to take it for a wheel's; the lock preset, q_omega 4,
+    scores the comb at SNR 2.)"""
     rec = _resonance()
     p = {"prefilter": "thesis-hp", "scaling": "rms", "r": 0.15, "q_amp": 0.002, "n_grid": 241,
-         "omega_max": 120.0, "q_omega": 1.0}
+         "omega_max": 120.0}
     late = slice(1000, None)
     rb = aided.estimate(rec, wheel_radius=0.3, params={"tracker": "rbpmf", **p})
     gr = aided.estimate(rec, wheel_radius=0.3, params={"tracker": "grid", **p})

@@ -337,7 +337,8 @@ def test_short_start_frame_scores_a_clean_comb_in_full():
           + 0.05 * rng.normal(size=t.size))
     E = grid.frame_evidence(cfg, fr[None, :])[0, :-1]
     g = cfg.tracker.grid
-    assert abs(g[np.argmax(E)] - 50.0) < 1.0
+    top = g[E >= E.max() - 0.01]  # the capped plateau around the comb
+    assert abs(0.5 * (top.min() + top.max()) - 50.0) < 1.0 and np.ptp(top) < 6.0
     # every harmonic at the cap; the warped rates (which smear a steady comb) cost at most
     # log p0 in the rate average
     full = cfg.comb_weight * (cfg.tracker.model.M * cfg.comb_cap + np.log(cfg.comb_rate_p0))
@@ -356,8 +357,10 @@ def test_warped_evidence_scores_an_accelerating_comb_at_its_current_frequency():
     x = sum(a * np.cos(k * th) for k, a in ((1, 1.0), (2, 0.8), (3, 0.5)))
     x = x + 0.5 * np.random.default_rng(0).normal(size=t.size)
     g = tr.grid
-    warped = grid.frame_evidence(grid.Config(tracker=tr), x[None, :])[0, :-1]
-    flat = grid.frame_evidence(grid.Config(tracker=tr, comb_rates=(0.0,)), x[None, :])[0, :-1]
+    # (an SNR of 2 in the comb's likelihood ratio: the margin below was measured with it)
+    warped = grid.frame_evidence(grid.Config(tracker=tr, comb_snr=2.0), x[None, :])[0, :-1]
+    flat = grid.frame_evidence(grid.Config(tracker=tr, comb_rates=(0.0,), comb_snr=2.0),
+                               x[None, :])[0, :-1]
     assert abs(g[np.argmax(warped)] - om[-1]) < 2.0
     assert abs(g[np.argmax(flat)] - om[-1]) > 10.0
     assert warped.max() > flat.max() + 1.0
@@ -385,7 +388,10 @@ def test_comb_rates_parameter():
 def test_centre_referred_evidence_sits_mid_frame_and_scores_the_middle_frequency():
     tr = rbpmf.improved(rbpmf.Config.from_paper_table1(0.01), n_grid=200, omega_min=10.0,
                         omega_max=120.0)
-    cfg = grid.Config(tracker=tr)
+    # a comb sweeping 40 -> 70 rad/s in the frame scores only ~0.2 nats mid-frame; with the
+    # default SNR of 1 (softer cost of an empty harmonic) a 3/2 alias ties with it, so the
+    # placement is checked with an SNR of 2
+    cfg = grid.Config(tracker=tr, comb_snr=2.0)
     t = np.arange(300) * 0.01
     th = 40 * t + 5 * t ** 2  # omega = 40 + 10 t: 55 rad/s at the frame's middle
     x = sum(a * np.cos(k * th) for k, a in ((1, 1.0), (2, 0.8), (3, 0.5)))
@@ -547,8 +553,8 @@ def test_comb_axes_improve_the_simulated_car_where_one_axis_fades():
     causal filter with all three axes in the comb evidence is within tolerance at least as
     more often than with y alone and reads the standstill as "no line" more often
     (docs/trackers.md follow-up 5: +2 points on 3 seeds, standstill 28 -> 13 %). Measured with
-    the settings of that time (thesis high-pass, temper 0.2), the comb's "no line" state read
-    before the standstill stage (``confidence``)."""
+    the settings of that time (thesis high-pass, temper 0.2, comb SNR 2), the comb's "no line"
+    state read before the standstill stage (``confidence``)."""
     from vibrospeed import sim
 
     rec = sim.simulate("car", seed=1, duration=120)
@@ -557,7 +563,7 @@ def test_comb_axes_improve_the_simulated_car_where_one_axis_fades():
     ok, still = {}, {}
     for name, extra in (("y", {}), ("xyz", {"comb_axes": "xyz"})):
         tr = grid.estimate(rec, axis="y", params={"smooth": "none", "prefilter": "thesis-hp",
-                                                  "temper": 0.2, **extra})
+                                                  "temper": 0.2, "comb_snr": 2.0, **extra})
         err = np.abs(tr.omega - truth)
         ok[name] = np.mean(err[moving] < np.maximum(2.0, 0.1 * truth[moving]))
         still[name] = np.mean(np.asarray(tr.extras["confidence"] >= 0.5)[~moving])

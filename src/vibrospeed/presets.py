@@ -47,7 +47,8 @@ PRESETS: dict[str, dict[str, Preset]] = {
         "default": Preset({}, "smoothed over the whole log (offline; the most accurate)"),
         "online": Preset({"smooth": "none"}, "causal filter: each estimate from past samples "
                          "only (live use, a device)"),
-        "lock": Preset({"smooth": "none", "comb_axes": "all", "q_omega": "4",
+        "lock": Preset({"smooth": "none", "comb_axes": "all", "q_omega": "4", "comb_snr": "2",
+                        "claim_level": "0.5",
                         "amb_rel": "0.02", "amb_abs": "1", "mode_hold": "4"},
                        "causal filter switched on while the vehicle moves: comb evidence from "
                        "every axis, a steady-speed walk, a narrow mode window held against "

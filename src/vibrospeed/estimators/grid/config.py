@@ -115,6 +115,10 @@ class Config:
         unless another window holds more than ``mode_hold`` times its mass, so a second line
         that briefly draws level does not make the point estimate hop.
         The smoothers report the stateless mode.
+    claim_level : posterior probability of "a line is present", ``1 - p_null``, at which the
+        tracker claims a line (``has_signal``); 0.5 is the maximum a-posteriori decision, a
+        higher level trades recall for precision (a decision threshold, not part of the model:
+        the posterior and the point are the same at every level).
     q_omega_fast, p_fast : two-component ("slow cruise / fast acceleration") omega random
         walk (off by default, ``p_fast = 0`` is the paper's kernel): each
         step's increment is drawn from ``(1 - p_fast) N(0, T q_omega) + p_fast N(0, T
@@ -157,6 +161,7 @@ class Config:
     point: str = "mean"
     mode_share: float = 0.9
     mode_hold: float = 1.0
+    claim_level: float = 0.5
     q_omega_fast: float = 0.0
     p_fast: float = 0.0
 
@@ -216,6 +221,8 @@ class Config:
             raise ParameterError(f"p_fast must be in [0, 1], got {self.p_fast}")
         if not 0 < self.mode_share <= 1:
             raise ParameterError(f"mode_share must be in (0, 1], got {self.mode_share}")
+        if not 0 < self.claim_level < 1:
+            raise ParameterError(f"claim_level must be in (0, 1), got {self.claim_level}")
         if not self.mode_hold >= 1:
             raise ParameterError(f"mode_hold must be >= 1, got {self.mode_hold}")
         if not self.lag > 0:
