@@ -130,6 +130,14 @@ SRC_INERTIAL, SRC_GPS, SRC_VIBRATION, SRC_STANDSTILL = 0, 1, 2, 3
 #: octave hypotheses for the tracker's line: the wheel frequency is k * omega
 HARMONIC_FACTORS = (1.0, 0.5, 2.0)
 
+#: the grid tracker's settings under fuse (``-p`` overrides them): the comb scored at SNR 2 and
+#: a line claimed at probability 0.5. The grid's own defaults (SNR 1, claims at 0.9) place
+#: omega better on weak combs, but the radius is learned from the lines it offers: with them
+#: the 30 simulated tunnels learned worse radii (90th percentile error 0.5 -> 3.1 % offline,
+#: 6.6 -> 15.7 % online) and the Hungary drives' offline RMSE with every line used rose 5.5 ->
+#: 9.8 m/s (benchmarks/fuse/RESULTS.md, "Earlier runs").
+TRACKER_DEFAULTS = {"comb_snr": 2.0, "claim_level": 0.5}
+
 # state indices
 IV, IA, IB, IR, IG = 0, 1, 2, 3, 4
 
@@ -845,7 +853,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         raise ParameterError(f"{name}: fuse without gps_speed needs a radius: radius_from= an "
                              "earlier fuse estimate's .json, or --wheel-radius")
     # 1. the vibration tracker (offline smoothed / online causal)
-    tparams = dict(rest)
+    tparams = {**TRACKER_DEFAULTS, **rest}
     if online:
         tparams["smooth"] = "none"
     if vibration is None:
