@@ -129,3 +129,19 @@ def test_track_column(smooth):
     line = (tr.extras["has_signal"] > 0.5) & (tr.extras["p_mode"] > 0.9)
     assert line.mean() > 0.1
     assert np.median(s[line] / tr.omega[line]) < 0.05
+
+
+def test_a_core_compiled_for_another_row_layout_is_refused(monkeypatch):
+    """numba's cache of the compiled core does not follow summary.py: a core that writes a
+    different number of columns per sample than this version reads is a clear error, not
+    shifted columns."""
+    import dataclasses
+
+    import vibrospeed.estimators.grid.filter as filt
+
+    cfg = dataclasses.replace(rbpmf.Config.from_paper_table1(0.01), n_grid=20)
+    y = np.sin(0.5 * np.arange(50))
+    filt.run(cfg, y)  # the layouts agree
+    monkeypatch.setattr(filt, "N_OUT_FIXED", filt.N_OUT_FIXED - 1)
+    with pytest.raises(RuntimeError, match="stale numba cache"):
+        filt.run(cfg, y)

@@ -243,6 +243,12 @@ def run(
     cur = np.array([st.mode_j], dtype=np.int64)
     outs, posts, glls = _run(tables(config), lw, lw0, mean, cov, cur, ys, ex_idx, ex_val,
                              bool(return_posterior), bool(return_grid_loglik))
+    if outs.shape[1] != N_OUT_FIXED + config.model.M:
+        # numba's on-disk cache of core.py does not follow changes to summary.py's row layout
+        raise RuntimeError(f"the compiled grid core writes {outs.shape[1]} columns per sample, "
+                           f"this version reads {N_OUT_FIXED + config.model.M}: a stale numba "
+                           "cache; delete the __pycache__ folders under "
+                           "vibrospeed/estimators/grid")
     return Result(*_point_and_columns(config, outs.T), outs[:, N_OUT_FIXED:],
                   posts if return_posterior else None, glls if return_grid_loglik else None,
                   State(lw, mean, cov, float(lw0[0]), int(cur[0])),
