@@ -108,7 +108,7 @@ def truth(
         rec = tr.ticks_to_truth(tr.read_ticks(ticks, scale=scale), source=str(ticks), **kw)
     io.write(rec, output)
     for note in rec.notes:
-        err.print(f"note: {note}")
+        err.print(f"note: {note}", markup=False)
     err.print(f"wrote {output}: {len(rec)} truth samples over {rec.duration:.1f} s")
 
 
