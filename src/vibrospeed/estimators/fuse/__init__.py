@@ -1,0 +1,203 @@
+"""One speed from every sensor a log has: longitudinal acceleration, GPS speed and the wheel
+vibration's frequency, with the effective wheel radius learned on the way (``--method fuse``).
+
+State ``X = [v, a, b, r, x3, x4, d...]``: speed (m/s), acceleration (m/s^2), accelerometer offset
+b (m/s^2: road slope ``g sin theta``, mount tilt and bias), the effective wheel radius r (m, the
+speed-to-wheel-frequency ratio ``v = r omega``), and the GPS receiver chain of the GPS/RISS model
+(:mod:`vibrospeed.models.gps_riss`: reported speed x3, its derivative x4, Pade delay states).
+Continuous time ``v' = a``, ``a' = w_a``, ``b' = w_b``, ``r' = w_r``,
+``[x3, x4, d]' = Ar [x3, x4, d] + Br v`` (paper eq. 1-2); each step predicts with the exact
+transition ``F = expm(A_c dt)`` and ``Q = diag(q) dt``.
+
+Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph form):
+
+1. accelerometer ``a_m = a + b + e``, ``var e = acc_psd / dt``: the mean of the raw samples over
+   the ``dt`` since the previous fusion sample (white noise of density ``acc_psd``).
+2. GPS speed ``g = x3 + e`` (GPS/RISS paper section VI): used only with ``sats >= min_sats``
+   (a NaN count counts as valid); its variance grows with the part of the innovation the model
+   does not explain, ``R = r_gps + r_gps_sq min(E^2, e_max^2)``, ``E^2 = max(nu^2 - S0, 0)``
+   (paper eq. 13, 18; ``e_max`` large, see :class:`Config`). The change of v this update makes
+   is then at most
+   ``sqrt(P_vv) / (2 sqrt(c (1 - c)))``, c = ``r_gps_sq``, whatever the innovation (from
+   ``S >= (1 - c) S0 + c nu^2 >= 2 sqrt(c (1 - c) S0) |nu|`` and ``|P_v3| <= sqrt(P_vv S0)``):
+   one standard deviation for c = 1/2, so the speed does not jump out of its band when GPS
+   returns after a tunnel.
+3. wheel frequency: the harmonic tracker's omega with posterior spread ``s`` where it claims a
+   line. The line may be the wheel's omega/2 or 2 omega (the tracker's octave errors), so the
+   wheel frequency is ``k omega``, ``k in {1/2, 1, 2}``. Each hypothesis is the *linear*
+   pseudo-measurement ``0 = v - r k omega + e`` (``H = [1, 0, 0, -k omega, 0...]``, exact in the
+   state given the measured omega) with ``var e = (r k)^2 (s^2 + (vib_rel omega)^2)
+   vib_corr / dt``: the tracker's spread plus a relative floor, inflated by the number of fusion
+   samples per correlation time of the tracker's errors (its outputs are not independent from
+   sample to sample). The hypothesis with the smallest normalised innovation squared
+   ``nu^2 / S`` plus ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate`` and
+   the gate is decisive: GPS holds the speed (a fix in the past ``learn_hold`` s), or
+   ``3 sqrt(P_vv + (r k)^2 (s^2 + (vib_rel omega)^2)) <= vib_sep r k omega`` (the band and
+   the line's own spread are narrow against the spacing of the octaves;
+   after a long stretch on the accelerometer alone it is not, and a gate of 4 sigma would pass
+   an idling engine's line or the wrong octave); else the sample has no direct vibration
+   update (re-lock below). No line is used where the filter knows the vehicle to be
+   slower than ``vib_min_speed`` (``v + 3 sqrt(P_vv) < vib_min_speed``): a line claimed at a
+   standstill (an idling engine) would otherwise teach ``r = v / omega = 0``; nor a hypothesis
+   whose radius cannot be physical for any speed within 3 sigma:
+   ``(v + 3 sqrt(P_vv)) / (k omega) < radius_min`` or ``(v - 3 sqrt(P_vv)) / (k omega) >
+   radius_max`` (an engine line while the vehicle starts to roll). Octaves are relative to a
+   known radius: while r is not known within ``octave_rel`` only k = 1 is tried. So the speed
+   prior (GPS, the accelerometer, the radius learned so far) decides an octave, not the
+   tracker's guess. The radius is defined by the
+   line the tracker reports most of the time: an exponential average (time constant
+   ``octave_tau`` s of updates) of ``log2 k`` over the accepted updates beyond +-1/2 means
+   that most recent updates used k = 2 (or 1/2), e.g. after a tracker that locked on the
+   second harmonic at the start taught the radius; then, if r is known within
+   ``octave_rel`` (relative std), ``r <- k r`` (its variance by k^2) and the average restarts at
+   0. The speed is unchanged by this, only the octave of r; the average moves only where GPS
+   holds the speed.
+
+   The radius learns only from GPS and a line together. Away from GPS (no fix in the past
+   ``learn_hold`` s) a wheel-frequency update carries the speed but leaves r and the offset b
+   alone (they are "consider" states, Schmidt: their gains are set to 0 and the Joseph form
+   keeps P exact for those gains), so a wrong line taken in an outage cannot corrupt the
+   radius the next drive reuses, and a line that lags the speed while braking (a causal
+   tracker's) cannot teach the offset the inertial stretches of the outage rest on.
+   The first radius (r not yet known within ``octave_rel``) comes from a line whose ratio
+   ``ln(v / omega)`` to the GPS-held speed has stayed within ``acq_rel`` of its running mean
+   (time constant ``acq_time``) for ``acq_time`` s: a wheel line scales with the speed, an
+   idling engine's line while the vehicle starts to roll does not, and a radius learned from
+   it would gate out the wheel line for the rest of the drive.
+
+   Re-lock (no GPS fix for ``vib_relock`` s, r known): where a claimed line is not taken
+   directly, the gap ``d = r omega - v`` between the line's speed (k = 1, the octave that
+   taught r) and the filter's is followed; if it has stayed within ``acq_rel r omega`` of its
+   running mean for ``vib_relock`` s (the line moves as the accelerometer says the speed
+   does) and either ``|d| <= 3 sqrt(P_vv)`` or the line's speed has changed by ``acq_change``
+   of itself in that run, the filter, not the line, has drifted: ``P_vv`` is increased by
+   ``d^2`` and the line is taken. A constant line far outside the band (an idling engine at a
+   stop in a tunnel) is not taken until it moves with the speed.
+4. standstill: where the vibration tracker reports a stop (no wheel line, broadband vibration and
+   body motion at their floors: the ``standstill`` input), the last valid GPS fix in the past
+   ``gps_hold`` s (if any) is below ``gps_still``, and the speed the accelerometer has
+   integrated is consistent with zero (``v^2 / (P_vv + r_still) <= still_gate`` or
+   ``|v| <= still_speed``), the pseudo-measurements ``v = 0`` and ``a = 0`` (variance
+   ``r_still``, ``r_still_acc``) are applied: zero-velocity updates that also calibrate b.
+   If the other evidence has said "stop" for ``still_relock`` s while only the integrated
+   speed disagrees and no GPS fix came, the integrated speed is what drifted: ``P_vv`` is
+   increased by ``v^2`` and the stop is taken (a step to 0, by design).
+
+5. speed is a magnitude (GPS speed and a wheel frequency are): where the updates leave
+   ``v < 0`` the state is projected onto ``v = 0`` (``x <- x - P[:, v] v / P_vv``, the
+   equality-constrained estimate of Simon & Chia; P unchanged), unless ``nonneg`` is off.
+
+The radius is observable where GPS and a line coincide (``v`` from GPS, ``omega`` from the
+vibration: r is their ratio); through an outage its random walk ``q_radius`` keeps it nearly
+constant and the vibration carries the speed. Without GPS the radius prior must come from an
+earlier drive (:func:`radius_from_json`, the ``radius_from`` parameter) or be given.
+
+``source`` per sample: what the speed rests on, :data:`SOURCES` codes: 3 standstill (a
+zero-speed update here), 1 gps (an accepted fix in the past ``source_hold`` s), 2 vibration
+(a wheel-frequency update here), 0 inertial (the accelerometer alone).
+
+:func:`run` is the forward filter (online); :func:`smooth` the Rauch-Tung-Striebel smoother over
+its stored predictions (offline). :func:`estimate` runs the vibration tracker first (offline: the
+smoothed grid tracker; online: the causal one), reduces the recording to fusion samples at
+``fuse_rate`` Hz plus one at every GPS fix, fuses, and interpolates back to the recording's
+time line.
+
+The fusion filter is a package, one concern per module, each importing only the ones above it:
+
+============  =============================================================================
+``config``    ``source`` codes, octave factors, the tracker's settings under fuse, the state
+              indices and :class:`Config` (with its system matrix and parameter vector)
+``core``      the compiled scalar update, per-sample step and loop (numba; items 1-5 above)
+``filter``    ``State``, ``Sample``, ``Output``, ``Result``, ``init``, ``step``, ``run``
+``smoother``  :func:`smooth`, the RTS smoother over a forward run
+``method``    :func:`radius_from_json`, the fusion samples, :func:`estimate`, :func:`suits`
+============  =============================================================================
+
+The package's namespace is the fusion method, as the one module it was: the names above,
+re-exported.
+"""
+
+from vibrospeed.estimators.fuse.config import (
+    HARMONIC_FACTORS,
+    IA,
+    IB,
+    IG,
+    IR,
+    IV,
+    SOURCES,
+    SRC_GPS,
+    SRC_INERTIAL,
+    SRC_STANDSTILL,
+    SRC_VIBRATION,
+    TRACKER_DEFAULTS,
+    Config,
+)
+from vibrospeed.estimators.fuse.core import _run_core, _step_core, _update_row
+from vibrospeed.estimators.fuse.filter import (
+    _SAMPLE,
+    EXTRAS,
+    Output,
+    Result,
+    Sample,
+    State,
+    _as_inputs,
+    _pack,
+    _unpack,
+    init,
+    run,
+    step,
+)
+from vibrospeed.estimators.fuse.method import (
+    _TRACKER_OWN,
+    _axis_channel,
+    _block_all,
+    _block_mean,
+    _split,
+    estimate,
+    fusion_samples,
+    radius_from_json,
+    suits,
+)
+from vibrospeed.estimators.fuse.smoother import _rts, smooth
+
+__all__ = [
+    "EXTRAS",
+    "HARMONIC_FACTORS",
+    "IA",
+    "IB",
+    "IG",
+    "IR",
+    "IV",
+    "SOURCES",
+    "SRC_GPS",
+    "SRC_INERTIAL",
+    "SRC_STANDSTILL",
+    "SRC_VIBRATION",
+    "TRACKER_DEFAULTS",
+    "Config",
+    "Output",
+    "Result",
+    "Sample",
+    "State",
+    "estimate",
+    "fusion_samples",
+    "init",
+    "radius_from_json",
+    "run",
+    "smooth",
+    "step",
+    "suits",
+    "_SAMPLE",
+    "_TRACKER_OWN",
+    "_as_inputs",
+    "_axis_channel",
+    "_block_all",
+    "_block_mean",
+    "_pack",
+    "_rts",
+    "_run_core",
+    "_split",
+    "_step_core",
+    "_unpack",
+    "_update_row",
+]

@@ -1,0 +1,175 @@
+"""Parameters of the fusion filter (:mod:`vibrospeed.estimators.fuse`): the ``source`` codes,
+the octave hypotheses, the grid tracker's settings under fuse, the state indices and the
+:class:`Config` (GPS receiver fields shared with ``gps-riss``, process and measurement noises,
+gates), validated on construction; :meth:`Config._arrays` builds the continuous system matrix
+and the parameter vector the compiled core reads, so both have one definition."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vibrospeed.errors import ParameterError
+from vibrospeed.estimators.gps_riss.config import GpsFields
+from vibrospeed.models.gps_riss import receiver_matrices
+
+#: ``source`` codes (the CSV column holds the number)
+SOURCES = {0: "inertial", 1: "gps", 2: "vibration", 3: "standstill"}
+SRC_INERTIAL, SRC_GPS, SRC_VIBRATION, SRC_STANDSTILL = 0, 1, 2, 3
+
+#: octave hypotheses for the tracker's line: the wheel frequency is k * omega
+HARMONIC_FACTORS = (1.0, 0.5, 2.0)
+
+#: the grid tracker's settings under fuse (``-p`` overrides them): the comb scored at SNR 2 and
+#: a line claimed at probability 0.5. The grid's own defaults (SNR 1, claims at 0.9) place
+#: omega better on weak combs, but the radius is learned from the lines it offers: with them
+#: the 30 simulated tunnels learned worse radii (90th percentile error 0.5 -> 3.1 % offline,
+#: 6.6 -> 15.7 % online) and the Hungary drives' offline RMSE with every line used rose 5.5 ->
+#: 9.8 m/s (benchmarks/fuse/RESULTS.md, "Earlier runs").
+TRACKER_DEFAULTS = {"comb_snr": 2.0, "claim_level": 0.5}
+
+# state indices
+IV, IA, IB, IR, IG = 0, 1, 2, 3, 4
+
+
+@dataclass(frozen=True)
+class Config(GpsFields):
+    """Fusion parameters (SI units).
+
+    Parameters
+    ----------
+    gps_a, gps_b, gps_delay, gps_pade, min_sats : the GPS receiver lag model (GPS/RISS paper
+        eq. 3-4) and the satellite gate, shared with ``gps-riss``
+        (:class:`vibrospeed.estimators.gps_riss.GpsFields`).
+    q_speed, q_accel, q_offset, q_gps, q_radius : process noise intensities per second of v
+        ((m/s)^2/s), a (jerk, (m/s^2)^2/s), b ((m/s^2)^2/s), the receiver states and r (m^2/s).
+    acc_psd : accelerometer white-noise density ((m/s^2)^2 s = (m/s^2)^2/Hz); a fusion sample
+        averaging ``dt`` s has variance ``acc_psd / dt``. The default (0.32 m/s^2/sqrt(Hz)) is
+        far above a MEMS sensor's own noise: it stands for the body motion, the wheel vibration
+        and the lateral acceleration a slightly yawed mount mixes into the longitudinal axis
+        (on the simulated family this weighting was best, benchmarks/fuse).
+    r_gps : GPS speed variance per fix ((m/s)^2).  r_gps_sq : growth of that variance with the
+        unexplained innovation squared (module notes, item 2; in (0, 1) bounds the jump).
+    e_max : clip of the GPS error E (m/s; the paper clips at 5). The default 1000 m/s does not
+        clip in practice, so the jump bound of item 2 holds: with a clip, a fix far from a
+        speed that drifted in an outage is weighted as if E were ``e_max`` and moves the speed
+        by more than its band.
+    vib_rel : relative floor on the wheel frequency's spread.  vib_corr : correlation time (s)
+        of the tracker's errors.  vib_gate, vib_penalty : acceptance gate and octave penalty on
+        the normalised innovation squared (item 3).
+    r_still, r_still_acc : variances of the zero-speed and zero-acceleration pseudo-measurements.
+    still_gate, still_speed : the integrated speed must be consistent with zero (item 4); the
+        default gate (the 98 % chi-square quantile, 2.326^2) keeps the step a stop makes inside
+        the 98 % band.
+    gps_still, gps_hold : a valid fix within ``gps_hold`` s above ``gps_still`` m/s vetoes a stop.
+    source_hold : s an accepted fix keeps ``source`` at gps.
+    p0_speed, p0_accel, p0_offset : initial variances.  radius0, radius_std0 : radius prior
+        (m; overridden by ``radius_from`` / a given wheel radius in :func:`estimate`).
+    octave_tau : s, time constant of the octave average (item 3).
+    vib_min_speed : m/s; no wheel-frequency update where the speed is surely below it (item 3).
+    radius_min, radius_max : m, the physical range of the effective radius (item 3).
+    octave_rel : relative radius std below which the octave average and the re-lock act.
+    vib_relock : s of a consistent line (and of no GPS) before the re-lock (item 3).
+    learn_hold : s after an accepted fix in which a line may teach the radius and decides the
+        octave without ``vib_sep`` (item 3).
+    acq_time, acq_rel : s and relative tolerance of the consistency runs (first radius,
+        re-lock; item 3).  acq_change : relative change of the line's speed that lets a
+        re-lock outside the band happen (item 3).
+    vib_sep : decisive gate: 3 sigma of the speed and the line within ``vib_sep r k omega``
+        (item 3).
+    still_relock : s of stop evidence refused by the integrated speed, without GPS, before the
+        stop is taken anyway (item 4).
+    vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
+        (where the tracker claims a line, ``has_signal``) or ``"all"`` (every positive omega,
+        its posterior spread and the gate decide: for trackers whose null state dominates on a
+        real line).
+    nonneg : project negative speeds onto 0 (item 5).
+    fuse_rate : Hz of the fusion samples in :func:`estimate` (plus one per GPS fix).
+    """
+
+    q_speed: float = 1e-4
+    q_accel: float = 10.0
+    q_offset: float = 5e-3
+    q_gps: float = 1e-6
+    q_radius: float = 1e-9
+    acc_psd: float = 0.1
+    r_gps: float = 0.01
+    r_gps_sq: float = 0.5
+    e_max: float = 1000.0
+    vib_rel: float = 0.005
+    vib_corr: float = 0.05
+    vib_gate: float = 16.0
+    vib_penalty: float = 9.0
+    r_still: float = 1e-4
+    r_still_acc: float = 1.0
+    still_gate: float = 5.41
+    still_speed: float = 0.5
+    gps_still: float = 0.5
+    gps_hold: float = 2.0
+    source_hold: float = 1.5
+    p0_speed: float = 100.0
+    p0_accel: float = 1.0
+    p0_offset: float = 1.0
+    radius0: float = 0.3
+    radius_std0: float = 0.15
+    octave_tau: float = 10.0
+    vib_use: str = "line"
+    vib_min_speed: float = 1.0
+    radius_min: float = 0.03
+    radius_max: float = 1.0
+    octave_rel: float = 0.05
+    vib_relock: float = 1.0
+    still_relock: float = 3.0
+    learn_hold: float = 1.5
+    acq_time: float = 0.5
+    acq_rel: float = 0.03
+    acq_change: float = 0.1
+    vib_sep: float = 0.35
+    nonneg: bool = True
+    fuse_rate: float = 25.0
+
+    def __post_init__(self) -> None:
+        self._check_gps("fuse: ")
+        for name in ("acc_psd", "r_gps", "vib_rel", "vib_corr", "vib_gate", "r_still",
+                     "r_still_acc", "still_gate", "p0_speed", "p0_accel", "p0_offset",
+                     "radius0", "radius_std0", "fuse_rate", "octave_tau"):
+            if not getattr(self, name) > 0:
+                raise ParameterError(f"fuse: {name} must be > 0, got {getattr(self, name)}")
+        for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "e_max",
+                     "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
+                     "vib_min_speed", "octave_rel", "vib_relock", "radius_min", "radius_max",
+                     "still_relock", "learn_hold", "acq_time", "acq_rel", "acq_change",
+                     "vib_sep"):
+            if not getattr(self, name) >= 0:
+                raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
+        if self.vib_use not in ("line", "all"):
+            raise ParameterError(f"fuse: vib_use must be line or all, got '{self.vib_use}'")
+        if not 0.0 < self.r_gps_sq < 1.0:
+            raise ParameterError(f"fuse: r_gps_sq must be in (0, 1) (it bounds the speed's jump "
+                                 f"on a GPS fix), got {self.r_gps_sq}")
+
+    @property
+    def n_states(self) -> int:
+        """Length of the state vector."""
+        return IG + self.lag.n_states
+
+    def _arrays(self):
+        """``(Ac, qc, p)``: continuous system matrix, process noise intensities, scalars."""
+        Ar, Br = receiver_matrices(self.lag)
+        n = IG + Ar.shape[0]
+        Ac = np.zeros((n, n))
+        Ac[IV, IA] = 1.0
+        Ac[IG:, IG:] = Ar
+        Ac[IG:, IV] = Br
+        qc = np.full(n, self.q_gps)
+        qc[:IG] = (self.q_speed, self.q_accel, self.q_offset, self.q_radius)
+        p = np.array([
+            self.acc_psd, self.r_gps, self.r_gps_sq, self.e_max, self.min_sats, self.vib_rel,
+            self.vib_corr, self.vib_gate, self.vib_penalty, self.r_still, self.r_still_acc,
+            self.still_gate, self.still_speed, self.gps_still, self.gps_hold, self.source_hold,
+            self.octave_tau, float(self.nonneg), self.vib_min_speed, self.octave_rel,
+            self.vib_relock, self.radius_min, self.radius_max, self.still_relock,
+            self.learn_hold, self.acq_time, self.acq_rel, self.acq_change, self.vib_sep,
+        ], dtype=np.float64)
+        return Ac, qc, p

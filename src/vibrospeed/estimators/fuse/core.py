@@ -1,0 +1,235 @@
+"""The compiled core of the fusion filter (numba): the scalar Joseph-form update with consider
+states (:func:`_update_row`), one fusion sample in place (:func:`_step_core`: exact prediction,
+then the measurement updates of the package notes -- accelerometer, GPS with its adaptive
+variance, wheel frequency with octave choice, acquisition and re-lock, standstill, the
+``v >= 0`` projection) and the loop over samples (:func:`_run_core`, which also stores the
+predictions and posteriors the smoother reads). The state arrives as flat arrays and the
+parameters as one float vector (:meth:`~vibrospeed.estimators.fuse.config.Config._arrays`), so
+``step`` and ``run`` are this same code.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from vibrospeed.estimators.fuse.config import IA, IB, IG, IR, IV
+from vibrospeed.models.gps_riss import transition
+
+
+@njit(cache=True)
+def _update_row(x, P, h, z, r, keep=-1, keep2=-1):
+    """Scalar Kalman update with row ``h``, Joseph form; returns the innovation. ``keep``,
+    ``keep2 >= 0``: those states are "consider" states (Schmidt): their gain is 0, so the
+    update leaves their means and variances unchanged; the Joseph form keeps P the exact
+    covariance for that gain."""
+    n = x.size
+    Ph = P @ h
+    s = h @ Ph + r
+    k = Ph / s
+    if keep >= 0:
+        k[keep] = 0.0
+    if keep2 >= 0:
+        k[keep2] = 0.0
+    nu = z - h @ x
+    for i in range(n):
+        x[i] += k[i] * nu
+    IKH = np.eye(n) - np.outer(k, h)
+    Pn = IKH @ P @ IKH.T + np.outer(k, k) * r
+    for i in range(n):
+        for j in range(n):
+            P[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
+    return nu
+
+
+@njit(cache=True)
+def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, out, xp, Pp):
+    """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
+    t_run, t_still, t_acq, z_acq, d_run, u_run]``;
+    ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
+    prediction (for the smoother). Returns dt."""
+    n = x.size
+    dt = 0.0 if math.isnan(sc[0]) else t - sc[0]
+    sc[0] = t
+    if dt > 0.0:
+        if dt != sc[4]:
+            Fc[:, :] = transition(Ac, dt)
+            sc[4] = dt
+        xn = Fc @ x
+        Pn = Fc @ P @ Fc.T
+        for i in range(n):
+            x[i] = xn[i]
+            Pn[i, i] += qc[i] * dt
+        for i in range(n):
+            for j in range(n):
+                P[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
+    for i in range(n):
+        xp[i] = x[i]
+        for j in range(n):
+            Pp[i, j] = P[i, j]
+    h = np.zeros(n)
+    # 1. accelerometer (mean over the interval)
+    if dt > 0.0 and not math.isnan(am):
+        h[IA] = 1.0
+        h[IB] = 1.0
+        _update_row(x, P, h, am, p[0] / dt)
+        h[IA] = 0.0
+        h[IB] = 0.0
+    # 2. GPS, gated by satellites, weighted by the unexplained innovation
+    if not math.isnan(g):
+        valid = math.isnan(sats) or sats >= p[4]
+        if valid:
+            sc[2] = t
+            sc[3] = g
+            h[IG] = 1.0
+            nu = g - x[IG]
+            s0 = P[IG, IG] + p[1]
+            e2 = min(max(nu * nu - s0, 0.0), p[3] * p[3])
+            _update_row(x, P, h, g, p[1] + p[2] * e2)
+            h[IG] = 0.0
+            sc[1] = t
+    # 3. wheel frequency, octave chosen by the speed prior
+    kk = math.nan
+    moving = x[IV] + 3.0 * math.sqrt(max(P[IV, IV], 0.0)) >= p[18]
+    fresh = t - sc[1] <= p[24]  # GPS pins the speed: the radius may learn
+    known = math.sqrt(max(P[IR, IR], 0.0)) < p[19] * abs(x[IR])
+    if not (fresh and x[IV] >= p[18]):
+        sc[8] = math.nan  # an acquisition run needs the GPS speed
+    if (line and moving and dt > 0.0 and om > 0.0 and not math.isnan(om)
+            and not math.isnan(om_std)):
+        ready = known
+        if not known and fresh and x[IV] >= p[18]:
+            # acquisition: the ratio v / omega must hold for acq_time s (a wheel line scales
+            # with the speed; an idling engine's or a resonance's does not)
+            z = math.log(x[IV] / om)
+            if math.isnan(sc[8]) or abs(z - sc[9]) > p[26]:
+                sc[8] = t
+                sc[9] = z
+            else:
+                sc[9] += (z - sc[9]) * min(1.0, dt / p[25])
+            ready = t - sc[8] >= p[25]
+        best = math.inf
+        r_hat = max(x[IR], 1e-3)
+        var_om = om_std * om_std + (p[5] * om) ** 2
+        infl = p[6] / dt
+        sv3 = 3.0 * math.sqrt(max(P[IV, IV], 0.0))
+        for j in range((3 if known else 1) if ready else 0):
+            k = 1.0 if j == 0 else (0.5 if j == 1 else 2.0)
+            if (x[IV] + sv3) < p[21] * k * om or (x[IV] - sv3) > p[22] * k * om:
+                continue  # no physical radius explains this line at this speed
+            hr = -k * om
+            nu = -(x[IV] + hr * x[IR])
+            s = (P[IV, IV] + 2.0 * hr * P[IV, IR] + hr * hr * P[IR, IR]
+                 + (r_hat * k) ** 2 * var_om * infl)
+            cost = nu * nu / s + (0.0 if j == 0 else p[8])
+            if cost < best:
+                best = cost
+                kk = k
+        # direct use needs a decisive gate: the band narrow against the octaves' spacing
+        decisive = not math.isnan(kk) and (fresh or 3.0 * math.sqrt(
+            P[IV, IV] + (r_hat * kk) ** 2 * var_om) <= p[28] * r_hat * kk * om)
+        if ready and known and not (best <= p[7] and decisive):
+            # re-lock run on the line at k = 1 (the octave that taught r): the gap
+            # d = r omega - v between the line's speed and the filter's must hold for
+            # vib_relock s (no GPS in that time), and the line must have moved with the speed
+            # (by acq_change) or lie inside the 3-sigma band (a constant line far outside it
+            # may be an idling engine at a stop)
+            best = math.inf
+            kk = math.nan
+            u = x[IR] * om
+            d = u - x[IV]
+            if math.isnan(sc[6]) or t - sc[1] <= p[20] or abs(d - sc[10]) > p[26] * u:
+                sc[6] = t
+                sc[10] = d
+                sc[11] = u
+            else:
+                sc[10] += (d - sc[10]) * min(1.0, dt / p[25])
+                if t - sc[6] >= p[20] and (abs(u - sc[11]) >= p[27] * u or abs(d) <= sv3):
+                    P[IV, IV] += d * d
+                    Pp[IV, IV] += d * d  # process noise of this step, for the smoother
+                    best = 0.0
+                    kk = 1.0
+                    sc[6] = math.nan
+        if best <= p[7]:
+            h[IV] = 1.0
+            h[IR] = -kk * om
+            # away from GPS the radius and the offset are consider states: a line there
+            # carries the speed but teaches neither (a wrong or lagging line accepted in an
+            # outage would corrupt the radius and the offset the inertial stretches rest on)
+            _update_row(x, P, h, 0.0, (r_hat * kk) ** 2 * var_om * infl, -1 if fresh else IR,
+                        -1 if fresh else IB)
+            h[IV] = 0.0
+            h[IR] = 0.0
+            # the radius follows the octave most updates use (where GPS confirms them)
+            if fresh:
+                sc[5] += (math.log2(kk) - sc[5]) * min(1.0, dt / p[16])
+            if abs(sc[5]) > 0.5 and known:
+                c = 2.0 if sc[5] > 0.0 else 0.5
+                x[IR] *= c
+                for i in range(n):
+                    P[IR, i] *= c
+                    P[i, IR] *= c
+                sc[5] = 0.0
+        else:
+            kk = math.nan
+    # 4. standstill from all evidence
+    stopped = False
+    if not still:
+        sc[7] = math.nan
+    else:
+        gps_ok = math.isnan(sc[3]) or (t - sc[2]) > p[14] or sc[3] <= p[13]
+        consistent = (x[IV] * x[IV] / (P[IV, IV] + p[9]) <= p[11]) or abs(x[IV]) <= p[12]
+        if gps_ok and not consistent:
+            if math.isnan(sc[7]):
+                sc[7] = t
+            elif t - sc[7] >= p[23] and t - sc[1] > p[23]:
+                # re-lock: the integrated speed, not the stop, is wrong
+                Pp[IV, IV] += x[IV] * x[IV]  # process noise of this step, for the smoother
+                P[IV, IV] += x[IV] * x[IV]
+                consistent = True
+        if gps_ok and consistent:
+            sc[7] = math.nan
+            h[IV] = 1.0
+            _update_row(x, P, h, 0.0, p[9])
+            h[IV] = 0.0
+            h[IA] = 1.0
+            _update_row(x, P, h, 0.0, p[10])
+            h[IA] = 0.0
+            stopped = True
+    # 5. speed >= 0: project onto the constraint surface
+    if p[17] > 0.5 and x[IV] < 0.0 and P[IV, IV] > 0.0:
+        f = x[IV] / P[IV, IV]
+        col = P[:, IV].copy()
+        for i in range(n):
+            x[i] -= col[i] * f
+        x[IV] = 0.0
+    if stopped:
+        src = 3
+    elif t - sc[1] <= p[15]:
+        src = 1
+    elif not math.isnan(kk):
+        src = 2
+    else:
+        src = 0
+    out[0] = x[IV]
+    out[1] = math.sqrt(max(P[IV, IV], 0.0))
+    out[2] = x[IR]
+    out[3] = math.sqrt(max(P[IR, IR], 0.0))
+    out[4] = x[IB]
+    out[5] = src
+    out[6] = kk
+    return dt
+
+
+@njit(cache=True)
+def _run_core(Ac, qc, p, x, P, sc, t, am, g, sats, om, om_std, line, still, out, xp, Pp, xf,
+              Pf, dts):
+    Fc = np.eye(x.size)
+    for k in range(t.size):
+        dts[k] = _step_core(Ac, qc, p, x, P, sc, Fc, t[k], am[k], g[k], sats[k], om[k],
+                            om_std[k], line[k], still[k], out[k], xp[k], Pp[k])
+        xf[k, :] = x
+        Pf[k, :, :] = P
+

@@ -1,0 +1,214 @@
+"""The fusion filter's protocol (:mod:`vibrospeed.estimators.fuse`): the records ``State``,
+``Sample``, ``Output``, ``Result``, the start state (:func:`init`, the receiver in steady state
+at the initial speed), one fusion sample (:func:`step`) and the forward filter over arrays of
+them (:func:`run`), both packing the state for the compiled core
+(:mod:`vibrospeed.estimators.fuse.core`)."""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators.fuse.config import IA, IB, IG, IR, IV, Config
+from vibrospeed.estimators.fuse.core import _run_core, _step_core
+from vibrospeed.models.gps_riss import receiver_matrices
+from vibrospeed.types import Estimate
+
+
+class State(NamedTuple):
+    """Filter state after the last sample.
+
+    x, P : (n,), (n, n) mean and covariance of ``[v, a, b, r, x3, x4, d...]``.
+    t : time of the last sample (NaN before the first).  t_gps : time of the last accepted
+    fix (-inf: none).  t_fix, v_fix : time and value of the last valid fix (for the standstill
+    veto).  octave : average of log2 k over recent wheel-frequency updates (module notes, 3).
+    t_run, d_run, u_run : start, mean gap ``r omega - v`` and line speed at the start of the
+    current re-lock run (NaN: none; module notes, 3).  t_still : start of the current run of
+    refused stop evidence (NaN: none).  t_acq, z_acq : start and mean log ratio
+    ``ln(v / omega)`` of the current run of consistent lines while the radius is not known
+    yet (NaN: none; module notes, 3).
+    """
+
+    x: np.ndarray
+    P: np.ndarray
+    t: float
+    t_gps: float
+    t_fix: float
+    v_fix: float
+    octave: float = 0.0
+    t_run: float = math.nan
+    t_still: float = math.nan
+    t_acq: float = math.nan
+    z_acq: float = math.nan
+    d_run: float = math.nan
+    u_run: float = math.nan
+
+
+class Sample(NamedTuple):
+    """One fusion sample, or (n,) arrays of them (:func:`step`, :func:`run`): time (s), mean
+    longitudinal acceleration since the previous sample (m/s^2, NaN: none), GPS speed (m/s,
+    NaN: no fix now), satellites (NaN: unknown), the tracker's omega and spread (rad/s),
+    whether it claims a line, whether the vibration reports a stop."""
+
+    t: float
+    accel: float = math.nan
+    gps_speed: float = math.nan
+    gps_sats: float = math.nan
+    omega: float = math.nan
+    omega_std: float = math.nan
+    line: bool = False
+    still: bool = False
+
+
+#: the per-sample values of :func:`step`'s Estimate besides ``speed`` / ``speed_std``: radius
+#: and its std (m), accelerometer offset (m/s^2), source (:data:`SOURCES`), the harmonic k of
+#: the wheel-frequency update (NaN: none)
+EXTRAS = ("radius", "radius_std", "offset", "source", "harmonic")
+
+
+class Output(NamedTuple):
+    """:func:`run` output, (n,) arrays; ``xp, Pp, xf, Pf, dt`` kept for :func:`smooth`."""
+
+    speed: np.ndarray
+    speed_std: np.ndarray
+    radius: np.ndarray
+    radius_std: np.ndarray
+    offset: np.ndarray
+    source: np.ndarray
+    harmonic: np.ndarray
+    xp: np.ndarray
+    Pp: np.ndarray
+    xf: np.ndarray
+    Pf: np.ndarray
+    dt: np.ndarray
+
+
+class Result(NamedTuple):
+    """:func:`run`'s result: the state after the last sample and the per-sample output; the
+    output's columns read as attributes too (``result.speed``); unpacks as ``final, output``."""
+
+    final: State
+    output: Output
+
+    def __getattr__(self, name):
+        return getattr(self.output, name)
+
+
+def init(config: Config, v0: float = 0.0, *, radius: float | None = None,
+         radius_std: float | None = None, p0_speed: float | None = None) -> State:
+    """Start state: speed ``v0`` (variance ``p0_speed``, default the config's), the receiver in
+    steady state at ``v0``, radius prior ``radius +- radius_std`` (default the config's)."""
+    lag = config.lag
+    n = config.n_states
+    x = np.zeros(n)
+    x[IV] = v0
+    r = config.radius0 if radius is None else float(radius)
+    rs = config.radius_std0 if radius_std is None else float(radius_std)
+    if not (r > 0 and rs > 0 and math.isfinite(r) and math.isfinite(rs)):
+        raise ParameterError(f"fuse: radius prior must be > 0 with std > 0, got {r} +- {rs}")
+    x[IR] = r
+    Ar, Br = receiver_matrices(lag)
+    x[IG:] = -np.linalg.solve(Ar, Br) * v0
+    P = np.zeros((n, n))
+    pv = config.p0_speed if p0_speed is None else float(p0_speed)
+    P[IV, IV] = pv
+    P[IA, IA] = config.p0_accel
+    P[IB, IB] = config.p0_offset
+    P[IR, IR] = rs * rs
+    gain = -np.linalg.solve(Ar, Br)  # receiver states follow v at steady state
+    P[IG:, IV] = gain * pv
+    P[IV, IG:] = gain * pv
+    P[IG:, IG:] = np.outer(gain, gain) * pv + np.eye(n - IG) * 1e-6
+    return State(x, P, math.nan, -math.inf, -math.inf, math.nan)
+
+
+
+def _unpack(state: State, n: int):
+    x = np.array(state.x, dtype=np.float64)
+    if x.shape != (n,):
+        raise ParameterError(f"fuse: state has {x.size} states but the config's model needs {n} "
+                             "(GPS delay on/off changed?)")
+    P = np.array(state.P, dtype=np.float64)
+    sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0, state.octave,
+                   state.t_run, state.t_still, state.t_acq, state.z_acq, state.d_run,
+                   state.u_run])
+    return x, P, sc
+
+
+def _pack(x, P, sc) -> State:
+    return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]),
+                 float(sc[6]), float(sc[7]), float(sc[8]), float(sc[9]), float(sc[10]),
+                 float(sc[11]))
+
+
+_SAMPLE = Sample._fields
+
+
+def step(config: Config, state: State, y) -> tuple[State, Estimate]:
+    """One fusion sample ``y``, a :class:`Sample` or the tuple ``(t, accel, gps_speed,
+    gps_sats, omega, omega_std, line, still)``; the Estimate holds ``speed``, ``speed_std`` and
+    the :data:`EXTRAS`."""
+    t, am, g, sats, om, om_std, line, still = y
+    t = float(t)
+    if not math.isnan(state.t) and not t >= state.t:
+        raise InputError(f"fuse: time goes backwards at t = {t} s (previous {state.t} s)")
+    Ac, qc, p = config._arrays()
+    x, P, sc = _unpack(state, Ac.shape[0])
+    out = np.empty(7)
+    n = x.size
+    _step_core(Ac, qc, p, x, P, sc, np.eye(n), t, float(am), float(g), float(sats), float(om),
+               float(om_std), bool(line), bool(still), out, np.empty(n), np.empty((n, n)))
+    est = Estimate(speed=float(out[0]), speed_std=float(out[1]),
+                   extras=dict(zip(EXTRAS, (float(out[2]), float(out[3]), float(out[4]),
+                                            int(out[5]), float(out[6])), strict=True)))
+    return _pack(x, P, sc), est
+
+
+def _as_inputs(arrays) -> list[np.ndarray]:
+    if hasattr(arrays, "_fields"):  # a Sample of arrays
+        arrays = arrays._asdict()
+    t = np.ascontiguousarray(arrays["t"], dtype=np.float64)
+    n = t.size
+    out = [t]
+    for name in _SAMPLE[1:]:
+        v = arrays.get(name)
+        if v is None:
+            dflt = False if name in ("line", "still") else np.nan
+            v = np.full(n, dflt)
+        v = np.ascontiguousarray(v, dtype=np.bool_ if name in ("line", "still") else np.float64)
+        if v.shape != (n,):
+            raise InputError(f"fuse: input '{name}' has shape {v.shape}, expected ({n},)")
+        out.append(v)
+    if n > 1 and not np.all(np.diff(t) >= 0):
+        bad = int(np.flatnonzero(np.diff(t) < 0)[0]) + 1
+        raise InputError(f"fuse: time goes backwards at sample {bad}")
+    return out
+
+
+def run(config: Config, y, state: State | None = None) -> Result:
+    """Forward filter over fusion samples; the numbers of repeated :func:`step`.
+
+    ``y``: a :class:`Sample` of (n,) arrays, or a mapping of its names (``t``, ``accel``,
+    ``gps_speed``, ``gps_sats``, ``omega``, ``omega_std``, ``line``, ``still``) to arrays; a
+    missing one is "none" (NaN / False). ``state`` defaults to :func:`init` at the first valid
+    fix (or 0).
+    """
+    ins = _as_inputs(y)
+    t, g, s = ins[0], ins[2], ins[3]
+    if state is None:
+        fin = np.flatnonzero(config.valid_fixes(g, s))
+        state = init(config, float(g[fin[0]]) if fin.size else 0.0)
+    Ac, qc, p = config._arrays()
+    x, P, sc = _unpack(state, Ac.shape[0])
+    n, m = t.size, x.size
+    out = np.empty((n, 7))
+    xp, Pp = np.empty((n, m)), np.empty((n, m, m))
+    xf, Pf = np.empty((n, m)), np.empty((n, m, m))
+    dts = np.empty(n)
+    _run_core(Ac, qc, p, x, P, sc, *ins, out, xp, Pp, xf, Pf, dts)
+    o = Output(*(np.ascontiguousarray(out[:, i]) for i in range(5)),
+               out[:, 5].astype(np.int8), np.ascontiguousarray(out[:, 6]), xp, Pp, xf, Pf, dts)
+    return Result(_pack(x, P, sc), o)

@@ -1,0 +1,236 @@
+"""A recording in, a fused Track out (:func:`estimate`): the radius prior (given, or read back
+from an earlier estimate by :func:`radius_from_json`), the vibration tracker, the reduction of
+the recording to fusion samples (:func:`fusion_samples`, block means), the forward filter and
+the smoother, and the interpolation back to the recording's time line; :func:`suits` says
+whether a recording feeds ``fuse`` without a radius."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import asdict, fields
+from pathlib import Path
+
+import numpy as np
+
+from vibrospeed.config import config_from_params, parse_flag
+from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators.fuse.config import IB, IR, IV, SOURCES, TRACKER_DEFAULTS, Config
+from vibrospeed.estimators.fuse.filter import init, run
+from vibrospeed.estimators.fuse.smoother import smooth
+from vibrospeed.types import Recording, Track
+
+# -- radius round trip ---------------------------------------------------------------------------
+
+def radius_from_json(path: str | os.PathLike[str]) -> tuple[float, float]:
+    """``(radius, std)`` in m from an earlier ``fuse`` estimate's sidecar (``est.csv.json``:
+    ``params.learned_radius`` / ``params.learned_radius_std``), or from any JSON object with
+    ``wheel_radius`` and optionally ``wheel_radius_std`` (default 1 % of it)."""
+    p = Path(path)
+    try:
+        side = json.loads(p.read_text(encoding="utf-8-sig"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"{p}: cannot read the radius file ({exc})") from None
+    if not isinstance(side, dict):
+        raise InputError(f"{p}: the radius file must hold a JSON object")
+    par = side.get("params") if isinstance(side.get("params"), dict) else {}
+    if "learned_radius" in par:
+        r, s = par.get("learned_radius"), par.get("learned_radius_std")
+    elif "wheel_radius" in side:
+        r = side.get("wheel_radius")
+        s = side.get("wheel_radius_std", None)
+        s = 0.01 * r if s is None and isinstance(r, (int, float)) else s
+    else:
+        raise InputError(f"{p}: no learned_radius (a fuse estimate's sidecar) or wheel_radius "
+                         "in the radius file")
+    ok = all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+             and v > 0 for v in (r, s))
+    if not ok:
+        raise InputError(f"{p}: radius and its std must be positive numbers, got {r!r}, {s!r}")
+    return float(r), float(s)
+
+
+# -- recording -> fusion samples ------------------------------------------------------------------
+
+def fusion_samples(t: np.ndarray, fix: np.ndarray, rate: float) -> np.ndarray:
+    """End indices (inclusive) of the fusion blocks: every ``round(fs / rate)`` samples and at
+    every sample carrying a GPS fix, so that a fix is fused at its own time."""
+    n = t.size
+    dt = float(np.median(np.diff(t))) if n > 1 else 1.0
+    m = max(1, int(round(1.0 / (rate * dt))))
+    ends = np.union1d(np.arange(m - 1, n, m), np.flatnonzero(fix))
+    if ends.size == 0 or ends[-1] != n - 1:
+        ends = np.append(ends, n - 1)
+    return ends.astype(np.int64)
+
+
+def _block_mean(x: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Mean of the finite samples of ``x`` in each block ``(ends[k-1], ends[k]]`` (NaN: none)."""
+    ok = np.isfinite(x)
+    cs = np.concatenate([[0.0], np.cumsum(np.where(ok, x, 0.0))])
+    cn = np.concatenate([[0], np.cumsum(ok)])
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    s = cs[ends + 1] - cs[starts]
+    c = cn[ends + 1] - cn[starts]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(c > 0, s / np.maximum(c, 1), np.nan)
+
+
+def _block_all(x: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """True where every sample of the block is true."""
+    cn = np.concatenate([[0], np.cumsum(~x)])
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    return (cn[ends + 1] - cn[starts]) == 0
+
+
+_TRACKER_OWN = {"online", "radius_from", "accel_axis", "vib_method"}
+
+
+def _split(params: dict) -> tuple[dict, dict, dict]:
+    names = {f.name for f in fields(Config)}
+    fuse_kw = {k: v for k, v in params.items() if k in names}
+    own = {k: v for k, v in params.items() if k in _TRACKER_OWN}
+    rest = {k: v for k, v in params.items() if k not in names and k not in _TRACKER_OWN}
+    return fuse_kw, own, rest
+
+
+def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | None = None,
+             params: dict | None = None, progress: bool = False,
+             return_posterior: bool = False,
+             radius_from: str | os.PathLike[str] | None = None,
+             vibration: Track | None = None) -> Track:
+    """Fused speed of a recording: vibration tracker on ``axis``, then the filter.
+
+    ``params``: :class:`Config` fields; ``accel_axis`` (longitudinal accelerometer channel,
+    default ``ax``); ``online`` (true: the causal grid tracker and the forward filter only;
+    default false: the smoothed grid tracker and the RTS smoother); ``radius_from`` (a JSON
+    file, :func:`radius_from_json`, seeding the radius prior; also a keyword); every other
+    name goes to the grid tracker (e.g. ``omega_min``, ``omega_max``). A given ``wheel_radius``
+    seeds the prior with 1 % spread. ``gps_speed`` / ``gps_sats`` are used where present;
+    without GPS the radius prior must come from ``radius_from`` or ``wheel_radius``.
+    ``return_posterior``: the vibration tracker's omega posterior in ``extras["posterior"]``.
+    ``vibration``: a grid track of this recording already at hand (then no tracker runs; it
+    must be the causal one for ``online``).
+
+    Columns: speed and its band (from the fused std); omega = speed / learned radius where
+    the radius is known at the end (relative std below ``octave_rel``; else empty, with a
+    note); extras ``source`` (:data:`SOURCES` codes), ``radius``, ``radius_std``, ``offset``,
+    ``harmonic`` (k of the wheel-frequency update) and the tracker's ``omega_vib``,
+    ``has_signal``, ``standstill``. The
+    learned radius and its std (the filter's at the end of the log) are in
+    ``params["learned_radius"]``, ``params["learned_radius_std"]`` (the JSON sidecar).
+    """
+    from vibrospeed.estimators import get
+
+    params = dict(params or {})
+    fuse_kw, own, rest = _split(params)
+    cfg = config_from_params(Config, fuse_kw)
+    online = parse_flag(own.get("online", False), "online")
+    rf = radius_from if radius_from is not None else own.get("radius_from")
+    acc_ch = _axis_channel(str(own.get("accel_axis", "x")))
+    name = recording.source or "recording"
+    if len(recording) < 2:
+        raise InputError(f"{name}: fewer than 2 samples")
+    recording.require(acc_ch)
+    has_gps = "gps_speed" in recording and np.isfinite(recording.channel("gps_speed")).any()
+    notes: list[str] = []
+    if rf is not None:
+        r0, rs0 = radius_from_json(rf)
+        notes.append(f"radius prior {r0:.4f} +- {rs0:.4f} m from {os.fspath(rf)}")
+    elif wheel_radius:
+        r0, rs0 = float(wheel_radius), 0.01 * float(wheel_radius)
+        notes.append(f"radius prior {r0:.4f} +- {rs0:.4f} m (the given wheel radius, 1 %)")
+    elif has_gps:
+        r0, rs0 = cfg.radius0, cfg.radius_std0
+    else:
+        raise ParameterError(f"{name}: fuse without gps_speed needs a radius: radius_from= an "
+                             "earlier fuse estimate's .json, or --wheel-radius")
+    # 1. the vibration tracker (offline smoothed / online causal)
+    tparams = {**TRACKER_DEFAULTS, **rest}
+    if online:
+        tparams["smooth"] = "none"
+    if vibration is None:
+        vib = get("grid").estimate(recording, axis=axis, params=tparams, progress=progress,
+                                   return_posterior=return_posterior)
+    elif len(vibration) != len(recording):
+        raise InputError(f"{name}: the vibration track has {len(vibration)} samples, the "
+                         f"recording {len(recording)}")
+    else:
+        vib = vibration
+    claim = np.nan_to_num(vib.extras.get("has_signal", np.ones(len(vib)))) > 0.5
+    still = (np.nan_to_num(vib.extras.get("standstill", np.zeros(len(vib)))) > 0.5) & ~claim
+    line = claim if cfg.vib_use == "line" else (np.nan_to_num(vib.omega) > 0) & ~still
+    # 2. fusion samples
+    t = recording.t
+    g = recording.channels.get("gps_speed", np.full(t.size, np.nan))
+    s = recording.channels.get("gps_sats", np.full(t.size, np.nan))
+    fix = np.isfinite(g)
+    ends = fusion_samples(t, fix, cfg.fuse_rate)
+    arrays = {
+        "t": t[ends], "accel": _block_mean(recording.channel(acc_ch), ends),
+        "gps_speed": g[ends], "gps_sats": s[ends], "omega": vib.omega[ends],
+        "omega_std": vib.omega_std[ends], "line": line[ends], "still": _block_all(still, ends),
+    }
+    fin = np.flatnonzero(cfg.valid_fixes(g, s))
+    v0 = float(g[fin[0]]) if fin.size else 0.0
+    state0 = init(cfg, v0, radius=r0, radius_std=rs0)
+    end, o = run(cfg, arrays, state=state0)
+    r_fin, rs_fin = float(o.radius[-1]), float(o.radius_std[-1])
+    if online:
+        v, vs, rr, rrs, off = o.speed, o.speed_std, o.radius, o.radius_std, o.offset
+    else:
+        xs, Ps = smooth(cfg, o)
+        v, vs = xs[:, IV], np.sqrt(np.maximum(Ps[:, IV, IV], 0.0))
+        rr, rrs = xs[:, IR], np.sqrt(np.maximum(Ps[:, IR, IR], 0.0))
+        off = xs[:, IB]
+    # 3. back to the recording's time line: linear between fusion samples, source per block
+    tb = t[ends]
+    blk = np.minimum(np.searchsorted(ends, np.arange(t.size)), ends.size - 1)
+
+    def back(x):
+        return np.interp(t, tb, x)
+
+    speed = back(v)
+    speed_std = back(vs)
+    shares = {SOURCES[c]: float(np.mean(o.source == c)) for c in SOURCES}
+    notes.append("fused speed rests on " + ", ".join(f"{k} {100 * x:.1f} %"
+                                                     for k, x in shares.items()) +
+                 f" of the fusion samples ({'forward filter' if online else 'RTS smoothed'})")
+    notes.append(f"learned wheel radius {r_fin:.4f} +- {rs_fin:.4f} m"
+                 + ("" if has_gps else " (no GPS: the prior, kept)"))
+    known = rs_fin < cfg.octave_rel * r_fin
+    if not known:
+        notes.append("the wheel radius is not known (no wheel line while GPS was good): omega "
+                     "is left empty; the vibration tracker's own omega is omega_vib")
+    pdict = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(cfg).items()}
+    pdict.update({"online": online, "accel_axis": acc_ch, "axis": axis,
+                  "learned_radius": r_fin, "learned_radius_std": rs_fin,
+                  "radius_prior": [r0, rs0], "tracker": vib.method, **{
+                      f"tracker_{k}": v for k, v in rest.items()}})
+    extras = {
+        "source": o.source.astype(np.float64)[blk], "radius": back(rr),
+        "radius_std": back(rrs), "offset": back(off), "harmonic": o.harmonic[blk],
+        "omega_vib": vib.omega, "has_signal": claim.astype(np.float64),
+    }
+    if "standstill" in vib.extras:
+        extras["standstill"] = np.asarray(vib.extras["standstill"], dtype=np.float64)
+    if return_posterior and "posterior" in vib.extras:  # the vibration tracker's omega posterior
+        extras["posterior"] = vib.extras["posterior"]
+    return Track.from_speed(t, speed, speed_std, wheel_radius=r_fin if known else None,
+                            method="fuse",
+                            params=pdict, extras=extras, notes=[*vib.notes, *notes])
+
+
+def suits(recording: Recording, accel_axis: str = "x") -> bool:
+    """Whether ``recording`` feeds ``fuse`` without a radius given: a ``gps_speed`` channel
+    with at least one finite fix and the longitudinal accelerometer channel (``accel_axis``).
+    ``vibrospeed estimate`` without ``--method`` picks ``fuse`` for such a recording."""
+    if "gps_speed" not in recording or _axis_channel(accel_axis) not in recording:
+        return False
+    return bool(np.isfinite(recording.channel("gps_speed")).any())
+
+
+def _axis_channel(axis: str) -> str:
+    axis = axis.strip()
+    return "a" + axis if axis in ("x", "y", "z") else axis

@@ -1,0 +1,171 @@
+"""Parameters of GPS/RISS (:mod:`vibrospeed.estimators.gps_riss`): gravity, the per-sample
+``mode`` flags, :class:`GpsFields` (the GPS receiver lag model and satellite gate, shared with
+``fuse``) and the filter's :class:`Config` (noises, GPS error weighting, offset and pitch
+handling; the paper's set :meth:`Config.paper`), validated on construction; its
+``_arrays`` builds the matrices and parameter vector the compiled core reads."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from vibrospeed.errors import ParameterError
+from vibrospeed.models.gps_riss import GpsLagModel, continuous_matrix
+
+G = 9.80665
+
+# Flags reported per sample in ``run`` output ``mode``.
+MODE_INS = 0  #: accelerometer only ("KF INS")
+MODE_GPS = 1  #: valid GPS fix fused ("KF1 INS/GPS")
+MODE_REJECTED = 2  #: a fix was present but gated out (too few satellites)
+
+_ERROR_MODES = ("innovation", "kf2", "states")
+_OFFSET_MODES = ("state", "integrator", "off")
+
+
+@dataclass(frozen=True)
+class GpsFields:
+    """The GPS receiver and its satellite gate, one definition for every filter that fuses GPS
+    speed (``gps-riss``, ``fuse``: their Configs start with these fields).
+
+    gps_a, gps_b : GPS lag model A_gps (row-major) and B_gps, paper eq. 3-4 (default: the
+        paper's second-order receiver).
+    gps_delay : pure GPS delay (s) in front of the lag, Pade order ``gps_pade`` (1 or 2).
+    min_sats : satellite-count gate (paper: 7): a fix is valid where ``gps_sats >= min_sats``
+        or the count is unknown (NaN).
+    """
+
+    gps_a: tuple[float, ...] = (0.0, 1.0, -1427.2, -114.2)
+    gps_b: tuple[float, ...] = (0.0, 1427.2)
+    gps_delay: float = 0.0
+    gps_pade: int = 2
+    min_sats: float = 7.0
+
+    @property
+    def lag(self) -> GpsLagModel:
+        """The GPS receiver model."""
+        return GpsLagModel(a=tuple(self.gps_a), b=tuple(self.gps_b),  # type: ignore[arg-type]
+                           delay=float(self.gps_delay), pade=int(self.gps_pade))
+
+    def valid_fixes(self, gps_speed: np.ndarray, gps_sats: np.ndarray | None) -> np.ndarray:
+        """Where a fix is valid: finite speed and not fewer than ``min_sats`` satellites."""
+        g = np.asarray(gps_speed, dtype=np.float64)
+        if gps_sats is None:
+            return np.isfinite(g)
+        return np.isfinite(g) & ~(np.asarray(gps_sats, dtype=np.float64) < self.min_sats)
+
+    def _check_gps(self, prefix: str = "") -> None:
+        """Validates the lag model and the gate (the Configs' ``__post_init__``)."""
+        _ = self.lag
+        if not self.min_sats >= 0:
+            raise ParameterError(f"{prefix}min_sats must be >= 0, got {self.min_sats}")
+
+
+@dataclass(frozen=True)
+class Config(GpsFields):
+    """Parameters (SI units; physical noise defaults, see the module notes; paper set:
+    :meth:`paper`).
+
+    Parameters
+    ----------
+    gps_a, gps_b, gps_delay, gps_pade, min_sats : the GPS receiver and its satellite gate
+        (:class:`GpsFields`).
+    q_speed, q_accel, q_offset, q_gps : process noise intensities per second of the speed
+        ((m/s)^2/s, model error), acceleration ((m/s^2)^2/s, jerk), offset ((m/s^2)^2/s, grade
+        changes) and receiver states (paper eq. 11 "P" = 5, 4, -, 1).
+    r_acc_ins, r_acc_gps : accelerometer variance per sample in "KF INS" / "KF1" (paper 0.4, 3.5).
+    r_gps : GPS speed variance per fix at zero error (paper eq. 13, 18: 40 in its units).
+    r_gps_slope, r_gps_sq : R22 growth per m/s and per (m/s)^2 of the GPS error E (paper: 72, 0).
+    e_max : clip of E in m/s (paper: 5).  adaptive : use the adaptive R22 (else r_gps).
+    error_mode : "innovation", "kf2" or "states" (module notes, step 4).
+    gain : accelerometer calibration gain.
+    pitch_compensation : apply ``pitch_poly`` (deg, highest power first; paper eq. 14, fitted for
+        a motorcycle, so off by default).
+    offset_mode : "state", "integrator" (paper VI-b) or "off".
+    q_drift, r_drift : integrator drift filter noise ((m/s)^2/s, (m/s)^2); it uses q_offset too.
+    p0_speed, p0_accel, p0_offset : initial variances.
+    """
+
+    q_speed: float = 1e-4
+    q_accel: float = 10.0
+    q_offset: float = 5e-3
+    q_gps: float = 1e-6
+    r_acc_ins: float = 0.09
+    r_acc_gps: float = 0.09
+    r_gps: float = 0.01
+    r_gps_slope: float = 0.0
+    r_gps_sq: float = 0.5
+    e_max: float = 5.0
+    adaptive: bool = True
+    error_mode: str = "innovation"
+    gain: float = 1.0
+    pitch_compensation: bool = False
+    pitch_poly: tuple[float, ...] = (-0.0183, 0.2822, 0.0207)
+    offset_mode: str = "state"
+    q_drift: float = 1e-3
+    r_drift: float = 0.1
+    p0_speed: float = 1.0
+    p0_accel: float = 1.0
+    p0_offset: float = 0.25
+
+    def __post_init__(self) -> None:
+        self._check_gps()
+        for name in ("r_acc_ins", "r_acc_gps", "r_gps", "r_drift", "p0_offset", "p0_speed",
+                     "p0_accel", "gain"):
+            if not getattr(self, name) > 0:
+                raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
+        for name in ("q_speed", "q_accel", "q_offset", "q_gps", "r_gps_slope", "r_gps_sq",
+                     "e_max", "q_drift"):
+            if not getattr(self, name) >= 0:
+                raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.error_mode not in _ERROR_MODES:
+            raise ParameterError(f"error_mode must be one of {', '.join(_ERROR_MODES)}, "
+                                 f"got '{self.error_mode}'")
+        if self.offset_mode not in _OFFSET_MODES:
+            raise ParameterError(f"offset_mode must be one of {', '.join(_OFFSET_MODES)}, "
+                                 f"got '{self.offset_mode}'")
+        if len(self.pitch_poly) < 1:
+            raise ParameterError("pitch_poly needs at least one coefficient")
+
+    @classmethod
+    def paper(cls, **kw) -> Config:
+        """The paper's constants (eq. 11-13, 18; Q read as intensities per second), its KF2 error
+        and separate drift filter: the weighting of the paper, but ``speed_std`` is not calibrated.
+        """
+        base = dict(q_speed=5.0, q_accel=4.0, q_offset=1e-2, q_gps=1.0, r_acc_ins=0.4,
+                    r_acc_gps=3.5, r_gps=40.0, r_gps_slope=72.0, r_gps_sq=0.0,
+                    error_mode="kf2", offset_mode="integrator", p0_speed=100.0, p0_accel=5.0)
+        base.update(kw)
+        return cls(**base)
+
+    @classmethod
+    def with_lag(cls, lag: GpsLagModel, **kw) -> Config:
+        """Default config using the receiver model ``lag`` (e.g. from :func:`identify_lag`)."""
+        return cls(gps_a=tuple(lag.a), gps_b=tuple(lag.b), gps_delay=lag.delay,
+                   gps_pade=lag.pade, **kw)
+
+    def using_lag(self, lag: GpsLagModel) -> Config:
+        """This config with the receiver model replaced by ``lag``."""
+        return replace(self, gps_a=tuple(lag.a), gps_b=tuple(lag.b), gps_delay=lag.delay,
+                       gps_pade=lag.pade)
+
+    def _arrays(self):
+        lag = self.lag
+        Ac = continuous_matrix(lag, offset_state=True)
+        n = Ac.shape[0]
+        state_off = self.offset_mode == "state"
+        qc = np.full(n, self.q_gps)
+        qc[:3] = (self.q_speed, self.q_accel, self.q_offset if state_off else 0.0)
+        ha = np.zeros(n)
+        ha[1] = 1.0
+        ha[2] = 1.0 if state_off else 0.0
+        hg = np.zeros(n)
+        hg[3] = 1.0
+        p = np.array([
+            self.r_acc_ins, self.r_acc_gps, self.r_gps, self.r_gps_slope, self.r_gps_sq,
+            self.e_max, float(self.adaptive), self.min_sats, self.gain,
+            float(self.pitch_compensation), float(self.offset_mode == "integrator"),
+            self.q_drift, self.q_offset, self.r_drift, float(_ERROR_MODES.index(self.error_mode)),
+        ], dtype=np.float64)
+        return Ac, qc, ha, hg, p, np.array(self.pitch_poly, dtype=np.float64)

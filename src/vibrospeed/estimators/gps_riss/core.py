@@ -1,0 +1,166 @@
+"""The compiled core of GPS/RISS (numba): the scalar Joseph-form update (:func:`_update`),
+the prediction (:func:`_predict`), one accelerometer sample in place (:func:`_step_core`:
+pre-processing, KF1 / KF INS, the GPS error E of the chosen error mode and KF2, the integrator
+offset filter; package notes items 1-5) and the loop over a signal (:func:`_run_core`). The
+state arrives as flat arrays and the parameters as one float vector (``Config._arrays``), so
+``step`` and ``run`` are this same code.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from vibrospeed.estimators.gps_riss.config import G
+from vibrospeed.models.gps_riss import transition
+
+
+@njit(cache=True)
+def _update(x, P, h, z, r):
+    """Scalar update ``z = h x + e``, var(e) = r; Joseph form ``(I - K h) P (I - K h)' + K r K'``.
+    Returns the innovation."""
+    n = x.size
+    Ph = P @ h
+    s = 0.0
+    for a in range(n):
+        s += h[a] * Ph[a]
+    s += r
+    k = Ph / s
+    innov = z - h @ x
+    for a in range(n):
+        x[a] += k[a] * innov
+    IKH = np.eye(n) - np.outer(k, h)
+    Pn = IKH @ P @ IKH.T + np.outer(k, k) * r
+    for a in range(n):
+        for b in range(n):
+            P[a, b] = 0.5 * (Pn[a, b] + Pn[b, a])
+    return innov
+
+
+@njit(cache=True)
+def _predict(x, P, F, qd):
+    """``x = F x``, ``P = F P F' + diag(qd)``."""
+    xn = F @ x
+    Pn = F @ P @ F.T
+    for a in range(x.size):
+        x[a] = xn[a]
+        Pn[a, a] += qd[a]
+    for a in range(x.size):
+        for b in range(x.size):
+            P[a, b] = Pn[a, b]
+
+
+@njit(cache=True)
+def _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw, gps, sats,
+               Fc, out):
+    """One sample in place. ``sc = [t_prev, E, v_int, dt of Fc]``; ``Fc`` caches the transition
+    of the last step length; ``out`` (8,) receives the results. Returns the mode."""
+    dt = 0.0 if math.isnan(sc[0]) else t - sc[0]
+    sc[0] = t
+    integ = p[10] > 0.5
+    emode = int(p[14])
+    use_kf2 = emode > 0
+    # 1. accelerometer pre-processing: gain, pitch (paper eq. 14, degrees)
+    has_a = not math.isnan(a_raw)
+    a = p[8] * a_raw
+    if has_a and p[9] > 0.5:
+        pitch = 0.0
+        for c in poly:
+            pitch = pitch * a + c
+        pr = pitch * math.pi / 180.0
+        a = (a - G * math.sin(pr)) / math.cos(pr)
+    # integrator drift filter predict (eq. 16) and integral of the pre-processed accelerometer
+    if dt > 0.0:
+        if has_a:
+            sc[2] += dt * a
+        else:
+            sc[2] += dt * (x[1] + x[2] + od[1])
+        if integ:
+            od[0] += dt * od[1]
+            p00 = Pod[0, 0] + dt * (Pod[0, 1] + Pod[1, 0]) + dt * dt * Pod[1, 1] + p[11] * dt
+            p01 = Pod[0, 1] + dt * Pod[1, 1]
+            Pod[0, 0] = p00
+            Pod[0, 1] = p01
+            Pod[1, 0] = p01
+            Pod[1, 1] += p[12] * dt
+    a_c = a - od[1] if integ else a
+    # 2. predict with the exact transition
+    if dt > 0.0:
+        if dt != sc[3]:
+            Fc[:, :] = transition(Ac, dt)
+            sc[3] = dt
+        qd = qc * dt
+        _predict(x, P, Fc, qd)
+        if use_kf2:
+            # receiver chain driven by KF2's speed and acceleration (prediction of the fix)
+            lzn = Fc[3:, 0] * x2[0] + Fc[3:, 1] * x2[1] + np.ascontiguousarray(Fc[3:, 3:]) @ lz
+            for i in range(lz.size):
+                lz[i] = lzn[i]
+            _predict(x2, P2, Fc, qd)
+    # 3. gating
+    has_fix = not math.isnan(gps)
+    valid = has_fix and (math.isnan(sats) or sats >= p[7])
+    r22 = math.nan
+    r_acc = p[1] if valid else p[0]
+    if has_a:
+        _update(x, P, ha, a_c, r_acc)
+        if use_kf2:
+            _update(x2, P2, ha, a_c, r_acc)
+    if valid:
+        # 4. GPS error E and R22 (eq. 13)
+        if emode == 0:  # main filter's innovation beyond its predicted spread
+            nu = gps - hg @ x
+            s0 = hg @ P @ hg + p[2]
+            e = math.sqrt(max(nu * nu - s0, 0.0))
+        elif emode == 1:  # KF2's prediction of the fix, before KF2's update
+            e = abs(gps - lz[0])
+            _update(x2, P2, hg, gps, p[2])
+        else:  # "states" (paper VI-c): KF2's x3 against its speed through the lag model
+            _update(x2, P2, hg, gps, p[2])
+            e = abs(x2[3] - lz[0])
+        e = min(max(e, 0.0), p[5])
+        sc[1] = e
+        r22 = p[2] + p[3] * e + p[4] * e * e if p[6] > 0.5 else p[2]
+        _update(x, P, hg, gps, r22)
+        # 5. integrator drift filter update (eq. 17): observes integral(a) - v
+        if integ:
+            s = Pod[0, 0] + p[13] * (r22 / p[2])  # weighted down like the GPS itself
+            k0 = Pod[0, 0] / s
+            k1 = Pod[1, 0] / s
+            innov = (sc[2] - x[0]) - od[0]
+            od[0] += k0 * innov
+            od[1] += k1 * innov
+            p00 = (1.0 - k0) * Pod[0, 0]
+            p01 = (1.0 - k0) * Pod[0, 1]
+            p11 = Pod[1, 1] - k1 * Pod[0, 1]
+            Pod[0, 0] = p00
+            Pod[0, 1] = p01
+            Pod[1, 0] = p01
+            Pod[1, 1] = p11
+    out[0] = x[0]
+    out[1] = math.sqrt(max(P[0, 0], 0.0))
+    out[2] = x[1]
+    out[3] = x[3]
+    if integ:
+        out[4] = od[1]
+        out[5] = math.sqrt(max(Pod[1, 1], 0.0))
+    else:
+        out[4] = x[2]
+        out[5] = math.sqrt(max(P[2, 2], 0.0))
+    out[6] = sc[1]
+    out[7] = r22
+    if valid:
+        return 1
+    if has_fix:
+        return 2
+    return 0
+
+
+@njit(cache=True)
+def _run_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a, gps, sats, out, mode):
+    Fc = np.eye(x.size)
+    for k in range(t.size):
+        mode[k] = _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t[k], a[k],
+                             gps[k], sats[k], Fc, out[k])
