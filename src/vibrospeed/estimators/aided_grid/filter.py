@@ -206,7 +206,7 @@ def step(config: Config, state: State, y: float | Sample, u: float = np.nan, *,
     extras = {k: getattr(est, k) for k in ESTIMATE_EXTRAS}
     return State(g, offset, window, mode, buf, state.count + 1, usum), Estimate(
         est.omega, est.omega_std, est.omega_lo, est.omega_hi,
-        has_signal=float(1.0 - est.p_null >= config.tracker.claim_level),
+        has_signal=float(config.tracker.claims(est.p_null)),
         standstill=float(est.standstill),
         extras=extras)
 

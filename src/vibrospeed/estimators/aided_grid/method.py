@@ -244,7 +244,7 @@ def estimate(
         for a in (omega, std, lo, hi):
             a[st] = 0.0
     extras = {f"amp{m + 1}": res.amplitudes[:, m] for m in range(model.M)}
-    has_signal = (1.0 - res.p_null >= tracker.claim_level).astype(np.float64)
+    has_signal = tracker.claims(res.p_null)
     if still is not None:
         has_signal[still > 0.5] = 0.0
     extras.update(standstill=res.standstill.astype(np.float64),

@@ -170,7 +170,7 @@ def columns(config: Config, res: Result, sm, omap: np.ndarray,
     extras: dict[str, np.ndarray] = {
         "omega_map": omap, "loglik": res.loglik, "p_null": p_null, "p_half": p_half,
         "p_double": p_double, "p_third": p_third, "p_triple": p_triple, "confidence": conf,
-        "has_signal": (conf >= config.claim_level).astype(np.float64),
+        "has_signal": config.claims(p_null),
         "ambiguous": (amb >= 0.05).astype(np.float64), "rms": rms,
         "omega_mode": o_mode, "p_mode": p_mode, "omega_mode_std": o_mode_std,
         "multimodal": (p_mode < config.mode_share).astype(np.float64),

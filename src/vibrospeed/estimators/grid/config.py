@@ -237,6 +237,11 @@ class Config:
         """Parameters named in ``fit``."""
         return [p.strip() for p in str(self.fit).split(",") if p.strip()]
 
+    def claims(self, p_null):
+        """``has_signal`` (1.0 / 0.0, float64, array or 0-d) for the "no line" mass ``p_null``:
+        a line is claimed where ``1 - p_null >= claim_level``."""
+        return np.asarray(1.0 - np.asarray(p_null) >= self.claim_level, dtype=np.float64)
+
     @property
     def has_fast(self) -> bool:
         """Whether the omega random walk is the two-component mixture (``p_fast > 0``)."""

@@ -201,7 +201,7 @@ def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Est
     vals["amplitudes"] = out[N_OUT_FIXED:].copy()
     vals["posterior"] = post
     est = Estimate(vals["omega"], vals["omega_std"], vals["omega_lo"], vals["omega_hi"],
-                   has_signal=float(1.0 - vals["p_null"] >= config.claim_level),
+                   has_signal=float(config.claims(vals["p_null"])),
                    extras={k: vals[k] for k in ESTIMATE_EXTRAS})
     return State(lw, mean, cov, float(lw0[0]), int(cur[0])), est
 
