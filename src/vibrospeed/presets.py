@@ -142,6 +142,8 @@ PARAMETERS: dict[str, dict[str, Parameter]] = {
                                "range, none"),
         "fit": Parameter("q_omega,r", "noise parameters fitted to the recording by marginal "
                          "likelihood first"),
+        "claim_level": Parameter("0.99", "line probability at which has_signal claims a "
+                                 "line; default 0.9 (higher: fewer, surer claims)"),
     },
     "rbpmf": {
         "omega_min": Parameter("2", _RANGE + "; default 10"),
