@@ -1,8 +1,8 @@
 """What the ``vibrospeed`` commands share: the Typer ``app`` (its help text and ``--version``),
 the rich consoles, :func:`_friendly` (a library error becomes one line on stderr and exit
-status 2, a bug one line and exit 1), reading a recording as the CLI does, the option types
-common to several commands (input format, column mapping, preset, ``-p``, method, axis, wheel
-radius) and the ``-p`` parameters with the preset applied. The commands themselves are in
+status 2, a bug one line and exit 1), reading a recording as the CLI does and the ``-p``
+parameters with the preset applied; the option types common to several commands are in
+:mod:`vibrospeed.cli.options`. The commands themselves are in
 :mod:`vibrospeed.cli.recordings`, :mod:`vibrospeed.cli.estimate` and
 :mod:`vibrospeed.cli.results`; :mod:`vibrospeed.cli.app` registers them in order."""
 
@@ -90,39 +90,6 @@ def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate:
     return load_recording(path, fmt, columns, mapping, rate, sort, uniform)
 
 
-# ---- option types shared by commands ------------------------------------------------------
-FormatOpt = Annotated[str, typer.Option("--format", "-f", help="input format: auto (detect), "
-                      "csv (canonical: header t,ax,ay,...), mapped (any CSV with --columns or "
-                      "--mapping), phyphox (folder or zip), sensorlogger (Sensor Logger folder or "
-                      "zip), sensorfusion (app log), rosbag (ROS 1 .bag or ROS 2 folder), gopro "
-                      "(GoPro MP4 telemetry), parquet, androsensor, comma2k19, f1tenth; see "
-                      "docs/formats.md")]
-TopicOpt = Annotated[str | None, typer.Option("--topic", help="ROS bags: the IMU topic to read "
-                     "(default: the busiest sensor_msgs/Imu topic)")]
-ColumnsOpt = Annotated[str | None, typer.Option(help="generic CSV column mapping, e.g. "
-                       "'t=time,ay=acc_y:g' (name=column[:unit])")]
-MappingOpt = Annotated[Path | None, typer.Option("--mapping", help="TOML file with the column "
-                       "mapping, units and scales")]
-RateOpt = Annotated[float | None, typer.Option(help="sample rate in Hz for files without a time "
-                    "column")]
-SortOpt = Annotated[bool, typer.Option("--sort", help="sort by time and drop duplicate time "
-                    "stamps instead of refusing time that goes backwards")]
-
-
-def _preset_help() -> str:
-    from vibrospeed.presets import PRESETS
-
-    per = "; ".join(f"{m}: {', '.join(p)}" for m, p in PRESETS.items())
-    return (f"named parameter set of the method, applied before -p (an explicit -p wins): {per} "
-            "(`vibrospeed methods` shows what each sets)")
-
-
-PresetOpt = Annotated[str | None, typer.Option("--preset", help=_preset_help())]
-ParamOpt = Annotated[list[str] | None, typer.Option("--param", "-p", help="estimator parameter "
-                     "NAME=VALUE (repeatable; lists by comma, e.g. -p comb_rates=-0.1,0.1); "
-                     "`vibrospeed methods` lists each method's parameters")]
-
-
 def _params(method: str, preset: str | None, param: list[str] | None) -> dict[str, str]:
     """The estimator parameters: the preset's, then the -p flags over them."""
     from vibrospeed import presets
@@ -148,10 +115,3 @@ def _unknown_hint(method: str, exc: ParameterError) -> ParameterError:
     if dataclasses.is_dataclass(cfg):
         names |= flat_names(cfg)
     return unknown(m.group(1), f"method '{method}'", names)
-
-
-MethodOpt = Annotated[str, typer.Option("--method", "-m", help="estimator (see `vibrospeed "
-                      "methods`; default grid)")]
-AxisOpt = Annotated[str | None, typer.Option(help="vibration axis (x, y, z or a channel name; "
-                    "default y); for gps-riss the longitudinal axis (default x)")]
-RadiusOpt = Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]

@@ -11,10 +11,12 @@ from typing import Annotated
 
 import typer
 
-from vibrospeed.cli.base import (
+from vibrospeed.cli.base import _friendly, _params, _unknown_hint, err
+from vibrospeed.cli.options import (
     AxisOpt,
     ColumnsOpt,
     FormatOpt,
+    InputArg,
     MappingOpt,
     MethodOpt,
     ParamOpt,
@@ -23,10 +25,6 @@ from vibrospeed.cli.base import (
     RateOpt,
     SortOpt,
     TopicOpt,
-    _friendly,
-    _params,
-    _unknown_hint,
-    err,
 )
 from vibrospeed.errors import ParameterError
 
@@ -76,16 +74,14 @@ def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool,
 
 @_friendly
 def estimate(
-    input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
+    input: InputArg,
     output: Annotated[Path, typer.Option("-o", "--output", help="estimate CSV (t, omega, "
                       "omega_lo, omega_hi, speed, ...) + a .json sidecar")],
     method: Annotated[str | None, typer.Option("--method", "-m", help="estimator (see "
                       "`vibrospeed methods`); default: fuse where the recording has GPS speed "
                       "and ax, else grid, the most robust one-accelerometer tracker")] = None,
-    axis: Annotated[str | None, typer.Option(help="vibration axis (x, y, z or a channel name; "
-                    "default y); for gps-riss the longitudinal axis (default x)")] = None,
-    wheel_radius: Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]
-    = None,
+    axis: AxisOpt = None,
+    wheel_radius: RadiusOpt = None,
     radius_from: Annotated[Path | None, typer.Option(
         "--radius-from", help="fuse: wheel radius prior from an earlier fuse estimate's .json "
         "sidecar of the same vehicle (m/s from vibration without GPS)")] = None,

@@ -11,17 +11,8 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from vibrospeed.cli.base import (
-    ColumnsOpt,
-    FormatOpt,
-    MappingOpt,
-    RateOpt,
-    SortOpt,
-    _friendly,
-    _load,
-    err,
-    out,
-)
+from vibrospeed.cli.base import _friendly, _load, err, out
+from vibrospeed.cli.options import ColumnsOpt, FormatOpt, InputArg, MappingOpt, RateOpt, SortOpt
 from vibrospeed.errors import ParameterError
 
 
@@ -114,7 +105,7 @@ def truth(
 
 @_friendly
 def info(
-    input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
+    input: InputArg,
     fmt: FormatOpt = "auto",
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,

@@ -12,10 +12,12 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from vibrospeed.cli.base import (
+from vibrospeed.cli.base import _friendly, _load, _params, err, out
+from vibrospeed.cli.options import (
     AxisOpt,
     ColumnsOpt,
     FormatOpt,
+    InputArg,
     MappingOpt,
     MethodOpt,
     ParamOpt,
@@ -23,17 +25,12 @@ from vibrospeed.cli.base import (
     RadiusOpt,
     RateOpt,
     SortOpt,
-    _friendly,
-    _load,
-    _params,
-    err,
-    out,
 )
 
 
 @_friendly
 def report(
-    input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
+    input: InputArg,
     output: Annotated[Path, typer.Option("-o", "--output", help="HTML page to write")],
     estimate_csv: Annotated[Path | None, typer.Option("--estimate", help="estimate CSV "
                             "(from `estimate`); without it the recording is estimated first "
@@ -155,7 +152,7 @@ def evaluate(
 
 @_friendly
 def plot(
-    input: Annotated[Path, typer.Argument(help="recording: file, folder or zip")],
+    input: InputArg,
     output: Annotated[Path, typer.Option("-o", "--output", help="PNG to write")],
     estimate_csv: Annotated[Path | None, typer.Option("--estimate", help="estimate CSV to "
                             "draw over the spectrogram")] = None,

@@ -1,0 +1,56 @@
+"""The command-line options that several ``vibrospeed`` commands take, each declared once as
+an ``Annotated`` type (flag names and help text; the default stays at the command, where Typer
+reads it): the recording argument, the input format and its column mapping, the estimator
+(method, axis, wheel radius), the preset and the ``-p`` parameters.
+
+A command lists the ones it takes, e.g. ``fmt: FormatOpt = "auto"``, so the same flag reads and
+behaves the same in ``estimate``, ``batch``, ``report``, ``plot`` and ``info``. An option that
+means something different in one command (``plot --axis`` is the spectrogram's channel, default
+``y``) is declared there."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+# ---- the recording ----------------------------------------------------------------------------
+InputArg = Annotated[Path, typer.Argument(help="recording: file, folder or zip")]
+FormatOpt = Annotated[str, typer.Option("--format", "-f", help="input format: auto (detect), "
+                      "csv (canonical: header t,ax,ay,...), mapped (any CSV with --columns or "
+                      "--mapping), phyphox (folder or zip), sensorlogger (Sensor Logger folder or "
+                      "zip), sensorfusion (app log), rosbag (ROS 1 .bag or ROS 2 folder), gopro "
+                      "(GoPro MP4 telemetry), parquet, androsensor, comma2k19, f1tenth; see "
+                      "docs/formats.md")]
+TopicOpt = Annotated[str | None, typer.Option("--topic", help="ROS bags: the IMU topic to read "
+                     "(default: the busiest sensor_msgs/Imu topic)")]
+ColumnsOpt = Annotated[str | None, typer.Option(help="generic CSV column mapping, e.g. "
+                       "'t=time,ay=acc_y:g' (name=column[:unit])")]
+MappingOpt = Annotated[Path | None, typer.Option("--mapping", help="TOML file with the column "
+                       "mapping, units and scales")]
+RateOpt = Annotated[float | None, typer.Option(help="sample rate in Hz for files without a time "
+                    "column")]
+SortOpt = Annotated[bool, typer.Option("--sort", help="sort by time and drop duplicate time "
+                    "stamps instead of refusing time that goes backwards")]
+
+# ---- the estimator ----------------------------------------------------------------------------
+MethodOpt = Annotated[str, typer.Option("--method", "-m", help="estimator (see `vibrospeed "
+                      "methods`; default grid)")]
+AxisOpt = Annotated[str | None, typer.Option(help="vibration axis (x, y, z or a channel name; "
+                    "default y); for gps-riss the longitudinal axis (default x)")]
+RadiusOpt = Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]
+
+
+def _preset_help() -> str:
+    from vibrospeed.presets import PRESETS
+
+    per = "; ".join(f"{m}: {', '.join(p)}" for m, p in PRESETS.items())
+    return (f"named parameter set of the method, applied before -p (an explicit -p wins): {per} "
+            "(`vibrospeed methods` shows what each sets)")
+
+
+PresetOpt = Annotated[str | None, typer.Option("--preset", help=_preset_help())]
+ParamOpt = Annotated[list[str] | None, typer.Option("--param", "-p", help="estimator parameter "
+                     "NAME=VALUE (repeatable; lists by comma, e.g. -p comb_rates=-0.1,0.1); "
+                     "`vibrospeed methods` lists each method's parameters")]
