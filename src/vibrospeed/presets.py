@@ -41,14 +41,19 @@ class Parameter(NamedTuple):
 
 _CAUSAL = "the method is causal already: the same as default"
 
+#: the strict comb: the harmonic comb scored at SNR 2 (``comb_snr``; a weak comb scores as
+#: empty) and a wheel line claimed (``has_signal``) at line probability 0.5 (``claim_level``),
+#: where the grid's own defaults are SNR 1 and 0.9. The grid's ``lock`` preset sets it, and
+#: :mod:`vibrospeed.estimators.fuse` runs its tracker with it (``fuse.TRACKER_DEFAULTS``).
+STRICT_COMB: dict[str, str] = {"comb_snr": "2", "claim_level": "0.5"}
+
 #: method -> preset name -> :class:`Preset`
 PRESETS: dict[str, dict[str, Preset]] = {
     "grid": {
         "default": Preset({}, "smoothed over the whole log (offline; the most accurate)"),
         "online": Preset({"smooth": "none"}, "causal filter: each estimate from past samples "
                          "only (live use, a device)"),
-        "lock": Preset({"smooth": "none", "comb_axes": "all", "q_omega": "4", "comb_snr": "2",
-                        "claim_level": "0.5",
+        "lock": Preset({"smooth": "none", "comb_axes": "all", "q_omega": "4", **STRICT_COMB,
                         "amb_rel": "0.02", "amb_abs": "1", "mode_hold": "4"},
                        "causal filter switched on while the vehicle moves: comb evidence from "
                        "every axis, a steady-speed walk, a narrow mode window held against "

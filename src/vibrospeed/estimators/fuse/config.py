@@ -13,6 +13,7 @@ import numpy as np
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.gps_riss.config import GpsFields
 from vibrospeed.models.gps_riss import receiver_matrices
+from vibrospeed.presets import STRICT_COMB
 
 #: ``source`` codes (the CSV column holds the number)
 SOURCES = {0: "inertial", 1: "gps", 2: "vibration", 3: "standstill"}
@@ -21,13 +22,14 @@ SRC_INERTIAL, SRC_GPS, SRC_VIBRATION, SRC_STANDSTILL = 0, 1, 2, 3
 #: octave hypotheses for the tracker's line: the wheel frequency is k * omega
 HARMONIC_FACTORS = (1.0, 0.5, 2.0)
 
-#: the grid tracker's settings under fuse (``-p`` overrides them): the comb scored at SNR 2 and
-#: a line claimed at probability 0.5. The grid's own defaults (SNR 1, claims at 0.9) place
+#: the grid tracker's settings under fuse (``-p`` overrides them): the strict comb of the grid's
+#: ``lock`` preset (:data:`vibrospeed.presets.STRICT_COMB`), the comb scored at SNR 2 and a line
+#: claimed at probability 0.5. The grid's own defaults (SNR 1, claims at 0.9) place
 #: omega better on weak combs, but the radius is learned from the lines it offers: with them
 #: the 30 simulated tunnels learned worse radii (90th percentile error 0.5 -> 3.1 % offline,
 #: 6.6 -> 15.7 % online) and the Hungary drives' offline RMSE with every line used rose 5.5 ->
 #: 9.8 m/s (benchmarks/fuse/RESULTS.md, "Earlier runs").
-TRACKER_DEFAULTS = {"comb_snr": 2.0, "claim_level": 0.5}
+TRACKER_DEFAULTS = {name: float(value) for name, value in STRICT_COMB.items()}
 
 # state indices
 IV, IA, IB, IR, IG = 0, 1, 2, 3, 4
