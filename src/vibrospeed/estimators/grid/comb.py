@@ -72,6 +72,8 @@ benchmarks/trackers/RESULTS.md).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -184,42 +186,259 @@ def running_median(P: np.ndarray, width: int) -> np.ndarray:
     return med[:, j] * (1.0 - fr) + med[:, j + 1] * fr
 
 
-def _comb_terms(config, x: np.ndarray, dt: float,
-                good: np.ndarray | None = None) -> np.ndarray:
-    """(M, F, N) capped per-harmonic log likelihood ratios of the (A, F, L) zero-mean frames
-    of A axes sampled every ``dt`` (their tau spacing when warped); the terms of the axes
-    ``good`` (A, F) (default: all) are summed per harmonic before the cap ``A_f comb_cap``,
-    ``A_f`` the frame's number of good axes."""
+#: the background of a frame's power spectrum: the ``k``-th smallest power (0-based) of the
+#: ``width`` bins about each bin, divided by the same quantile of a unit exponential so that
+#: ``S(f) ~ Exp(1)`` where there is no line (the median: ``k = width // 2`` and ln 2)
+def _background_stat(width: int) -> tuple[int, float]:
+    """``(k, scale)`` of the background over ``width`` (odd) bins: its ``k``-th smallest
+    power divided by ``scale``."""
+    return width // 2, float(np.log(2.0))
+
+
+class _FrameTables(NamedTuple):
+    """What the evidence of ``L``-sample frames needs besides the samples, per usable rate
+    ``b`` (:meth:`Config.rates_in_frame`; ``b = 0`` unwarped): its log prior ``logp`` (R,),
+    the warp's interpolation positions ``w_i0``, ``w_fr`` (R, L) (:func:`_warp`), the Hann
+    window, the FFT length, the background's window ``widths``, evaluation ``steps`` and order
+    statistics ``ranks`` (R,) and ``scale`` (:func:`_background_stat`), and per harmonic k the
+    interpolation positions ``h_i0``, ``h_fr`` (R, M, N) of the grid points' (folded)
+    ``k omega`` among the rate's spectrum bins."""
+
+    logp: np.ndarray
+    w_i0: np.ndarray
+    w_fr: np.ndarray
+    hann: np.ndarray
+    nfft: int
+    widths: np.ndarray
+    steps: np.ndarray
+    ranks: np.ndarray
+    scale: float
+    h_i0: np.ndarray
+    h_fr: np.ndarray
+
+
+def _frame_tables(config, L: int, centre: bool) -> _FrameTables:
+    """The :class:`_FrameTables` of ``L``-sample frames, built once per Config instance and
+    frame length and kept with the Config (as the core's tables): the causal step asks for
+    them at every frame."""
+    cache = config.__dict__.setdefault("_frame_tables", {})
+    tb = cache.get((L, centre))
+    if tb is None:
+        tb = cache[(L, centre)] = _build_frame_tables(config, L, centre)
+    return tb
+
+
+def _build_frame_tables(config, L: int, centre: bool) -> _FrameTables:
     tr = config.tracker
-    fs = 1.0 / tr.model.dt
-    A, F, L = x.shape
-    x = x.reshape(A * F, L)
-    nfft = 1 << int(np.ceil(np.log2(4 * L)))
-    P = np.abs(np.fft.rfft(x * np.hanning(L), nfft, axis=1)) ** 2
-    f = 2 * np.pi * np.fft.rfftfreq(nfft, dt)
-    bg_hz = config.background_hz(L)  # >= 1.5 main lobes: a line never fills the window
-    medw = max(3, int(round(bg_hz / (1.0 / (dt * nfft)))) | 1)
-    bg = running_median(P, medw) / np.log(2.0)
-    S = P / np.maximum(bg, 1e-300 + 1e-12 * np.max(bg, axis=1, keepdims=True))
-    a = config.comb_snr
-    la = np.log1p(a)
+    dt = tr.model.dt
+    fs = 1.0 / dt
     grid = tr.grid
     M = tr.model.M
-    lk = np.empty((M, F, grid.size))
-    for k in range(1, M + 1):
-        fk = _folded(k * grid, fs)
-        pos = np.interp(fk, f, np.arange(f.size))
-        i0 = np.minimum(pos.astype(np.int64), f.size - 2)
-        fr = pos - i0
-        s = S[:, i0] * (1 - fr) + S[:, i0 + 1] * fr
-        terms = (s * (a / (1 + a)) - la).reshape(A, F, grid.size)
-        if A == 1:
-            lk[k - 1] = np.minimum(terms[0], config.comb_cap)
+    rates = config.rates_in_frame(L, centre)
+    R = rates.size
+    nfft = 1 << int(np.ceil(np.log2(4 * L)))
+    bg_hz = config.background_hz(L)  # >= 1.5 main lobes: a line never fills the window
+    w_i0 = np.zeros((R, L), np.int64)
+    w_fr = np.zeros((R, L))
+    widths = np.empty(R, np.int64)
+    ranks = np.empty(R, np.int64)
+    h_i0 = np.empty((R, M, grid.size), np.int64)
+    h_fr = np.empty((R, M, grid.size))
+    scale = 1.0
+    for b, beta in enumerate(rates):
+        i0, fr, dtau = _warp(L, dt, float(beta), centre)
+        if i0 is not None:
+            w_i0[b], w_fr[b] = i0, fr
+        f = 2 * np.pi * np.fft.rfftfreq(nfft, dtau)
+        widths[b] = max(3, int(round(bg_hz / (1.0 / (dtau * nfft))))) | 1
+        ranks[b], scale = _background_stat(int(widths[b]))
+        for k in range(1, M + 1):
+            pos = np.interp(_folded(k * grid, fs), f, np.arange(f.size))
+            i0k = np.minimum(pos.astype(np.int64), f.size - 2)
+            h_i0[b, k - 1], h_fr[b, k - 1] = i0k, pos - i0k
+    steps = np.maximum(1, widths // 8)
+    return _FrameTables(np.log(config.rate_prior(rates)), w_i0, w_fr, np.hanning(L), nfft,
+                        widths, steps, ranks, scale, h_i0, h_fr)
+
+
+@njit(cache=True)
+def _windowed(x: np.ndarray, w_i0: np.ndarray, w_fr: np.ndarray, hann: np.ndarray,
+              out: np.ndarray) -> None:
+    """``out[b, a, f]`` = frame ``x[a, f]`` of the (A, F, L) frames resampled at rate ``b``'s
+    warp positions (linear interpolation; ``b = 0``: as it is) times the Hann window."""
+    R = out.shape[0]
+    A, F, L = x.shape
+    for b in range(R):
+        for a in range(A):
+            for f in range(F):
+                row = x[a, f]
+                o = out[b, a, f]
+                if b == 0:
+                    for i in range(L):
+                        o[i] = row[i] * hann[i]
+                else:
+                    for i in range(L):
+                        j = w_i0[b, i]
+                        fr = w_fr[b, i]
+                        o[i] = (row[j] * (1 - fr) + row[j + 1] * fr) * hann[i]
+
+
+@njit(cache=True)
+def _replace_sorted(buf: np.ndarray, old: float, new: float) -> None:
+    """In the ascending ``buf``, one element equal to ``old`` replaced by ``new``, kept sorted."""
+    lo = 0
+    hi = buf.size
+    while lo < hi:  # the first element >= old: old itself
+        mid = (lo + hi) >> 1
+        if buf[mid] < old:
+            lo = mid + 1
         else:
-            g = np.ones((A, F), bool) if good is None else good
-            cap = g.sum(axis=0)[:, None] * config.comb_cap
-            lk[k - 1] = np.minimum(np.where(g[:, :, None], terms, 0.0).sum(axis=0), cap)
-    return lk
+            hi = mid
+    p = lo
+    if new > old:
+        while p + 1 < buf.size and buf[p + 1] < new:
+            buf[p] = buf[p + 1]
+            p += 1
+    else:
+        while p > 0 and buf[p - 1] > new:
+            buf[p] = buf[p - 1]
+            p -= 1
+    buf[p] = new
+
+
+@njit(cache=True)
+def _background(row: np.ndarray, width: int, step: int, rank: int, scale: float,
+                med: np.ndarray, buf: np.ndarray, out: np.ndarray) -> None:
+    """``out`` = the running ``rank``-th smallest (0-based) of ``row`` over ``width`` (odd)
+    bins, edges extended ("nearest"), evaluated every ``step`` bins and linearly interpolated
+    between, divided by ``scale``; a window holding a NaN gives NaN. With ``rank = width // 2``
+    and ``step = max(1, width // 8)`` this is ``running_median(row[None], width)[0] / scale``
+    bitwise (the same windows, order statistics and interpolation). The windows slide: ``buf``
+    (``width``) keeps the previous window's values sorted, and the ``step`` values that leave
+    are swapped for those that enter (``med``: the order statistics, ``row.size``)."""
+    n = row.size
+    h = width // 2
+    nc = (n + step - 2) // step + 1  # centres 0, step, 2 step, ..., the last bin
+    nan = False
+    for i in range(n):
+        if row[i] != row[i]:
+            nan = True
+            break
+    prev = 0
+    for c in range(nc):
+        cc = min(c * step, n - 1)
+        if nan:  # a window with NaN gives NaN: select in each window anew
+            bad = False
+            for i in range(width):
+                v = row[min(max(cc - h + i, 0), n - 1)]
+                if v != v:
+                    bad = True
+                buf[i] = v
+            med[c] = np.nan if bad else _kth(buf, rank)
+        else:
+            if c == 0 or cc - prev >= width:
+                for i in range(width):
+                    buf[i] = row[min(max(cc - h + i, 0), n - 1)]
+                buf.sort()
+            else:
+                for i in range(cc - prev):
+                    _replace_sorted(buf, row[min(max(prev - h + i, 0), n - 1)],
+                                    row[min(prev + h + 1 + i, n - 1)])
+            med[c] = buf[rank]
+        prev = cc
+    if step == 1:
+        for i in range(n):
+            out[i] = med[i] / scale
+        return
+    for i in range(n):
+        j = min(i // step, nc - 2)
+        c0 = min(j * step, n - 1)
+        c1 = min((j + 1) * step, n - 1)
+        fr = (i - c0) / max(c1 - c0, 1)
+        out[i] = (med[j] * (1.0 - fr) + med[j + 1] * fr) / scale
+
+
+@njit(cache=True)
+def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np.ndarray,
+                   widths: np.ndarray, steps: np.ndarray, ranks: np.ndarray, scale: float,
+                   h_i0: np.ndarray, h_fr: np.ndarray, c_s: float, c_0: float, cap: float,
+                   logp: np.ndarray, use_lead: bool, E: np.ndarray) -> None:
+    """``E[b, f, j]`` = the comb log-evidence of grid point j in frame f at rate b (module
+    docstring) before the mixture over the rates, from the (R, A, F, nb) power spectra ``P``:
+    per axis the whitened spectrum ``S = P / max(bg, 1e-300 + 1e-12 max(bg))``
+    (:func:`_background`); per harmonic k the term ``S(k omega) c_s - c_0`` (``c_s = a / (1 +
+    a)``, ``c_0 = log(1 + a)``; S interpolated at ``h_i0``, ``h_fr``), summed over the
+    ``good`` (A, F) axes and capped at ``A_f cap``; their sum over k, the best term's lead over
+    the second best limited to ``lead`` (F,) (``use_lead``), times ``weight`` (F,) with several
+    axes, plus the rate's log prior ``logp`` (R,). The operations and their order are those of
+    the array form (numpy), so the numbers are the same to the last bit."""
+    R, A, F, n = P.shape
+    M = h_i0.shape[1]
+    N = h_i0.shape[2]
+    wmax = 1
+    for b in range(R):
+        wmax = max(wmax, widths[b])
+    med = np.empty(n)
+    buf = np.empty(wmax)
+    bg = np.empty(n)
+    S = np.empty(n)
+    acc = np.empty((M, N))
+    for b in range(R):
+        w = widths[b]
+        for f in range(F):
+            ng = 0
+            for a in range(A):
+                if good[a, f]:
+                    ng += 1
+            capf = cap if A == 1 else ng * cap
+            for a in range(A):
+                row = P[b, a, f]
+                _background(row, w, steps[b], ranks[b], scale, med, buf[:w], bg)
+                mx = bg[0]
+                for i in range(n):  # np.max: NaN if any is
+                    v = bg[i]
+                    if v != v:
+                        mx = v
+                        break
+                    if v > mx:
+                        mx = v
+                thr = 1e-300 + 1e-12 * mx
+                for i in range(n):  # np.maximum: NaN if either is
+                    v = bg[i]
+                    d = v if (v >= thr or v != v) else thr
+                    if thr != thr:
+                        d = thr
+                    S[i] = row[i] / d
+                use = good[a, f]
+                for k in range(M):
+                    for j in range(N):
+                        i0 = h_i0[b, k, j]
+                        fr = h_fr[b, k, j]
+                        t = (S[i0] * (1 - fr) + S[i0 + 1] * fr) * c_s - c_0
+                        if A == 1:
+                            acc[k, j] = t
+                        else:  # numpy's sum over the axes: 0 + t_0 + t_1 + ...
+                            if a == 0:
+                                acc[k, j] = 0.0
+                            acc[k, j] += t if use else 0.0
+            for j in range(N):
+                e = 0.0
+                t1 = -np.inf
+                t2 = -np.inf
+                for k in range(M):
+                    v = acc[k, j]
+                    lk = capf if v > capf else v  # np.minimum: NaN stays NaN
+                    e += lk
+                    if lk > t1:
+                        t2 = t1
+                        t1 = lk
+                    elif lk > t2:
+                        t2 = lk
+                if use_lead:
+                    e += min(t1, t2 + lead[f]) - t1
+                if A > 1:
+                    e = e * weight[f]
+                E[b, f, j] = e + logp[b]
 
 
 def frame_evidence(config, frames: np.ndarray, centre: bool = False) -> np.ndarray:
@@ -229,42 +448,38 @@ def frame_evidence(config, frames: np.ndarray, centre: bool = False) -> np.ndarr
     warped for each relative rate (:func:`_warp`) and the evidences are averaged over the
     rates with their prior weights (in probability: ``E = log sum_b p_b exp(E_b)``), so an
     accelerating comb scores at its *current* frequencies instead of being smeared over the
-    frame."""
+    frame. One FFT call for every rate, axis and frame, the rest compiled (:func:`_windowed`,
+    :func:`_rate_evidence`) with the constants of the frame length built once
+    (:func:`_frame_tables`)."""
     tr = config.tracker
-    dt = tr.model.dt
     frames = np.asarray(frames, dtype=np.float64)
     if frames.ndim == 2:
         frames = frames[None]
     A, F, L = frames.shape
     N = tr.n_grid
-    M = tr.model.M
     out = np.zeros((F, N + 1))
     if F == 0:
         return out
     good = np.mean(~np.isfinite(frames), axis=2) <= 0.5  # (A, F): an axis' frame is usable
     n_good = good.sum(axis=0)  # (F,) axes per frame (a dead or gappy axis drops out)
-    bad = n_good == 0
     x = np.nan_to_num(frames)
-    x = x - x.mean(axis=2, keepdims=True)
-    rates = config.rates_in_frame(L, centre)
-    logp = np.log(config.rate_prior(rates))
-    lead = (n_good * config.comb_lead)[:, None]  # (F, 1)
-    weight = (np.array([config.axes_weight(int(a)) for a in n_good])[:, None] if A > 1
-              else None)
-    E = np.empty((rates.size, F, N))
-    for b, beta in enumerate(rates):
-        i0, fr, dtau = _warp(L, dt, float(beta), centre)
-        xb = x if i0 is None else x[:, :, i0] * (1 - fr) + x[:, :, i0 + 1] * fr
-        lk = _comb_terms(config, xb, dtau, good)
-        e = lk.sum(axis=0)
-        if M >= 2 and np.isfinite(config.comb_lead):
-            top2 = -np.partition(-lk, 1, axis=0)[:2]  # best, second best per (frame, point)
-            e += np.minimum(top2[0], top2[1] + lead) - top2[0]
-        E[b] = (e if A == 1 else e * weight) + logp[b]
+    x = np.ascontiguousarray(x - x.mean(axis=2, keepdims=True))
+    tb = _frame_tables(config, L, centre)
+    win = np.empty((tb.logp.size, A, F, L))
+    _windowed(x, tb.w_i0, tb.w_fr, tb.hann, win)
+    P = np.abs(np.fft.rfft(win, tb.nfft, axis=-1)) ** 2
+    a = config.comb_snr
+    lead = (n_good * config.comb_lead).astype(np.float64)
+    weight = (np.array([config.axes_weight(int(g)) for g in n_good]) if A > 1
+              else np.ones(F))
+    E = np.empty((tb.logp.size, F, N))
+    _rate_evidence(P, good, lead, weight, tb.widths, tb.steps, tb.ranks, tb.scale, tb.h_i0,
+                   tb.h_fr, a / (1 + a), float(np.log1p(a)), float(config.comb_cap), tb.logp,
+                   tr.model.M >= 2 and bool(np.isfinite(config.comb_lead)), E)
     mx = E.max(axis=0)  # (one rate: log p = 0 and this is E[0] exactly)
     out[:, :N] = mx + np.log(np.exp(E - mx).sum(axis=0))
     out[:, :N] *= config.comb_weight
-    out[bad] = 0.0
+    out[n_good == 0] = 0.0
     return out
 
 
