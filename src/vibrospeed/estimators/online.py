@@ -11,6 +11,7 @@ saved and restored.
 
 from __future__ import annotations
 
+import math
 from types import ModuleType
 from typing import Any
 
@@ -83,23 +84,28 @@ class OnlineTracker:
 
     def _front(self, st: tuple, sample: float) -> tuple[tuple, float]:
         fs, ns, ws = st
-        fs, y = pf.step(self.sos, fs, float(sample))
+        fs, y = pf.step(self.sos, fs, sample)
         if self.whiten:
             ws, y = wh.step(ws, y, 1.0 / self.dt)
         if self.tau:
             ns, y = nz.step(ns, y, self.dt, self.tau)
             y = self.target * y
-        return (fs, ns, ws), (y if np.isfinite(y) else np.nan)
+        return (fs, ns, ws), (y if math.isfinite(y) else math.nan)
 
     def update(self, sample) -> Any:
         """Process one raw sample (NaN = missing), or with a grid config of several
         ``comb_axes`` one sample per axis in ``config.comb_axes`` order; returns the
         estimator's estimate."""
         front, es = self.state
+        if self.n_axes == 1 and isinstance(sample, (float, int)):
+            st, y = self._front(front[0], float(sample))  # one axis: no arrays
+            es, est = self.estimator.step(self.config, es, y)
+            self.state = ((st,), es)
+            return est
         xs = np.atleast_1d(np.asarray(sample, dtype=np.float64))
         if xs.size != self.n_axes:
             raise ValueError(f"expected {self.n_axes} sample(s) per update, got {xs.size}")
-        out = [self._front(st, x) for st, x in zip(front, xs, strict=True)]
+        out = [self._front(st, float(x)) for st, x in zip(front, xs, strict=True)]
         ys = [y for _, y in out]
         es, est = self.estimator.step(self.config, es, ys[0] if self.n_axes == 1 else ys)
         self.state = (tuple(st for st, _ in out), es)

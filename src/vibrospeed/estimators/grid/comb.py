@@ -483,15 +483,44 @@ def frame_evidence(config, frames: np.ndarray, centre: bool = False) -> np.ndarr
     return out
 
 
+def _frame_plan(config) -> tuple[int, int, int, bool]:
+    """``(frame_len, hop_len, min_frame_len, comb on)`` of ``config``, kept with it."""
+    plan = config.__dict__.get("_frame_plan")
+    if plan is None:
+        plan = config.__dict__["_frame_plan"] = (config.frame_len, config.hop_len,
+                                                 config.min_frame_len, config.comb_weight != 0)
+    return plan
+
+
 def frame_ends_at(config, g: int) -> bool:
     """Whether a frame (full or growing, :func:`_frames_of`, :func:`_growing_frames`) ends at
     the sample of global index ``g``: a one-sample step without one has no comb evidence."""
-    if config.comb_weight == 0:
+    L, H, L0, on = _frame_plan(config)
+    if not on:
         return False
-    L, H, L0 = config.frame_len, config.hop_len, config.min_frame_len
     if g >= L - 1:
         return (g - (L - 1)) % H == 0
     return g + 1 >= L0 and (g + 1 - L0) % H == 0
+
+
+def step_evidence(config, buf: np.ndarray, count: int, y: np.ndarray) -> np.ndarray | None:
+    """The (N + 1,) comb evidence at the sample ``y`` ((A,), one value per axis) that follows
+    ``count`` samples whose last ``L`` are in the ring buffer ``buf`` ((L,) or (L, A), oldest
+    at ``count % L``), or None where no frame ends there: what :func:`evidence` gives for this
+    one sample (the same frame, its samples laid out in memory as there, so that the frame's
+    mean is summed in the same order), without its batch machinery."""
+    if not frame_ends_at(config, count):
+        return None
+    L = buf.shape[0]
+    m = min(count, L - 1)  # samples before y in the frame (full: L - 1; growing: all seen)
+    hist = buf if buf.ndim == 2 else buf[:, None]
+    full = np.empty((m + 1, hist.shape[1]))
+    p = (count - m) % L  # the oldest of them
+    k = min(m, L - p)
+    full[:k] = hist[p : p + k]
+    full[k:m] = hist[: m - k]
+    full[m] = y
+    return frame_evidence(config, full.T[:, None, :])[0]
 
 
 def _frames_of(config, history: np.ndarray, y: np.ndarray, count0: int):

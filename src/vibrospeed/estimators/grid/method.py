@@ -28,6 +28,7 @@ from vibrospeed.estimators.grid.comb import (  # noqa: F401 (frame_evidence: API
     evidence,
     frame_ends_at,
     frame_evidence,
+    step_evidence,
 )
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Estimate, Recording, Track
@@ -283,14 +284,17 @@ def init(config: Config, *, n_axes: int | None = None) -> State:
 def step(config: Config, state: State, y) -> tuple[State, Estimate]:
     """One sample (pre-filtered, scaled; with several comb axes one per axis, the tracked axis
     first): the frame evidence when a frame ends here, then the RBPMF step with it."""
-    yy = np.asarray(y, dtype=np.float64).reshape(1, -1)
-    if state.buf.ndim == 1:
-        yy = yy.reshape(1)
-    vals = (evidence(config, yy, state)[1] if frame_ends_at(config, state.count)
-            else np.zeros((0, 0)))
-    g, est = _filt.step(config.tracker, state.grid, float(yy.flat[0]),
-                      extra=vals[0] if vals.shape[0] else None)
-    return State(g, _push(state.buf, state.count, yy), state.count + 1), est
+    yy = np.asarray(y, dtype=np.float64).reshape(-1)
+    buf = state.buf
+    A = 1 if buf.ndim == 1 else buf.shape[1]
+    if yy.size != A:
+        raise ValueError(f"expected {A} sample(s) per step (one per comb axis), got {yy.size}")
+    count = state.count
+    g, est = _filt.step(config.tracker, state.grid, float(yy[0]),
+                        extra=step_evidence(config, buf, count, yy))
+    buf = buf.copy()
+    buf[count % buf.shape[0]] = yy if A > 1 else yy[0]
+    return State(g, buf, count + 1), est
 
 
 def run(config: Config, y: np.ndarray, state: State | None = None, *,
