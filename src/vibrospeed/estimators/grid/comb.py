@@ -200,9 +200,11 @@ class _FrameTables(NamedTuple):
     ``b`` (:meth:`Config.rates_in_frame`; ``b = 0`` unwarped): its log prior ``logp`` (R,),
     the warp's interpolation positions ``w_i0``, ``w_fr`` (R, L) (:func:`_warp`), the Hann
     window, the FFT length, the background's window ``widths``, evaluation ``steps`` and order
-    statistics ``ranks`` (R,) and ``scale`` (:func:`_background_stat`), and per harmonic k the
-    interpolation positions ``h_i0``, ``h_fr`` (R, M, N) of the grid points' (folded)
-    ``k omega`` among the rate's spectrum bins."""
+    statistics ``ranks`` (R,) and ``scale`` (:func:`_background_stat`), the comparators
+    ``net`` (C, 2) of each rate's selection network (rate b's: rows ``net_at[b]`` to
+    ``net_at[b + 1]``, :func:`selection_network`), and per harmonic k the interpolation
+    positions ``h_i0``, ``h_fr`` (R, M, N) of the grid points' (folded) ``k omega`` among the
+    rate's spectrum bins."""
 
     logp: np.ndarray
     w_i0: np.ndarray
@@ -213,6 +215,8 @@ class _FrameTables(NamedTuple):
     steps: np.ndarray
     ranks: np.ndarray
     scale: float
+    net: np.ndarray
+    net_at: np.ndarray
     h_i0: np.ndarray
     h_fr: np.ndarray
 
@@ -257,8 +261,37 @@ def _build_frame_tables(config, L: int, centre: bool) -> _FrameTables:
             i0k = np.minimum(pos.astype(np.int64), f.size - 2)
             h_i0[b, k - 1], h_fr[b, k - 1] = i0k, pos - i0k
     steps = np.maximum(1, widths // 8)
+    nets = [selection_network(int(w), int(k)) for w, k in zip(widths, ranks, strict=True)]
+    net_at = np.cumsum([0] + [len(c) for c in nets]).astype(np.int64)
     return _FrameTables(np.log(config.rate_prior(rates)), w_i0, w_fr, np.hanning(L), nfft,
-                        widths, steps, ranks, scale, h_i0, h_fr)
+                        widths, steps, ranks, scale, np.concatenate(nets), net_at, h_i0, h_fr)
+
+
+def selection_network(n: int, k: int) -> np.ndarray:
+    """Comparators ``(i, j)``, i < j, in order, that leave the ``k``-th smallest (0-based) of
+    ``n`` values on wire ``k``: Batcher's merge-exchange sorting network for any ``n`` (Knuth,
+    TAOCP vol. 3, 5.2.2, Algorithm M), each comparator putting the smaller value on ``i``,
+    less those whose outputs never reach wire ``k`` (walking back from the end: a comparator
+    is kept where it writes a wire that a kept one, or the output, reads later). The result
+    is a value of the inputs, with no arithmetic and no data-dependent branch: the same value
+    as any exact selection."""
+    t = max(1, (n - 1).bit_length())
+    pairs = []
+    p = 1 << (t - 1)
+    while p > 0:
+        q, r, d = 1 << (t - 1), 0, p
+        while True:
+            pairs.extend((i, i + d) for i in range(n - d) if i & p == r)
+            if q == p:
+                break
+            d, q, r = q - p, q >> 1, p
+        p >>= 1
+    need, keep = {k}, []
+    for i, j in reversed(pairs):
+        if i in need or j in need:
+            keep.append((i, j))
+            need.update((i, j))
+    return np.array(keep[::-1], np.int64).reshape(-1, 2)
 
 
 @njit(cache=True)
@@ -284,38 +317,18 @@ def _windowed(x: np.ndarray, w_i0: np.ndarray, w_fr: np.ndarray, hann: np.ndarra
 
 
 @njit(cache=True)
-def _replace_sorted(buf: np.ndarray, old: float, new: float) -> None:
-    """In the ascending ``buf``, one element equal to ``old`` replaced by ``new``, kept sorted."""
-    lo = 0
-    hi = buf.size
-    while lo < hi:  # the first element >= old: old itself
-        mid = (lo + hi) >> 1
-        if buf[mid] < old:
-            lo = mid + 1
-        else:
-            hi = mid
-    p = lo
-    if new > old:
-        while p + 1 < buf.size and buf[p + 1] < new:
-            buf[p] = buf[p + 1]
-            p += 1
-    else:
-        while p > 0 and buf[p - 1] > new:
-            buf[p] = buf[p - 1]
-            p -= 1
-    buf[p] = new
-
-
-@njit(cache=True)
 def _background(row: np.ndarray, width: int, step: int, rank: int, scale: float,
-                med: np.ndarray, buf: np.ndarray, out: np.ndarray) -> None:
+                net: np.ndarray, mat: np.ndarray, buf: np.ndarray, med: np.ndarray,
+                out: np.ndarray) -> None:
     """``out`` = the running ``rank``-th smallest (0-based) of ``row`` over ``width`` (odd)
     bins, edges extended ("nearest"), evaluated every ``step`` bins and linearly interpolated
     between, divided by ``scale``; a window holding a NaN gives NaN. With ``rank = width // 2``
     and ``step = max(1, width // 8)`` this is ``running_median(row[None], width)[0] / scale``
-    bitwise (the same windows, order statistics and interpolation). The windows slide: ``buf``
-    (``width``) keeps the previous window's values sorted, and the ``step`` values that leave
-    are swapped for those that enter (``med``: the order statistics, ``row.size``)."""
+    bitwise (the same windows, order statistics and interpolation). The windows are the
+    columns of ``mat`` (at least ``width`` x windows), all passed through the selection
+    network ``net`` (:func:`selection_network`) at once: no data-dependent branch, one window
+    per SIMD lane (``buf`` (``width``): a window, where the row holds a NaN; ``med``: the
+    order statistics, ``row.size``)."""
     n = row.size
     h = width // 2
     nc = (n + step - 2) // step + 1  # centres 0, step, 2 step, ..., the last bin
@@ -324,10 +337,9 @@ def _background(row: np.ndarray, width: int, step: int, rank: int, scale: float,
         if row[i] != row[i]:
             nan = True
             break
-    prev = 0
-    for c in range(nc):
-        cc = min(c * step, n - 1)
-        if nan:  # a window with NaN gives NaN: select in each window anew
+    if nan:  # a window with NaN gives NaN: select in each window on its own
+        for c in range(nc):
+            cc = min(c * step, n - 1)
             bad = False
             for i in range(width):
                 v = row[min(max(cc - h + i, 0), n - 1)]
@@ -335,17 +347,22 @@ def _background(row: np.ndarray, width: int, step: int, rank: int, scale: float,
                     bad = True
                 buf[i] = v
             med[c] = np.nan if bad else _kth(buf, rank)
-        else:
-            if c == 0 or cc - prev >= width:
-                for i in range(width):
-                    buf[i] = row[min(max(cc - h + i, 0), n - 1)]
-                buf.sort()
-            else:
-                for i in range(cc - prev):
-                    _replace_sorted(buf, row[min(max(prev - h + i, 0), n - 1)],
-                                    row[min(prev + h + 1 + i, n - 1)])
-            med[c] = buf[rank]
-        prev = cc
+    else:
+        for i in range(width):
+            mi = mat[i]
+            for c in range(nc):
+                mi[c] = row[min(max(min(c * step, n - 1) - h + i, 0), n - 1)]
+        for t in range(net.shape[0]):
+            lo = mat[net[t, 0]]
+            hi = mat[net[t, 1]]
+            for c in range(nc):
+                x = lo[c]
+                y = hi[c]
+                lo[c] = x if x < y else y
+                hi[c] = y if x < y else x
+        mk = mat[rank]
+        for c in range(nc):
+            med[c] = mk[c]
     if step == 1:
         for i in range(n):
             out[i] = med[i] / scale
@@ -361,12 +378,14 @@ def _background(row: np.ndarray, width: int, step: int, rank: int, scale: float,
 @njit(cache=True)
 def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np.ndarray,
                    widths: np.ndarray, steps: np.ndarray, ranks: np.ndarray, scale: float,
-                   h_i0: np.ndarray, h_fr: np.ndarray, c_s: float, c_0: float, cap: float,
-                   logp: np.ndarray, use_lead: bool, E: np.ndarray) -> None:
+                   net: np.ndarray, net_at: np.ndarray, h_i0: np.ndarray, h_fr: np.ndarray,
+                   c_s: float, c_0: float, cap: float, logp: np.ndarray, use_lead: bool,
+                   E: np.ndarray) -> None:
     """``E[b, f, j]`` = the comb log-evidence of grid point j in frame f at rate b (module
     docstring) before the mixture over the rates, from the (R, A, F, nb) power spectra ``P``:
     per axis the whitened spectrum ``S = P / max(bg, 1e-300 + 1e-12 max(bg))``
-    (:func:`_background`); per harmonic k the term ``S(k omega) c_s - c_0`` (``c_s = a / (1 +
+    (:func:`_background`, rate b's selection network: ``net[net_at[b]:net_at[b + 1]]``); per
+    harmonic k the term ``S(k omega) c_s - c_0`` (``c_s = a / (1 +
     a)``, ``c_0 = log(1 + a)``; S interpolated at ``h_i0``, ``h_fr``), summed over the
     ``good`` (A, F) axes and capped at ``A_f cap``; their sum over k, the best term's lead over
     the second best limited to ``lead`` (F,) (``use_lead``), times ``weight`` (F,) with several
@@ -376,15 +395,21 @@ def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np
     M = h_i0.shape[1]
     N = h_i0.shape[2]
     wmax = 1
+    size = 1
     for b in range(R):
         wmax = max(wmax, widths[b])
+        size = max(size, widths[b] * ((n + steps[b] - 2) // steps[b] + 1))
     med = np.empty(n)
     buf = np.empty(wmax)
+    flat = np.empty(size)
     bg = np.empty(n)
     S = np.empty(n)
     acc = np.empty((M, N))
     for b in range(R):
         w = widths[b]
+        nc = (n + steps[b] - 2) // steps[b] + 1
+        mat = flat[: w * nc].reshape((w, nc))
+        net_b = net[net_at[b] : net_at[b + 1]]
         for f in range(F):
             ng = 0
             for a in range(A):
@@ -393,7 +418,7 @@ def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np
             capf = cap if A == 1 else ng * cap
             for a in range(A):
                 row = P[b, a, f]
-                _background(row, w, steps[b], ranks[b], scale, med, buf[:w], bg)
+                _background(row, w, steps[b], ranks[b], scale, net_b, mat, buf[:w], med, bg)
                 mx = bg[0]
                 for i in range(n):  # np.max: NaN if any is
                     v = bg[i]
@@ -469,13 +494,14 @@ def frame_evidence(config, frames: np.ndarray, centre: bool = False) -> np.ndarr
     _windowed(x, tb.w_i0, tb.w_fr, tb.hann, win)
     P = np.abs(np.fft.rfft(win, tb.nfft, axis=-1)) ** 2
     a = config.comb_snr
-    lead = (n_good * config.comb_lead).astype(np.float64)
+    use_lead = tr.model.M >= 2 and bool(np.isfinite(config.comb_lead))
+    lead = (n_good * config.comb_lead).astype(np.float64) if use_lead else np.zeros(F)
     weight = (np.array([config.axes_weight(int(g)) for g in n_good]) if A > 1
               else np.ones(F))
     E = np.empty((tb.logp.size, F, N))
-    _rate_evidence(P, good, lead, weight, tb.widths, tb.steps, tb.ranks, tb.scale, tb.h_i0,
-                   tb.h_fr, a / (1 + a), float(np.log1p(a)), float(config.comb_cap), tb.logp,
-                   tr.model.M >= 2 and bool(np.isfinite(config.comb_lead)), E)
+    _rate_evidence(P, good, lead, weight, tb.widths, tb.steps, tb.ranks, tb.scale, tb.net,
+                   tb.net_at, tb.h_i0, tb.h_fr, a / (1 + a), float(np.log1p(a)),
+                   float(config.comb_cap), tb.logp, use_lead, E)
     mx = E.max(axis=0)  # (one rate: log p = 0 and this is E[0] exactly)
     out[:, :N] = mx + np.log(np.exp(E - mx).sum(axis=0))
     out[:, :N] *= config.comb_weight
