@@ -11,7 +11,9 @@ Parts (all in fresh child processes so that peak memory is the run's own):
   sees). Beyond the longest length the time and memory are extrapolated with the log-log slope
   of the last two lengths (printed as such).
 * ``online``: microseconds per sample of :class:`~vibrospeed.estimators.online.OnlineTracker`
-  (grid causal, rbpmf, ekf; 3000 samples after 300 warm-up, best of 3) and of
+  (grid causal, rbpmf, ekf; 3000 samples after 300 warm-up, best of 3), of the causal grid's
+  comb evidence alone (:func:`vibrospeed.estimators.grid.frame_evidence` on 100 successive
+  frames, one call each as its ``step`` makes them, best of 3) and of
   :func:`vibrospeed.signal.whiten.step` (12 000 samples of noise, best of 3), beside the same
   whitener at ``--whiten-ref`` (a git revision, read with ``git show``).
 * ``startup``: ``python -m vibrospeed estimate`` on a 10 s canonical CSV with an empty numba
@@ -438,6 +440,21 @@ def part_online(ref: str | None) -> list[str]:
             best = min(best, (time.process_time() - t0) / 3000 * 1e6)
         out.append(f"| {label} | {best:.1f} |")
         print(out[-1], flush=True)
+    # the causal grid's comb evidence alone: one frame at a time, as its step asks for it
+    cfg = grid.config_for(rec, axis="y", params={"smooth": "none"})
+    y = (ay - np.mean(ay)) / np.std(ay)
+    L, H = cfg.frame_len, cfg.hop_len
+    frames = [y[e - L + 1 : e + 1][None, :] for e in range(L - 1 + 300, L - 1 + 300 + 100 * H, H)]
+    grid.frame_evidence(cfg, frames[0])
+    best = np.inf
+    for _ in range(3):
+        t0 = time.process_time()
+        for fr in frames:
+            grid.frame_evidence(cfg, fr)
+        best = min(best, (time.process_time() - t0) / len(frames) * 1e6)
+    out.append(f"| comb evidence of one {L}-sample frame ({cfg.rates_in_frame(L).size} rates; "
+               f"every {H} samples) | {best:.0f} per frame, {best / H:.1f} per sample |")
+    print(out[-1], flush=True)
     x = np.random.default_rng(0).normal(size=12000)
     mods = [("whiten.step (this tree)", whiten)]
     if ref:

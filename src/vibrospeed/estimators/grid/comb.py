@@ -348,10 +348,14 @@ def _background(row: np.ndarray, width: int, step: int, rank: int, scale: float,
                 buf[i] = v
             med[c] = np.nan if bad else _kth(buf, rank)
     else:
-        for i in range(width):
-            mi = mat[i]
-            for c in range(nc):
-                mi[c] = row[min(max(min(c * step, n - 1) - h + i, 0), n - 1)]
+        for c in range(nc):  # window c in column c
+            s0 = min(c * step, n - 1) - h
+            if s0 >= 0 and s0 + width <= n:
+                for i in range(width):
+                    mat[i, c] = row[s0 + i]
+            else:
+                for i in range(width):
+                    mat[i, c] = row[min(max(s0 + i, 0), n - 1)]
         for t in range(net.shape[0]):
             lo = mat[net[t, 0]]
             hi = mat[net[t, 1]]
