@@ -186,10 +186,31 @@ def _first_line(p: Path) -> str:
     return ""
 
 
+def _recording_subfolders(folder: Path) -> list[Path]:
+    """The subfolders of ``folder`` (one level, hidden ones left out) that are recordings."""
+    out = []
+    try:
+        subs = sorted(q for q in folder.iterdir() if q.is_dir() and not q.name.startswith("."))
+    except OSError:
+        return []
+    for q in subs:
+        try:
+            _detect_format(q, mapping=False, inside=False)
+        except (ReaderError, OSError):
+            continue
+        out.append(q)
+    return out
+
+
 def detect_format(path: str | os.PathLike[str], *, mapping: bool = False) -> str:
     """Name of the format of ``path`` (see :func:`read`); ``mapping``: a column mapping was
-    given, so a non-canonical CSV is read through it."""
-    p = Path(path)
+    given, so a non-canonical CSV is read through it. A folder that is no recording but holds
+    recordings (a folder of phyphox exports) is an error naming them."""
+    return _detect_format(Path(path), mapping=mapping, inside=True)
+
+
+def _detect_format(p: Path, *, mapping: bool, inside: bool) -> str:
+    """:func:`detect_format`; ``inside``: look one level into a folder for the error message."""
     if not p.exists():
         raise ReaderError(p, "file not found")
     if mapping:
@@ -201,6 +222,11 @@ def detect_format(path: str | os.PathLike[str], *, mapping: bool = False) -> str
         if detect is not None and detect(p):
             return name
     if p.is_dir():
+        inner = _recording_subfolders(p) if inside else []
+        if inner:
+            shown = ", ".join(q.name for q in inner[:4]) + (", ..." if len(inner) > 4 else "")
+            raise ReaderError(p, f"a folder of {len(inner)} recordings ({shown}), not one: give "
+                                 "one of them, or `vibrospeed batch` for all")
         raise ReaderError(p, "unknown format: a folder that is not a phyphox export "
                              f"(no Accelerometer.csv); give --format ({', '.join(FORMATS)})")
     if p.stat().st_size == 0:

@@ -1,15 +1,18 @@
-"""Helpers shared by the readers: building a checked Recording, JSON-safe metadata, checksums."""
+"""Helpers shared by the readers: building a checked Recording, JSON-safe metadata, checksums,
+finding an app export's files in a folder."""
 
 from __future__ import annotations
 
 import hashlib
 import math
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from vibrospeed.errors import ReaderError
 from vibrospeed.io.timebase import check_increasing, describe_timebase, sort_dedup
 from vibrospeed.types import Recording
 
@@ -86,3 +89,29 @@ def sha256_path(path: str | os.PathLike[str]) -> str:
             for block in iter(lambda fh=fh: fh.read(1 << 20), b""):
                 h.update(block)
     return h.hexdigest()
+
+
+def export_folders(folder: str | os.PathLike[str], names: Sequence[str]) -> list[Path]:
+    """Where an app export in ``folder`` keeps its files, recognised by any of the file ``names``.
+
+    ``[folder]`` when ``folder`` holds one of them itself; otherwise every subfolder (one level,
+    hidden ones and ``__MACOSX`` left out) that does, sorted by name. One entry means ``folder``
+    is one export (perhaps unpacked into a folder of its own); several mean a folder of exports,
+    each a recording of its own; none, no export. Never raises (an unreadable folder: none).
+    """
+    p = Path(folder)
+    try:
+        if any((p / n).is_file() for n in names):
+            return [p]
+        return [q for q in sorted(p.iterdir())
+                if q.is_dir() and not q.name.startswith(".") and q.name != "__MACOSX"
+                and any((q / n).is_file() for n in names)]
+    except OSError:
+        return []
+
+
+def several_exports(folder: str | os.PathLike[str], roots: Sequence[Path], app: str) -> ReaderError:
+    """The error for a folder holding several ``app`` exports where one recording was asked for."""
+    shown = ", ".join(q.name for q in roots[:4]) + (", ..." if len(roots) > 4 else "")
+    return ReaderError(folder, f"a folder of {len(roots)} {app} exports ({shown}), not one "
+                               "recording: give one of them, or `vibrospeed batch` for all")

@@ -1,5 +1,10 @@
 """phyphox exports (https://phyphox.org): a folder or .zip of per-sensor CSV files.
 
+A folder is one export when it holds ``Accelerometer.csv``, or when exactly one of its subfolders
+does (an export unpacked into a folder of its own). A folder with several such subfolders holds
+several drives: each is one recording (``vibrospeed batch`` reads them one by one), and reading
+the folder, or a zip holding several exports, as one recording is an error naming them.
+
 Files used (each with its own time base, first column ``Time (s)``):
 
 ``Accelerometer.csv``       X, Y, Z (m/s^2) -> ``ax ay az``. **Master time line.**
@@ -41,7 +46,7 @@ from typing import IO
 import numpy as np
 
 from vibrospeed.errors import ReaderError
-from vibrospeed.io._common import finish
+from vibrospeed.io._common import export_folders, finish, several_exports
 from vibrospeed.io._csv import CsvTable, nan_notes, text_stream
 from vibrospeed.io.timebase import interp_onto, nearest_index, row_order
 from vibrospeed.types import Recording
@@ -61,21 +66,36 @@ class _Source:
         self.files: dict[str, Callable[[], contextlib.AbstractContextManager[IO[str]]]] = {}
         self.labels: dict[str, str] = {}
         if path.is_dir():
+            roots = export_folders(path, (ACC,))
+            if len(roots) > 1:
+                raise several_exports(path, roots, "phyphox")
+            root = roots[0] if roots else path
             for name in _MEMBERS:
-                hits = [path / name] if (path / name).is_file() else sorted(path.glob(f"*/{name}"))
-                if hits:
-                    self._add_file(name, hits[0])
+                if (root / name).is_file():
+                    self._add_file(name, root / name)
         elif zipfile.is_zipfile(path):
             try:
                 zf = zipfile.ZipFile(path)
                 infos = zf.infolist()
             except (zipfile.BadZipFile, OSError) as exc:
                 raise ReaderError(path, f"unreadable zip file ({exc})") from None
-            for info in infos:
-                base = info.filename.rsplit("/", 1)[-1]
-                if base in _MEMBERS and base not in self.files and "__MACOSX" not in info.filename:
-                    self.files[base] = self._zip_opener(path, info.filename)
-                    self.labels[base] = f"{path}:{info.filename}"
+            members = [info.filename for info in infos
+                       if "__MACOSX" not in info.filename and not info.is_dir()]
+            # the export is the zip folder holding the accelerometer; several such: several drives
+            acc_dirs = sorted({m.rpartition("/")[0] for m in members
+                               if m.rpartition("/")[2] == ACC})
+            if len(acc_dirs) > 1:
+                raise ReaderError(path, f"a zip of {len(acc_dirs)} phyphox exports "
+                                        f"({', '.join(d or '.' for d in acc_dirs[:4])}"
+                                        f"{', ...' if len(acc_dirs) > 4 else ''}), not one "
+                                        "recording: unpack it and give one folder, or "
+                                        "`vibrospeed batch` the unpacked folder")
+            for m in members:
+                folder, _, base = m.rpartition("/")
+                if base in _MEMBERS and base not in self.files and (not acc_dirs
+                                                                    or folder == acc_dirs[0]):
+                    self.files[base] = self._zip_opener(path, m)
+                    self.labels[base] = f"{path}:{m}"
         else:
             # a single CSV: part of an export folder, or one sensor on its own
             if path.name in _MEMBERS and (path.parent / ACC).is_file():
@@ -108,12 +128,14 @@ class _Source:
 
 
 def is_phyphox(path: str | os.PathLike[str]) -> bool:
-    """True for a folder or zip holding ``Accelerometer.csv``, or a CSV whose first column is
-    phyphox's ``Time (s)``."""
+    """True for a folder holding one export (``Accelerometer.csv`` in it or in its one subfolder
+    that has one), a zip holding ``Accelerometer.csv``, or a CSV whose first column is phyphox's
+    ``Time (s)``. A folder of several exports is not one recording: False (a batch reads it as
+    its exports)."""
     p = Path(path)
     try:
-        if p.is_dir():
-            return (p / ACC).is_file() or any(p.glob(f"*/{ACC}"))
+        if p.is_dir():  # one export, perhaps in a folder of its own; a folder of several: no
+            return len(export_folders(p, (ACC,))) == 1
         if zipfile.is_zipfile(p):
             with zipfile.ZipFile(p) as zf:
                 return any(n.rsplit("/", 1)[-1] == ACC for n in zf.namelist())

@@ -39,6 +39,10 @@ uncalibrated accelerometer in g unless "Standardise Units & Frames" was on; when
 m/s^2 (noted). Without Metadata.csv an uncalibrated accelerometer whose median magnitude is
 below 3 is taken to be in g (noted).
 
+A folder is one export when it holds a sensor file, or when exactly one of its subfolders does
+(an export unpacked into a folder of its own); a folder with several such subfolders holds
+several drives, each one recording (``vibrospeed batch``), and reading it as one is an error.
+
 A zip is read member by member into memory (:mod:`vibrospeed.io._archive`: no extraction to
 disk, size and compression-ratio limits).
 """
@@ -58,7 +62,7 @@ import numpy as np
 
 from vibrospeed.errors import ReaderError
 from vibrospeed.io._archive import SafeZip
-from vibrospeed.io._common import finish
+from vibrospeed.io._common import export_folders, finish, several_exports
 from vibrospeed.io._csv import CsvTable
 from vibrospeed.io.timebase import interp_onto, nearest_index, row_order
 from vibrospeed.types import Recording
@@ -71,6 +75,7 @@ GYR, GYRU, MAG, MAGU = ("Gyroscope.csv", "GyroscopeUncalibrated.csv", "Magnetome
                         "MagnetometerUncalibrated.csv")
 LOC, META = "Location.csv", "Metadata.csv"
 MEMBERS = (TOT, ACC, ACCU, GRAV, GYR, GYRU, MAG, MAGU, LOC, META)
+SENSORS = tuple(n for n in MEMBERS if n not in (META, LOC))  # the files that make an export
 G0 = 9.80665  # m/s^2, the app's standard gravity
 
 
@@ -82,10 +87,13 @@ class _Source:
         self.zip: SafeZip | None = None
         self.files: dict[str, Path] = {}
         if path.is_dir():
+            roots = export_folders(path, SENSORS)
+            if len(roots) > 1:
+                raise several_exports(path, roots, "Sensor Logger")
+            root = roots[0] if roots else path
             for name in MEMBERS:
-                hits = [path / name] if (path / name).is_file() else sorted(path.glob(f"*/{name}"))
-                if hits:
-                    self.files[name] = hits[0]
+                if (root / name).is_file():
+                    self.files[name] = root / name
         elif _is_zip(path):
             self.zip = SafeZip(path)
         elif path.name in MEMBERS and path.name != META:
@@ -142,17 +150,16 @@ def detect(path: str | os.PathLike[str]) -> bool:
     """True for a folder / zip holding a Sensor Logger sensor CSV (header ``time,seconds_elapsed,
     ...``) or for one such file. Never raises."""
     p = Path(path)
-    sensors = [n for n in MEMBERS if n not in (META, LOC)]
     try:
-        if p.is_dir():
-            for name in sensors:
-                hits = [p / name] if (p / name).is_file() else sorted(p.glob(f"*/{name}"))
-                if hits:
-                    return _looks_like(_head(hits[0]))
-            return False
+        if p.is_dir():  # one export (perhaps in a folder of its own), not a folder of several
+            roots = export_folders(p, SENSORS)
+            if len(roots) != 1:
+                return False
+            name = next(n for n in SENSORS if (roots[0] / n).is_file())
+            return _looks_like(_head(roots[0] / name))
         if _is_zip(p):
             z = SafeZip(p)
-            name = next((n for n in sensors if n in z.members), None)
+            name = next((n for n in SENSORS if n in z.members), None)
             return name is not None and _looks_like(z.head(name))
         return p.is_file() and _looks_like(_head(p))
     except (OSError, ReaderError):
