@@ -190,9 +190,11 @@ def estimate(
                                       mapping=mapping, rate=rate, plot=plot)
             for note in st.recording_notes + st.notes:
                 err.print(f"note: {note}", markup=False)  # [ms] is a unit here
-            err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)")
+            err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)",
+                      markup=False, soft_wrap=True)  # a path is text, not markup
             if plot is not None:
-                err.print(f"wrote {plot} (decimated spectrogram, no posterior image)")
+                err.print(f"wrote {plot} (decimated spectrogram, no posterior image)",
+                          markup=False, soft_wrap=True)
             return
         est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
                                  keep_posterior=plot is not None, meta={"preset": preset},
@@ -202,13 +204,13 @@ def estimate(
     rec, track = est.recording, est.track
     for note in rec.notes + track.notes:
         err.print(f"note: {note}", markup=False)
-    err.print(f"wrote {output} ({len(track)} rows, method {method})")
+    err.print(f"wrote {output} ({len(track)} rows, method {method})", markup=False, soft_wrap=True)
     if plot is not None:
         from vibrospeed.eval.plot import plot_track
 
         plot_track(plot, rec, track, axis=vibration_channel(rec, est.axis),
                    posterior=est.grids.get("posterior"), grid=est.grids.get("grid"))
-        err.print(f"wrote {plot}")
+        err.print(f"wrote {plot}", markup=False, soft_wrap=True)
 
 
 @_friendly

@@ -4,12 +4,14 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import Annotated
 
 import numpy as np
 import typer
 from rich.table import Table
+from rich.text import Text
 
 from vibrospeed.cli.base import _friendly, _load, err, out
 from vibrospeed.cli.options import ColumnsOpt, FormatOpt, InputArg, MappingOpt, RateOpt, SortOpt
@@ -48,8 +50,14 @@ def simulate(
     from vibrospeed.config import parse_params
 
     if list_:
-        for name, desc in sim.describe().items():
-            out.print(f"{name:14s} {desc}")
+        # scenario descriptions are doc text ([t_front, ...] is not markup), wrapped under their
+        # column at the terminal's width
+        names = sim.describe()
+        col = max(map(len, names)) + 2
+        for name, desc in names.items():
+            lines = textwrap.wrap(desc, max(40, out.width - col)) or [""]
+            text = f"{name:{col}s}" + ("\n" + " " * col).join(lines)
+            out.print(text, markup=False, highlight=False, soft_wrap=True)
         return
     if output is None:
         raise ParameterError("simulate: missing -o / --output (the file to write)")
@@ -57,7 +65,7 @@ def simulate(
     rec = sim.simulate(scenario, seed=seed, duration=duration, **kw, **parse_params(set_))
     io.write(rec, output)
     err.print(f"wrote {output}: {len(rec)} samples, {rec.duration:.1f} s at {rec.fs:.4g} Hz, "
-              f"channels {', '.join(rec.channels)}")
+              f"channels {', '.join(rec.channels)}", markup=False, soft_wrap=True)
 
 
 @_friendly
@@ -100,7 +108,8 @@ def truth(
     io.write(rec, output)
     for note in rec.notes:
         err.print(f"note: {note}", markup=False)
-    err.print(f"wrote {output}: {len(rec)} truth samples over {rec.duration:.1f} s")
+    err.print(f"wrote {output}: {len(rec)} truth samples over {rec.duration:.1f} s",
+              markup=False, soft_wrap=True)
 
 
 @_friendly
@@ -124,7 +133,8 @@ def info(
     rec = _load(input, fmt, columns, mapping, rate, sort, uniform=False)
     out.print(f"{rec.source or input}: {len(rec)} samples, {rec.duration:.2f} s, "
               f"median rate {rec.fs:.4g} Hz" + (f", wheel radius {rec.wheel_radius} m"
-                                                 if rec.wheel_radius else ""))
+                                                 if rec.wheel_radius else ""),
+              markup=False, soft_wrap=True)
     tab = Table(title_justify="left")
     for col in ("channel", "unit", "finite", "min", "median", "max"):
         tab.add_column(col, justify="left" if col in ("channel", "unit") else "right")
@@ -132,13 +142,13 @@ def info(
         ok = np.isfinite(x)
         if ok.any():
             lo, med, hi = np.percentile(x[ok], [0, 50, 100])
-            tab.add_row(name, rec.units.get(name, ""), f"{ok.mean():.1%}", f"{lo:.4g}",
-                        f"{med:.4g}", f"{hi:.4g}")
-        else:
-            tab.add_row(name, rec.units.get(name, ""), "0%", "", "", "")
+            tab.add_row(Text(name), Text(rec.units.get(name, "")), f"{ok.mean():.1%}",
+                        f"{lo:.4g}", f"{med:.4g}", f"{hi:.4g}")
+        else:  # names and units as text, not markup (a unit such as [m/s])
+            tab.add_row(Text(name), Text(rec.units.get(name, "")), "0%", "", "", "")
     out.print(tab)
     for name, ev in rec.events.items():
-        out.print(f"event stream {name}: {ev.size} events")
+        out.print(f"event stream {name}: {ev.size} events", markup=False)
     notes = list(rec.notes)
     notes += [n for n in describe_timebase(rec) if n not in notes]
     for note in notes:

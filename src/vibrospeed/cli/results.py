@@ -11,6 +11,7 @@ from typing import Annotated
 
 import typer
 from rich.table import Table
+from rich.text import Text
 
 from vibrospeed.cli.base import _friendly, _load, _params, err, out
 from vibrospeed.cli.options import (
@@ -90,7 +91,7 @@ def report(
     write_report(output, rec, track, axis=vb.vibration_channel(rec, used_axis), truth=ref,
                  posterior=grids.get("posterior"), grid=grids.get("grid"),
                  title=input.name or str(input), input_path=input, estimate_path=estimate_csv)
-    err.print(f"wrote {output}")
+    err.print(f"wrote {output}", markup=False, soft_wrap=True)  # a path is text, not markup
 
 
 @_friendly
@@ -118,7 +119,7 @@ def evaluate(
     track = io.read_track(estimate_csv)
     ref = io.read(truth, truth_format)
     m = ev(track, ref, min_omega=min_omega, warmup=warmup)
-    tab = Table(title=f"{estimate_csv.name} vs truth {truth.name}", title_justify="left")
+    tab = Table(title=Text(f"{estimate_csv.name} vs truth {truth.name}"), title_justify="left")
     tab.add_column("metric")
     tab.add_column("value", justify="right")
     tab.add_column("unit")
@@ -182,4 +183,4 @@ def plot(
     ref = io.read(truth) if truth else None
     plot_track(output, rec, track, axis=axis_channel(axis), truth=ref, harmonics=harmonics,
                window_s=window)
-    err.print(f"wrote {output}")
+    err.print(f"wrote {output}", markup=False, soft_wrap=True)  # a path is text, not markup

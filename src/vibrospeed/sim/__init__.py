@@ -34,6 +34,7 @@ from vibrospeed.sim.scenarios import (
     CarConfig,
     CartConfig,
     ValidationConfig,
+    describe_doc,
     make_config,
     register,
     simulate,
@@ -145,7 +146,7 @@ def _register_gps() -> None:
 
     for name, build in _gps.SCENARIOS.items():
         SCENARIOS[name] = _gps_scenario(name, build)
-        DESCRIPTIONS[name] = ((build.__doc__ or "").strip().splitlines() or [""])[0]
+        DESCRIPTIONS[name] = describe_doc(build.__doc__)
 
 
 _register_gps()

@@ -17,6 +17,7 @@ String values (from the command line) are converted to the field's type.
 from __future__ import annotations
 
 import dataclasses
+import re
 import types
 import typing
 from collections.abc import Callable
@@ -39,7 +40,7 @@ Builder = Callable[..., Recording]
 SCENARIOS: dict[str, Callable[..., Recording]] = {}
 #: scenario name -> its Config dataclass
 CONFIGS: dict[str, type] = {}
-#: scenario name -> one-line description (first line of the builder's docstring)
+#: scenario name -> one-line description (first paragraph of the builder's docstring)
 DESCRIPTIONS: dict[str, str] = {}
 
 _OFF = ("none", "off", "false", "no", "0", "")
@@ -117,6 +118,13 @@ def _jsonable(cfg: Any) -> dict:
     return dataclasses.asdict(cfg)
 
 
+def describe_doc(doc: str | None) -> str:
+    """A docstring's first paragraph as one line: its lines joined with single spaces, with
+    ``literal`` written `literal` (read in a terminal and as Markdown alike)."""
+    para = re.split(r"\n\s*\n", (doc or "").strip(), maxsplit=1)[0]
+    return " ".join(para.split()).replace("``", "`")
+
+
 def register(name: str, config_cls: type) -> Callable[[Builder], Builder]:
     """Decorator adding a scenario builder to :data:`SCENARIOS` (see module docstring)."""
 
@@ -140,8 +148,7 @@ def register(name: str, config_cls: type) -> Callable[[Builder], Builder]:
             rec.source = f"sim:{name}(seed={seed})"
             return rec
 
-        DESCRIPTIONS[name] = ((build.__doc__ or config_cls.__doc__ or "").strip().splitlines()
-                              or [""])[0]
+        DESCRIPTIONS[name] = describe_doc(build.__doc__ or config_cls.__doc__)
         scenario.__name__ = f"scenario_{name}"
         scenario.__doc__ = f"Simulate scenario '{name}'; knobs: :class:`{config_cls.__name__}`."
         SCENARIOS[name] = scenario
