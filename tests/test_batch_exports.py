@@ -129,6 +129,17 @@ def test_folder_of_sensorlogger_exports(tmp_path):
     one = tmp_path / "one"  # unpacked into a folder of its own: one recording
     _sensorlogger(one / "2024-01-03_10-00-00", 150)
     assert is_sensorlogger(one) and len(io.read(one)) == 150
+    both = tmp_path / "both.zip"  # a zip of the two drives: refused, not the first one read
+    with zipfile.ZipFile(both, "w") as zf:
+        for sub in sorted(root.iterdir()):
+            zf.write(sub / "TotalAcceleration.csv", f"{sub.name}/TotalAcceleration.csv")
+    with pytest.raises(ReaderError, match=r"a zip of 2 Sensor Logger exports \(2024-01-01"):
+        io.read(both)
+    single = tmp_path / "single.zip"
+    with zipfile.ZipFile(single, "w") as zf:
+        zf.write(root / "2024-01-02_10-00-00" / "TotalAcceleration.csv",
+                 "2024-01-02_10-00-00/TotalAcceleration.csv")
+    assert len(io.read(single)) == 300
 
 
 def test_cli_batch_folder_of_phyphox_exports(tmp_path):

@@ -45,13 +45,21 @@ class SafeZip:
         except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, ValueError, EOFError) as exc:
             raise ReaderError(self.path, f"unreadable zip file ({_msg(exc)})") from None
         self.members: dict[str, zipfile.ZipInfo] = {}
+        self._folders: dict[str, set[str]] = {}  # base name -> the zip folders holding one
         for info in infos:
             name = info.filename.replace("\\", "/")
             if info.is_dir() or "__MACOSX/" in name:
                 continue
-            base = name.rsplit("/", 1)[-1]
+            folder, _, base = name.rpartition("/")
+            if base:
+                self._folders.setdefault(base, set()).add(folder)
             if base and base not in self.members:
                 self.members[base] = info
+
+    def folders(self, names) -> list[str]:
+        """The zip folders (``""``: the top) holding a member named one of ``names``, sorted:
+        more than one means the zip holds several exports."""
+        return sorted(set().union(*(self._folders.get(n, set()) for n in names)))
 
     def label(self, base: str) -> str:
         """``zipfile:member`` for messages (control characters escaped)."""

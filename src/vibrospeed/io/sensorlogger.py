@@ -96,6 +96,12 @@ class _Source:
                     self.files[name] = root / name
         elif _is_zip(path):
             self.zip = SafeZip(path)
+            inner = self.zip.folders(SENSORS)
+            if len(inner) > 1:
+                shown = ", ".join(f or "." for f in inner[:4]) + (", ..." if len(inner) > 4 else "")
+                raise ReaderError(path, f"a zip of {len(inner)} Sensor Logger exports ({shown}), "
+                                        "not one recording: unpack it and give one folder, or "
+                                        "`vibrospeed batch` the unpacked folder")
         elif path.name in MEMBERS and path.name != META:
             for name in MEMBERS:
                 if (path.parent / name).is_file():
