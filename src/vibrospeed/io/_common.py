@@ -110,8 +110,15 @@ def export_folders(folder: str | os.PathLike[str], names: Sequence[str]) -> list
         return []
 
 
-def several_exports(folder: str | os.PathLike[str], roots: Sequence[Path], app: str) -> ReaderError:
-    """The error for a folder holding several ``app`` exports where one recording was asked for."""
-    shown = ", ".join(q.name for q in roots[:4]) + (", ..." if len(roots) > 4 else "")
-    return ReaderError(folder, f"a folder of {len(roots)} {app} exports ({shown}), not one "
-                               "recording: give one of them, or `vibrospeed batch` for all")
+def several_exports(path: str | os.PathLike[str], exports: Sequence[Path | str],
+                    app: str) -> ReaderError:
+    """The error for a folder or zip holding several ``app`` exports (their folders
+    ``exports``; ``""``: the zip's top) where one recording was asked for."""
+    names = [Path(q).name or "." for q in exports]
+    shown = ", ".join(names[:4]) + (", ..." if len(names) > 4 else "")
+    if Path(path).is_dir():
+        return ReaderError(path, f"a folder of {len(names)} {app} exports ({shown}), not one "
+                                 "recording: give one of them, or `vibrospeed batch` for all")
+    return ReaderError(path, f"a zip of {len(names)} {app} exports ({shown}), not one "
+                             "recording: unpack it and give one folder, or `vibrospeed batch` "
+                             "the unpacked folder")

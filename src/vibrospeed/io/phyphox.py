@@ -85,11 +85,7 @@ class _Source:
             acc_dirs = sorted({m.rpartition("/")[0] for m in members
                                if m.rpartition("/")[2] == ACC})
             if len(acc_dirs) > 1:
-                raise ReaderError(path, f"a zip of {len(acc_dirs)} phyphox exports "
-                                        f"({', '.join(d or '.' for d in acc_dirs[:4])}"
-                                        f"{', ...' if len(acc_dirs) > 4 else ''}), not one "
-                                        "recording: unpack it and give one folder, or "
-                                        "`vibrospeed batch` the unpacked folder")
+                raise several_exports(path, acc_dirs, "phyphox")
             for m in members:
                 folder, _, base = m.rpartition("/")
                 if base in _MEMBERS and base not in self.files and (not acc_dirs

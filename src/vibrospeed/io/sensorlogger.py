@@ -98,10 +98,7 @@ class _Source:
             self.zip = SafeZip(path)
             inner = self.zip.folders(SENSORS)
             if len(inner) > 1:
-                shown = ", ".join(f or "." for f in inner[:4]) + (", ..." if len(inner) > 4 else "")
-                raise ReaderError(path, f"a zip of {len(inner)} Sensor Logger exports ({shown}), "
-                                        "not one recording: unpack it and give one folder, or "
-                                        "`vibrospeed batch` the unpacked folder")
+                raise several_exports(path, inner, "Sensor Logger")
         elif path.name in MEMBERS and path.name != META:
             for name in MEMBERS:
                 if (path.parent / name).is_file():
