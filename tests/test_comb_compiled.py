@@ -121,8 +121,9 @@ def test_background_window_with_nan_is_nan():
 
 def _array_form(config, frames: np.ndarray, centre: bool = False) -> np.ndarray:
     """The comb evidence written with whole-array numpy operations (module docstring of
-    grid.comb): per rate the warped, windowed frames' spectra, the running-median background,
-    per-harmonic capped terms, their sum, the lead limit, the log-sum-exp over the rates."""
+    grid.comb): per rate the warped, windowed frames' spectra, the background (the order
+    statistic of :func:`comb._background_stat` sorted out of each window), per-harmonic capped
+    terms, their sum, the lead limit, the log-sum-exp over the rates."""
     tr = config.tracker
     dt = tr.model.dt
     fs = 1.0 / dt
@@ -147,7 +148,8 @@ def _array_form(config, frames: np.ndarray, centre: bool = False) -> np.ndarray:
         P = np.abs(np.fft.rfft(xb * np.hanning(L), nfft, axis=1)) ** 2
         f = 2 * np.pi * np.fft.rfftfreq(nfft, dtau)
         medw = max(3, int(round(config.background_hz(L) / (1.0 / (dtau * nfft))))) | 1
-        bg = comb.running_median(P, medw) / np.log(2.0)
+        rank, scale = comb._background_stat(medw)  # the median and ln 2 (running_median)
+        bg = np.array([_reference_order(r, medw, rank) for r in P]) / scale
         S = P / np.maximum(bg, 1e-300 + 1e-12 * np.max(bg, axis=1, keepdims=True))
         a = config.comb_snr
         lk = np.empty((M, F, N))
