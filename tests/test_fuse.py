@@ -57,12 +57,13 @@ def synth(seed=0, T=240.0, r_true=0.31, outage=None, no_line=None, bias=0.2, sti
 def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
     """Plain numpy/scipy re-implementation (standard-form update, scipy expm) of the filter."""
     Ar, Br = receiver_matrices(cfg.lag)
-    n = 4 + Ar.shape[0]
+    n = 4 + Ar.shape[0] + 1  # the last state: the receiver's extra lag
     Ac = np.zeros((n, n))
     Ac[0, 1] = 1.0
-    Ac[4:, 4:] = Ar
-    Ac[4:, 0] = Br
-    q = np.array([cfg.q_speed, cfg.q_accel, cfg.q_offset, cfg.q_radius] + [cfg.q_gps] * (n - 4))
+    Ac[4:-1, 4:-1] = Ar
+    Ac[4:-1, 0] = Br
+    q = np.array([cfg.q_speed, cfg.q_accel, cfg.q_offset, cfg.q_radius]
+                 + [cfg.q_gps] * (n - 5) + [cfg.q_gps_lag])
     x, P = state.x.copy(), state.P.copy()
     t_prev = math.nan
 
@@ -101,9 +102,13 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
             upd(e[1] + e[2], arrays["accel"][i], cfg.acc_psd / dt)
         g = arrays["gps_speed"][i]
         if np.isfinite(g) and arrays["gps_sats"][i] >= cfg.min_sats:
-            nu = g - x[4]
-            E2 = min(max(nu**2 - (P[4, 4] + cfg.r_gps), 0.0), cfg.e_max**2)
-            upd(e[4], g, cfg.r_gps + cfg.r_gps_sq * E2)
+            # extended Kalman row of g = x3(t - dl) ~ x3 - dl x3', x3' = Ac[4] x
+            dl, d3 = x[-1], Ac[4] @ x
+            h = e[4] - dl * Ac[4]
+            h[-1] = -d3
+            nu = g - (x[4] - dl * d3)
+            E2 = min(max(nu**2 - (h @ P @ h + cfg.r_gps), 0.0), cfg.e_max**2)
+            upd(h, nu + h @ x, cfg.r_gps + cfg.r_gps_sq * E2)
             t_gps = t
         k_used = math.nan
         om, s = arrays["omega"][i], arrays["omega_std"][i]
@@ -123,7 +128,8 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
                 ready = t - acq[0] >= cfg.acq_time
             rh = max(x[3], 1e-3)
             var = s**2 + (cfg.vib_rel * om) ** 2
-            R = {k: (rh * k) ** 2 * var * cfg.vib_corr / dt for k in (1.0, 0.5, 2.0)}
+            vlag = (cfg.vib_lag * x[1]) ** 2
+            R = {k: ((rh * k) ** 2 * var + vlag) * cfg.vib_corr / dt for k in (1.0, 0.5, 2.0)}
             sv3 = 3 * math.sqrt(P[0, 0])
             costs = {}
             for k in ((1.0, 0.5, 2.0) if known else (1.0,)) if ready else ():
@@ -137,7 +143,7 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
             if costs:
                 kb = min(costs, key=lambda k: costs[k][0])
                 if costs[kb][0] <= cfg.vib_gate and (
-                        fresh or 3 * math.sqrt(P[0, 0] + (rh * kb) ** 2 * var)
+                        fresh or 3 * math.sqrt(P[0, 0] + (rh * kb) ** 2 * var + vlag)
                         <= cfg.vib_sep * rh * kb * om):
                     take = kb
             if ready and known and take is None:
@@ -161,8 +167,9 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
     return np.array(speeds), np.array(radii), np.array(ks)
 
 
-def test_filter_matches_independent_reference():
-    cfg = fuse.Config(acc_psd=0.01)
+@pytest.mark.parametrize("kw", [{}, {"vib_lag": 1.5, "gps_lag_std": 0.5}])
+def test_filter_matches_independent_reference(kw):
+    cfg = fuse.Config(acc_psd=0.01, **kw)
     arrays, _ = synth(seed=1, T=60.0, outage=(20.0, 40.0), no_line=(30.0, 35.0))
     # octave errors of the tracker in places: the filter must resolve them as the reference does
     arrays["omega"][200:230] *= 2.0

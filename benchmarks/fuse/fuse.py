@@ -27,6 +27,7 @@ are the truth. The grid tracker runs once per recording (it does not see GPS).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import pickle
 import sys
@@ -68,12 +69,15 @@ def near_axes(rec) -> bool:
     return bool(np.max(np.abs(rec.meta["drawn"]["mount"])) <= 0.35)
 
 
-def _score(est, v, mask):
+def _score(est, v, mask, std=None):
+    """Pooled counts over ``mask``: samples, squared error, within 3 % of the speed and, with
+    the estimate's ``std``, inside its 98 % band (``|e| <= 2.326 std``)."""
     if not mask.any():
-        return {"n": 0, "sse": 0.0, "w3": 0}
+        return {"n": 0, "sse": 0.0, "w3": 0, "cov": 0}
     e = est[mask] - v[mask]
+    cov = -1 if std is None else int(np.sum(np.abs(e) <= Z98 * std[mask]))
     return {"n": int(mask.sum()), "sse": float(np.sum(e * e)),
-            "w3": int(np.sum(np.abs(e) <= 0.03 * v[mask]))}
+            "w3": int(np.sum(np.abs(e) <= 0.03 * v[mask])), "cov": cov}
 
 
 #: extra fuse parameters for every run (--param NAME=VALUE)
@@ -96,17 +100,25 @@ def sim_seed(seed: int, cache: str | None, extra: dict | None = None) -> dict:
     extra = dict(extra or {})
     f_off = fuse.estimate(rec, vibration=g_off, params=extra)
     f_on = fuse.estimate(rec, vibration=g_on, params={**extra, "online": True})
-    gr = gps_riss.estimate(rec)
+    shared = {f.name for f in dataclasses.fields(gps_riss.GpsFields)}
+    gr = gps_riss.estimate(rec, params={k: x for k, x in extra.items() if k in shared})
     ests = {"fuse offline": f_off.speed, "fuse online": f_on.speed, "gps-riss": gr.speed,
             "vibration x true r, offline": g_off.omega * r,
             "vibration x true r, causal": g_on.omega * r}
+    stds = {"fuse offline": f_off.speed_std, "fuse online": f_on.speed_std,
+            "gps-riss": gr.speed_std}
+    # with GPS: moving (true speed above 0.3 m/s) outside the tunnels
+    gps_on = ~tun & (v > 0.3)
     out = {"seed": seed, "tunnel_s": float(tun.sum() / rec.fs), "vis_share": float(
         vis.sum() / max(tun.sum(), 1)), "r": r,
         "r_off": f_off.params["learned_radius"], "r_on": f_on.params["learned_radius"],
         "r_std": f_off.params["learned_radius_std"],
         "r_std_on": f_on.params["learned_radius_std"], "comb": rec.meta["drawn"]["comb_shape"],
-        "fs": rec.fs, "scores": {k: {"tunnel": _score(x, v, tun), "visible": _score(x, v, vis)}
-                                 for k, x in ests.items()}}
+        "fs": rec.fs, "scores": {k: {"tunnel": _score(x, v, tun, stds.get(k)),
+                                     "visible": _score(x, v, vis),
+                                     "gps": _score(x, v, gps_on, stds.get(k))}
+                                 for k, x in ests.items()},
+        "gps_lag": (f_off.params.get("learned_gps_lag"), gr.params.get("learned_gps_lag"))}
     # the online speed's steps in the 10 s after the tunnel, in units of its band before
     idx = np.flatnonzero(tun)
     if idx.size and idx[-1] + 2 < len(rec):
@@ -198,6 +210,18 @@ def sim_part(n_seeds: int, jobs: int, cache: str | None) -> str:
         lines.append(f"| {m} | {agg['tunnel'][0]:.2f} | {agg['tunnel'][1]:.1f} % | "
                      f"{agg['visible'][0]:.2f} | {agg['visible'][1]:.1f} % | "
                      f"{better} / {len(res)} |")
+    lines += ["", "98 % band: share of the samples whose error lies inside the band "
+              "(`|e| <= 2.326 speed_std`), and RMSE, with GPS (moving, outside the tunnels) and "
+              "in the tunnels:", "",
+              "| method | with GPS: in band | with GPS: RMSE (m/s) | tunnel: in band | "
+              "tunnel: RMSE (m/s) |", "|---|---|---|---|---|"]
+    for m in ("fuse offline", "fuse online", "gps-riss"):
+        row = []
+        for part in ("gps", "tunnel"):
+            n = sum(r["scores"][m][part]["n"] for r in res)
+            row.append(100 * sum(r["scores"][m][part]["cov"] for r in res) / max(n, 1))
+            row.append(np.sqrt(sum(r["scores"][m][part]["sse"] for r in res) / max(n, 1)))
+        lines.append(f"| {m} | {row[0]:.1f} % | {row[1]:.3f} | {row[2]:.1f} % | {row[3]:.2f} |")
     jumps = np.array([r["jump"] for r in res if "jump" in r])
 
     def radius_line(key, skey, label):

@@ -1,10 +1,12 @@
 """One speed from every sensor a log has: longitudinal acceleration, GPS speed and the wheel
 vibration's frequency, with the effective wheel radius learned on the way (``--method fuse``).
 
-State ``X = [v, a, b, r, x3, x4, d...]``: speed (m/s), acceleration (m/s^2), accelerometer offset
-b (m/s^2: road slope ``g sin theta``, mount tilt and bias), the effective wheel radius r (m, the
-speed-to-wheel-frequency ratio ``v = r omega``), and the GPS receiver chain of the GPS/RISS model
-(:mod:`vibrospeed.models.gps_riss`: reported speed x3, its derivative x4, Pade delay states).
+State ``X = [v, a, b, r, x3, x4, d..., dl]``: speed (m/s), acceleration (m/s^2), accelerometer
+offset b (m/s^2: road slope ``g sin theta``, mount tilt and bias), the effective wheel radius r
+(m, the speed-to-wheel-frequency ratio ``v = r omega``), the GPS receiver chain of the GPS/RISS
+model (:mod:`vibrospeed.models.gps_riss`: reported speed x3, its derivative x4, Pade delay
+states) and the receiver's extra lag dl (s, random walk ``q_gps_lag`` from ``0 +-
+gps_lag_std``; :mod:`vibrospeed.estimators.gps_riss` explains it).
 Continuous time ``v' = a``, ``a' = w_a``, ``b' = w_b``, ``r' = w_r``,
 ``[x3, x4, d]' = Ar [x3, x4, d] + Br v`` (paper eq. 1-2); each step predicts with the exact
 transition ``F = expm(A_c dt)`` and ``Q = diag(q) dt``.
@@ -13,7 +15,9 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
 
 1. accelerometer ``a_m = a + b + e``, ``var e = acc_psd / dt``: the mean of the raw samples over
    the ``dt`` since the previous fusion sample (white noise of density ``acc_psd``).
-2. GPS speed ``g = x3 + e`` (GPS/RISS paper section VI): used only with ``sats >= min_sats``
+2. GPS speed ``g = x3(t - dl) + e ~ x3 - dl x3' + e`` (GPS/RISS paper section VI, the
+   receiver's extra lag learned; extended Kalman row linearised at the estimate, ``x3' = A_c[x3]
+   X``): used only with ``sats >= min_sats``
    (a NaN count counts as valid); its variance grows with the part of the innovation the model
    does not explain, ``R = r_gps + r_gps_sq min(E^2, e_max^2)``, ``E^2 = max(nu^2 - S0, 0)``
    (paper eq. 13, 18; ``e_max`` large, see :class:`Config`). The change of v this update makes
@@ -26,13 +30,15 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    line. The line may be the wheel's omega/2 or 2 omega (the tracker's octave errors), so the
    wheel frequency is ``k omega``, ``k in {1/2, 1, 2}``. Each hypothesis is the *linear*
    pseudo-measurement ``0 = v - r k omega + e`` (``H = [1, 0, 0, -k omega, 0...]``, exact in the
-   state given the measured omega) with ``var e = (r k)^2 (s^2 + (vib_rel omega)^2)
-   vib_corr / dt``: the tracker's spread plus a relative floor, inflated by the number of fusion
+   state given the measured omega) with ``var e = ((r k)^2 (s^2 + (vib_rel omega)^2) +
+   (vib_lag a)^2) vib_corr / dt``: the tracker's spread plus a relative floor and the speed a
+   line that trails an acceleration ``a`` by up to ``vib_lag`` s misses (a causal tracker),
+   inflated by the number of fusion
    samples per correlation time of the tracker's errors (its outputs are not independent from
    sample to sample). The hypothesis with the smallest normalised innovation squared
    ``nu^2 / S`` plus ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate`` and
    the gate is decisive: GPS holds the speed (a fix in the past ``learn_hold`` s), or
-   ``3 sqrt(P_vv + (r k)^2 (s^2 + (vib_rel omega)^2)) <= vib_sep r k omega`` (the band and
+   ``3 sqrt(P_vv + (r k)^2 (s^2 + (vib_rel omega)^2) + (vib_lag a)^2) <= vib_sep r k omega`` (the band and
    the line's own spread are narrow against the spacing of the octaves;
    after a long stretch on the accelerometer alone it is not, and a gate of 4 sigma would pass
    an idling engine's line or the wrong octave); else the sample has no direct vibration
@@ -118,6 +124,7 @@ re-exported.
 """
 
 from vibrospeed.estimators.fuse.config import (
+    CAUSAL_VIB_LAG,
     HARMONIC_FACTORS,
     IA,
     IB,
@@ -161,6 +168,7 @@ from vibrospeed.estimators.fuse.method import (
 from vibrospeed.estimators.fuse.smoother import _rts, smooth
 
 __all__ = [
+    "CAUSAL_VIB_LAG",
     "EXTRAS",
     "HARMONIC_FACTORS",
     "IA",

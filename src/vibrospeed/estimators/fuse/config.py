@@ -31,6 +31,10 @@ HARMONIC_FACTORS = (1.0, 0.5, 2.0)
 #: 9.8 m/s (benchmarks/fuse/RESULTS.md, "Earlier runs").
 TRACKER_DEFAULTS = {name: float(value) for name, value in STRICT_COMB.items()}
 
+#: s, the causal grid tracker's lag behind an acceleration that ``estimate(online=True)`` gives
+#: its lines (``Config.vib_lag``): it follows a hard braking a second or two late
+CAUSAL_VIB_LAG = 2.0
+
 # state indices
 IV, IA, IB, IR, IG = 0, 1, 2, 3, 4
 
@@ -41,8 +45,9 @@ class Config(GpsFields):
 
     Parameters
     ----------
-    gps_a, gps_b, gps_delay, gps_pade, min_sats : the GPS receiver lag model (GPS/RISS paper
-        eq. 3-4) and the satellite gate, shared with ``gps-riss``
+    gps_a, gps_b, gps_delay, gps_pade, min_sats, gps_lag_std, q_gps_lag : the GPS receiver
+        lag model (GPS/RISS paper eq. 3-4), the satellite gate and the prior and random walk of
+        the receiver's extra lag (a state), shared with ``gps-riss``
         (:class:`vibrospeed.estimators.gps_riss.GpsFields`).
     q_speed, q_accel, q_offset, q_gps, q_radius : process noise intensities per second of v
         ((m/s)^2/s), a (jerk, (m/s^2)^2/s), b ((m/s^2)^2/s), the receiver states and r (m^2/s).
@@ -82,6 +87,10 @@ class Config(GpsFields):
         (item 3).
     still_relock : s of stop evidence refused by the integrated speed, without GPS, before the
         stop is taken anyway (item 4).
+    vib_lag : s, how far the tracker's line may trail the speed (a causal tracker follows an
+        acceleration late): a line read while the filter's acceleration is ``a`` carries an
+        extra speed variance ``(vib_lag a)^2`` (item 3). 0 (default) for the smoothed tracker;
+        :func:`estimate` with ``online`` and no ``vib_lag`` given uses :data:`CAUSAL_VIB_LAG`.
     vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
         (where the tracker claims a line, ``has_signal``) or ``"all"`` (every positive omega,
         its posterior spread and the gate decide: for trackers whose null state dominates on a
@@ -128,6 +137,7 @@ class Config(GpsFields):
     acq_rel: float = 0.03
     acq_change: float = 0.1
     vib_sep: float = 0.35
+    vib_lag: float = 0.0
     nonneg: bool = True
     fuse_rate: float = 25.0
 
@@ -142,7 +152,7 @@ class Config(GpsFields):
                      "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
                      "vib_min_speed", "octave_rel", "vib_relock", "radius_min", "radius_max",
                      "still_relock", "learn_hold", "acq_time", "acq_rel", "acq_change",
-                     "vib_sep"):
+                     "vib_sep", "vib_lag"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
         if self.vib_use not in ("line", "all"):
@@ -153,19 +163,20 @@ class Config(GpsFields):
 
     @property
     def n_states(self) -> int:
-        """Length of the state vector."""
-        return IG + self.lag.n_states
+        """Length of the state vector: the receiver chain, then the receiver's extra lag."""
+        return IG + self.lag.n_states + 1
 
     def _arrays(self):
         """``(Ac, qc, p)``: continuous system matrix, process noise intensities, scalars."""
         Ar, Br = receiver_matrices(self.lag)
-        n = IG + Ar.shape[0]
+        n = IG + Ar.shape[0] + 1  # the last state: the receiver's extra lag (constant)
         Ac = np.zeros((n, n))
         Ac[IV, IA] = 1.0
-        Ac[IG:, IG:] = Ar
-        Ac[IG:, IV] = Br
+        Ac[IG:-1, IG:-1] = Ar
+        Ac[IG:-1, IV] = Br
         qc = np.full(n, self.q_gps)
         qc[:IG] = (self.q_speed, self.q_accel, self.q_offset, self.q_radius)
+        qc[-1] = self.q_gps_lag
         p = np.array([
             self.acc_psd, self.r_gps, self.r_gps_sq, self.e_max, self.min_sats, self.vib_rel,
             self.vib_corr, self.vib_gate, self.vib_penalty, self.r_still, self.r_still_acc,
@@ -173,5 +184,6 @@ class Config(GpsFields):
             self.octave_tau, float(self.nonneg), self.vib_min_speed, self.octave_rel,
             self.vib_relock, self.radius_min, self.radius_max, self.still_relock,
             self.learn_hold, self.acq_time, self.acq_rel, self.acq_change, self.vib_sep,
+            self.vib_lag,
         ], dtype=np.float64)
         return Ac, qc, p

@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit
 
 from vibrospeed.estimators.fuse.config import IA, IB, IG, IR, IV
+from vibrospeed.estimators.gps_riss.core import _lag_row
 from vibrospeed.models.gps_riss import transition
 
 
@@ -83,12 +84,14 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         if valid:
             sc[2] = t
             sc[3] = g
-            h[IG] = 1.0
-            nu = g - x[IG]
-            s0 = P[IG, IG] + p[1]
+            # the row linearised at x: the fix is the receiver model's output an extra lag
+            # (the last state) earlier
+            hg = np.empty(n)
+            zg = g + _lag_row(Ac, x, IG, hg)
+            nu = zg - hg @ x
+            s0 = hg @ P @ hg + p[1]
             e2 = min(max(nu * nu - s0, 0.0), p[3] * p[3])
-            _update_row(x, P, h, g, p[1] + p[2] * e2)
-            h[IG] = 0.0
+            _update_row(x, P, hg, zg, p[1] + p[2] * e2)
             sc[1] = t
     # 3. wheel frequency, octave chosen by the speed prior
     kk = math.nan
@@ -113,6 +116,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         best = math.inf
         r_hat = max(x[IR], 1e-3)
         var_om = om_std * om_std + (p[5] * om) ** 2
+        var_lag = (p[29] * x[IA]) ** 2  # the tracker's lag behind the speed, in (m/s)^2
         infl = p[6] / dt
         sv3 = 3.0 * math.sqrt(max(P[IV, IV], 0.0))
         for j in range((3 if known else 1) if ready else 0):
@@ -122,14 +126,14 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             hr = -k * om
             nu = -(x[IV] + hr * x[IR])
             s = (P[IV, IV] + 2.0 * hr * P[IV, IR] + hr * hr * P[IR, IR]
-                 + (r_hat * k) ** 2 * var_om * infl)
+                 + ((r_hat * k) ** 2 * var_om + var_lag) * infl)
             cost = nu * nu / s + (0.0 if j == 0 else p[8])
             if cost < best:
                 best = cost
                 kk = k
         # direct use needs a decisive gate: the band narrow against the octaves' spacing
         decisive = not math.isnan(kk) and (fresh or 3.0 * math.sqrt(
-            P[IV, IV] + (r_hat * kk) ** 2 * var_om) <= p[28] * r_hat * kk * om)
+            P[IV, IV] + (r_hat * kk) ** 2 * var_om + var_lag) <= p[28] * r_hat * kk * om)
         if ready and known and not (best <= p[7] and decisive):
             # re-lock run on the line at k = 1 (the octave that taught r): the gap
             # d = r omega - v between the line's speed and the filter's must hold for
@@ -158,7 +162,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             # away from GPS the radius and the offset are consider states: a line there
             # carries the speed but teaches neither (a wrong or lagging line accepted in an
             # outage would corrupt the radius and the offset the inertial stretches rest on)
-            _update_row(x, P, h, 0.0, (r_hat * kk) ** 2 * var_om * infl, -1 if fresh else IR,
+            _update_row(x, P, h, 0.0, ((r_hat * kk) ** 2 * var_om + var_lag) * infl,
+                        -1 if fresh else IR,
                         -1 if fresh else IB)
             h[IV] = 0.0
             h[IR] = 0.0

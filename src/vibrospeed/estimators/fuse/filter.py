@@ -111,7 +111,8 @@ def init(config: Config, v0: float = 0.0, *, radius: float | None = None,
         raise ParameterError(f"fuse: radius prior must be > 0 with std > 0, got {r} +- {rs}")
     x[IR] = r
     Ar, Br = receiver_matrices(lag)
-    x[IG:] = -np.linalg.solve(Ar, Br) * v0
+    m = n - 1  # the receiver chain ends here; the last state is its extra lag (0 at start)
+    x[IG:m] = -np.linalg.solve(Ar, Br) * v0
     P = np.zeros((n, n))
     pv = config.p0_speed if p0_speed is None else float(p0_speed)
     P[IV, IV] = pv
@@ -119,9 +120,10 @@ def init(config: Config, v0: float = 0.0, *, radius: float | None = None,
     P[IB, IB] = config.p0_offset
     P[IR, IR] = rs * rs
     gain = -np.linalg.solve(Ar, Br)  # receiver states follow v at steady state
-    P[IG:, IV] = gain * pv
-    P[IV, IG:] = gain * pv
-    P[IG:, IG:] = np.outer(gain, gain) * pv + np.eye(n - IG) * 1e-6
+    P[IG:m, IV] = gain * pv
+    P[IV, IG:m] = gain * pv
+    P[IG:m, IG:m] = np.outer(gain, gain) * pv + np.eye(m - IG) * 1e-6
+    P[m, m] = config.gps_lag_std ** 2
     return State(x, P, math.nan, -math.inf, -math.inf, math.nan)
 
 

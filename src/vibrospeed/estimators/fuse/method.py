@@ -9,14 +9,22 @@ from __future__ import annotations
 import json
 import math
 import os
-from dataclasses import asdict, fields
+from dataclasses import asdict, fields, replace
 from pathlib import Path
 
 import numpy as np
 
 from vibrospeed.config import config_from_params, parse_flag
 from vibrospeed.errors import InputError, ParameterError
-from vibrospeed.estimators.fuse.config import IB, IR, IV, SOURCES, TRACKER_DEFAULTS, Config
+from vibrospeed.estimators.fuse.config import (
+    CAUSAL_VIB_LAG,
+    IB,
+    IR,
+    IV,
+    SOURCES,
+    TRACKER_DEFAULTS,
+    Config,
+)
 from vibrospeed.estimators.fuse.filter import init, run
 from vibrospeed.estimators.fuse.smoother import smooth
 from vibrospeed.types import Recording, Track
@@ -127,6 +135,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     fuse_kw, own, rest = _split(params)
     cfg = config_from_params(Config, fuse_kw)
     online = parse_flag(own.get("online", False), "online")
+    if online and "vib_lag" not in fuse_kw:
+        cfg = replace(cfg, vib_lag=CAUSAL_VIB_LAG)
     rf = radius_from if radius_from is not None else own.get("radius_from")
     acc_ch = _axis_channel(str(own.get("accel_axis", "x")))
     name = recording.source or "recording"
@@ -206,6 +216,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     pdict = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(cfg).items()}
     pdict.update({"online": online, "accel_axis": acc_ch, "axis": axis,
                   "learned_radius": r_fin, "learned_radius_std": rs_fin,
+                  "learned_gps_lag": cfg.lag.lag + float(end.x[-1]),
+                  "learned_gps_lag_std": math.sqrt(max(float(end.P[-1, -1]), 0.0)),
                   "radius_prior": [r0, rs0], "tracker": vib.method, **{
                       f"tracker_{k}": v for k, v in rest.items()}})
     extras = {

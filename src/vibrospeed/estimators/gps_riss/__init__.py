@@ -1,11 +1,17 @@
 """GPS + single-accelerometer Kalman fusion, "GPS/RISS" (METHODS.md section 3; O'Kane & Ringwood,
 sections IV-VI, eq. 1-18), with the accelerometer offset as a filter state and a GPS delay.
 
-State ``X = [v, a, b, x3, x4, d...]``: speed (m/s), acceleration (m/s^2), accelerometer offset b
-(m/s^2; road slope ``g sin theta`` plus calibration bias), the receiver's reported speed x3 and its
-derivative x4 (paper eq. 2), and the Pade states of an optional pure GPS delay
-(:func:`~vibrospeed.models.gps_riss.receiver_matrices`). Per accelerometer sample, ``dt`` the time
-since the previous one:
+State ``X = [v, a, b, x3, x4, d..., dl]``: speed (m/s), acceleration (m/s^2), accelerometer
+offset b (m/s^2; road slope ``g sin theta`` plus calibration bias), the receiver's reported speed
+x3 and its derivative x4 (paper eq. 2), the Pade states of an optional pure GPS delay
+(:func:`~vibrospeed.models.gps_riss.receiver_matrices`) and the receiver's extra lag dl (s): the
+lag of a real receiver is not the model's (the paper's 0.08 s, a u-blox 0.17 s, more behind a
+time-stamp latency), and a fix that trails the model by dl reads ``dl a`` low while
+accelerating, an error that is the same fix after fix, not white noise. dl is a random walk
+(``q_gps_lag``) from ``0 +- gps_lag_std`` and the fix is read as ``g = x3(t - dl) ~ x3 - dl
+x3'`` (extended Kalman row, linearised at the estimate), so the filter learns the lag where the
+accelerometer and GPS both see a speed change, and until then carries its uncertainty in the
+speed band. Per accelerometer sample, ``dt`` the time since the previous one:
 
 1. accelerometer pre-processing (paper Fig. 1): ``a_m = gain * a_raw``; optional pitch
    compensation ``p = poly(a_m)`` in degrees (eq. 14), ``a_m <- (a_m - g sin p) / cos p``.
@@ -14,8 +20,12 @@ since the previous one:
    intensities per second).
 3. update: on a sample with a *new valid* fix (``gps_speed`` finite and ``gps_sats >= min_sats``;
    a missing or NaN count counts as valid) "KF1 INS/GPS" (eq. 9, 12): ``a_m = a + b + e``,
-   var ``r_acc_gps``, and ``gps = x3 + e``, var ``R22``; otherwise "KF INS" (eq. 10): the
-   accelerometer row alone, var ``r_acc_ins``. A NaN accelerometer sample drops its row.
+   var ``acc_psd / dt`` (a noise density; with ``acc_psd = 0`` the paper's per-sample
+   ``r_acc_gps``), and ``gps = x3 + e``, var ``R22``; otherwise "KF INS" (eq. 10): the
+   accelerometer row alone, var ``acc_psd / dt`` (or ``r_acc_ins``). A NaN accelerometer
+   sample drops its row.
+   The GPS row of the main filter is the extra-lag row above; KF2 (error modes "kf2",
+   "states") takes ``gps = x3 + e``.
 4. GPS error E and adaptive weighting (section VI-c, eq. 13, 18):
    ``R22 = r_gps + r_gps_slope E + r_gps_sq E^2`` with E clipped to ``0..e_max``. Default
    ``error_mode="innovation"``: E^2 = max(nu^2 - S, 0), nu the main filter's GPS innovation and S
@@ -32,9 +42,11 @@ since the previous one:
 
 Noise units. The paper's Q = diag(5, 4, 1, 1) and R values have no units or sample rate (only their
 ratios matter for its fixed-gain filter), so ``speed_std`` computed with them is ~40x too wide.
-The defaults here are physical (accelerometer white noise 0.3 m/s^2 per sample, GPS 0.1 m/s per
-fix, jerk intensity, offset random walk), so ``speed_std = sqrt(P11)`` is an honest 1-sigma; the
-paper's set is :meth:`Config.paper` (with Q read per second). Override them per sensor.
+The defaults here are physical (the accelerometer's error as a density of 0.1 (m/s^2)^2 s,
+what a vehicle's vibration, pitch and a yawed mount add below 1 Hz; GPS 0.1 m/s per fix; jerk
+intensity; offset random walk; the receiver's lag learned), so ``speed_std = sqrt(P11)`` is an
+honest 1-sigma; the paper's set is :meth:`Config.paper` (with Q read per second). Override them
+per sensor: a clean accelerometer rigidly on the vehicle's axis earns a smaller ``acc_psd``.
 
 GPS/RISS is a package, one concern per module, each importing only the ones above it:
 

@@ -6,6 +6,7 @@ handling; the paper's set :meth:`Config.paper`), validated on construction; its
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -34,6 +35,13 @@ class GpsFields:
     gps_delay : pure GPS delay (s) in front of the lag, Pade order ``gps_pade`` (1 or 2).
     min_sats : satellite-count gate (paper: 7): a fix is valid where ``gps_sats >= min_sats``
         or the count is unknown (NaN).
+    gps_lag_std : s, prior std of the receiver's lag beyond the model's (a filter state, the
+        extra lag ``dl``: the fix is read as the model's output ``dl`` earlier,
+        ``x3(t - dl) ~ x3 - dl x3'``). Receivers differ in lag (the paper's 0.08 s, a u-blox
+        0.17 s, phones and loggers with a time-stamp latency more); one that lags more than the
+        model reads low by ``dl a`` while accelerating, an error the filter must either learn
+        or carry in its band. 0: the lag model is taken as exact (the paper's filter).
+    q_gps_lag : s^2/s, random walk of that extra lag.
     """
 
     gps_a: tuple[float, ...] = (0.0, 1.0, -1427.2, -114.2)
@@ -41,6 +49,8 @@ class GpsFields:
     gps_delay: float = 0.0
     gps_pade: int = 2
     min_sats: float = 7.0
+    gps_lag_std: float = 0.3
+    q_gps_lag: float = 1e-3
 
     @property
     def lag(self) -> GpsLagModel:
@@ -60,6 +70,10 @@ class GpsFields:
         _ = self.lag
         if not self.min_sats >= 0:
             raise ParameterError(f"{prefix}min_sats must be >= 0, got {self.min_sats}")
+        for name in ("gps_lag_std", "q_gps_lag"):
+            v = getattr(self, name)
+            if not (v >= 0 and math.isfinite(v)):
+                raise ParameterError(f"{prefix}{name} must be finite and >= 0, got {v}")
 
 
 @dataclass(frozen=True)
@@ -74,7 +88,15 @@ class Config(GpsFields):
     q_speed, q_accel, q_offset, q_gps : process noise intensities per second of the speed
         ((m/s)^2/s, model error), acceleration ((m/s^2)^2/s, jerk), offset ((m/s^2)^2/s, grade
         changes) and receiver states (paper eq. 11 "P" = 5, 4, -, 1).
-    r_acc_ins, r_acc_gps : accelerometer variance per sample in "KF INS" / "KF1" (paper 0.4, 3.5).
+    acc_psd : accelerometer noise density ((m/s^2)^2 s): a sample standing for ``dt`` s has
+        variance ``acc_psd / dt`` in both "KF INS" and "KF1", so the weight of the accelerometer
+        per second is the same at any sample rate. The default (0.32 m/s^2/sqrt(Hz), as
+        ``fuse``'s) stands for what a vehicle adds to the sensor's own noise: wheel vibration,
+        body pitch and the lateral acceleration a slightly yawed mount mixes in, which on the
+        simulated random family has a density of 0.1-0.24 below 1 Hz. 0: the per-sample
+        variances ``r_acc_ins`` / ``r_acc_gps`` instead (the paper's filter).
+    r_acc_ins, r_acc_gps : accelerometer variance per sample in "KF INS" / "KF1" (paper 0.4, 3.5),
+        used where ``acc_psd`` is 0.
     r_gps : GPS speed variance per fix at zero error (paper eq. 13, 18: 40 in its units).
     r_gps_slope, r_gps_sq : R22 growth per m/s and per (m/s)^2 of the GPS error E (paper: 72, 0).
     e_max : clip of E in m/s (paper: 5).  adaptive : use the adaptive R22 (else r_gps).
@@ -91,6 +113,7 @@ class Config(GpsFields):
     q_accel: float = 10.0
     q_offset: float = 5e-3
     q_gps: float = 1e-6
+    acc_psd: float = 0.1
     r_acc_ins: float = 0.09
     r_acc_gps: float = 0.09
     r_gps: float = 0.01
@@ -116,7 +139,7 @@ class Config(GpsFields):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
         for name in ("q_speed", "q_accel", "q_offset", "q_gps", "r_gps_slope", "r_gps_sq",
-                     "e_max", "q_drift"):
+                     "e_max", "q_drift", "acc_psd"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
         if self.error_mode not in _ERROR_MODES:
@@ -135,7 +158,8 @@ class Config(GpsFields):
         """
         base = dict(q_speed=5.0, q_accel=4.0, q_offset=1e-2, q_gps=1.0, r_acc_ins=0.4,
                     r_acc_gps=3.5, r_gps=40.0, r_gps_slope=72.0, r_gps_sq=0.0,
-                    error_mode="kf2", offset_mode="integrator", p0_speed=100.0, p0_accel=5.0)
+                    error_mode="kf2", offset_mode="integrator", p0_speed=100.0, p0_accel=5.0,
+                    gps_lag_std=0.0, q_gps_lag=0.0, acc_psd=0.0)
         base.update(kw)
         return cls(**base)
 
@@ -152,11 +176,14 @@ class Config(GpsFields):
 
     def _arrays(self):
         lag = self.lag
-        Ac = continuous_matrix(lag, offset_state=True)
-        n = Ac.shape[0]
+        Ac0 = continuous_matrix(lag, offset_state=True)
+        n = Ac0.shape[0] + 1  # the last state: the receiver's extra lag (constant in Ac)
+        Ac = np.zeros((n, n))
+        Ac[:-1, :-1] = Ac0
         state_off = self.offset_mode == "state"
         qc = np.full(n, self.q_gps)
         qc[:3] = (self.q_speed, self.q_accel, self.q_offset if state_off else 0.0)
+        qc[-1] = self.q_gps_lag
         ha = np.zeros(n)
         ha[1] = 1.0
         ha[2] = 1.0 if state_off else 0.0
@@ -167,5 +194,6 @@ class Config(GpsFields):
             self.e_max, float(self.adaptive), self.min_sats, self.gain,
             float(self.pitch_compensation), float(self.offset_mode == "integrator"),
             self.q_drift, self.q_offset, self.r_drift, float(_ERROR_MODES.index(self.error_mode)),
+            self.acc_psd,
         ], dtype=np.float64)
         return Ac, qc, ha, hg, p, np.array(self.pitch_poly, dtype=np.float64)

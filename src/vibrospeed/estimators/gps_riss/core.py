@@ -53,6 +53,24 @@ def _predict(x, P, F, qd):
 
 
 @njit(cache=True)
+def _lag_row(Ac, x, ig, h):
+    """The GPS row linearised at ``x`` (extended Kalman filter): the fix reads the receiver
+    model's output ``x3 = x[ig]`` an extra lag ``dl = x[-1]`` earlier, ``g ~ x3 - dl x3'`` with
+    ``x3' = Ac[ig] x``. ``h`` receives ``d g / d x`` and the return value is
+    ``h x - g(x) = -dl x3'``, so that ``(z + that) - h x`` is the innovation of a fix ``z``."""
+    n = x.size
+    dl = x[n - 1]
+    d3 = 0.0
+    for i in range(n):
+        d3 += Ac[ig, i] * x[i]
+    for i in range(n):
+        h[i] = -dl * Ac[ig, i]
+    h[ig] += 1.0
+    h[n - 1] = -d3
+    return -dl * d3
+
+
+@njit(cache=True)
 def _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw, gps, sats,
                Fc, out):
     """One sample in place. ``sc = [t_prev, E, v_int, dt of Fc]``; ``Fc`` caches the transition
@@ -95,7 +113,8 @@ def _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw,
         _predict(x, P, Fc, qd)
         if use_kf2:
             # receiver chain driven by KF2's speed and acceleration (prediction of the fix)
-            lzn = Fc[3:, 0] * x2[0] + Fc[3:, 1] * x2[1] + np.ascontiguousarray(Fc[3:, 3:]) @ lz
+            m = x.size - 1  # the receiver chain without the extra-lag state
+            lzn = Fc[3:m, 0] * x2[0] + Fc[3:m, 1] * x2[1] + np.ascontiguousarray(Fc[3:m, 3:m]) @ lz
             for i in range(lz.size):
                 lz[i] = lzn[i]
             _predict(x2, P2, Fc, qd)
@@ -104,15 +123,20 @@ def _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw,
     valid = has_fix and (math.isnan(sats) or sats >= p[7])
     r22 = math.nan
     r_acc = p[1] if valid else p[0]
-    if has_a:
+    if p[15] > 0.0:
+        # a noise density: a sample of dt s weighs dt / acc_psd; one of no duration nothing
+        r_acc = p[15] / dt if dt > 0.0 else math.inf
+    if has_a and r_acc < math.inf:
         _update(x, P, ha, a_c, r_acc)
         if use_kf2:
             _update(x2, P2, ha, a_c, r_acc)
     if valid:
-        # 4. GPS error E and R22 (eq. 13)
+        # 4. GPS error E and R22 (eq. 13); the main filter's row with the receiver's extra lag
+        hl = np.empty(x.size)
+        zl = gps + _lag_row(Ac, x, 3, hl)
         if emode == 0:  # main filter's innovation beyond its predicted spread
-            nu = gps - hg @ x
-            s0 = hg @ P @ hg + p[2]
+            nu = zl - hl @ x
+            s0 = hl @ P @ hl + p[2]
             e = math.sqrt(max(nu * nu - s0, 0.0))
         elif emode == 1:  # KF2's prediction of the fix, before KF2's update
             e = abs(gps - lz[0])
@@ -123,7 +147,7 @@ def _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw,
         e = min(max(e, 0.0), p[5])
         sc[1] = e
         r22 = p[2] + p[3] * e + p[4] * e * e if p[6] > 0.5 else p[2]
-        _update(x, P, hg, gps, r22)
+        _update(x, P, hl, zl, r22)
         # 5. integrator drift filter update (eq. 17): observes integral(a) - v
         if integ:
             s = Pod[0, 0] + p[13] * (r22 / p[2])  # weighted down like the GPS itself

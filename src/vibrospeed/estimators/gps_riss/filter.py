@@ -122,16 +122,18 @@ def init(config: Config, v0: float = 0.0, *, offset0: float = 0.0) -> State:
     T = np.zeros((n, 3))
     T[:3, :3] = np.eye(3)
     T[3:, 0] = g
-    P = T @ np.diag([config.p0_speed, config.p0_accel, config.p0_offset]) @ T.T
-    P[3:, 3:] += np.eye(g.size) * max(config.q_gps, 1e-12)
+    P = np.zeros((n + 1, n + 1))  # the last state: the receiver's extra lag, 0 +- gps_lag_std
+    P[:n, :n] = T @ np.diag([config.p0_speed, config.p0_accel, config.p0_offset]) @ T.T
+    P[3:n, 3:n] += np.eye(g.size) * max(config.q_gps, 1e-12)
+    P[n, n] = config.gps_lag_std ** 2
     state_off = config.offset_mode == "state"
     if not state_off:
         P[2, :] = 0.0
         P[:, 2] = 0.0
-    x = np.zeros(n)
+    x = np.zeros(n + 1)
     x[0] = v0
     x[2] = float(offset0) if state_off else 0.0
-    x[3:] = g * v0
+    x[3:n] = g * v0
     od = np.array([0.0, float(offset0) if config.offset_mode == "integrator" else 0.0])
     Pod = np.diag([config.r_drift, config.p0_offset])
     return State(x, P, x.copy(), P.copy(), g * v0, od, Pod, math.nan, 0.0, v0)
@@ -213,8 +215,9 @@ def run(config: Config, y: Sample, state: State | None = None) -> Result:
 
 
 def _run_progress(config: Config, t, ax, g, s, chunk: int = 200_000,
-                  state: State | None = None) -> Output:
-    """:func:`run` in chunks with a rich progress bar (same numbers: the state carries over)."""
+                  state: State | None = None, end: list | None = None) -> Output:
+    """:func:`run` in chunks with a rich progress bar (same numbers: the state carries over);
+    the state after the last chunk is appended to ``end`` where given."""
     from rich.progress import Progress
 
     t = np.asarray(t, dtype=np.float64)
@@ -233,4 +236,6 @@ def _run_progress(config: Config, t, ax, g, s, chunk: int = 200_000,
             state = o.final
             parts.append(o.output)
             bar.update(task, advance=min(chunk, t.size - k0))
+    if end is not None:
+        end.append(state)
     return Output(*(np.concatenate([getattr(o, f) for o in parts]) for f in Output._fields))

@@ -4,6 +4,7 @@ reference speed (:func:`identify_lag`, :func:`identify_lag_recording`)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict
 
 import numpy as np
@@ -42,11 +43,20 @@ def estimate(recording: Recording, *, axis: str = "x", wheel_radius: float | Non
     recording.require(ch, "gps_speed")
     sats = recording.channels.get("gps_sats")
     args = (cfg, recording.t, recording.channel(ch), recording.channel("gps_speed"), sats)
-    o = _run_progress(*args) if progress else run(cfg, Sample(*args[1:])).output
+    if progress:
+        end: list = []
+        o = _run_progress(*args, end=end)
+        final = end[0]
+    else:
+        res = run(cfg, Sample(*args[1:]))
+        o, final = res.output, res.final
+    params_out = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(cfg).items()}
+    # the receiver's lag, the model's and the learned extra one, at the end of the log
+    params_out["learned_gps_lag"] = cfg.lag.lag + float(final.x[-1])
+    params_out["learned_gps_lag_std"] = math.sqrt(max(float(final.P[-1, -1]), 0.0))
     return Track.from_speed(
         recording.t, o.speed, o.speed_std, wheel_radius=wheel_radius or recording.wheel_radius,
-        method="gps-riss", params={k: (list(v) if isinstance(v, tuple) else v)
-                                   for k, v in asdict(cfg).items()},
+        method="gps-riss", params=params_out,
         extras={"offset": o.offset, "offset_std": o.offset_std, "gps_error": o.gps_error,
                 "accel": o.accel, "gps_model": o.gps_model, "mode": o.mode.astype(np.float64)},
     )
