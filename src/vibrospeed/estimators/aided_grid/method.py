@@ -33,7 +33,7 @@ INPUT_PARAMS = ("accel_axis", "lp_cutoff", "reference", "wheelbase", "accel_detr
 
 #: ``tracker=grid``: the grid product's tracker and model settings
 #: (:data:`vibrospeed.estimators.grid.method.GRID_DEFAULTS`: jumps, "no line" state with the
-#: mixture null model, likelihood tempered to 0.05 per 10 ms, whitening pre-filter, running-RMS
+#: mixture null model, likelihood tempered to 0.2 per 10 ms, whitening pre-filter, running-RMS
 #: scaling, mode estimate; r, q_amp, q_omega of the product) plus its comb evidence
 #: (:class:`vibrospeed.estimators.grid.Config` defaults); the aiding: broadband standstill
 #: flags, continuous aiding, a_x from the mount estimate (:mod:`vibrospeed.signal.mount`).

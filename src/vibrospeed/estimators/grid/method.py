@@ -41,10 +41,11 @@ AXES_EXPONENT = 0.834
 #: "grid"):
 #: jumps 0.05/s, "no line" in 0.01/s out 0.5/s, noise from the marginal-likelihood fits
 #: (r 0.15, q_amp 0.002; q_omega 16 (rad/s)^2/s follows car accelerations of ~8 rad/s^2),
-#: likelihood tempered to 0.05 per 0.01 s of data (``temper_fs`` 100 Hz: 0.0125 per sample at
+#: likelihood tempered to 0.2 per 0.01 s of data (``temper_fs`` 100 Hz: 0.05 per sample at
 #: 400 Hz, so the time-domain evidence per second does not grow with the sample rate; the
 #: time-domain model, which must explain a vehicle's body motion and resonances with
-#: harmonics, misleads where the whitened comb does not: benchmarks/robustness/RESULTS.md),
+#: harmonics, misleads where the whitened comb does not, yet it accumulates a weak line
+#: coherently over many seconds: benchmarks/robustness/RESULTS.md),
 #: adaptive pre-whitening instead of the paper's 8 Hz high-pass (which removes a slow
 #: wheel's fundamental).
 #: The "no line" state's time-domain emission is the signal part's predictive mixture
@@ -58,7 +59,7 @@ AXES_EXPONENT = 0.834
 #: randomised family as at 0.5 with an SNR of 2 (benchmarks/robustness/RESULTS.md).
 GRID_DEFAULTS = {
     "jump_rate": 0.05, "off_rate": 0.01, "on_rate": 0.5, "r": 0.15, "q_amp": 0.002,
-    "q_omega": 16.0, "temper": 0.05, "temper_fs": 100.0, "prefilter": "whiten",
+    "q_omega": 16.0, "temper": 0.2, "temper_fs": 100.0, "prefilter": "whiten",
     "smooth": "fb", "null_model": "mixture", "point": "mode", "claim_level": 0.9,
 }
 
