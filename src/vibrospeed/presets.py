@@ -111,7 +111,8 @@ PRESETS: dict[str, dict[str, Preset]] = {
         "paper": Preset({"q_speed": "5", "q_accel": "4", "q_offset": "0.01", "q_gps": "1",
                          "r_acc_ins": "0.4", "r_acc_gps": "3.5", "r_gps": "40",
                          "r_gps_slope": "72", "r_gps_sq": "0", "error_mode": "kf2",
-                         "offset_mode": "integrator", "p0_speed": "100", "p0_accel": "5"},
+                         "offset_mode": "integrator", "p0_speed": "100", "p0_accel": "5",
+                         "gps_lag_std": "0", "q_gps_lag": "0", "acc_psd": "0"},
                         "the GPS/RISS paper's constants (eq. 11-13, 18), KF2 error and drift "
                         "integrator"),
         "online": Preset({}, _CAUSAL),
