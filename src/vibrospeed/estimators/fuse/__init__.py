@@ -38,8 +38,8 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    sample to sample). The hypothesis with the smallest normalised innovation squared
    ``nu^2 / S`` plus ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate`` and
    the gate is decisive: GPS holds the speed (a fix in the past ``learn_hold`` s), or
-   ``3 sqrt(P_vv + (r k)^2 (s^2 + (vib_rel omega)^2) + (vib_lag a)^2) <= vib_sep r k omega`` (the band and
-   the line's own spread are narrow against the spacing of the octaves;
+   ``3 sqrt(P_vv + (r k)^2 (s^2 + (vib_rel omega)^2) + (vib_lag a)^2) <= vib_sep r k omega``
+   (the band and the line's own spread are narrow against the spacing of the octaves;
    after a long stretch on the accelerometer alone it is not, and a gate of 4 sigma would pass
    an idling engine's line or the wrong octave); else the sample has no direct vibration
    update (re-lock below). No line is used where the filter knows the vehicle to be
