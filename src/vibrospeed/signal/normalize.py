@@ -10,6 +10,7 @@ set of noise parameters (``r``, ``q_amp`` relative to unit power) serves both.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -58,9 +59,11 @@ def init() -> NormalizerState:
 def step(
     state: NormalizerState, y: float, dt: float, tau: float = 5.0, floor: float = 1e-300
 ) -> tuple[NormalizerState, float]:
-    """One sample of :func:`running_rms_normalize` (same arithmetic, same numbers)."""
-    if not np.isfinite(y):
-        return state, float("nan")
+    """One sample of :func:`running_rms_normalize` (same arithmetic, same numbers; plain
+    float operations, IEEE as the compiled batch loop's)."""
+    y = float(y)
+    if not math.isfinite(y):
+        return state, math.nan
     count = state.count + 1.0
     s = state.s + (y * y - state.s) * max(min(1.0, dt / tau), 1.0 / count)
-    return NormalizerState(s, count), float(y / np.sqrt(max(s, floor)))
+    return NormalizerState(s, count), y / math.sqrt(max(s, floor))

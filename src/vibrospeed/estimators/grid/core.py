@@ -65,6 +65,52 @@ def _step(tb, lw, lw0, mean, cov, cur, y, ex, w, v, X, acc, out, post, gll):
              post, gll)
 
 
+#: positions in :func:`pack_scalars`'s array (``_step_from``'s ``sc``)
+_SC_FIELDS = ("r", "qd", "B", "log_floor", "q_lo", "q_hi", "eps", "p_off", "p_on", "null_var",
+              "p0", "amb_rel", "amb_abs", "temper", "null_mix", "hold")
+
+
+def pack_scalars(tb: Tables) -> np.ndarray:
+    """The scalar fields of ``tb`` in one float64 array (:data:`_SC_FIELDS` order; ``B`` and
+    ``null_mix`` as exact small numbers): a compiled call per sample then unpacks six arrays
+    instead of a record of 21 fields."""
+    return np.array([float(getattr(tb, f)) for f in _SC_FIELDS], dtype=np.float64)
+
+
+@njit(cache=True)
+def _step_from(sc, cs, kb, grid, edges, u, lw_in, mean_in, cov_in, lw0_in, cur_in, y, ex, lw,
+               mean, cov, out, post):
+    """One iteration from a state that is left as it is: (``lw_in``, ``mean_in``, ``cov_in``,
+    ``lw0_in``, ``cur_in``) is copied into the next state's storage ``lw`` (N,), ``mean``
+    (N, 2M), ``cov`` (N, 2M, 2M) and iterated there (:func:`_iterate`, the constants of
+    :class:`Tables` from ``sc`` (:func:`pack_scalars`) and the arrays); writes ``out`` and
+    ``post`` (N,) and returns the next state's ``(log_w_null, mode_j)``."""
+    N = grid.size
+    n = mean.shape[1]
+    if (lw_in.shape[0] != N or mean_in.shape[0] != N or mean_in.shape[1] != n
+            or cov_in.shape[0] != N or cov_in.shape[1] != n or cov_in.shape[2] != n
+            or lw.shape[0] != N or mean.shape[0] != N or cov.shape[0] != N
+            or cov.shape[1] != n or cov.shape[2] != n):
+        raise ValueError("grid state: log_w, mean, cov do not match the config's grid and "
+                         "model (N, 2M)")
+    for j in range(N):
+        lw[j] = lw_in[j]
+        for a in range(n):
+            mean[j, a] = mean_in[j, a]
+            for b in range(n):
+                cov[j, a, b] = cov_in[j, a, b]
+    lw0 = np.empty(1)
+    lw0[0] = lw0_in
+    cur = np.empty(1, dtype=np.int64)
+    cur[0] = cur_in
+    L = n + n * (n + 1) // 2
+    _iterate(lw, lw0, mean, cov, y, sc[0], cs, sc[1], kb, int(sc[2]), grid, edges, u, sc[3],
+             sc[4], sc[5], sc[6], sc[7], sc[8], sc[9], sc[10], sc[11], sc[12], sc[13],
+             sc[14] != 0.0, sc[15], cur, ex, np.empty(N), np.empty(N), np.empty((N, L)),
+             np.empty(L), out, post, np.empty(0))
+    return lw0[0], cur[0]
+
+
 @njit(cache=True)
 def _iterate(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo, q_hi,
              eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, hold, cur, ex,

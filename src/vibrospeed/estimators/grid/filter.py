@@ -29,6 +29,7 @@ The state stored between samples is the *prior* for the next sample (as in
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from typing import NamedTuple
 
 import numpy as np
@@ -36,7 +37,7 @@ import numpy as np
 import vibrospeed.estimators.grid.summary as cols
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.grid.config import Config
-from vibrospeed.estimators.grid.core import Tables, _run, _step
+from vibrospeed.estimators.grid.core import Tables, _run, _step_from, pack_scalars
 from vibrospeed.estimators.grid.summary import N_OUT_FIXED
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Estimate
@@ -175,35 +176,110 @@ def _extra_vec(config: Config, ex) -> np.ndarray:
     return e
 
 
+class _StepPlan(NamedTuple):
+    """What :func:`step` needs of a Config per sample, built once (:func:`_plan`): the compiled
+    core's constants (scalars packed, :func:`~vibrospeed.estimators.grid.core.pack_scalars`),
+    the sizes, the summary column of the reported omega and the claim level."""
+
+    sc: np.ndarray
+    cs: np.ndarray
+    kb: np.ndarray
+    grid: np.ndarray
+    edges: np.ndarray
+    u: np.ndarray
+    N: int
+    n: int
+    n_out: int
+    col_omega: int
+    claim_level: float
+
+
+def _plan(config: Config) -> _StepPlan:
+    plan = config.__dict__.get("_step_plan")
+    if plan is None:
+        tb = tables(config)
+        N, n = config.n_grid, config.model.n_lin
+        plan = config.__dict__["_step_plan"] = _StepPlan(
+            pack_scalars(tb), tb.cs, tb.kb, tb.grid, tb.edges, tb.u, N, n,
+            N_OUT_FIXED + n // 2, cols.COL_MODE if config.point == "mode" else cols.COL_MEAN,
+            float(config.claim_level))
+    return plan
+
+
+#: summary column of each scalar extra (the rest: ``amplitudes``, ``posterior``)
+_EXTRA_COLUMN = {"omega_map": cols.COL_MAP, "loglik": cols.COL_LOGLIK,
+                 "p_null": cols.COL_P_NULL, "p_half": cols.COL_P_HALF,
+                 "p_double": cols.COL_P_DOUBLE, "p_third": cols.COL_P_THIRD,
+                 "p_triple": cols.COL_P_TRIPLE, "omega_mode": cols.COL_MODE,
+                 "p_mode": cols.COL_P_MODE, "omega_mean": cols.COL_MEAN,
+                 "omega_mode_std": cols.COL_MODE_STD}
+
+
+class StepExtras(Mapping):
+    """The extras of :func:`step`'s Estimate (:data:`ESTIMATE_EXTRAS`, in that order), read
+    from the sample's summary row and posterior when asked for: a step builds no dict of 13
+    entries that a caller may never read. Values as a dict of them would hold: float64
+    scalars, ``amplitudes`` (M,) (a view of the row) and ``posterior`` (N,)."""
+
+    __slots__ = ("_out", "_post")
+
+    def __init__(self, out: np.ndarray, post: np.ndarray) -> None:
+        self._out = out
+        self._post = post
+
+    def __getitem__(self, key: str):
+        c = _EXTRA_COLUMN.get(key)
+        if c is not None:
+            return self._out[c]
+        if key == "amplitudes":
+            return self._out[N_OUT_FIXED:]
+        if key == "posterior":
+            return self._post
+        raise KeyError(key)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(ESTIMATE_EXTRAS)
+
+    def __len__(self) -> int:
+        return len(ESTIMATE_EXTRAS)
+
+    def __contains__(self, key) -> bool:
+        return key in ESTIMATE_EXTRAS
+
+    def __repr__(self) -> str:
+        return repr(dict(self))
+
+    def __reduce__(self):
+        return StepExtras, (self._out, self._post)
+
+
+_NO_EXTRA = np.empty(0)
+
+
 def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Estimate]:
     """Process one sample; returns the prior for the next sample and the posterior now.
 
     ``extra`` : optional (N,) or (N + 1,) log-evidence added to the grid points' (and the "no
-    line" state's) log-weights with this sample (e.g. :mod:`vibrospeed.estimators.grid`)."""
-    lw = state.log_w.copy()
-    lw0 = np.array([state.log_w_null])
-    mean = state.mean.copy()
-    cov = state.cov.copy()
-    N, n = mean.shape
-    M = n // 2
-    out = np.empty(N_OUT_FIXED + M)
+    line" state's) log-weights with this sample (e.g. :mod:`vibrospeed.estimators.grid`).
+
+    ``state`` is left as it is: one compiled call copies it into the next state's storage and
+    iterates there, so a state can be stepped again (or kept) safely."""
+    p = _plan(config)
+    N, n = p.N, p.n
+    lw = np.empty(N)
+    mean = np.empty((N, n))
+    cov = np.empty((N, n, n))
+    out = np.empty(p.n_out)
     post = np.empty(N)
-    L = n + n * (n + 1) // 2
-    ex = np.empty(0) if extra is None else _extra_vec(config, extra)
-    cur = np.array([state.mode_j], dtype=np.int64)
-    _step(tables(config), lw, lw0, mean, cov, cur, float(y), ex, np.empty(N), np.empty(N),
-          np.empty((N, L)), np.empty(L), out, post, np.empty(0))
-    head = _point_and_columns(config, out)
-    vals = dict(zip(("omega", "omega_std", "omega_map", "omega_lo", "omega_hi", "loglik",
-                     "p_null", "p_half", "p_double"), head, strict=True))
-    vals.update(zip(("p_third", "p_triple", "omega_mode", "p_mode", "omega_mean",
-                     "omega_mode_std"), (out[c] for c in _TAIL), strict=True))
-    vals["amplitudes"] = out[N_OUT_FIXED:].copy()
-    vals["posterior"] = post
-    est = Estimate(vals["omega"], vals["omega_std"], vals["omega_lo"], vals["omega_hi"],
-                   has_signal=float(config.claims(vals["p_null"])),
-                   extras={k: vals[k] for k in ESTIMATE_EXTRAS})
-    return State(lw, mean, cov, float(lw0[0]), int(cur[0])), est
+    ex = _NO_EXTRA if extra is None else _extra_vec(config, extra)
+    lw0, cur = _step_from(p.sc, p.cs, p.kb, p.grid, p.edges, p.u, state.log_w, state.mean,
+                          state.cov, float(state.log_w_null), int(state.mode_j), float(y), ex,
+                          lw, mean, cov, out, post)
+    p_null = out[cols.COL_P_NULL]
+    est = Estimate(out[p.col_omega], out[cols.COL_STD], out[cols.COL_LO], out[cols.COL_HI],
+                   np.nan, np.nan, 1.0 if 1.0 - p_null >= p.claim_level else 0.0, np.nan,
+                   StepExtras(out, post))
+    return State(lw, mean, cov, lw0, cur), est
 
 
 def run(
