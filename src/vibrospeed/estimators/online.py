@@ -70,6 +70,7 @@ class OnlineTracker:
         self.estimator = estimator
         self.config = config
         self.dt = model.dt
+        self.fs = 1.0 / model.dt
         self.sos = pf.design(prefilter or pre, 1.0 / model.dt, M=model.M,
                              omega_range=omega_range)
         self.whiten = (prefilter or pre) in pf.ADAPTIVE
@@ -86,7 +87,7 @@ class OnlineTracker:
         fs, ns, ws = st
         fs, y = pf.step(self.sos, fs, sample)
         if self.whiten:
-            ws, y = wh.step(ws, y, 1.0 / self.dt)
+            ws, y = wh.step(ws, y, self.fs)
         if self.tau:
             ns, y = nz.step(ns, y, self.dt, self.tau)
             y = self.target * y

@@ -285,12 +285,19 @@ def init(config: Config, *, n_axes: int | None = None) -> State:
 def step(config: Config, state: State, y) -> tuple[State, Estimate]:
     """One sample (pre-filtered, scaled; with several comb axes one per axis, the tracked axis
     first): the frame evidence when a frame ends here, then the RBPMF step with it."""
-    yy = np.asarray(y, dtype=np.float64).reshape(-1)
     buf = state.buf
+    count = state.count
+    if buf.ndim == 1 and isinstance(y, float):  # one axis, a plain number: no arrays
+        ex = (step_evidence(config, buf, count, np.array([y])) if frame_ends_at(config, count)
+              else None)
+        g, est = _filt.step(config.tracker, state.grid, y, extra=ex)
+        nxt = buf.copy()
+        nxt[count % nxt.shape[0]] = y
+        return State(g, nxt, count + 1), est
+    yy = np.asarray(y, dtype=np.float64).reshape(-1)
     A = 1 if buf.ndim == 1 else buf.shape[1]
     if yy.size != A:
         raise ValueError(f"expected {A} sample(s) per step (one per comb axis), got {yy.size}")
-    count = state.count
     g, est = _filt.step(config.tracker, state.grid, float(yy[0]),
                         extra=step_evidence(config, buf, count, yy))
     buf = buf.copy()

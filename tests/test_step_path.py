@@ -1,0 +1,149 @@
+"""The per-sample step paths: states left as they are, extras equal to the batch columns, the
+online pipeline equal to its stages chained by hand."""
+
+import pickle
+
+import numpy as np
+import pytest
+
+from vibrospeed.estimators import grid, rbpmf
+from vibrospeed.estimators.grid import filter as gf
+from vibrospeed.estimators.online import OnlineTracker
+from vibrospeed.signal import normalize as nz
+from vibrospeed.signal import prefilter as pf
+from vibrospeed.signal import whiten as wh
+from vibrospeed.types import Recording
+
+
+def _signal(n=400, seed=0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 100.0
+    y = np.cos(30.0 * t) + 0.5 * np.cos(60.0 * t) + 0.3 * rng.normal(size=n)
+    y[50:53] = np.nan
+    return y
+
+
+def _small_cfg():
+    return grid.Config(tracker=grid.config_for(
+        Recording(np.arange(200) / 100.0, {"ay": np.zeros(200)}), axis="y",
+        params={"n_grid": 40, "smooth": "none"}).tracker, comb_window=1.0)
+
+
+def test_filter_step_leaves_the_state_and_repeats_bitwise():
+    cfg = _small_cfg().tracker
+    y = _signal()
+    st = gf.init(cfg)
+    for v in y[:120]:
+        st, _ = gf.step(cfg, st, v)
+    kept = [np.array(a, copy=True) for a in (st.log_w, st.mean, st.cov)]
+    a1, e1 = gf.step(cfg, st, y[120], extra=np.linspace(-1.0, 1.0, cfg.n_grid))
+    a2, e2 = gf.step(cfg, st, y[120], extra=np.linspace(-1.0, 1.0, cfg.n_grid))
+    for old, now in zip(kept, (st.log_w, st.mean, st.cov), strict=True):
+        assert np.array_equal(old, now)  # the stepped state is unchanged
+    for f in ("log_w", "mean", "cov", "log_w_null", "mode_j"):
+        assert np.array_equal(getattr(a1, f), getattr(a2, f))
+    assert a1.mean is not st.mean and a1.cov is not a2.cov  # fresh storage each time
+    assert e1[:8] == e2[:8] and dict(e1.extras).keys() == dict(e2.extras).keys()
+    # a state built from views and other layouts steps as its contiguous copy
+    odd = gf.State(st.log_w[::-1][::-1], np.asfortranarray(st.mean), st.cov.copy(),
+                   st.log_w_null, st.mode_j)
+    b, eb = gf.step(cfg, odd, y[121])
+    c, ec = gf.step(cfg, st, y[121])
+    assert np.array_equal(b.cov, c.cov) and eb.omega == ec.omega
+    with pytest.raises(ValueError, match="do not match"):
+        gf.step(cfg, st._replace(mean=st.mean[:-1]), 0.1)
+
+
+def test_step_extras_are_the_run_columns():
+    cfg = _small_cfg().tracker
+    y = _signal(n=200, seed=1)
+    res = gf.run(cfg, y, return_posterior=True)
+    st = gf.init(cfg)
+    for k, v in enumerate(y):
+        st, est = gf.step(cfg, st, v)
+        ex = est.extras
+        assert tuple(ex) == gf.ESTIMATE_EXTRAS and len(ex) == len(gf.ESTIMATE_EXTRAS)
+        for name in gf.ESTIMATE_EXTRAS:
+            if name == "posterior":
+                assert np.array_equal(ex[name].astype(np.float32), res.posterior[k])
+            elif name == "amplitudes":
+                assert np.array_equal(ex[name], res.amplitudes[k])
+            else:
+                assert ex[name] == getattr(res, name)[k], (k, name)
+            assert name in ex
+        assert est.has_signal == cfg.claims(res.p_null[k])
+        assert est.omega == res.omega[k] and est.omega_std == res.omega_std[k]
+        assert np.isnan(est.speed) and np.isnan(est.standstill)
+    assert "omega" not in ex and ex.get("nothing") is None
+    with pytest.raises(KeyError):
+        ex["nothing"]
+    back = pickle.loads(pickle.dumps(est))
+    assert back.p_null == est.p_null and np.array_equal(back.posterior, est.posterior)
+    assert repr(ex).startswith("{'omega_map': ")
+
+
+def test_grid_step_with_a_number_or_an_array_the_same():
+    cfg = _small_cfg()
+    y = _signal(n=260, seed=2)
+    s1 = s2 = grid.init(cfg)
+    for v in y:
+        s1, e1 = grid.step(cfg, s1, float(v))
+        s2, e2 = grid.step(cfg, s2, np.array([v]))
+        assert e1.omega == e2.omega or (np.isnan(e1.omega) and np.isnan(e2.omega))
+    assert np.array_equal(s1.buf, s2.buf, equal_nan=True) and s1.count == s2.count == y.size
+    assert np.array_equal(s1.grid.cov, s2.grid.cov)
+    res = grid.run(cfg, y)
+    assert np.array_equal(res.omega[-1], e1.omega) and np.array_equal(res.final.buf, s1.buf,
+                                                                       equal_nan=True)
+
+
+def test_prefilter_step_keeps_old_states_and_checks_the_state():
+    sos = pf.design("thesis-hplp", 100.0, M=2)
+    x = np.random.default_rng(3).normal(size=50) + 9.8
+    st = pf.init(sos)
+    for v in x[:20]:
+        st, _ = pf.step(sos, st, v)
+    zi = st.zi.copy()
+    a, ya = pf.step(sos, st, x[20])
+    b, yb = pf.step(sos, st, x[20])
+    assert ya == yb and np.array_equal(a.zi, b.zi) and np.array_equal(st.zi, zi)
+    # the same sections as a nested list
+    _, yc = pf.step(sos.tolist(), st, x[20])
+    assert yc == ya
+    with pytest.raises(ValueError, match="n_sections"):
+        pf.step(sos, pf.PrefilterState(np.zeros((1, 2)), True), 1.0)
+
+
+def _chained(trk, sample_states, x):
+    """The pipeline's stages called one by one, as OnlineTracker documents them."""
+    fs, ns, ws = sample_states
+    fs, y = pf.step(trk.sos, fs, x)
+    if trk.whiten:
+        ws, y = wh.step(ws, y, 1.0 / trk.dt)
+    if trk.tau:
+        ns, y = nz.step(ns, y, trk.dt, trk.tau)
+        y = trk.target * y
+    return (fs, ns, ws), (y if np.isfinite(y) else np.nan)
+
+
+@pytest.mark.parametrize("mod", [grid, rbpmf])
+def test_online_tracker_equals_its_stages_by_hand_bitwise(mod):
+    rng = np.random.default_rng(4)
+    n = 500
+    t = np.arange(n) / 100.0
+    ay = 0.2 * np.cos(30.0 * t) + 0.1 * np.cos(60.0 * t) + 0.05 * rng.normal(size=n) + 9.8
+    ay[200:204] = np.nan
+    rec = Recording(t, {"ay": ay})
+    params = {"n_grid": 40, "smooth": "none", "comb_window": 1.0} if mod is grid else {
+        "n_grid": 40}
+    cfg = mod.config_for(rec, axis="y", params=params)
+    trk = OnlineTracker(mod, cfg, level=9.8)
+    (front,), es = trk.state
+    for v in ay:
+        est = trk.update(float(v))
+        front, y = _chained(trk, front, v)
+        es, ref = mod.step(cfg, es, y)
+        assert (est.omega == ref.omega and est.omega_std == ref.omega_std
+                and est.p_null == ref.p_null), v
+    assert np.array_equal(trk.state[1].grid.cov if mod is grid else trk.state[1].cov,
+                          es.grid.cov if mod is grid else es.cov)
