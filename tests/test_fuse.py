@@ -128,7 +128,7 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
                 ready = t - acq[0] >= cfg.acq_time
             rh = max(x[3], 1e-3)
             var = s**2 + (cfg.vib_rel * om) ** 2
-            vlag = (cfg.vib_lag * x[1]) ** 2
+            vlag = (cfg.vib_lag * x[1]) ** 2 if fresh else 0.0
             R = {k: ((rh * k) ** 2 * var + vlag) * cfg.vib_corr / dt for k in (1.0, 0.5, 2.0)}
             sv3 = 3 * math.sqrt(P[0, 0])
             costs = {}
@@ -143,7 +143,7 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
             if costs:
                 kb = min(costs, key=lambda k: costs[k][0])
                 if costs[kb][0] <= cfg.vib_gate and (
-                        fresh or 3 * math.sqrt(P[0, 0] + (rh * kb) ** 2 * var + vlag)
+                        fresh or 3 * math.sqrt(P[0, 0] + (rh * kb) ** 2 * var)
                         <= cfg.vib_sep * rh * kb * om):
                     take = kb
             if ready and known and take is None:

@@ -31,14 +31,16 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    wheel frequency is ``k omega``, ``k in {1/2, 1, 2}``. Each hypothesis is the *linear*
    pseudo-measurement ``0 = v - r k omega + e`` (``H = [1, 0, 0, -k omega, 0...]``, exact in the
    state given the measured omega) with ``var e = ((r k)^2 (s^2 + (vib_rel omega)^2) +
-   (vib_lag a)^2) vib_corr / dt``: the tracker's spread plus a relative floor and the speed a
-   line that trails an acceleration ``a`` by up to ``vib_lag`` s misses (a causal tracker),
-   inflated by the number of fusion
+   (vib_lag a)^2) vib_corr / dt``: the tracker's spread plus a relative floor and, while GPS
+   holds the speed (a fix in the past ``learn_hold`` s), the speed a line that trails an
+   acceleration ``a`` by up to ``vib_lag`` s misses (a causal tracker; away from GPS the line
+   is the best source of the speed through an acceleration, lag and all), inflated by the
+   number of fusion
    samples per correlation time of the tracker's errors (its outputs are not independent from
    sample to sample). The hypothesis with the smallest normalised innovation squared
    ``nu^2 / S`` plus ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate`` and
    the gate is decisive: GPS holds the speed (a fix in the past ``learn_hold`` s), or
-   ``3 sqrt(P_vv + (r k)^2 (s^2 + (vib_rel omega)^2) + (vib_lag a)^2) <= vib_sep r k omega``
+   ``3 sqrt(P_vv + (r k)^2 (s^2 + (vib_rel omega)^2)) <= vib_sep r k omega``
    (the band and the line's own spread are narrow against the spacing of the octaves;
    after a long stretch on the accelerometer alone it is not, and a gate of 4 sigma would pass
    an idling engine's line or the wrong octave); else the sample has no direct vibration

@@ -116,7 +116,9 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         best = math.inf
         r_hat = max(x[IR], 1e-3)
         var_om = om_std * om_std + (p[5] * om) ** 2
-        var_lag = (p[29] * x[IA]) ** 2  # the tracker's lag behind the speed, in (m/s)^2
+        # the tracker's lag behind the speed, (m/s)^2, against a GPS-held speed (away from GPS
+        # the line is the speed's best source through an acceleration, lag and all)
+        var_lag = (p[29] * x[IA]) ** 2 if fresh else 0.0
         infl = p[6] / dt
         sv3 = 3.0 * math.sqrt(max(P[IV, IV], 0.0))
         for j in range((3 if known else 1) if ready else 0):
@@ -133,7 +135,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 kk = k
         # direct use needs a decisive gate: the band narrow against the octaves' spacing
         decisive = not math.isnan(kk) and (fresh or 3.0 * math.sqrt(
-            P[IV, IV] + (r_hat * kk) ** 2 * var_om + var_lag) <= p[28] * r_hat * kk * om)
+            P[IV, IV] + (r_hat * kk) ** 2 * var_om) <= p[28] * r_hat * kk * om)
         if ready and known and not (best <= p[7] and decisive):
             # re-lock run on the line at k = 1 (the octave that taught r): the gap
             # d = r omega - v between the line's speed and the filter's must hold for
