@@ -89,8 +89,9 @@ class Config(GpsFields):
         stop is taken anyway (item 4).
     vib_lag : s, how far the tracker's line may trail the speed (a causal tracker follows an
         acceleration late): a line read while the filter's acceleration is ``a`` and GPS
-        holds the speed carries an extra speed variance ``(vib_lag a)^2`` (item 3). 0 (default) for the smoothed tracker;
-        :func:`estimate` with ``online`` and no ``vib_lag`` given uses :data:`CAUSAL_VIB_LAG`.
+        holds the speed carries an extra speed variance ``(vib_lag a)^2`` (item 3). 0
+        (default) for the smoothed tracker; :func:`estimate` with ``online`` and no
+        ``vib_lag`` given uses :data:`CAUSAL_VIB_LAG`.
     vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
         (where the tracker claims a line, ``has_signal``) or ``"all"`` (every positive omega,
         its posterior spread and the gate decide: for trackers whose null state dominates on a
