@@ -15,7 +15,9 @@ Parts (all in fresh child processes so that peak memory is the run's own):
   comb evidence alone (:func:`vibrospeed.estimators.grid.frame_evidence` on 100 successive
   frames, one call each as its ``step`` makes them, best of 3) and of
   :func:`vibrospeed.signal.whiten.step` (12 000 samples of noise, best of 3), beside the same
-  whitener at ``--whiten-ref`` (a git revision, read with ``git show``).
+  whitener at ``--whiten-ref`` (a git revision, read with ``git show``), and the causal
+  grid's other parts alone: its filter's ``step`` without the comb evidence, the pre-filter's
+  and the normaliser's ``step`` (3000 samples, best of 3).
 * ``startup``: ``python -m vibrospeed estimate`` on a 10 s canonical CSV with an empty numba
   cache directory (``NUMBA_CACHE_DIR``: every ``cache=True`` kernel compiles) and again with the
   cache it left; ``python -c "import vibrospeed.cli.app"`` for reference.
@@ -485,7 +487,54 @@ def part_online(ref: str | None) -> list[str]:
             mod.predictor = saved
             out.append(f"| {label}{' without the predictor' if no_pred else ''} | {best:.2f} |")
             print(out[-1], flush=True)
+    out += _online_parts(rec, ay)
     return out
+
+
+def _online_parts(rec, ay) -> list[str]:
+    """Rows of the causal grid's per-sample cost by part: its filter's step without the comb
+    evidence, the pre-filter's and the normaliser's steps (best of 3, CPU time)."""
+    from vibrospeed.estimators import grid
+    from vibrospeed.estimators.grid import filter as gf
+    from vibrospeed.signal import normalize as nz
+    from vibrospeed.signal import prefilter as pf
+
+    cfg = grid.config_for(rec, axis="y", params={"smooth": "none"}).tracker
+    y = (ay - np.mean(ay)) / np.std(ay)
+    st0 = gf.init(cfg)
+    for v in y[:300]:
+        st0, _ = gf.step(cfg, st0, v)
+    sos = pf.design("whiten", 1.0 / float(rec.dt))
+
+    def filt():
+        st = st0
+        for v in y[300:3300]:
+            st, _ = gf.step(cfg, st, v)
+
+    def pre():
+        st = pf.init(sos, float(ay[0]))
+        for v in ay[300:3300]:
+            st, _ = pf.step(sos, st, v)
+
+    dt = float(rec.dt)
+
+    def norm():
+        st = nz.init()
+        for v in y[300:3300]:
+            st, _ = nz.step(st, v, dt, 5.0)
+
+    rows = []
+    for label, fn in (("grid filter step alone (the causal grid's, no comb evidence)", filt),
+                      ("prefilter.step (2nd-order high-pass)", pre),
+                      ("normalize.step", norm)):
+        best = np.inf
+        for _ in range(3):
+            t0 = time.process_time()
+            fn()
+            best = min(best, (time.process_time() - t0) / 3000 * 1e6)
+        rows.append(f"| {label} | {best:.2f} |")
+        print(rows[-1], flush=True)
+    return rows
 
 
 def part_startup(tmp: Path) -> list[str]:
