@@ -42,10 +42,13 @@ class Parameter(NamedTuple):
 _CAUSAL = "the method is causal already: the same as default"
 
 #: the strict comb: the harmonic comb scored at SNR 2 (``comb_snr``; a weak comb scores as
-#: empty) and a wheel line claimed (``has_signal``) at line probability 0.5 (``claim_level``),
-#: where the grid's own defaults are SNR 1 and 0.9. The grid's ``lock`` preset sets it, and
-#: :mod:`vibrospeed.estimators.fuse` runs its tracker with it (``fuse.TRACKER_DEFAULTS``).
-STRICT_COMB: dict[str, str] = {"comb_snr": "2", "claim_level": "0.5"}
+#: empty), a wheel line claimed (``has_signal``) at line probability 0.5 (``claim_level``) and
+#: the per-sample likelihood tempered to 0.05 per 10 ms (``temper``), where the grid's own
+#: defaults are SNR 1, 0.9 and 0.2: a tracker that claims at 0.5 needs the weaker time-domain
+#: weight, or it claims the weak lines that the stronger weight places omega on. The grid's
+#: ``lock`` preset sets it, and :mod:`vibrospeed.estimators.fuse` runs its tracker with it
+#: (``fuse.TRACKER_DEFAULTS``).
+STRICT_COMB: dict[str, str] = {"comb_snr": "2", "claim_level": "0.5", "temper": "0.05"}
 
 #: method -> preset name -> :class:`Preset`
 PRESETS: dict[str, dict[str, Preset]] = {

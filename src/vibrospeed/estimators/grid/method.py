@@ -48,6 +48,10 @@ AXES_EXPONENT = 0.834
 #: coherently over many seconds: benchmarks/robustness/RESULTS.md),
 #: adaptive pre-whitening instead of the paper's 8 Hz high-pass (which removes a slow
 #: wheel's fundamental).
+#: The random walk's kernel on the grid is variance-matched (``kernel_var="matched"``): the
+#: paper's sampled Gaussian loses most of its variance once the per-sample step is below a
+#: grid spacing (a 20-300 rad/s range at 200 Hz: the walk froze, omega moved by jumps only),
+#: so ``q_omega`` now means the same at every sample rate and range.
 #: The "no line" state's time-domain emission is the signal part's predictive mixture
 #: (``null_model="mixture"``): only the comb evidence decides whether a wheel comb is there.
 #: The reported omega is the mean of the MAP mode (``point="mode"``): on a
@@ -61,6 +65,7 @@ GRID_DEFAULTS = {
     "jump_rate": 0.05, "off_rate": 0.01, "on_rate": 0.5, "r": 0.15, "q_amp": 0.002,
     "q_omega": 16.0, "temper": 0.2, "temper_fs": 100.0, "prefilter": "whiten",
     "smooth": "fb", "null_model": "mixture", "point": "mode", "claim_level": 0.9,
+    "kernel_var": "matched",
 }
 
 
