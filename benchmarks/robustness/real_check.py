@@ -125,8 +125,8 @@ def main(argv=None):
     head = (f"# The grid tracker's old and new defaults on the real recordings\n\n"
             f"`PYTHONPATH=src .venv/bin/python benchmarks/robustness/real_check.py --write` "
             f"({time.time() - t0:.0f} s). Old: `prefilter=thesis-hp, temper=0.2, "
-            "kernel_var=sampled`, no standstill stage; new: this version's defaults. Method: this script's "
-            "docstring.\n\n")
+            "kernel_var=sampled`, no standstill stage; new: this version's defaults. "
+            "Method: this script's docstring.\n\n")
     print(text)
     if a.write:
         (HERE / "REAL.md").write_text(head + text + "\n")
