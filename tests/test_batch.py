@@ -143,3 +143,64 @@ def test_cli_batch_and_dask_scheduler_option(tmp_path):
         res = runner.invoke(app, ["batch", str(src), "-o", str(out), "-m", "shs",
                                   "--scheduler", "tcp://127.0.0.1:1"])
     assert res.exit_code == 2 and "cannot reach the Dask scheduler" in res.stderr
+
+
+def _track(has_signal=None, standstill=None, source=None, n=200):
+    """A track at 100 Hz, omega ramping 10 -> 30 rad/s, wheel radius 0.3 m, given extras."""
+    from vibrospeed.types import Track
+
+    t = np.arange(n) / 100.0
+    extras = {k: np.asarray(v, dtype=np.float64) for k, v in
+              (("has_signal", has_signal), ("standstill", standstill), ("source", source))
+              if v is not None}
+    return Track.from_omega(t, np.linspace(10.0, 30.0, n), np.ones(n), wheel_radius=0.3,
+                            method="test", extras=extras)
+
+
+def test_drive_summary_leaves_unmeasured_speeds_empty():
+    n = 200
+    zeros, ones = np.zeros(n), np.ones(n)
+    # the reference: median of a linear ramp 10..30 rad/s is 20; distance = 0.3 * mean * T
+    full = {"median_omega": 20.0, "median_speed": 6.0, "distance_m": 0.3 * 20.0 * 1.99}
+    for track in (_track(), _track(has_signal=np.r_[zeros[:-1], 1.0]),
+                  _track(has_signal=zeros, standstill=np.r_[1.0, zeros[1:]]),
+                  _track(has_signal=zeros, source=np.full(n, 1.0))):  # fuse: GPS held
+        row = batch.drive_summary(track)
+        assert row["note"] == ""
+        for k, v in full.items():
+            assert row[k] == pytest.approx(v, rel=1e-12), k
+    # a line detector that never claimed, no standstill, fuse on acceleration alone (source 0)
+    for track in (_track(has_signal=zeros), _track(has_signal=zeros, standstill=zeros),
+                  _track(has_signal=zeros, source=zeros)):
+        row = batch.drive_summary(track)
+        assert row["signal_share"] == 0.0
+        assert np.isnan([row["median_speed"], row["median_omega"], row["distance_m"]]).all()
+        assert "no wheel line" in row["note"]
+    assert batch.drive_summary(_track(has_signal=ones))["signal_share"] == 1.0
+
+
+def test_batch_row_of_a_drive_without_a_line(tmp_path):
+    from vibrospeed.types import Recording
+
+    src = tmp_path / "in"
+    src.mkdir()
+    rng = np.random.default_rng(0)
+    n = 8 * 400
+    noise = Recording(t=np.arange(n) / 400.0, channels={
+        "ax": rng.normal(0.0, 1.0, n), "ay": rng.normal(0.0, 1.0, n),
+        "az": 9.81 + rng.normal(0.0, 1.0, n)})
+    io.write(noise, src / "a_noise.csv")
+    io.write(sim.simulate("cart", seed=0, duration=8), src / "b_cart.csv")
+    out = tmp_path / "out"
+    params = {"omega_min": 2, "omega_max": 30}
+    for status in ("ok", "skipped"):  # the skipped row reads the same numbers back
+        df = batch.run([src], out, method="grid", params=params, jobs=1)
+        assert list(df["status"]) == [status, status]
+        nz, cart = df.iloc[0], df.iloc[1]
+        assert nz["signal_share"] == 0.0 and nz["note"] == batch.task.NO_EVIDENCE_NOTE
+        assert np.isnan([nz["median_speed"], nz["median_omega"], nz["distance_m"]]).all()
+        assert cart["signal_share"] > 0.2 and cart["median_speed"] > 0 and cart["note"] == ""
+    summary = pd.read_csv(out / "summary.csv", keep_default_na=False)
+    assert summary.loc[0, "median_speed"] == "" and summary.loc[0, "distance_m"] == ""
+    assert summary.loc[0, "note"] == batch.task.NO_EVIDENCE_NOTE
+    assert summary.loc[1, "note"] == "" and float(summary.loc[1, "median_speed"]) > 0

@@ -14,10 +14,13 @@ recordings, each in its own task, and returns the summary table (one row per rec
                    for methods without it)
 ``median_speed``   median of the speed estimate in m/s (empty without a wheel radius)
 ``median_omega``   median of omega in rad/s
-``distance_m``     integral of the speed over time in m
+``distance_m``     integral of the speed over time in m; these three are empty where the
+                   method says where it sees a line and nothing of the drive rests on a
+                   measurement (:func:`drive_summary`)
 ``fitted_radius``  wheel radius in m fitted by the method (only present when a method gives one)
 ``status``         ``ok``, ``skipped`` (an up-to-date output was there) or ``error``
 ``error``          one line saying what went wrong
+``note``           why numbers are empty (no wheel line, standstill or GPS), else empty
 ``wall_s``         seconds spent on this recording
 ``report``         its HTML report (only with ``report=True``)
 =================  ==========================================================================
@@ -62,12 +65,14 @@ from vibrospeed.batch.single import (  # noqa: F401
     load_recording,
     vibration_channel,
 )
+from vibrospeed.batch.task import drive_summary
 from vibrospeed.eval.metrics import fitted_radius, track_summary  # noqa: F401 (re-exported)
 
 __all__ = [
     "EstimateOptions",
     "Estimated",
     "SUMMARY_COLUMNS",
+    "drive_summary",
     "estimate_recording",
     "expand_inputs",
     "load_recording",
