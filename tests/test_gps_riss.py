@@ -221,6 +221,9 @@ def test_step_equals_run_exactly(kw):
     st0 = gr.init(cfg, 14.0)
     o = gr.run(cfg, gr.Sample(t, ax, rec["gps_speed"], rec["gps_sats"]), state=st0)
     st_run = o.final
+    # the Result is the Output's columns (declared once, there) and the final state
+    assert o._fields == (*gr.Output._fields, "final") and type(o.output) is gr.Output
+    assert all(a is b for a, b in zip(o.output, o[:-1], strict=True))
     s = st0
     cols = {k: [] for k in gr.Output._fields}
     for k in range(t.size):

@@ -71,7 +71,9 @@ class Output(NamedTuple):
     mode: np.ndarray
 
 
-_NOUT = 8
+#: the compiled core's float columns, in its order: every :class:`Output` column but ``mode``
+_OUT_NAMES = Output._fields[:-1]
+_NOUT = len(_OUT_NAMES)
 
 
 class Sample(NamedTuple):
@@ -85,20 +87,11 @@ class Sample(NamedTuple):
     gps_sats: Any = math.nan
 
 
-class Result(NamedTuple):
-    """:func:`run`'s output: the :class:`Output` columns per sample and ``final`` the state
-    after the last sample."""
+class Result(NamedTuple("_ResultFields", [*Output.__annotations__.items(), ("final", State)])):
+    """:func:`run`'s output: the :class:`Output` columns per sample (named and documented
+    there, in the same order) followed by ``final``, the state after the last sample."""
 
-    speed: np.ndarray
-    speed_std: np.ndarray
-    accel: np.ndarray
-    gps_model: np.ndarray
-    offset: np.ndarray
-    offset_std: np.ndarray
-    gps_error: np.ndarray
-    r22: np.ndarray
-    mode: np.ndarray
-    final: State
+    __slots__ = ()
 
     @property
     def output(self) -> Output:
@@ -154,10 +147,6 @@ def _copy_state(state: State, n: int):
 def _pack(arrs) -> State:
     x, P, x2, P2, lz, od, Pod, sc = arrs
     return State(x, P, x2, P2, lz, od, Pod, float(sc[0]), float(sc[1]), float(sc[2]))
-
-
-_OUT_NAMES = ("speed", "speed_std", "accel", "gps_model", "offset", "offset_std", "gps_error",
-              "r22")
 
 
 def step(config: Config, state: State, y: Sample | tuple[float, float, float, float]
