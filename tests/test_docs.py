@@ -91,6 +91,21 @@ def test_field_descriptions_from_docstrings():
     assert rows[0] == ("a", "float", "1.0", text)
     assert rows[3] == ("d", "str", "x", "Attribute docstring of d.")
 
+    @dataclasses.dataclass(frozen=True)
+    class More(Knobs):
+        """More knobs.
+
+        a, b, c : see Knobs.
+        e : a fifth.
+        """
+
+        c: int = 4
+        e: float = 5.0
+
+    # an inherited field is described where it is declared; a redeclared one by the subclass
+    assert hooks.field_docs(More) == {"a": text, "b": text, "c": "see Knobs.",
+                                      "d": "Attribute docstring of d.", "e": "a fifth."}
+
 
 @pytest.mark.parametrize("page", ["index.md", "guide.md"])
 def test_python_examples_run(page):

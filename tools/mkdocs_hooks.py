@@ -97,14 +97,27 @@ def _inline_entry(name: str, entries: dict[str, str]) -> str:
     return ""
 
 
-def field_docs(cls: type) -> dict[str, str]:
-    """Field name -> one-paragraph description: the attribute docstring, else the class
-    docstring's entry, else a mention inside another entry."""
+def _own_field_docs(cls: type) -> dict[str, str]:
     entries = _class_doc_entries(cls)
     out = {**entries, **_attribute_docs(cls)}
     for f in dataclasses.fields(cls) if dataclasses.is_dataclass(cls) else ():
         if not out.get(f.name):
             out[f.name] = _inline_entry(f.name, entries)
+    return out
+
+
+def field_docs(cls: type) -> dict[str, str]:
+    """Field name -> one-paragraph description: the attribute docstring, else the class
+    docstring's entry, else a mention inside another entry, each read in the class that
+    declares the field. An inherited field (``GpsFields`` under ``gps-riss`` and ``fuse``) is
+    described once, in its base class; a subclass's docstring only points there."""
+    out = _own_field_docs(cls)
+    for f in dataclasses.fields(cls) if dataclasses.is_dataclass(cls) else ():
+        owner = next((c for c in cls.__mro__ if f.name in inspect.get_annotations(c)), cls)
+        if owner is not cls:
+            text = _own_field_docs(owner).get(f.name)
+            if text:
+                out[f.name] = text
     return out
 
 

@@ -4,14 +4,10 @@ sections IV-VI, eq. 1-18), with the accelerometer offset as a filter state and a
 State ``X = [v, a, b, x3, x4, d..., dl]``: speed (m/s), acceleration (m/s^2), accelerometer
 offset b (m/s^2; road slope ``g sin theta`` plus calibration bias), the receiver's reported speed
 x3 and its derivative x4 (paper eq. 2), the Pade states of an optional pure GPS delay
-(:func:`~vibrospeed.models.gps_riss.receiver_matrices`) and the receiver's extra lag dl (s): the
-lag of a real receiver is not the model's (the paper's 0.08 s, a u-blox 0.17 s, more behind a
-time-stamp latency), and a fix that trails the model by dl reads ``dl a`` low while
-accelerating, an error that is the same fix after fix, not white noise. dl is a random walk
-(``q_gps_lag``) from ``0 +- gps_lag_std`` and the fix is read as ``g = x3(t - dl) ~ x3 - dl
-x3'`` (extended Kalman row, linearised at the estimate), so the filter learns the lag where the
-accelerometer and GPS both see a speed change, and until then carries its uncertainty in the
-speed band. Per accelerometer sample, ``dt`` the time since the previous one:
+(:func:`~vibrospeed.models.gps_riss.receiver_matrices`) and the receiver's extra lag dl (s,
+beyond the lag model's; a random walk ``q_gps_lag`` from ``0 +- gps_lag_std``, the fix read as
+``g = x3(t - dl) ~ x3 - dl x3'``: why and how, :class:`GpsFields`). Per accelerometer sample,
+``dt`` the time since the previous one:
 
 1. accelerometer pre-processing (paper Fig. 1): ``a_m = gain * a_raw``; optional pitch
    compensation ``p = poly(a_m)`` in degrees (eq. 14), ``a_m <- (a_m - g sin p) / cos p``.

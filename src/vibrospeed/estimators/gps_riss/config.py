@@ -35,13 +35,20 @@ class GpsFields:
     gps_delay : pure GPS delay (s) in front of the lag, Pade order ``gps_pade`` (1 or 2).
     min_sats : satellite-count gate (paper: 7): a fix is valid where ``gps_sats >= min_sats``
         or the count is unknown (NaN).
-    gps_lag_std : s, prior std of the receiver's lag beyond the model's (a filter state, the
-        extra lag ``dl``: the fix is read as the model's output ``dl`` earlier,
-        ``x3(t - dl) ~ x3 - dl x3'``). Receivers differ in lag (the paper's 0.08 s, a u-blox
-        0.17 s, phones and loggers with a time-stamp latency more); one that lags more than the
-        model reads low by ``dl a`` while accelerating, an error the filter must either learn
-        or carry in its band. 0: the lag model is taken as exact (the paper's filter).
-    q_gps_lag : s^2/s, random walk of that extra lag.
+    gps_lag_std : s, prior std of the receiver's lag beyond the model's. The extra lag ``dl``
+        is the filter's last state, from ``0 +- gps_lag_std``; a fix is read as the model's
+        output ``dl`` earlier, ``g = x3(t - dl) ~ x3 - dl x3'`` (an extended Kalman row
+        linearised at the estimate), so the filter learns ``dl`` where the accelerometer and
+        GPS both see a speed change and until then carries its uncertainty in the speed band.
+        Receivers differ in lag (the paper's 0.08 s, a u-blox 0.17 s, phones and loggers
+        with a time-stamp latency more); one that lags ``dl`` more than the model reads low by
+        ``dl a`` while accelerating, fix after fix, an error white GPS noise does not
+        describe. The estimate's sidecar reports the learned lag (``params.learned_gps_lag``,
+        the model's lag plus ``dl``, and ``learned_gps_lag_std``). 0 (with ``q_gps_lag`` 0):
+        the lag model is taken as exact (the paper's filter; an identified receiver model).
+    q_gps_lag : s^2/s, random-walk intensity of that extra lag: its std grows by
+        ``sqrt(q_gps_lag t)`` over ``t`` seconds (the default 1e-3: 0.1 s in 10 s), so the
+        learned lag can follow a slow change.
     """
 
     gps_a: tuple[float, ...] = (0.0, 1.0, -1427.2, -114.2)
@@ -83,8 +90,8 @@ class Config(GpsFields):
 
     Parameters
     ----------
-    gps_a, gps_b, gps_delay, gps_pade, min_sats : the GPS receiver and its satellite gate
-        (:class:`GpsFields`).
+    gps_a, gps_b, gps_delay, gps_pade, min_sats, gps_lag_std, q_gps_lag : the GPS receiver,
+        its satellite gate and its learned extra lag, described in :class:`GpsFields`.
     q_speed, q_accel, q_offset, q_gps : process noise intensities per second of the speed
         ((m/s)^2/s, model error), acceleration ((m/s^2)^2/s, jerk), offset ((m/s^2)^2/s, grade
         changes) and receiver states (paper eq. 11 "P" = 5, 4, -, 1).
