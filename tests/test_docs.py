@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -66,6 +67,30 @@ def test_reference_covers_every_config_field():
         assert f"## `{name}`" in scen
 
 
+def test_scenarios_page_says_the_gps_drive_once():
+    import inspect
+
+    from vibrospeed.sim import gps as sim_gps
+
+    scen = _hooks().scenarios_page()
+    # the receiver and accelerometer knobs every GPS scenario shares: one table, at one place
+    assert scen.count("## GPS drive knobs") == 1
+    assert scen.count("| `gps_rate` | `float` | `12.5` | Hz (paper: 12.5). |") == 1
+    assert scen.count("| `gps_noise` |") == 1
+    sections = scen.split("\n## ")
+    for name, build in sim_gps.SCENARIOS.items():
+        sec = next(x for x in sections if x.startswith(f"`{name}`"))
+        assert sec.count("[below](#gps-drive-knobs)") == 1
+        first = " ".join(inspect.getdoc(build).split("\n\n")[0].split()).replace("``", "`")
+        assert scen.count(first) == 1, name  # its description once, not twice
+        assert "| `duration` | `float` |" in sec and "| `fs` | `float` | `400.0` |" in sec
+    # a knob of the table reaches the simulation
+    from vibrospeed import sim
+
+    rec = sim.simulate("gps_braking", seed=0, duration=20, gps_rate="5")
+    assert abs(int(sum(~np.isnan(rec.channel("gps_speed")))) - 100) <= 2
+
+
 def test_field_descriptions_from_docstrings():
     hooks = _hooks()
 
@@ -75,7 +100,8 @@ def test_field_descriptions_from_docstrings():
 
         a, b : the two ends of the range, in rad/s;
             continued on the next line.
-        c : a third.
+        c : a third.  e : a fifth.  f, g : sixth
+            and seventh.
         """
 
         a: float = 1.0
@@ -86,7 +112,8 @@ def test_field_descriptions_from_docstrings():
 
     docs = hooks.field_docs(Knobs)
     text = "the two ends of the range, in rad/s; continued on the next line."
-    assert docs == {"a": text, "b": text, "c": "a third.", "d": "Attribute docstring of d."}
+    assert docs == {"a": text, "b": text, "c": "a third.", "d": "Attribute docstring of d.",
+                    "e": "a fifth.", "f": "sixth and seventh.", "g": "sixth and seventh."}
     rows = hooks.config_rows(Knobs)
     assert rows[0] == ("a", "float", "1.0", text)
     assert rows[3] == ("d", "str", "x", "Attribute docstring of d.")

@@ -35,6 +35,8 @@ GENERATED = ("reference/parameters.md", "reference/columns.md", "reference/scena
              "changelog.md")
 
 _ENTRY = re.compile(r"^(\s*)([A-Za-z_]\w*(?:\s*,\s*[A-Za-z_]\w*)*)\s+:\s+(\S.*)$")
+#: another ``name : text`` entry after a sentence on the same line
+_INLINE_ENTRY = re.compile(r"(?<=[.;])\s+([A-Za-z_]\w*(?:\s*,\s*[A-Za-z_]\w*)*)\s+:\s+")
 
 
 # ---- descriptions from docstrings --------------------------------------------------------------
@@ -49,8 +51,13 @@ def _class_doc_entries(cls: type) -> dict[str, str]:
     def flush() -> None:
         if names:
             text = " ".join(" ".join(current).split())
+            # further entries on the same lines: "a : x.  b : y." (the first keeps "x.")
+            parts = _INLINE_ENTRY.split(text)
             for n in names:
-                out.setdefault(n, text)
+                out.setdefault(n, parts[0])
+            for more, more_text in zip(parts[1::2], parts[2::2], strict=True):
+                for n in more.split(","):
+                    out.setdefault(n.strip(), more_text)
 
     for line in doc.splitlines():
         m = _ENTRY.match(line)
@@ -294,18 +301,55 @@ def columns_page(fast: bool | None = None) -> str:
     return "\n".join(out) + "\n"
 
 
+def _md_text(doc: str) -> str:
+    """A docstring as Markdown paragraphs: reST ``code`` as `code`, lines of a paragraph joined."""
+    paras = [" ".join(p.split()) for p in inspect.cleandoc(doc or "").split("\n\n")]
+    return "\n\n".join(p.replace("``", "`") for p in paras if p)
+
+
+def _keyword_rows(fn: Any, skip: tuple[str, ...] = ()) -> list[tuple[str, str, str, str]]:
+    """``(name, type, default, description)`` of the keyword parameters of ``fn`` that
+    ``--set`` can reach: a plain default (number, flag, text, tuple of numbers), read as the
+    type of that default (:func:`vibrospeed.sim._gps_knob`)."""
+    docs = _class_doc_entries(fn)
+    rows = []
+    for name, par in inspect.signature(fn).parameters.items():
+        d = par.default
+        if name in skip or d is inspect.Parameter.empty or d is None:
+            continue
+        if isinstance(d, tuple):
+            typ = "tuple[float, ...]"
+        elif isinstance(d, (bool, int, float)):
+            typ = type(d).__name__
+        else:
+            continue
+        rows.append((name, typ, _show(d), docs.get(name, "")))
+    return rows
+
+
 def scenarios_page() -> str:
     from vibrospeed import sim
+    from vibrospeed.sim import gps as sim_gps
     from vibrospeed.sim.scenarios import CONFIGS
 
+    gps_builders = {name: fn for name, fn in sim_gps.SCENARIOS.items() if name in sim.SCENARIOS}
+    gps_rows = _keyword_rows(sim_gps.drive, skip=("source",))
     out = ["# Simulated scenarios", "",
            "Generated from the code when the site is built. `vibrospeed simulate --scenario "
            "NAME --set KNOB=VALUE` sets any knob below (dotted names reach nested Configs, "
            "lists are comma-separated: `--set vibration.harmonic_amps=0.1,0.05`; `--set "
            "gps=off` switches an optional part off).", ""]
     for name, desc in sim.describe().items():
-        out += [f"## `{name}`", "", desc, ""]
+        out += [f"## `{name}`", ""]
         cfg = CONFIGS.get(name)
+        if name in gps_builders:
+            build = gps_builders[name]
+            out += [_md_text(build.__doc__ or desc), ""]
+            out += _table([(f"`{n}`", f"`{t}`", f"`{d}`") for n, t, d, _ in
+                           _keyword_rows(build)], ("knob", "type", "default"))
+            out += ["", "and the knobs of every GPS drive ([below](#gps-drive-knobs)).", ""]
+            continue
+        out += [desc, ""]
         if cfg is None:
             out += ["Knobs: the keyword arguments of its builder (below).", ""]
             fn = sim.SCENARIOS.get(name)
@@ -315,6 +359,15 @@ def scenarios_page() -> str:
             continue
         out += _table([(f"`{n}`", f"`{t}`", f"`{d}`", text)
                        for n, t, d, text in _scenario_rows(cfg)],
+                      ("knob", "type", "default", "description"))
+        out.append("")
+    if gps_builders:
+        out += ["## GPS drive knobs", "",
+                "Every GPS scenario (" + ", ".join(f"`{n}`" for n in gps_builders) + ") "
+                "simulates its receiver and accelerometer with "
+                "`vibrospeed.sim.gps.drive`, whose knobs it takes too (a scenario's own "
+                "default, such as `gps_tunnel`'s `acc_bias`, comes first).", ""]
+        out += _table([(f"`{n}`", f"`{t}`", f"`{d}`", text) for n, t, d, text in gps_rows],
                       ("knob", "type", "default", "description"))
         out.append("")
     return "\n".join(out) + "\n"
