@@ -236,6 +236,28 @@ def test_config_roundtrip_params():
     assert dataclasses.is_dataclass(grid.Config())
 
 
+def test_claim_level_per_smoothing_mode():
+    """has_signal = (1 - p_null >= level) with the level of CLAIM_LEVEL for the mode unless
+    given; the streaming Config (causal) claims at the causal level."""
+    t = np.arange(0, 12, 0.01)
+    rng = np.random.default_rng(3)
+    ay = 0.3 * np.sin(40 * t) + 0.2 * np.sin(80 * t) + 0.3 * rng.normal(size=t.size)
+    rec = Recording(t, {"ay": ay})
+    assert grid.CLAIM_LEVEL["none"] > grid.CLAIM_LEVEL["lag"] > grid.CLAIM_LEVEL["fb"]
+    assert grid.Config().tracker.claim_level == grid.CLAIM_LEVEL["none"]
+    for sm, given in (("none", None), ("lag", None), ("fb", None), ("none", 0.6)):
+        p = {"smooth": sm, "n_grid": 60}
+        if given is not None:
+            p["claim_level"] = given
+        tr = grid.estimate(rec, params=p)
+        level = grid.CLAIM_LEVEL[sm] if given is None else given
+        assert tr.params["claim_level"] == level
+        p_line = 1.0 - tr.extras["p_null"]
+        moving = tr.extras["standstill"] < 0.5
+        np.testing.assert_array_equal(tr.extras["has_signal"][moving] > 0.5,
+                                      p_line[moving] >= level)
+
+
 def test_mixture_null_gets_no_time_domain_evidence():
     """null_model="mixture": the "no line" state's emission is the signal part's predictive
     mixture, so without extra evidence p_null follows the two-state switching chain alone

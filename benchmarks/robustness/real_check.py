@@ -2,8 +2,10 @@
 
     PYTHONPATH=src .venv/bin/python benchmarks/robustness/real_check.py [--write]
 
-Old defaults: thesis high-pass, likelihood tempered to 0.2 per 0.01 s, no standstill stage
-(passed explicitly: ``prefilter=thesis-hp, temper=0.2``; the standstill stage switched off).
+Old defaults: thesis high-pass, likelihood tempered to 0.2 per 0.01 s, claims at a line
+probability of 0.9 in every mode, no standstill stage
+(passed explicitly: ``prefilter=thesis-hp, temper=0.2, claim_level=0.9``; the standstill
+stage switched off).
 New: the defaults of this version. Both offline (smoothed) and causal (``smooth=none``).
 
 * GoPro kart (a real speed-proportional line, GPS truth): share of GPS samples with
@@ -34,7 +36,7 @@ import real_recordings as R  # noqa: E402
 from vibrospeed import io  # noqa: E402
 from vibrospeed.estimators import grid  # noqa: E402
 
-OLD = {"prefilter": "thesis-hp", "temper": 0.2, "kernel_var": "sampled"}
+OLD = {"prefilter": "thesis-hp", "temper": 0.2, "kernel_var": "sampled", "claim_level": 0.9}
 _WITH_STANDSTILL = grid.with_standstill
 
 

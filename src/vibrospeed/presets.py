@@ -152,7 +152,8 @@ PARAMETERS: dict[str, dict[str, Parameter]] = {
         "fit": Parameter("q_omega,r", "noise parameters fitted to the recording by marginal "
                          "likelihood first"),
         "claim_level": Parameter("0.99", "line probability at which has_signal claims a "
-                                 "line; default 0.9 (higher: fewer, surer claims)"),
+                                 "line; default 0.9 offline, 0.95 with smooth=lag, 0.99 causal "
+                                 "(higher: fewer, surer claims)"),
     },
     "rbpmf": {
         "omega_min": Parameter("2", _RANGE + "; default 10"),

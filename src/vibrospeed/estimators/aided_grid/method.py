@@ -23,7 +23,7 @@ from vibrospeed.estimators.aiding import (
     standstill_flags,
     standstill_offset,
 )
-from vibrospeed.estimators.grid.method import GRID_DEFAULTS
+from vibrospeed.estimators.grid.method import CLAIM_LEVEL, GRID_DEFAULTS
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Track
 
@@ -151,8 +151,10 @@ def estimate(
     gain = None
     if kind == "grid":
         # the grid product's pre-filter, scaling and Nyquist checks on the same config
+        # the aided filter is causal: it claims at the causal grid filter's level
         tracker, y, _, notes = rbpmf.prepare(recording, axis, rbpmf.Config,
-                                             {**model_kw, **tr_kw, "smooth": "none"},
+                                             {"claim_level": CLAIM_LEVEL["none"], **model_kw,
+                                              **tr_kw, "smooth": "none"},
                                              _product_model)
     else:
         base = _cart_tracker(dt)

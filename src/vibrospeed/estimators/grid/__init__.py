@@ -26,6 +26,7 @@ This package's namespace is the grid method (:mod:`~vibrospeed.estimators.grid.m
 from vibrospeed.estimators.grid.comb import running_median
 from vibrospeed.estimators.grid.method import (
     AXES_EXPONENT,
+    CLAIM_LEVEL,
     GRID_DEFAULTS,
     Config,
     Result,
@@ -46,6 +47,7 @@ from vibrospeed.estimators.grid.method import (
 
 __all__ = [
     "AXES_EXPONENT",
+    "CLAIM_LEVEL",
     "GRID_DEFAULTS",
     "Config",
     "Result",

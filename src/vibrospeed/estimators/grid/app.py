@@ -200,5 +200,5 @@ def _run_chunked(config: Config, y: np.ndarray, return_posterior: bool, progress
             bar.update(task, advance=min(chunk, y.size - k0))
     cat = [np.concatenate([getattr(p, f) for p in parts]) for f in Result._fields[:10]]
     post = np.concatenate([p.posterior for p in parts]) if return_posterior else None
-    tail = [np.concatenate([getattr(p, f) for p in parts]) for f in Result._fields[13:]]
-    return Result(*cat, post, None, state, *tail)
+    tail = [np.concatenate([getattr(p, f) for p in parts]) for f in Result._fields[13:19]]
+    return Result(*cat, post, None, state, *tail, float(config.claim_level))

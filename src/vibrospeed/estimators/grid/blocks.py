@@ -121,7 +121,7 @@ class _EvidencePlan:
 def _rows(res: Result, a: int, b: int) -> Result:
     """Rows ``a:b`` of the filter's per-sample columns (``grid_loglik`` included)."""
     return res._replace(**{f: getattr(res, f)[a:b] for f in Result._fields
-                           if f not in ("final", "posterior") and getattr(res, f) is not None})
+                           if f != "posterior" and isinstance(getattr(res, f), np.ndarray)})
 
 
 def _cat(parts: list[Result]) -> Result:
@@ -129,8 +129,8 @@ def _cat(parts: list[Result]) -> Result:
         return parts[0]
     return parts[-1]._replace(**{f: np.concatenate([getattr(p, f) for p in parts])
                                  for f in Result._fields
-                                 if f not in ("final", "posterior")
-                                 and getattr(parts[-1], f) is not None})
+                                 if f != "posterior"
+                                 and isinstance(getattr(parts[-1], f), np.ndarray)})
 
 
 class Blocks:

@@ -89,11 +89,13 @@ class Result(NamedTuple):
     p_mode: np.ndarray | None = None  # the basin's share of the signal mass
     omega_mean: np.ndarray | None = None  # the posterior mean (= omega unless point="mode")
     omega_mode_std: np.ndarray | None = None  # spread within the mode's basin (rad/s)
+    claim_level: float = 0.5  # the config's ``claim_level`` (:attr:`has_signal`)
 
     @property
     def has_signal(self) -> np.ndarray:
-        """1.0 where the "no line" mass is below one half."""
-        return (1.0 - self.p_null >= 0.5).astype(np.float64)
+        """1.0 where the line probability ``1 - p_null`` is at least ``claim_level``, as
+        :func:`step`'s ``has_signal``."""
+        return (1.0 - self.p_null >= self.claim_level).astype(np.float64)
 
 
 def init(config: Config) -> State:
@@ -328,4 +330,4 @@ def run(
     return Result(*_point_and_columns(config, outs.T), outs[:, N_OUT_FIXED:],
                   posts if return_posterior else None, glls if return_grid_loglik else None,
                   State(lw, mean, cov, float(lw0[0]), int(cur[0])),
-                  *(outs[:, c] for c in _TAIL))
+                  *(outs[:, c] for c in _TAIL), float(config.claim_level))
