@@ -198,3 +198,14 @@ def test_simulate_list_needs_no_output_and_a_missing_output_is_a_clear_error():
     assert r.exit_code == 0 and "random" in r.output
     r = CliRunner().invoke(app, ["simulate", "--scenario", "cart"])
     assert r.exit_code == 2
+
+
+def test_a_reader_that_goes_away_ends_the_output_quietly():
+    """``vibrospeed methods | head -1``: the pipe closes before the output is written; the CLI
+    stops with status 0 and no 'internal error' (BrokenPipeError) on stderr."""
+    proc = subprocess.Popen([sys.executable, "-m", "vibrospeed", "methods"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # before the child has imported anything, let alone printed
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0, err
+    assert "internal error" not in err and "Traceback" not in err, err

@@ -73,6 +73,12 @@ def _friendly(fn):
             raise typer.Exit(2) from None
         except (typer.Exit, typer.Abort, KeyboardInterrupt):
             raise
+        except BrokenPipeError:
+            # the reader went away (``vibrospeed ... | head``): stop quietly, and point stdout
+            # at /dev/null so that the interpreter's final flush does not fail again
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+            raise typer.Exit(0) from None
         except Exception as exc:  # a bug, not bad input: one line, exit 1, traceback on demand
             if os.environ.get("VIBROSPEED_DEBUG"):
                 raise
