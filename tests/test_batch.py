@@ -204,3 +204,16 @@ def test_batch_row_of_a_drive_without_a_line(tmp_path):
     assert summary.loc[0, "median_speed"] == "" and summary.loc[0, "distance_m"] == ""
     assert summary.loc[0, "note"] == batch.task.NO_EVIDENCE_NOTE
     assert summary.loc[1, "note"] == "" and float(summary.loc[1, "median_speed"]) > 0
+
+
+def test_batch_rows_and_reports_share_one_rule():
+    # the batch row's numbers are the drive report's (vibrospeed.eval.metrics.track_summary):
+    # one function, so a summary row and its report page cannot disagree
+    from vibrospeed.eval import metrics
+
+    assert batch.drive_summary is metrics.track_summary is batch.track_summary
+    assert batch.task.NO_EVIDENCE_NOTE == metrics.NO_EVIDENCE_NOTE
+    n = 200
+    seen = metrics.measured(_track(has_signal=np.zeros(n), standstill=np.r_[np.zeros(n - 1), 1]))
+    assert seen.sum() == 1 and seen[-1]
+    assert metrics.measured(_track()) is None

@@ -209,3 +209,30 @@ def test_a_reader_that_goes_away_ends_the_output_quietly():
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == 0, err
     assert "internal error" not in err and "Traceback" not in err, err
+
+
+def test_batch_counts_the_drives_without_a_measurement(tmp_path):
+    """``vibrospeed batch`` says after its status counts how many rows have a note (speed
+    numbers left empty); with none it says nothing of the kind."""
+    from vibrospeed import sim
+    from vibrospeed.types import Recording
+
+    src = tmp_path / "in"
+    src.mkdir()
+    rng = np.random.default_rng(1)
+    n = 8 * 400
+    for name in ("n1.csv", "n2.csv"):  # white noise: no wheel line, standstill or GPS
+        io.write(Recording(t=np.arange(n) / 400.0, channels={
+            "ax": rng.normal(0.0, 1.0, n), "ay": rng.normal(0.0, 1.0, n),
+            "az": 9.81 + rng.normal(0.0, 1.0, n)}), src / name)
+    io.write(sim.simulate("cart", seed=0, duration=8), src / "cart.csv")
+    grid = ["-m", "grid", "-p", "omega_min=2", "-p", "omega_max=30", "-j", 1]
+    res = _run("batch", src, "-o", tmp_path / "out", *grid)
+    assert res.exit_code == 0, res.output
+    lines = res.stderr.splitlines()
+    said = next(k for k, ln in enumerate(lines) if "3 recordings (3 ok, 0 skipped, 0 error)" in ln)
+    assert lines[said + 1] == ("2 drives without a wheel line, standstill or GPS: speed numbers "
+                               "left empty (see the note column)")
+    res = _run("batch", src / "cart.csv", "-o", tmp_path / "cart_out", *grid)
+    assert res.exit_code == 0, res.output
+    assert "1 ok, 0 skipped, 0 error" in res.stderr and "note column" not in res.stderr

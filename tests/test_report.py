@@ -1,9 +1,12 @@
 """The drive report: one self-contained HTML page (embedded images, no external URLs)."""
 
 import base64
+import html
 from html.parser import HTMLParser
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -102,3 +105,91 @@ def test_report_of_an_estimate_and_the_batch_index(drive, tmp_path):
     (out / "cart_shs.html").unlink()  # a resumed batch writes a missing report again
     df = batch.run([tmp_path / "in"], out, method="shs", jobs=1, report=True)
     assert list(df["status"]) == ["error", "skipped"] and (out / "cart_shs.html").is_file()
+
+
+def _rows(path: Path) -> dict[str, str]:
+    """The summary table of a report: its ``<th>`` names -> ``<td>`` texts."""
+    import re
+
+    text = path.read_text(encoding="utf-8")
+    table = text.split("<h2>Summary</h2>", 1)[1].split("</table>", 1)[0]
+    return {html.unescape(k): html.unescape(v)
+            for k, v in re.findall(r"<tr><th>(.*?)</th><td>(.*?)</td></tr>", table)}
+
+
+def _noise(path: Path, seed: int = 0) -> Path:
+    """8 s of white noise on three axes at 400 Hz: no wheel line, no standstill, no GPS."""
+    from vibrospeed.types import Recording
+
+    rng = np.random.default_rng(seed)
+    n = 8 * 400
+    io.write(Recording(t=np.arange(n) / 400.0, channels={
+        "ax": rng.normal(0.0, 1.0, n), "ay": rng.normal(0.0, 1.0, n),
+        "az": 9.81 + rng.normal(0.0, 1.0, n)}), path)
+    return path
+
+
+def test_report_of_a_drive_without_a_line_shows_the_note(tmp_path):
+    from vibrospeed.eval.metrics import NO_EVIDENCE_NOTE
+
+    grid = ["-p", "omega_min=2", "-p", "omega_max=30"]
+    noise = _noise(tmp_path / "noise.csv")
+    res = runner.invoke(app, ["report", str(noise), *grid, "-o", str(tmp_path / "n.html")])
+    assert res.exit_code == 0, res.output
+    rows = _rows(tmp_path / "n.html")
+    assert rows["share with a wheel line"] == "0.0 %"
+    assert rows["distance"] == rows["median speed"] == rows["median omega"] == "–"
+    assert rows["note"] == NO_EVIDENCE_NOTE
+    text = " ".join(" ".join(_parse(tmp_path / "n.html").text).split())
+    assert "No wheel line was seen in this drive, and no standstill or GPS" in text
+
+    # a simulated cart drive: numbers, no note; the reference is the estimate file itself
+    cart = tmp_path / "cart.csv"
+    io.write(sim.simulate("cart", seed=0, duration=8), cart)
+    est = tmp_path / "cart_est.csv"
+    assert runner.invoke(app, ["estimate", str(cart), *grid, "-o", str(est)]).exit_code == 0
+    res = runner.invoke(app, ["report", str(cart), "--estimate", str(est),
+                              "-o", str(tmp_path / "c.html")])
+    assert res.exit_code == 0, res.output
+    rows = _rows(tmp_path / "c.html")
+    assert "note" not in rows
+    table = pd.read_csv(est)
+    v, t = table["speed"].to_numpy(), table["t"].to_numpy()
+    assert np.isfinite(v).all()
+    assert float(rows["median speed"].split()[0]) == pytest.approx(np.median(v), abs=0.006)
+    dist = float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(t)))  # trapezoids
+    assert float(rows["distance"].split()[0]) == pytest.approx(dist, abs=0.06)
+    assert float(rows["median omega"].split()[0]) == pytest.approx(
+        np.median(table["omega"]), abs=0.006)
+
+
+def test_batch_index_and_reports_carry_the_note(tmp_path):
+    from vibrospeed.eval.metrics import NO_EVIDENCE_NOTE
+
+    src = tmp_path / "in"
+    src.mkdir()
+    _noise(src / "a_noise.csv")
+    io.write(sim.simulate("cart", seed=0, duration=8), src / "b_cart.csv")
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["batch", str(src), "-o", str(out), "-j", "1", "--report",
+                              "-p", "omega_min=2", "-p", "omega_max=30"])
+    assert res.exit_code == 0, res.output
+    assert ("1 drive without a wheel line, standstill or GPS: speed numbers left empty "
+            "(see the note column)") in res.stderr
+    summary = pd.read_csv(out / "summary.csv", keep_default_na=False)
+    assert list(summary["note"]) == [NO_EVIDENCE_NOTE, ""]
+    # the index: a note column, the noise drive's note in its row, none in the cart's
+    text = (out / "index.html").read_text(encoding="utf-8")
+    head = text.split("<tr>", 2)[1]
+    assert "<th>note</th>" in head and head.index("<th>error</th>") < head.index("<th>note</th>")
+    noise_row, cart_row = [ln for ln in text.splitlines() if ln.startswith("<tr><td>")]
+    assert "a_noise.csv" in noise_row and html.escape(NO_EVIDENCE_NOTE) in noise_row
+    assert "b_cart.csv" in cart_row and "<td class=\"muted\"></td>" in cart_row
+    # each page says what its summary row says
+    noise_page, cart_page = _rows(out / "a_noise_grid.html"), _rows(out / "b_cart_grid.html")
+    assert noise_page["note"] == NO_EVIDENCE_NOTE and noise_page["median speed"] == "–"
+    assert "note" not in cart_page
+    assert float(cart_page["median speed"].split()[0]) == pytest.approx(
+        float(summary.loc[1, "median_speed"]), abs=0.006)
+    assert float(cart_page["distance"].split()[0]) == pytest.approx(
+        float(summary.loc[1, "distance_m"]), abs=0.06)

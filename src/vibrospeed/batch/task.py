@@ -2,7 +2,8 @@
 sidecar records the same method, options, version and input checksum, else estimate it
 (:func:`vibrospeed.batch.single.estimate_recording`) and write its report; a failure is a row
 with a one-line error, never an exception, so one bad recording never stops the batch. The
-row's numbers are :func:`drive_summary`'s."""
+row's numbers are :func:`drive_summary`'s, the rule of the drive report
+(:func:`vibrospeed.eval.metrics.track_summary`), so a row and its report never disagree."""
 
 from __future__ import annotations
 
@@ -21,49 +22,11 @@ from vibrospeed.batch.single import (
     vibration_channel,
 )
 from vibrospeed.errors import ReaderError, VibrospeedError
-from vibrospeed.eval.metrics import track_summary
+from vibrospeed.eval.metrics import NO_EVIDENCE_NOTE, track_summary  # noqa: F401 (re-exported)
 
-#: The ``note`` of a row whose speed numbers are left empty (see :func:`drive_summary`).
-NO_EVIDENCE_NOTE = ("no wheel line claimed and no standstill or GPS seen: median_speed, "
-                    "median_omega and distance_m left empty")
-
-
-def _measured(track) -> np.ndarray | None:
-    """Per sample, whether the estimate rests on a measurement: a claimed wheel line
-    (``has_signal``), a detected standstill (``standstill``) or, for ``fuse``, any source
-    other than acceleration alone (``source``). ``None`` when the track does not say (no
-    ``has_signal`` column: the EKF, SHS, gps-riss, ...)."""
-    if "has_signal" not in track.extras:
-        return None
-    seen = np.nan_to_num(np.asarray(track.extras["has_signal"], dtype=np.float64)) > 0.5
-    if "standstill" in track.extras:
-        seen |= np.nan_to_num(np.asarray(track.extras["standstill"], dtype=np.float64)) > 0.5
-    if "source" in track.extras:
-        from vibrospeed.estimators.fuse.config import SRC_INERTIAL
-
-        src = np.asarray(track.extras["source"], dtype=np.float64)
-        seen |= np.isfinite(src) & (src != SRC_INERTIAL)
-    return seen
-
-
-def drive_summary(track) -> dict[str, Any]:
-    """A batch row's numbers for one track: :func:`vibrospeed.eval.metrics.track_summary`
-    and a ``note``.
-
-    Where the method says per sample whether it saw anything (``has_signal``) and no sample
-    rests on a measurement (no claimed line, no detected standstill, no GPS-held fuse sample),
-    the estimate is the tracker's prior carried through the drive: ``median_speed``,
-    ``median_omega`` and ``distance_m`` are NaN (empty in the CSV) and ``note`` says why. A
-    parked vehicle keeps its 0 m/s (its standstill was detected), a ``fuse`` drive without a
-    wheel line keeps its GPS-held speed. Otherwise the numbers are over all samples and
-    ``note`` is empty; ``signal_share`` says how much of them rests on a line.
-    """
-    row: dict[str, Any] = {**track_summary(track), "note": ""}
-    seen = _measured(track)
-    if seen is not None and not seen.any():
-        row.update(median_speed=math.nan, median_omega=math.nan, distance_m=math.nan,
-                   note=NO_EVIDENCE_NOTE)
-    return row
+#: A batch row's numbers for one track (and its ``note``): the rule of the drive report,
+#: :func:`vibrospeed.eval.metrics.track_summary`, under its batch name.
+drive_summary = track_summary
 
 
 def _one_line(exc: BaseException) -> str:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -199,19 +200,59 @@ def fitted_radius(track) -> float:
     return math.nan
 
 
-def track_summary(track) -> dict[str, float]:
-    """The summary numbers of a track: ``signal_share``, ``median_speed``, ``median_omega``,
-    ``distance_m``, ``fitted_radius`` (NaN where they do not apply)."""
+#: The ``note`` of a track whose speed numbers are left empty (see :func:`track_summary`).
+NO_EVIDENCE_NOTE = ("no wheel line claimed and no standstill or GPS seen: median_speed, "
+                    "median_omega and distance_m left empty")
+
+
+def measured(track) -> np.ndarray | None:
+    """Per sample, whether the estimate rests on a measurement: a claimed wheel line
+    (``has_signal``), a detected standstill (``standstill``) or, for ``fuse``, any source
+    other than acceleration alone (``source``). ``None`` when the track does not say (no
+    ``has_signal`` column: the EKF, SHS, gps-riss, ...)."""
+    if "has_signal" not in track.extras:
+        return None
+    seen = np.nan_to_num(np.asarray(track.extras["has_signal"], dtype=np.float64)) > 0.5
+    if "standstill" in track.extras:
+        seen |= np.nan_to_num(np.asarray(track.extras["standstill"], dtype=np.float64)) > 0.5
+    if "source" in track.extras:
+        from vibrospeed.estimators.fuse.config import SRC_INERTIAL
+
+        src = np.asarray(track.extras["source"], dtype=np.float64)
+        seen |= np.isfinite(src) & (src != SRC_INERTIAL)
+    return seen
+
+
+def track_summary(track) -> dict[str, Any]:
+    """The summary numbers of a track, the same for a batch row and a drive report:
+    ``signal_share``, ``median_speed``, ``median_omega``, ``distance_m``, ``fitted_radius``
+    (NaN where they do not apply) and ``note``.
+
+    Where the method says per sample whether it saw anything (``has_signal``) and no sample
+    rests on a measurement (:func:`measured`: no claimed line, no detected standstill, no
+    GPS-held ``fuse`` sample), the estimate is the tracker's prior carried through the drive,
+    not a measurement: ``median_speed``, ``median_omega`` and ``distance_m`` are NaN and
+    ``note`` is :data:`NO_EVIDENCE_NOTE`. A parked vehicle keeps its 0 m/s (its standstill was
+    detected), a ``fuse`` drive without a wheel line keeps its GPS-held speed. Otherwise the
+    medians and the distance are over all samples and ``note`` is empty; ``signal_share``
+    says how much of them rests on a line.
+    """
     sig = track.extras.get("has_signal")
     share = math.nan
     if sig is not None:
         s = np.asarray(sig, dtype=np.float64)
         s = s[np.isfinite(s)]
         share = float(np.mean(s > 0.5)) if s.size else math.nan
-    return {
+    out: dict[str, Any] = {
         "signal_share": share,
         "median_speed": _finite_median(track.speed),
         "median_omega": _finite_median(track.omega),
         "distance_m": _distance(track.t, track.speed),
         "fitted_radius": fitted_radius(track),
+        "note": "",
     }
+    seen = measured(track)
+    if seen is not None and not seen.any():
+        out.update(median_speed=math.nan, median_omega=math.nan, distance_m=math.nan,
+                   note=NO_EVIDENCE_NOTE)
+    return out

@@ -4,9 +4,12 @@
 share of the time with a wheel line, method, parameters; against the truth where the recording
 has one), the spectrogram with the estimate, its band and the truth or GPS
 (:func:`vibrospeed.eval.plot.plot_track`), the speed over time with the stretches where a wheel
-line was seen, and the notes of the recording and of the estimate. Images are PNGs embedded as
-``data:`` URIs; the page has no external URL and no script, so it can be mailed or archived as one
-file. :func:`write_index` lists a batch's recordings with links to their pages.
+line was seen, and the notes of the recording and of the estimate. The numbers are
+:func:`vibrospeed.eval.metrics.track_summary`'s, the rule of a batch row, so the page and the row
+never disagree: a drive where nothing was measured shows the note instead of a distance and
+medians. Images are PNGs embedded as ``data:`` URIs; the page has no external URL and no
+script, so it can be mailed or archived as one file. :func:`write_index` lists a batch's
+recordings with links to their pages.
 """
 
 from __future__ import annotations
@@ -190,6 +193,10 @@ def render_report(
          + (f" ({s['median_speed'] * 3.6:.1f} km/h)" if math.isfinite(s["median_speed"])
             else "")),
         ("median omega", _num(s["median_omega"], ".2f", "rad/s")),
+    ]
+    if s["note"]:  # nothing measured: the numbers above are empty, the note says why
+        rows.append(("note", s["note"]))
+    rows += [
         ("share with a wheel line", _num(100 * s["signal_share"], ".1f", "%")
          if math.isfinite(s["signal_share"]) else "– (the method has no line detector)"),
         ("wheel radius", _num(track.wheel_radius, ".4g", "m")),
@@ -210,8 +217,12 @@ def render_report(
         line = (f"<p>A wheel line was seen during {len(iv)} stretch(es), "
                 f"{_num(100 * s['signal_share'], '.1f', '%')} of the samples (green in the speed "
                 f"plot):</p><ul>{items}</ul>{more}" if iv else
-                "<p>No wheel line was seen in this drive: the estimate is a guess with a wide "
-                "band.</p>")
+                "<p>No wheel line was seen in this drive, and no standstill or GPS: the "
+                "estimate is the tracker's prior carried through the drive with a wide band, "
+                "not a measurement, so the summary leaves its distance and medians empty.</p>"
+                if s["note"] else
+                "<p>No wheel line was seen in this drive; the summary numbers rest on what "
+                "was measured instead (a detected standstill, or GPS fixes for fuse).</p>")
     else:
         line = (f"<p class=\"muted\">The method '{_esc(track.method)}' does not say where it "
                 "sees a wheel line.</p>")
@@ -261,13 +272,14 @@ def write_report(path: str | os.PathLike[str], recording: Recording, track: Trac
 
 
 def write_index(path: str | os.PathLike[str], summary, *, title: str = "vibrospeed batch") -> Path:
-    """A batch's summary page: one row per recording (status, numbers, error) linking to its
-    report; links are relative, so the output folder can be moved as a whole."""
+    """A batch's summary page: one row per recording (status, numbers, error, and the note of a
+    drive whose speed numbers are empty) linking to its report; links are relative, so the
+    output folder can be moved as a whole."""
     p = Path(path)
     df = summary
     counts = df["status"].value_counts().to_dict()
     head = ["file", "status", "duration", "distance", "median speed", "with a line", "method",
-            "error", "wall"]
+            "error", "note", "wall"]
     rows = []
     for _, r in df.iterrows():
         name = _esc(r["file"])
@@ -278,6 +290,8 @@ def write_index(path: str | os.PathLike[str], summary, *, title: str = "vibrospe
         share = share if isinstance(share, (int, float)) and math.isfinite(share) else None
         error = r.get("error")
         error = error if isinstance(error, str) else ""
+        note = r.get("note")
+        note = note if isinstance(note, str) else ""
         cells = [
             f"<td>{name}</td>",
             f"<td class=\"{_esc(r['status'])}\">{_esc(r['status'])}</td>",
@@ -287,6 +301,7 @@ def write_index(path: str | os.PathLike[str], summary, *, title: str = "vibrospe
             f"<td class=\"num\">{_num(None if share is None else 100 * share, '.1f', '%')}</td>",
             f"<td>{_esc(r['method'])}</td>",
             f"<td class=\"error\">{_esc(error)}</td>",
+            f"<td class=\"muted\">{_esc(note)}</td>",
             f"<td class=\"num\">{_num(r['wall_s'], '.1f', 's')}</td>",
         ]
         rows.append("<tr>" + "".join(cells) + "</tr>")
