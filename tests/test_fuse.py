@@ -117,7 +117,10 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
         known = math.sqrt(P[3, 3]) < cfg.octave_rel * abs(x[3])
         if not (fresh and x[0] >= cfg.vib_min_speed):
             acq = None
-        if arrays["line"][i] and moving and dt > 0 and om > 0:
+        if not (arrays["line"][i] and moving and dt > 0 and om > 0):
+            if dt > 0:  # a consistency run needs a line at every sample
+                acq = run = None
+        else:
             ready = known
             if not known and fresh and x[0] >= cfg.vib_min_speed:
                 z = math.log(x[0] / om)
@@ -128,16 +131,17 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
                 ready = t - acq[0] >= cfg.acq_time
             rh = max(x[3], 1e-3)
             var = s**2 + (cfg.vib_rel * om) ** 2
-            vlag = (cfg.vib_lag * x[1]) ** 2 if fresh else 0.0
-            R = {k: ((rh * k) ** 2 * var + vlag) * cfg.vib_corr / dt for k in (1.0, 0.5, 2.0)}
+            vlag = (cfg.vib_lag * x[1]) ** 2
+            R1 = {k: (rh * k) ** 2 * var + vlag for k in (1.0, 0.5, 2.0)}  # one sample's
+            R = {k: R1[k] * cfg.vib_corr / dt for k in R1}  # per correlation time
             sv3 = 3 * math.sqrt(P[0, 0])
             costs = {}
-            for k in ((1.0, 0.5, 2.0) if known else (1.0,)) if ready else ():
+            for k in (1.0, 0.5, 2.0) if ready else ():
                 if not (cfg.radius_min * k * om <= x[0] + sv3
                         and x[0] - sv3 <= cfg.radius_max * k * om):
                     continue
                 h = e[0] - k * om * e[3]
-                S = h @ P @ h + R[k]
+                S = h @ P @ h + R1[k]  # the gate: this sample's spread
                 costs[k] = ((h @ x) ** 2 / S + (0 if k == 1.0 else cfg.vib_penalty), S)
             take = None
             if costs:
@@ -150,11 +154,13 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
                 u = x[3] * om
                 d = u - x[0]
                 if run is None or t - t_gps <= cfg.vib_relock or abs(d - run[1]) > cfg.acq_rel * u:
-                    run = (t, d, u)
+                    run = (t, d, u, d)
                 else:
-                    run = (run[0], run[1] + (d - run[1]) * min(1.0, dt / cfg.acq_time), run[2])
-                    if t - run[0] >= cfg.vib_relock and (abs(u - run[2]) >= cfg.acq_change * u
-                                                         or abs(d) <= sv3):
+                    run = (run[0], run[1] + (d - run[1]) * min(1.0, dt / cfg.acq_time), run[2],
+                           run[3])
+                    moved = (abs(u - run[2]) >= cfg.acq_change * u
+                             and abs(run[1] - run[3]) <= 0.4 * abs(u - run[2]))
+                    if t - run[0] >= cfg.vib_relock and (moved or abs(d) <= sv3):
                         P[0, 0] += (x[0] - x[3] * om) ** 2
                         take = 1.0
                         run = None
@@ -237,6 +243,40 @@ def test_radius_takes_the_octave_most_updates_use():
     assert abs(o.radius[-1] - 0.3) < 0.002
     assert np.all(o.harmonic[t > 30.0] == 1.0)
     assert np.mean(np.abs(o.speed[t > 1.0] - v[t > 1.0]) < 0.02 * v[t > 1.0]) > 0.99
+
+
+def test_a_class_prior_keeps_r_where_the_tracker_follows_the_2nd_harmonic():
+    """The tracker follows the wheel's 2nd harmonic while GPS is good and the fundamental in
+    the outage (a missing fundamental that comes back). With a car's radius prior (0.32 +-
+    0.027 m: 0.28-0.36 m at 1.5 sigma) the line is read as 2 omega (k = 1/2: r / 2 is 6 sigma
+    off the prior) and r is learned as the wheel's; in the outage the fundamental is then the
+    octave that taught r and carries the speed. With the wide default prior the same drive
+    learns the line's ratio r / 2 (k = 1 costs no octave penalty) and reads the fundamental in
+    the outage as k = 2: the same speed, r at the line's octave."""
+    r_true = 0.30
+    arrays, v = synth(seed=13, T=200.0, r_true=r_true, outage=(120.0, 200.0))
+    t = arrays["t"]
+    gps = t < 120.0
+    arrays["omega"][gps] *= 2.0
+    arrays["omega_std"][gps] *= 2.0
+    cfg = fuse.Config(acc_psd=0.01, radius0=0.32, radius_std0=0.027)
+    st = fuse.init(cfg, float(arrays["gps_speed"][0]))
+    _, o = fuse.run(cfg, arrays, state=st)
+    before = np.flatnonzero(gps)[-1]
+    assert abs(o.radius[before] - r_true) < 0.002
+    assert o.radius_std[before] < 0.002
+    assert np.all(o.harmonic[gps & np.isfinite(o.harmonic)] == 0.5)
+    out = (t >= 121.5) & (t < 200.0)
+    assert abs(o.radius[-1] - r_true) < 0.002
+    assert np.all(o.harmonic[out] == 1.0)
+    assert np.all(o.source[out] == fuse.SRC_VIBRATION)
+    assert np.mean(np.abs(o.speed[out] - v[out]) <= 0.01 * v[out]) > 0.99
+    # the wide default prior: the line's ratio
+    wide = fuse.Config(acc_psd=0.01)
+    _, w = fuse.run(wide, arrays, state=fuse.init(wide, float(arrays["gps_speed"][0])))
+    assert abs(w.radius[before] - r_true / 2) < 0.002
+    assert np.all(w.harmonic[out] == 2.0)
+    assert np.mean(np.abs(w.speed[out] - v[out]) <= 0.01 * v[out]) > 0.99
 
 
 def test_outage_without_line_is_inertial_and_its_band_grows():

@@ -45,12 +45,14 @@ Z98 = 2.326
 
 
 def _grid(rec, params, cache, key, axis="y"):
-    from vibrospeed.estimators import get
+    """The grid track ``fuse.estimate`` would run itself: fuse's tracker settings
+    (``fuse.TRACKER_DEFAULTS``, the strict comb) under ``params``; cached under ``key``."""
+    from vibrospeed.estimators import fuse, get
 
     f = Path(cache) / f"{key}.pkl" if cache else None
     if f is not None and f.is_file():
         return pickle.loads(f.read_bytes())
-    tr = get("grid").estimate(rec, axis=axis, params=params)
+    tr = get("grid").estimate(rec, axis=axis, params={**fuse.TRACKER_DEFAULTS, **params})
     if f is not None:
         f.parent.mkdir(parents=True, exist_ok=True)
         f.write_bytes(pickle.dumps(tr))

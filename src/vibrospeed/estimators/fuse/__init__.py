@@ -26,20 +26,24 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    ``S >= (1 - c) S0 + c nu^2 >= 2 sqrt(c (1 - c) S0) |nu|`` and ``|P_v3| <= sqrt(P_vv S0)``):
    one standard deviation for c = 1/2, so the speed does not jump out of its band when GPS
    returns after a tunnel.
-3. wheel frequency: the harmonic tracker's omega with posterior spread ``s`` where it claims a
-   line. The line may be the wheel's omega/2 or 2 omega (the tracker's octave errors), so the
-   wheel frequency is ``k omega``, ``k in {1/2, 1, 2}``. Each hypothesis is the *linear*
+3. wheel frequency: the harmonic tracker's omega (its mode) with spread ``s`` where it claims a
+   line; ``s`` is the tracker's whole posterior's spread (``vib_spread="posterior"``, the
+   default) or the spread within its mode (``"mode"``, the grid tracker's ``omega_mode_std``;
+   what :func:`estimate` uses online, see :class:`Config`). The line may be
+   the wheel's omega/2 or 2 omega (the tracker's octave errors), so the wheel frequency is
+   ``k omega``, ``k in {1/2, 1, 2}``. Each hypothesis is the *linear*
    pseudo-measurement ``0 = v - r k omega + e`` (``H = [1, 0, 0, -k omega, 0...]``, exact in the
-   state given the measured omega) with ``var e = ((r k)^2 (s^2 + (vib_rel omega)^2) +
-   (vib_lag a)^2) vib_corr / dt``: the tracker's spread plus a relative floor and, while GPS
-   holds the speed (a fix in the past ``learn_hold`` s), the speed a line that trails an
-   acceleration ``a`` by up to ``vib_lag`` s misses (a causal tracker; away from GPS the line
-   is the best source of the speed through an acceleration, lag and all), inflated by the
-   number of fusion
-   samples per correlation time of the tracker's errors (its outputs are not independent from
-   sample to sample). The hypothesis with the smallest normalised innovation squared
-   ``nu^2 / S`` plus ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate`` and
-   the gate is decisive: GPS holds the speed (a fix in the past ``learn_hold`` s), or
+   state given the measured omega) with one sample's variance ``R1 = (r k)^2 (s^2 + (vib_rel
+   omega)^2) + (vib_lag a)^2``: the tracker's spread, a relative floor and the speed a line
+   that trails an acceleration ``a`` (the filter's) by up to ``vib_lag`` s misses (a causal
+   tracker follows a hard braking a second or two late while its mode stays narrow; 0 for
+   the smoothed tracker). The update uses ``R1 vib_corr / dt``, inflated by the number of
+   fusion samples per correlation time of the tracker's errors (its outputs are not
+   independent from sample to sample); the gate uses ``R1``, one sample's spread (whether
+   this line fits the prediction, not how much a run of such lines is worth). The
+   hypothesis with the smallest normalised innovation squared ``nu^2 / S`` plus
+   ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate`` and the gate is
+   decisive: GPS holds the speed (a fix in the past ``learn_hold`` s), or
    ``3 sqrt(P_vv + (r k)^2 (s^2 + (vib_rel omega)^2)) <= vib_sep r k omega``
    (the band and the line's own spread are narrow against the spacing of the octaves;
    after a long stretch on the accelerometer alone it is not, and a gate of 4 sigma would pass
@@ -49,17 +53,21 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    standstill (an idling engine) would otherwise teach ``r = v / omega = 0``; nor a hypothesis
    whose radius cannot be physical for any speed within 3 sigma:
    ``(v + 3 sqrt(P_vv)) / (k omega) < radius_min`` or ``(v - 3 sqrt(P_vv)) / (k omega) >
-   radius_max`` (an engine line while the vehicle starts to roll). Octaves are relative to a
-   known radius: while r is not known within ``octave_rel`` only k = 1 is tried. So the speed
-   prior (GPS, the accelerometer, the radius learned so far) decides an octave, not the
-   tracker's guess. The radius is defined by the
-   line the tracker reports most of the time: an exponential average (time constant
-   ``octave_tau`` s of updates) of ``log2 k`` over the accepted updates beyond +-1/2 means
-   that most recent updates used k = 2 (or 1/2), e.g. after a tracker that locked on the
-   second harmonic at the start taught the radius; then, if r is known within
-   ``octave_rel`` (relative std), ``r <- k r`` (its variance by k^2) and the average restarts at
-   0. The speed is unchanged by this, only the octave of r; the average moves only where GPS
-   holds the speed.
+   radius_max`` (an engine line while the vehicle starts to roll).
+
+   The speed prior decides the octave: the GPS speed, away from GPS the filter's own speed
+   (with the decisive gate above), and while r is not yet known within ``octave_rel`` the
+   radius prior too: a vehicle class's prior (e.g. ``radius0 = 0.32, radius_std0 = 0.027``
+   for a car) puts r / 2 six sigma away, so a tracker on the 2nd harmonic is read as 2 omega
+   and r is learned as the wheel's; with the wide default prior k = 1, without the octave
+   penalty, wins and r is the line's ratio. The radius is defined by the line the tracker
+   reports most of the time: an exponential average (time constant ``octave_tau`` s of
+   updates) of ``log2 k`` over the accepted updates with GPS beyond +-1/2 means that most
+   recent updates used k = 2 (or 1/2), e.g. after a tracker that locked on the second
+   harmonic at the start taught the radius; then, if r is known within ``octave_rel``
+   (relative std) and ``k r`` lies within 3 sigma of the radius prior (``radius0 +- 3
+   radius_std0``), ``r <- k r`` (its variance by k^2); the average restarts at 0 either way.
+   The speed is unchanged by this, only the octave of r.
 
    The radius learns only from GPS and a line together. Away from GPS (no fix in the past
    ``learn_hold`` s) a wheel-frequency update carries the speed but leaves r and the offset b
@@ -79,8 +87,15 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    running mean for ``vib_relock`` s (the line moves as the accelerometer says the speed
    does) and either ``|d| <= 3 sqrt(P_vv)`` or the line's speed has changed by ``acq_change``
    of itself in that run, the filter, not the line, has drifted: ``P_vv`` is increased by
-   ``d^2`` and the line is taken. A constant line far outside the band (an idling engine at a
-   stop in a tunnel) is not taken until it moves with the speed.
+   ``d^2`` and the line is taken. "Moved with the speed" also asks that the mean gap has
+   changed by less than 0.4 of the line's change since the run began: a line at another
+   octave of the one that taught r (``v = c r omega``, c = 2 or 1/2) changes the gap by
+   ``|1 - c| >= 1/2`` of its own change, which a running mean alone would follow. A constant
+   line far outside the band (an idling engine at a stop in a tunnel) is not taken until it
+   moves with the speed. Both runs (acquisition,
+   re-lock) need a line at every fusion sample: a sample without one ends the run, so a line
+   claimed now and then (a resonance or an engine order between the wheel's claims) does not
+   add up to a run.
 4. standstill: where the vibration tracker reports a stop (no wheel line, broadband vibration and
    body motion at their floors: the ``standstill`` input), the last valid GPS fix in the past
    ``gps_hold`` s (if any) is below ``gps_still``, and the speed the accelerometer has

@@ -74,7 +74,10 @@ class Config(GpsFields):
     gps_still, gps_hold : a valid fix within ``gps_hold`` s above ``gps_still`` m/s vetoes a stop.
     source_hold : s an accepted fix keeps ``source`` at gps.
     p0_speed, p0_accel, p0_offset : initial variances.  radius0, radius_std0 : radius prior
-        (m; overridden by ``radius_from`` / a given wheel radius in :func:`estimate`).
+        (m; overridden by ``radius_from`` / a given wheel radius in :func:`estimate`); the
+        octave changes of r stay within ``radius0 +- 3 radius_std0`` (item 3), so a vehicle
+        class's prior (car: 0.32 +- 0.027 m) keeps r at the wheel's where the tracker follows
+        a harmonic.
     octave_tau : s, time constant of the octave average (item 3).
     vib_min_speed : m/s; no wheel-frequency update where the speed is surely below it (item 3).
     radius_min, radius_max : m, the physical range of the effective radius (item 3).
@@ -90,10 +93,18 @@ class Config(GpsFields):
     still_relock : s of stop evidence refused by the integrated speed, without GPS, before the
         stop is taken anyway (item 4).
     vib_lag : s, how far the tracker's line may trail the speed (a causal tracker follows an
-        acceleration late): a line read while the filter's acceleration is ``a`` and GPS
-        holds the speed carries an extra speed variance ``(vib_lag a)^2`` (item 3). 0
-        (default) for the smoothed tracker; :func:`estimate` with ``online`` and no
-        ``vib_lag`` given uses :data:`CAUSAL_VIB_LAG`.
+        acceleration late): a line read while the filter's acceleration is ``a`` carries an
+        extra speed variance ``(vib_lag a)^2`` (item 3). 0 (default) for the smoothed
+        tracker; :func:`estimate` with ``online`` and no ``vib_lag`` given uses
+        :data:`CAUSAL_VIB_LAG`.
+    vib_spread : the line's spread ``s`` in :func:`estimate` where the tracker claims a line:
+        ``"posterior"`` (default; its whole posterior's ``omega_std``: all its modes and its
+        "no line" mass) or ``"mode"`` (the grid tracker's ``omega_mode_std``, the spread
+        within the mode it reports). :func:`estimate` with ``online`` and no ``vib_spread``
+        given uses ``"mode"``: the causal tracker's whole posterior is wide on its right lines
+        at low speed (other lines keep mass there) and kept them out of the tunnels, while the
+        smoothed tracker's is narrow on them and its mode's spread taught an engine order's
+        radius harder (benchmarks/fuse/RESULTS.md).
     vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
         (where the tracker claims a line, ``has_signal``) or ``"all"`` (every positive omega,
         its posterior spread and the gate decide: for trackers whose null state dominates on a
@@ -141,6 +152,7 @@ class Config(GpsFields):
     acq_change: float = 0.1
     vib_sep: float = 0.35
     vib_lag: float = 0.0
+    vib_spread: str = "posterior"
     nonneg: bool = True
     fuse_rate: float = 25.0
 
@@ -158,6 +170,9 @@ class Config(GpsFields):
                      "vib_sep", "vib_lag"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
+        if self.vib_spread not in ("mode", "posterior"):
+            raise ParameterError(f"fuse: vib_spread must be mode or posterior, got "
+                                 f"'{self.vib_spread}'")
         if self.vib_use not in ("line", "all"):
             raise ParameterError(f"fuse: vib_use must be line or all, got '{self.vib_use}'")
         if not 0.0 < self.r_gps_sq < 1.0:
@@ -187,6 +202,6 @@ class Config(GpsFields):
             self.octave_tau, float(self.nonneg), self.vib_min_speed, self.octave_rel,
             self.vib_relock, self.radius_min, self.radius_max, self.still_relock,
             self.learn_hold, self.acq_time, self.acq_rel, self.acq_change, self.vib_sep,
-            self.vib_lag,
+            self.vib_lag, self.radius0, self.radius_std0,
         ], dtype=np.float64)
         return Ac, qc, p

@@ -48,7 +48,7 @@ def _update_row(x, P, h, z, r, keep=-1, keep2=-1):
 @njit(cache=True)
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, out, xp, Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
-    t_run, t_still, t_acq, z_acq, d_run, u_run]``;
+    t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run]``;
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
     prediction (for the smoother). Returns dt."""
     n = x.size
@@ -100,8 +100,15 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
     known = math.sqrt(max(P[IR, IR], 0.0)) < p[19] * abs(x[IR])
     if not (fresh and x[IV] >= p[18]):
         sc[8] = math.nan  # an acquisition run needs the GPS speed
-    if (line and moving and dt > 0.0 and om > 0.0 and not math.isnan(om)
-            and not math.isnan(om_std)):
+    offered = (line and moving and dt > 0.0 and om > 0.0 and not math.isnan(om)
+               and not math.isnan(om_std))
+    if dt > 0.0 and not offered:
+        # a consistency run (acquisition, re-lock) needs a line at every sample: a line
+        # claimed now and then (a resonance, an engine order between the wheel's claims)
+        # must not add up to a run
+        sc[6] = math.nan
+        sc[8] = math.nan
+    if offered:
         ready = known
         if not known and fresh and x[IV] >= p[18]:
             # acquisition: the ratio v / omega must hold for acq_time s (a wheel line scales
@@ -116,19 +123,21 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         best = math.inf
         r_hat = max(x[IR], 1e-3)
         var_om = om_std * om_std + (p[5] * om) ** 2
-        # the tracker's lag behind the speed, (m/s)^2, against a GPS-held speed (away from GPS
-        # the line is the speed's best source through an acceleration, lag and all)
-        var_lag = (p[29] * x[IA]) ** 2 if fresh else 0.0
+        # the tracker's lag behind the speed, (m/s)^2: a causal tracker follows a hard
+        # acceleration late while its mode stays narrow
+        var_lag = (p[29] * x[IA]) ** 2
         infl = p[6] / dt
         sv3 = 3.0 * math.sqrt(max(P[IV, IV], 0.0))
-        for j in range((3 if known else 1) if ready else 0):
+        # octaves: the speed prior decides (GPS or the filter's own speed, with the decisive
+        # gate away from GPS) and, while r is not known yet, the radius prior
+        for j in range(3 if ready else 0):
             k = 1.0 if j == 0 else (0.5 if j == 1 else 2.0)
             if (x[IV] + sv3) < p[21] * k * om or (x[IV] - sv3) > p[22] * k * om:
                 continue  # no physical radius explains this line at this speed
             hr = -k * om
             nu = -(x[IV] + hr * x[IR])
             s = (P[IV, IV] + 2.0 * hr * P[IV, IR] + hr * hr * P[IR, IR]
-                 + ((r_hat * k) ** 2 * var_om + var_lag) * infl)
+                 + (r_hat * k) ** 2 * var_om + var_lag)  # one sample's: the gate
             cost = nu * nu / s + (0.0 if j == 0 else p[8])
             if cost < best:
                 best = cost
@@ -150,9 +159,17 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 sc[6] = t
                 sc[10] = d
                 sc[11] = u
+                sc[12] = d
             else:
                 sc[10] += (d - sc[10]) * min(1.0, dt / p[25])
-                if t - sc[6] >= p[20] and (abs(u - sc[11]) >= p[27] * u or abs(d) <= sv3):
+                # moved with the speed: the line's speed changed by acq_change while the
+                # mean gap changed by less than 0.4 of that (a line at another octave of the
+                # one that taught r, v = c r omega with c = 2 or 1/2, changes the gap by
+                # |1 - c| >= 1/2 of its own change; a running mean alone would follow a gap
+                # that drifts with the speed)
+                du = abs(u - sc[11])
+                moved = du >= p[27] * u and abs(sc[10] - sc[12]) <= 0.4 * du
+                if t - sc[6] >= p[20] and (moved or abs(d) <= sv3):
                     P[IV, IV] += d * d
                     Pp[IV, IV] += d * d  # process noise of this step, for the smoother
                     best = 0.0
@@ -169,15 +186,18 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                         -1 if fresh else IB)
             h[IV] = 0.0
             h[IR] = 0.0
-            # the radius follows the octave most updates use (where GPS confirms them)
+            # the radius follows the octave most updates use (where GPS confirms them), as
+            # far as the radius prior allows it: within 3 sigma of the prior (a car's prior
+            # of a few cm keeps r where a tracker on the 2nd harmonic would teach r / 2)
             if fresh:
                 sc[5] += (math.log2(kk) - sc[5]) * min(1.0, dt / p[16])
             if abs(sc[5]) > 0.5 and known:
                 c = 2.0 if sc[5] > 0.0 else 0.5
-                x[IR] *= c
-                for i in range(n):
-                    P[IR, i] *= c
-                    P[i, IR] *= c
+                if abs(c * x[IR] - p[30]) <= 3.0 * p[31]:
+                    x[IR] *= c
+                    for i in range(n):
+                        P[IR, i] *= c
+                        P[i, IR] *= c
                 sc[5] = 0.0
         else:
             kk = math.nan

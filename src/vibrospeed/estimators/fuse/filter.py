@@ -25,9 +25,9 @@ class State(NamedTuple):
     t : time of the last sample (NaN before the first).  t_gps : time of the last accepted
     fix (-inf: none).  t_fix, v_fix : time and value of the last valid fix (for the standstill
     veto).  octave : average of log2 k over recent wheel-frequency updates (module notes, 3).
-    t_run, d_run, u_run : start, mean gap ``r omega - v`` and line speed at the start of the
-    current re-lock run (NaN: none; module notes, 3).  t_still : start of the current run of
-    refused stop evidence (NaN: none).  t_acq, z_acq : start and mean log ratio
+    t_run, d_run, u_run, d0_run : start, mean gap ``r omega - v``, line speed at the start
+    and gap at the start of the current re-lock run (NaN: none; module notes, 3).
+    t_still : start of the current run of refused stop evidence (NaN: none).  t_acq, z_acq : start and mean log ratio
     ``ln(v / omega)`` of the current run of consistent lines while the radius is not known
     yet (NaN: none; module notes, 3).
     """
@@ -45,6 +45,7 @@ class State(NamedTuple):
     z_acq: float = math.nan
     d_run: float = math.nan
     u_run: float = math.nan
+    d0_run: float = math.nan
 
 
 class Sample(NamedTuple):
@@ -136,14 +137,14 @@ def _unpack(state: State, n: int):
     P = np.array(state.P, dtype=np.float64)
     sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0, state.octave,
                    state.t_run, state.t_still, state.t_acq, state.z_acq, state.d_run,
-                   state.u_run])
+                   state.u_run, state.d0_run])
     return x, P, sc
 
 
 def _pack(x, P, sc) -> State:
     return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]),
                  float(sc[6]), float(sc[7]), float(sc[8]), float(sc[9]), float(sc[10]),
-                 float(sc[11]))
+                 float(sc[11]), float(sc[12]))
 
 
 _SAMPLE = Sample._fields

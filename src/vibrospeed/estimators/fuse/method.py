@@ -112,7 +112,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
 
     ``params``: :class:`Config` fields; ``accel_axis`` (longitudinal accelerometer channel,
     default ``ax``); ``online`` (true: the causal grid tracker and the forward filter only;
-    default false: the smoothed grid tracker and the RTS smoother); ``radius_from`` (a JSON
+    default false: the smoothed grid tracker and the RTS smoother; online also ``vib_lag`` =
+    :data:`CAUSAL_VIB_LAG` and ``vib_spread="mode"`` unless given); ``radius_from`` (a JSON
     file, :func:`radius_from_json`, seeding the radius prior; also a keyword); every other
     name goes to the grid tracker (e.g. ``omega_min``, ``omega_max``). A given ``wheel_radius``
     seeds the prior with 1 % spread. ``gps_speed`` / ``gps_sats`` are used where present;
@@ -137,6 +138,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     online = parse_flag(own.get("online", False), "online")
     if online and "vib_lag" not in fuse_kw:
         cfg = replace(cfg, vib_lag=CAUSAL_VIB_LAG)
+    if online and "vib_spread" not in fuse_kw:
+        cfg = replace(cfg, vib_spread="mode")
     rf = radius_from if radius_from is not None else own.get("radius_from")
     acc_ch = _axis_channel(str(own.get("accel_axis", "x")))
     name = recording.source or "recording"
@@ -171,6 +174,12 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     claim = np.nan_to_num(vib.extras.get("has_signal", np.ones(len(vib)))) > 0.5
     still = (np.nan_to_num(vib.extras.get("standstill", np.zeros(len(vib)))) > 0.5) & ~claim
     line = claim if cfg.vib_use == "line" else (np.nan_to_num(vib.omega) > 0) & ~still
+    # the line's spread: within the tracker's mode where it claims a line (the spread of omega
+    # given that there is one), else (vib_use=all) its whole posterior's, "no line" and all
+    spread = vib.omega_std
+    if cfg.vib_spread == "mode" and "omega_mode_std" in vib.extras:
+        spread = np.where(claim, np.asarray(vib.extras["omega_mode_std"], dtype=np.float64),
+                          spread)
     # 2. fusion samples
     t = recording.t
     g = recording.channels.get("gps_speed", np.full(t.size, np.nan))
@@ -180,10 +189,11 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     arrays = {
         "t": t[ends], "accel": _block_mean(recording.channel(acc_ch), ends),
         "gps_speed": g[ends], "gps_sats": s[ends], "omega": vib.omega[ends],
-        "omega_std": vib.omega_std[ends], "line": line[ends], "still": _block_all(still, ends),
+        "omega_std": spread[ends], "line": line[ends], "still": _block_all(still, ends),
     }
     fin = np.flatnonzero(cfg.valid_fixes(g, s))
     v0 = float(g[fin[0]]) if fin.size else 0.0
+    cfg = replace(cfg, radius0=r0, radius_std0=rs0)  # the prior the octave changes respect
     state0 = init(cfg, v0, radius=r0, radius_std=rs0)
     end, o = run(cfg, arrays, state=state0)
     r_fin, rs_fin = float(o.radius[-1]), float(o.radius_std[-1])
