@@ -131,7 +131,10 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
                 ready = t - acq[0] >= cfg.acq_time
             rh = max(x[3], 1e-3)
             var = s**2 + (cfg.vib_rel * om) ** 2
-            vlag = (cfg.vib_lag * x[1]) ** 2
+            a_lag = x[1]
+            if np.isfinite(arrays["accel"][i]) and abs(arrays["accel"][i] - x[2]) > abs(a_lag):
+                a_lag = arrays["accel"][i] - x[2]
+            vlag = (cfg.vib_lag * a_lag) ** 2
             R1 = {k: (rh * k) ** 2 * var + vlag for k in (1.0, 0.5, 2.0)}  # one sample's
             R = {k: R1[k] * cfg.vib_corr / dt for k in R1}  # per correlation time
             sv3 = 3 * math.sqrt(P[0, 0])

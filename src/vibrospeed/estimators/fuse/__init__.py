@@ -35,9 +35,11 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    pseudo-measurement ``0 = v - r k omega + e`` (``H = [1, 0, 0, -k omega, 0...]``, exact in the
    state given the measured omega) with one sample's variance ``R1 = (r k)^2 (s^2 + (vib_rel
    omega)^2) + (vib_lag a)^2``: the tracker's spread, a relative floor and the speed a line
-   that trails an acceleration ``a`` (the filter's) by up to ``vib_lag`` s misses (a causal
-   tracker follows a hard braking a second or two late while its mode stays narrow; 0 for
-   the smoothed tracker). The update uses ``R1 vib_corr / dt``, inflated by the number of
+   that trails an acceleration ``a`` by up to ``vib_lag`` s misses (a causal tracker follows
+   a hard braking a second or two late while its mode stays narrow; 0 for the smoothed
+   tracker); ``a`` is the larger of the filter's acceleration and the accelerometer's mean
+   less the offset, ``a_m - b`` (a lagging line taken at the onset of a braking pulls the
+   filter's own acceleration towards 0). The update uses ``R1 vib_corr / dt``, inflated by the number of
    fusion samples per correlation time of the tracker's errors (its outputs are not
    independent from sample to sample); the gate uses ``R1``, one sample's spread (whether
    this line fits the prediction, not how much a run of such lines is worth). The

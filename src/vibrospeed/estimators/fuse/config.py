@@ -93,8 +93,8 @@ class Config(GpsFields):
     still_relock : s of stop evidence refused by the integrated speed, without GPS, before the
         stop is taken anyway (item 4).
     vib_lag : s, how far the tracker's line may trail the speed (a causal tracker follows an
-        acceleration late): a line read while the filter's acceleration is ``a`` carries an
-        extra speed variance ``(vib_lag a)^2`` (item 3). 0 (default) for the smoothed
+        acceleration late): a line read while the acceleration is ``a`` carries an extra
+        speed variance ``(vib_lag a)^2`` (item 3). 0 (default) for the smoothed
         tracker; :func:`estimate` with ``online`` and no ``vib_lag`` given uses
         :data:`CAUSAL_VIB_LAG`.
     vib_spread : the line's spread ``s`` in :func:`estimate` where the tracker claims a line:

@@ -124,8 +124,13 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         r_hat = max(x[IR], 1e-3)
         var_om = om_std * om_std + (p[5] * om) ** 2
         # the tracker's lag behind the speed, (m/s)^2: a causal tracker follows a hard
-        # acceleration late while its mode stays narrow
-        var_lag = (p[29] * x[IA]) ** 2
+        # acceleration late while its mode stays narrow. The acceleration is the larger of
+        # the filter's and the accelerometer's (less the offset): a lagging line accepted at
+        # the onset of a braking pulls the filter's own acceleration towards 0
+        a_lag = x[IA]
+        if not math.isnan(am) and abs(am - x[IB]) > abs(a_lag):
+            a_lag = am - x[IB]
+        var_lag = (p[29] * a_lag) ** 2
         infl = p[6] / dt
         sv3 = 3.0 * math.sqrt(max(P[IV, IV], 0.0))
         # octaves: the speed prior decides (GPS or the filter's own speed, with the decisive
