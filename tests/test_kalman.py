@@ -88,3 +88,48 @@ def test_kalman_filter_consistent_on_model_data(seed):
     z = np.array(z[100:])
     assert abs(np.mean(z)) < 0.1
     assert 0.9 < np.var(z) < 1.1
+
+
+def _spd(rng, n):
+    A = rng.normal(size=(n, n))
+    return A @ A.T + n * np.eye(n)
+
+
+@pytest.mark.parametrize("n", [2, 5, 7])
+def test_dense_predict_equals_numpy(n):
+    rng = np.random.default_rng(n)
+    x, P, F, qd = rng.normal(size=n), _spd(rng, n), rng.normal(size=(n, n)), rng.random(n)
+    xr, Pr = F @ x, F @ P @ F.T + np.diag(qd)
+    kalman.dense_predict(x, P, F, qd)
+    np.testing.assert_allclose(x, xr, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(P, Pr, rtol=1e-12, atol=1e-10)
+    assert np.array_equal(P, P.T)
+
+
+@pytest.mark.parametrize("keep", [(-1, -1), (2, -1), (0, 3)])
+def test_row_update_is_the_joseph_form(keep):
+    """Against the textbook Joseph form in NumPy; with the optimal gain it equals the short
+    form ``P - P h' h P / S``; a kept ("consider") state keeps its mean and variance."""
+    rng = np.random.default_rng(7)
+    n = 6
+    x, P, h = rng.normal(size=n), _spd(rng, n), rng.normal(size=n)
+    z, r = 0.7, 0.3
+    S = h @ P @ h + r
+    k = P @ h / S
+    for i in keep:
+        if i >= 0:
+            k[i] = 0.0
+    A = np.eye(n) - np.outer(k, h)
+    Pr = A @ P @ A.T + r * np.outer(k, k)
+    xr = x + k * (z - h @ x)
+    x1, P1 = x.copy(), P.copy()
+    nu = kalman.row_update(x1, P1, h, z, r, *keep)
+    assert nu == pytest.approx(z - h @ x, rel=1e-13)
+    np.testing.assert_allclose(x1, xr, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(P1, Pr, rtol=1e-11, atol=1e-11)
+    assert np.array_equal(P1, P1.T)
+    if keep == (-1, -1):
+        np.testing.assert_allclose(P1, P - np.outer(P @ h, P @ h) / S, rtol=1e-10, atol=1e-10)
+    for i in keep:
+        if i >= 0:
+            assert x1[i] == x[i] and P1[i, i] == pytest.approx(P[i, i], rel=1e-12)

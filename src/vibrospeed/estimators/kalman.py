@@ -230,3 +230,99 @@ def joseph_update(x, P, k, innov, r, first, stride, count):
             v = 0.5 * (Pn[i, j] + Pn[j, i]) + r * k[i] * k[j]
             P[i, j] = v
             P[j, i] = v
+
+
+# ------------------------------------------------------------------------------------------
+# small dense filters (gps-riss, fuse): plain loops, no BLAS call per sample
+# ------------------------------------------------------------------------------------------
+@njit(cache=True)
+def dense_predict(x, P, F, qd):
+    """In place ``x = F x``, ``P = F P F' + diag(qd)`` (symmetric by construction) for a
+    small dense ``F`` (n, n): loops over n^3 terms instead of numba's BLAS-backed ``@``,
+    which for n ~ 6 costs more in call overhead (and in compile time) than in arithmetic."""
+    n = x.size
+    xn = np.empty(n)
+    FP = np.empty((n, n))
+    for i in range(n):
+        s = 0.0
+        for j in range(n):
+            s += F[i, j] * x[j]
+        xn[i] = s
+        for j in range(n):
+            s = 0.0
+            for k in range(n):
+                s += F[i, k] * P[k, j]
+            FP[i, j] = s
+    for i in range(n):
+        x[i] = xn[i]
+        for j in range(i, n):
+            s = 0.0
+            for k in range(n):
+                s += FP[i, k] * F[j, k]
+            if i == j:
+                s += qd[i]
+            P[i, j] = s
+            P[j, i] = s
+
+
+@njit(cache=True)
+def quad_form(h, P):
+    """``h P h'`` for a row ``h`` (n,)."""
+    n = h.size
+    s = 0.0
+    for i in range(n):
+        if h[i] != 0.0:
+            t = 0.0
+            for j in range(n):
+                t += P[i, j] * h[j]
+            s += h[i] * t
+    return s
+
+
+@njit(cache=True)
+def row_update(x, P, h, z, r, keep=-1, keep2=-1):
+    """Scalar update ``z = h x + e``, ``var(e) = r``, in place, Joseph form::
+
+        S = h P h' + r,  k = P h' / S,  x += k (z - h x),
+        P = (I - k h) P (I - k h)' + r k k'
+
+    (symmetrised), which keeps P the covariance of the estimate for *any* gain: ``keep``,
+    ``keep2 >= 0`` are "consider" states (Schmidt) whose gain is set to 0, so the update
+    leaves their means and variances unchanged. Returns the innovation ``z - h x``."""
+    n = x.size
+    Ph = np.empty(n)
+    for i in range(n):
+        s = 0.0
+        for j in range(n):
+            s += P[i, j] * h[j]
+        Ph[i] = s
+    S = r
+    nu = z
+    for i in range(n):
+        S += h[i] * Ph[i]
+        nu -= h[i] * x[i]
+    k = Ph / S
+    if keep >= 0:
+        k[keep] = 0.0
+    if keep2 >= 0:
+        k[keep2] = 0.0
+    for i in range(n):
+        x[i] += k[i] * nu
+    # A = I - k h; A P = P - k (h P) with h P = Ph' (P symmetric); then (A P) A' + r k k'
+    AP = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            AP[i, j] = P[i, j] - k[i] * Ph[j]
+    APh = np.empty(n)
+    for i in range(n):
+        s = 0.0
+        for j in range(n):
+            s += AP[i, j] * h[j]
+        APh[i] = s
+    for i in range(n):
+        for j in range(i, n):
+            v = (0.5 * (AP[i, j] - APh[i] * k[j] + AP[j, i] - APh[j] * k[i])
+                 + r * k[i] * k[j])
+            P[i, j] = v
+            P[j, i] = v
+    return nu

@@ -70,10 +70,8 @@ from vibrospeed.estimators.gps_riss.config import (
     GpsFields,
 )
 from vibrospeed.estimators.gps_riss.core import (
-    _predict,
     _run_core,
     _step_core,
-    _update,
 )
 from vibrospeed.estimators.gps_riss.filter import (
     _NOUT,
@@ -120,9 +118,7 @@ __all__ = [
     "_OUT_NAMES",
     "_copy_state",
     "_pack",
-    "_predict",
     "_run_core",
     "_run_progress",
     "_step_core",
-    "_update",
 ]

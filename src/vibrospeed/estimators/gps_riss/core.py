@@ -1,9 +1,9 @@
-"""The compiled core of GPS/RISS (numba): the scalar Joseph-form update (:func:`_update`),
-the prediction (:func:`_predict`), one accelerometer sample in place (:func:`_step_core`:
+"""The compiled core of GPS/RISS (numba): one accelerometer sample in place (:func:`_step_core`:
 pre-processing, KF1 / KF INS, the GPS error E of the chosen error mode and KF2, the integrator
-offset filter; package notes items 1-5) and the loop over a signal (:func:`_run_core`). The
-state arrives as flat arrays and the parameters as one float vector (``Config._arrays``), so
-``step`` and ``run`` are this same code.
+offset filter; package notes items 1-5) and the loop over a signal (:func:`_run_core`), with
+the small dense Kalman steps of :mod:`vibrospeed.estimators.kalman` (the Joseph-form
+``row_update``, ``dense_predict``). The state arrives as flat arrays and the parameters as
+one float vector (``Config._arrays``), so ``step`` and ``run`` are this same code.
 """
 
 from __future__ import annotations
@@ -14,42 +14,8 @@ import numpy as np
 from numba import njit
 
 from vibrospeed.estimators.gps_riss.config import G
+from vibrospeed.estimators.kalman import dense_predict, quad_form, row_update
 from vibrospeed.models.gps_riss import transition
-
-
-@njit(cache=True)
-def _update(x, P, h, z, r):
-    """Scalar update ``z = h x + e``, var(e) = r; Joseph form ``(I - K h) P (I - K h)' + K r K'``.
-    Returns the innovation."""
-    n = x.size
-    Ph = P @ h
-    s = 0.0
-    for a in range(n):
-        s += h[a] * Ph[a]
-    s += r
-    k = Ph / s
-    innov = z - h @ x
-    for a in range(n):
-        x[a] += k[a] * innov
-    IKH = np.eye(n) - np.outer(k, h)
-    Pn = IKH @ P @ IKH.T + np.outer(k, k) * r
-    for a in range(n):
-        for b in range(n):
-            P[a, b] = 0.5 * (Pn[a, b] + Pn[b, a])
-    return innov
-
-
-@njit(cache=True)
-def _predict(x, P, F, qd):
-    """``x = F x``, ``P = F P F' + diag(qd)``."""
-    xn = F @ x
-    Pn = F @ P @ F.T
-    for a in range(x.size):
-        x[a] = xn[a]
-        Pn[a, a] += qd[a]
-    for a in range(x.size):
-        for b in range(x.size):
-            P[a, b] = Pn[a, b]
 
 
 @njit(cache=True)
@@ -110,14 +76,19 @@ def _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw,
             Fc[:, :] = transition(Ac, dt)
             sc[3] = dt
         qd = qc * dt
-        _predict(x, P, Fc, qd)
+        dense_predict(x, P, Fc, qd)
         if use_kf2:
-            # receiver chain driven by KF2's speed and acceleration (prediction of the fix)
-            m = x.size - 1  # the receiver chain without the extra-lag state
-            lzn = Fc[3:m, 0] * x2[0] + Fc[3:m, 1] * x2[1] + np.ascontiguousarray(Fc[3:m, 3:m]) @ lz
+            # the receiver chain (states 3 .. n - 2; the extra lag last is not in it) driven by
+            # KF2's speed and acceleration: the prediction of the fix
+            lzn = np.empty(lz.size)
+            for i in range(lz.size):
+                v = Fc[3 + i, 0] * x2[0] + Fc[3 + i, 1] * x2[1]
+                for j in range(lz.size):
+                    v += Fc[3 + i, 3 + j] * lz[j]
+                lzn[i] = v
             for i in range(lz.size):
                 lz[i] = lzn[i]
-            _predict(x2, P2, Fc, qd)
+            dense_predict(x2, P2, Fc, qd)
     # 3. gating
     has_fix = not math.isnan(gps)
     valid = has_fix and (math.isnan(sats) or sats >= p[7])
@@ -127,27 +98,29 @@ def _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw,
         # a noise density: a sample of dt s weighs dt / acc_psd; one of no duration nothing
         r_acc = p[15] / dt if dt > 0.0 else math.inf
     if has_a and r_acc < math.inf:
-        _update(x, P, ha, a_c, r_acc)
+        row_update(x, P, ha, a_c, r_acc)
         if use_kf2:
-            _update(x2, P2, ha, a_c, r_acc)
+            row_update(x2, P2, ha, a_c, r_acc)
     if valid:
         # 4. GPS error E and R22 (eq. 13); the main filter's row with the receiver's extra lag
         hl = np.empty(x.size)
         zl = gps + _lag_row(Ac, x, 3, hl)
         if emode == 0:  # main filter's innovation beyond its predicted spread
-            nu = zl - hl @ x
-            s0 = hl @ P @ hl + p[2]
+            nu = zl
+            for i in range(x.size):
+                nu -= hl[i] * x[i]
+            s0 = quad_form(hl, P) + p[2]
             e = math.sqrt(max(nu * nu - s0, 0.0))
         elif emode == 1:  # KF2's prediction of the fix, before KF2's update
             e = abs(gps - lz[0])
-            _update(x2, P2, hg, gps, p[2])
+            row_update(x2, P2, hg, gps, p[2])
         else:  # "states" (paper VI-c): KF2's x3 against its speed through the lag model
-            _update(x2, P2, hg, gps, p[2])
+            row_update(x2, P2, hg, gps, p[2])
             e = abs(x2[3] - lz[0])
         e = min(max(e, 0.0), p[5])
         sc[1] = e
         r22 = p[2] + p[3] * e + p[4] * e * e if p[6] > 0.5 else p[2]
-        _update(x, P, hl, zl, r22)
+        row_update(x, P, hl, zl, r22)
         # 5. integrator drift filter update (eq. 17): observes integral(a) - v
         if integ:
             s = Pod[0, 0] + p[13] * (r22 / p[2])  # weighted down like the GPS itself
