@@ -39,9 +39,9 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    a hard braking a second or two late while its mode stays narrow; 0 for the smoothed
    tracker); ``a`` is the larger of the filter's acceleration and the accelerometer's mean
    less the offset, ``a_m - b`` (a lagging line taken at the onset of a braking pulls the
-   filter's own acceleration towards 0). The update uses ``R1 vib_corr / dt``, inflated by the number of
-   fusion samples per correlation time of the tracker's errors (its outputs are not
-   independent from sample to sample); the gate uses ``R1``, one sample's spread (whether
+   filter's own acceleration towards 0). The update uses ``R1 vib_corr / dt``, inflated by
+   the number of fusion samples per correlation time of the tracker's errors (its outputs
+   are not independent from sample to sample); the gate uses ``R1``, one sample's spread (whether
    this line fits the prediction, not how much a run of such lines is worth). The
    hypothesis with the smallest normalised innovation squared ``nu^2 / S`` plus
    ``vib_penalty`` for k != 1 is used if that sum is below ``vib_gate`` and the gate is
@@ -158,7 +158,7 @@ from vibrospeed.estimators.fuse.config import (
     TRACKER_DEFAULTS,
     Config,
 )
-from vibrospeed.estimators.fuse.core import _run_core, _step_core, _update_row
+from vibrospeed.estimators.fuse.core import _run_core, _step_core
 from vibrospeed.estimators.fuse.filter import (
     _SAMPLE,
     EXTRAS,
@@ -226,5 +226,4 @@ __all__ = [
     "_split",
     "_step_core",
     "_unpack",
-    "_update_row",
 ]

@@ -1,11 +1,12 @@
-"""The compiled core of the fusion filter (numba): the scalar Joseph-form update with consider
-states (:func:`_update_row`), one fusion sample in place (:func:`_step_core`: exact prediction,
-then the measurement updates of the package notes -- accelerometer, GPS with its adaptive
-variance, wheel frequency with octave choice, acquisition and re-lock, standstill, the
-``v >= 0`` projection) and the loop over samples (:func:`_run_core`, which also stores the
-predictions and posteriors the smoother reads). The state arrives as flat arrays and the
-parameters as one float vector (:meth:`~vibrospeed.estimators.fuse.config.Config._arrays`), so
-``step`` and ``run`` are this same code.
+"""The compiled core of the fusion filter (numba): one fusion sample in place
+(:func:`_step_core`: exact prediction, then the measurement updates of the package notes --
+accelerometer, GPS with its adaptive variance, wheel frequency with octave choice,
+acquisition and re-lock, standstill, the ``v >= 0`` projection) and the loop over samples
+(:func:`_run_core`, which also stores the predictions and posteriors the smoother reads).
+The state arrives as flat arrays and the parameters as one float vector
+(:meth:`~vibrospeed.estimators.fuse.config.Config._arrays`), so ``step`` and ``run`` are this
+same code. The measurement updates are :func:`vibrospeed.estimators.kalman.row_update`
+(Joseph form, with consider states), shared with gps-riss.
 """
 
 from __future__ import annotations
@@ -17,32 +18,8 @@ from numba import njit
 
 from vibrospeed.estimators.fuse.config import IA, IB, IG, IR, IV
 from vibrospeed.estimators.gps_riss.core import _lag_row
+from vibrospeed.estimators.kalman import dense_predict, quad_form, row_update
 from vibrospeed.models.gps_riss import transition
-
-
-@njit(cache=True)
-def _update_row(x, P, h, z, r, keep=-1, keep2=-1):
-    """Scalar Kalman update with row ``h``, Joseph form; returns the innovation. ``keep``,
-    ``keep2 >= 0``: those states are "consider" states (Schmidt): their gain is 0, so the
-    update leaves their means and variances unchanged; the Joseph form keeps P the exact
-    covariance for that gain."""
-    n = x.size
-    Ph = P @ h
-    s = h @ Ph + r
-    k = Ph / s
-    if keep >= 0:
-        k[keep] = 0.0
-    if keep2 >= 0:
-        k[keep2] = 0.0
-    nu = z - h @ x
-    for i in range(n):
-        x[i] += k[i] * nu
-    IKH = np.eye(n) - np.outer(k, h)
-    Pn = IKH @ P @ IKH.T + np.outer(k, k) * r
-    for i in range(n):
-        for j in range(n):
-            P[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
-    return nu
 
 
 @njit(cache=True)
@@ -58,14 +35,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         if dt != sc[4]:
             Fc[:, :] = transition(Ac, dt)
             sc[4] = dt
-        xn = Fc @ x
-        Pn = Fc @ P @ Fc.T
-        for i in range(n):
-            x[i] = xn[i]
-            Pn[i, i] += qc[i] * dt
-        for i in range(n):
-            for j in range(n):
-                P[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
+        qd = qc * dt
+        dense_predict(x, P, Fc, qd)
     for i in range(n):
         xp[i] = x[i]
         for j in range(n):
@@ -75,7 +46,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
     if dt > 0.0 and not math.isnan(am):
         h[IA] = 1.0
         h[IB] = 1.0
-        _update_row(x, P, h, am, p[0] / dt)
+        row_update(x, P, h, am, p[0] / dt)
         h[IA] = 0.0
         h[IB] = 0.0
     # 2. GPS, gated by satellites, weighted by the unexplained innovation
@@ -88,10 +59,12 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             # (the last state) earlier
             hg = np.empty(n)
             zg = g + _lag_row(Ac, x, IG, hg)
-            nu = zg - hg @ x
-            s0 = hg @ P @ hg + p[1]
+            nu = zg
+            for i in range(n):
+                nu -= hg[i] * x[i]
+            s0 = quad_form(hg, P) + p[1]
             e2 = min(max(nu * nu - s0, 0.0), p[3] * p[3])
-            _update_row(x, P, hg, zg, p[1] + p[2] * e2)
+            row_update(x, P, hg, zg, p[1] + p[2] * e2)
             sc[1] = t
     # 3. wheel frequency, octave chosen by the speed prior
     kk = math.nan
@@ -186,7 +159,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             # away from GPS the radius and the offset are consider states: a line there
             # carries the speed but teaches neither (a wrong or lagging line accepted in an
             # outage would corrupt the radius and the offset the inertial stretches rest on)
-            _update_row(x, P, h, 0.0, ((r_hat * kk) ** 2 * var_om + var_lag) * infl,
+            row_update(x, P, h, 0.0, ((r_hat * kk) ** 2 * var_om + var_lag) * infl,
                         -1 if fresh else IR,
                         -1 if fresh else IB)
             h[IV] = 0.0
@@ -224,10 +197,10 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         if gps_ok and consistent:
             sc[7] = math.nan
             h[IV] = 1.0
-            _update_row(x, P, h, 0.0, p[9])
+            row_update(x, P, h, 0.0, p[9])
             h[IV] = 0.0
             h[IA] = 1.0
-            _update_row(x, P, h, 0.0, p[10])
+            row_update(x, P, h, 0.0, p[10])
             h[IA] = 0.0
             stopped = True
     # 5. speed >= 0: project onto the constraint surface

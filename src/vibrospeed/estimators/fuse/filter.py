@@ -27,7 +27,8 @@ class State(NamedTuple):
     veto).  octave : average of log2 k over recent wheel-frequency updates (module notes, 3).
     t_run, d_run, u_run, d0_run : start, mean gap ``r omega - v``, line speed at the start
     and gap at the start of the current re-lock run (NaN: none; module notes, 3).
-    t_still : start of the current run of refused stop evidence (NaN: none).  t_acq, z_acq : start and mean log ratio
+    t_still : start of the current run of refused stop evidence (NaN: none).
+    t_acq, z_acq : start and mean log ratio
     ``ln(v / omega)`` of the current run of consistent lines while the radius is not known
     yet (NaN: none; module notes, 3).
     """
