@@ -236,18 +236,25 @@ def joseph_update(x, P, k, innov, r, first, stride, count):
 # small dense filters (gps-riss, fuse): plain loops, no BLAS call per sample
 # ------------------------------------------------------------------------------------------
 @njit(cache=True)
+def matvec(A, v, out):
+    """``out = A v`` for a small dense ``A`` (n, m), summed in index order."""
+    for i in range(A.shape[0]):
+        s = 0.0
+        for j in range(A.shape[1]):
+            s += A[i, j] * v[j]
+        out[i] = s
+
+
+@njit(cache=True)
 def dense_predict(x, P, F, qd):
     """In place ``x = F x``, ``P = F P F' + diag(qd)`` (symmetric by construction) for a
     small dense ``F`` (n, n): loops over n^3 terms instead of numba's BLAS-backed ``@``,
     which for n ~ 6 costs more in call overhead (and in compile time) than in arithmetic."""
     n = x.size
     xn = np.empty(n)
+    matvec(F, x, xn)
     FP = np.empty((n, n))
     for i in range(n):
-        s = 0.0
-        for j in range(n):
-            s += F[i, j] * x[j]
-        xn[i] = s
         for j in range(n):
             s = 0.0
             for k in range(n):
@@ -291,11 +298,7 @@ def row_update(x, P, h, z, r, keep=-1, keep2=-1):
     leaves their means and variances unchanged. Returns the innovation ``z - h x``."""
     n = x.size
     Ph = np.empty(n)
-    for i in range(n):
-        s = 0.0
-        for j in range(n):
-            s += P[i, j] * h[j]
-        Ph[i] = s
+    matvec(P, h, Ph)
     S = r
     nu = z
     for i in range(n):
@@ -314,11 +317,7 @@ def row_update(x, P, h, z, r, keep=-1, keep2=-1):
         for j in range(n):
             AP[i, j] = P[i, j] - k[i] * Ph[j]
     APh = np.empty(n)
-    for i in range(n):
-        s = 0.0
-        for j in range(n):
-            s += AP[i, j] * h[j]
-        APh[i] = s
+    matvec(AP, h, APh)
     for i in range(n):
         for j in range(i, n):
             v = (0.5 * (AP[i, j] - APh[i] * k[j] + AP[j, i] - APh[j] * k[i])
