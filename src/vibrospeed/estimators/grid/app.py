@@ -11,7 +11,7 @@ from vibrospeed.config import config_from_params
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import scaling as _scaling
 from vibrospeed.estimators.grid.config import Config
-from vibrospeed.estimators.grid.filter import Result, init, run
+from vibrospeed.estimators.grid.filter import Result, concat, init, run
 from vibrospeed.estimators.grid.kernel import check_grid_spacing
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Recording, Track
@@ -198,7 +198,4 @@ def _run_chunked(config: Config, y: np.ndarray, return_posterior: bool, progress
             parts.append(res)
             state = res.final
             bar.update(task, advance=min(chunk, y.size - k0))
-    cat = [np.concatenate([getattr(p, f) for p in parts]) for f in Result._fields[:10]]
-    post = np.concatenate([p.posterior for p in parts]) if return_posterior else None
-    tail = [np.concatenate([getattr(p, f) for p in parts]) for f in Result._fields[13:19]]
-    return Result(*cat, post, None, state, *tail, float(config.claim_level))
+    return concat(parts)

@@ -45,7 +45,7 @@ import vibrospeed.estimators.grid.comb as _comb
 import vibrospeed.estimators.grid.method as _method
 import vibrospeed.estimators.grid.smoother as _sm
 from vibrospeed.errors import ParameterError
-from vibrospeed.estimators.grid.filter import Result, init, run
+from vibrospeed.estimators.grid.filter import Result, concat, init, run
 from vibrospeed.estimators.grid.kernel import check_grid_spacing
 from vibrospeed.types import Recording, Track
 
@@ -122,15 +122,6 @@ def _rows(res: Result, a: int, b: int) -> Result:
     """Rows ``a:b`` of the filter's per-sample columns (``grid_loglik`` included)."""
     return res._replace(**{f: getattr(res, f)[a:b] for f in Result._fields
                            if f != "posterior" and isinstance(getattr(res, f), np.ndarray)})
-
-
-def _cat(parts: list[Result]) -> Result:
-    if len(parts) == 1:
-        return parts[0]
-    return parts[-1]._replace(**{f: np.concatenate([getattr(p, f) for p in parts])
-                                 for f in Result._fields
-                                 if f != "posterior"
-                                 and isinstance(getattr(parts[-1], f), np.ndarray)})
 
 
 class Blocks:
@@ -267,7 +258,7 @@ class Blocks:
                 pending.append(res)
                 pos = e
                 del res
-            rows = _cat(pending)  # rows [a - off, e)
+            rows = concat(pending)  # rows [a - off, e)
             pending = []  # (the pieces' arrays are freed: one copy of the rows at a time)
             off = 1 if a > 0 else 0
             blk = _rows(rows, off, off + b - a)

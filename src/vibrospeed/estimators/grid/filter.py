@@ -98,6 +98,17 @@ class Result(NamedTuple):
         return (1.0 - self.p_null >= self.claim_level).astype(np.float64)
 
 
+def concat(parts: list[Result]) -> Result:
+    """The results of consecutive runs as one: the per-sample columns (``posterior`` and
+    ``grid_loglik`` included where present) concatenated, ``final`` and ``claim_level`` the
+    last run's."""
+    if len(parts) == 1:
+        return parts[0]
+    return parts[-1]._replace(**{f: np.concatenate([getattr(p, f) for p in parts])
+                                 for f in Result._fields
+                                 if isinstance(getattr(parts[-1], f), np.ndarray)})
+
+
 def init(config: Config) -> State:
     """Prior at the first sample: weights uniform in omega (or Gaussian around ``omega0``),
     phasor means 0, covariances ``var(alpha_0) I``; with a "no line" state, its stationary
