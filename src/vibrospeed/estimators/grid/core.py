@@ -1,5 +1,6 @@
-"""The compiled core of the grid tracker: one filter iteration (:func:`_step`, steps 1-5 of
-:mod:`vibrospeed.estimators.grid.filter`) and the loop over a signal (:func:`_run`)."""
+"""The compiled core of the grid tracker: one filter iteration (:func:`_iterate`, steps 1-5 of
+:mod:`vibrospeed.estimators.grid.filter`), the loop over a signal (:func:`_run`) and one step
+from a state left as it is (:func:`_step_from`)."""
 
 from __future__ import annotations
 
@@ -54,17 +55,6 @@ class Tables(NamedTuple):
 
 
 
-@njit(cache=True)
-def _step(tb, lw, lw0, mean, cov, cur, y, ex, w, v, X, acc, out, post, gll):
-    """One iteration with the constants ``tb`` (:class:`Tables`) in place on the state (lw,
-    lw0[0], mean, cov, cur[0] the mode window); ``w``, ``v`` (N,), ``X`` (N, L), ``acc`` (L,)
-    are work space (L = 2M + M(2M + 1)). See :func:`_iterate`."""
-    _iterate(lw, lw0, mean, cov, y, tb.r, tb.cs, tb.qd, tb.kb, tb.B, tb.grid, tb.edges, tb.u,
-             tb.log_floor, tb.q_lo, tb.q_hi, tb.eps, tb.p_off, tb.p_on, tb.null_var, tb.p0,
-             tb.amb_rel, tb.amb_abs, tb.temper, tb.null_mix, tb.hold, cur, ex, w, v, X, acc, out,
-             post, gll)
-
-
 #: positions in :func:`pack_scalars`'s array (``_step_from``'s ``sc``)
 _SC_FIELDS = ("r", "qd", "B", "log_floor", "q_lo", "q_hi", "eps", "p_off", "p_on", "null_var",
               "p0", "amb_rel", "amb_abs", "temper", "null_mix", "hold")
@@ -77,91 +67,366 @@ def pack_scalars(tb: Tables) -> np.ndarray:
     return np.array([float(getattr(tb, f)) for f in _SC_FIELDS], dtype=np.float64)
 
 
+# ------------------------------------------------------------------------------------------
+# Layout inside the compiled loop: structure of arrays, the grid index innermost, so that the
+# elementwise parts of an iteration (measurement update, rotation, packing, merge) are loops
+# over j that the compiler turns into SIMD instructions. The state of grid point j is the
+# column Z[:, j] of Z (L, N), L = n + n (n + 1) / 2: rows 0..n-1 the mean, rows n..L-1 the
+# covariance's upper triangle row by row (P[a, b], b >= a, at row pidx[a, b]). Callers keep
+# the (N, n) means and (N, n, n) covariances; :func:`_run` and :func:`_step_from` convert at
+# entry and exit. Every sum is taken in the order of the per-point form, so the numbers are
+# those of the per-point loop.
+# ------------------------------------------------------------------------------------------
+
+
 @njit(cache=True)
-def _step_from(sc, cs, kb, grid, edges, u, lw_in, mean_in, cov_in, lw0_in, cur_in, y, ex, lw,
-               mean, cov, out, post):
-    """One iteration from a state that is left as it is: (``lw_in``, ``mean_in``, ``cov_in``,
-    ``lw0_in``, ``cur_in``) is copied into the next state's storage ``lw`` (N,), ``mean``
-    (N, 2M), ``cov`` (N, 2M, 2M) and iterated there (:func:`_iterate`, the constants of
-    :class:`Tables` from ``sc`` (:func:`pack_scalars`) and the arrays); writes ``out`` and
-    ``post`` (N,) and returns the next state's ``(log_w_null, mode_j)``."""
-    N = grid.size
-    n = mean.shape[1]
-    if (lw_in.shape[0] != N or mean_in.shape[0] != N or mean_in.shape[1] != n
-            or cov_in.shape[0] != N or cov_in.shape[1] != n or cov_in.shape[2] != n
-            or lw.shape[0] != N or mean.shape[0] != N or cov.shape[0] != N
-            or cov.shape[1] != n or cov.shape[2] != n):
-        raise ValueError("grid state: log_w, mean, cov do not match the config's grid and "
-                         "model (N, 2M)")
+def _layout(n):
+    """(n, n) row of Z holding the covariance entry P[a, b] (either order)."""
+    pidx = np.empty((n, n), dtype=np.int64)
+    c = n
+    for a in range(n):
+        for b in range(a, n):
+            pidx[a, b] = c
+            pidx[b, a] = c
+            c += 1
+    return pidx
+
+
+@njit(cache=True)
+def _to_soa(mean, cov, Z):
+    """Z (L, N) from the means (N, n) and the covariances' upper triangles (N, n, n)."""
+    N, n = mean.shape
+    for a in range(n):
+        for j in range(N):
+            Z[a, j] = mean[j, a]
+    c = n
+    for a in range(n):
+        for b in range(a, n):
+            for j in range(N):
+                Z[c, j] = cov[j, a, b]
+            c += 1
+
+
+@njit(cache=True)
+def _from_soa(Z, mean, cov):
+    """The means (N, n) and symmetric covariances (N, n, n) held in Z (L, N)."""
+    N, n = mean.shape
     for j in range(N):
-        lw[j] = lw_in[j]
         for a in range(n):
-            mean[j, a] = mean_in[j, a]
-            for b in range(n):
-                cov[j, a, b] = cov_in[j, a, b]
-    lw0 = np.empty(1)
-    lw0[0] = lw0_in
-    cur = np.empty(1, dtype=np.int64)
-    cur[0] = cur_in
-    L = n + n * (n + 1) // 2
-    _iterate(lw, lw0, mean, cov, y, sc[0], cs, sc[1], kb, int(sc[2]), grid, edges, u, sc[3],
-             sc[4], sc[5], sc[6], sc[7], sc[8], sc[9], sc[10], sc[11], sc[12], sc[13],
-             sc[14] != 0.0, sc[15], cur, ex, np.empty(N), np.empty(N), np.empty((N, L)),
-             np.empty(L), out, post, np.empty(0))
-    return lw0[0], cur[0]
+            mean[j, a] = Z[a, j]
+        c = n
+        for a in range(n):
+            for b in range(a, n):
+                val = Z[c, j]
+                cov[j, a, b] = val
+                cov[j, b, a] = val
+                c += 1
 
 
 @njit(cache=True)
-def _iterate(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo, q_hi,
-             eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, hold, cur, ex,
-             w, v, X, acc, out, post, gll):
-    """One iteration in place on (lw, lw0[0], mean, cov); the constants are the fields of
-    :class:`Tables` (passed one by one: the loop of :func:`_run` calls this per sample, and
-    numba passes scalars and array structs here without packing a record per call). Writes
-    ``out``, ``post`` (N,) and ``gll`` (N + 1,) per-point log-emissions (if sized):
-    ``temper`` times the predictive log-likelihood plus ``ex`` (N + 1,) extra log-evidence
-    for this sample (if sized; last entry for the "no line" state). ``null_mix``: the "no
-    line" state's time-domain emission is the signal part's predictive mixture
-    (Config.null_model "mixture") instead of N(0, null_var).
+def _tables_soa(cs, kb):
+    """(cos, sin)(m omega_j T) as (M, N) each, and the band kernel by offset kbT (2B+1, N):
+    ``kbT[e, j] = kb[j, e]``."""
+    N, M = cs.shape[0], cs.shape[1]
+    ct = np.empty((M, N))
+    st = np.empty((M, N))
+    for a in range(M):
+        for j in range(N):
+            ct[a, j] = cs[j, a, 0]
+            st[a, j] = cs[j, a, 1]
+    E = kb.shape[1]
+    kbT = np.empty((E, N))
+    for e in range(E):
+        for j in range(N):
+            kbT[e, j] = kb[j, e]
+    return ct, st, kbT
+
+
+@njit(cache=True)
+def _update(Z, pidx, M, y, r, temper, ph, rows):
+    """Step 1 for every grid point: the Kalman measurement update of (m_j, P_j) with
+    ``h = [1, 0, 1, 0, ...]`` (``P h' = sum of the even columns``) in place on Z; the tempered
+    predictive log-likelihood ``temper log N(y; h m_j, S_j)`` into ``rows[0]``."""
+    n = 2 * M
+    N = Z.shape[1]
+    yh = rows[1]
+    S = rows[2]
+    g = rows[3]
+    iv = rows[4]
+    t = rows[5]
+    ll = rows[0]
+    for j in range(N):
+        yh[j] = 0.0
+    for a in range(M):
+        zr = Z[2 * a]
+        for j in range(N):
+            yh[j] += zr[j]
+    for i in range(n):
+        pr = ph[i]
+        for j in range(N):
+            pr[j] = 0.0
+        for a in range(M):
+            zr = Z[pidx[i, 2 * a]]
+            for j in range(N):
+                pr[j] += zr[j]
+    for j in range(N):
+        S[j] = r
+    for a in range(M):
+        pr = ph[2 * a]
+        for j in range(N):
+            S[j] += pr[j]
+    for j in range(N):
+        iv[j] = 1.0 / S[j]
+        yh[j] = y - yh[j]  # the innovation nu
+        g[j] = yh[j] * iv[j]
+    for i in range(n):
+        zr = Z[i]
+        pr = ph[i]
+        for j in range(N):
+            zr[j] += pr[j] * g[j]
+    for i in range(n):
+        pr = ph[i]
+        for j in range(N):
+            t[j] = pr[j] * iv[j]
+        for k in range(i, n):
+            zr = Z[pidx[i, k]]
+            pk = ph[k]
+            for j in range(N):
+                zr[j] = zr[j] - t[j] * pk[j]
+    for j in range(N):
+        nu = yh[j]
+        ll[j] = -0.5 * (LOG_2PI + np.log(S[j]) + nu * nu * iv[j]) * temper
+
+
+@njit(cache=True)
+def _time_update(Z, X, ct, st, qd, M, B):
+    """Step 3 for every source point: m = F m, P = F P F' + Q in place on Z (F block diagonal
+    with the rotations ``[[c, s], [-s, c]]`` of ``(c, s) = (cos, sin)(m omega_j T)``,
+    Q = qd I), packed into X: ``X[:, j] = [m_j, upper(P_j + m_j m_j')]`` (Z's row order)."""
+    n = 2 * M
+    N = Z.shape[1]
+    for a in range(M):
+        c = ct[a]
+        sn = st[a]
+        z0 = Z[2 * a]
+        z1 = Z[2 * a + 1]
+        for j in range(N):
+            x0 = z0[j]
+            x1 = z1[j]
+            z0[j] = c[j] * x0 + sn[j] * x1
+            z1[j] = -sn[j] * x0 + c[j] * x1
+    # the 2 x 2 block (a, b) of P, b >= a: R_a P_ab R_b'; its rows in Z
+    c = n
+    for a in range(M):
+        ca = ct[a]
+        sa = st[a]
+        # row of P[2a, 2b] is c; P[2a, 2b+1] c + 1; P[2a+1, 2b] and P[2a+1, 2b+1] follow in
+        # row 2a + 1 of the upper triangle
+        row0 = c  # start of P's row 2a at column 2a
+        row1 = c + (n - 2 * a)  # start of P's row 2a + 1 at column 2a + 1
+        for b in range(a, M):
+            cb = ct[b]
+            sb = st[b]
+            o = 2 * (b - a)
+            i00 = row0 + o
+            i01 = row0 + o + 1
+            if b == a:
+                i10 = i01
+                i11 = row1
+            else:
+                i10 = row1 + o - 1
+                i11 = row1 + o
+            q00 = Z[i00]
+            q01 = Z[i01]
+            q10 = Z[i10]
+            q11 = Z[i11]
+            if b == a:
+                for j in range(N):
+                    p00 = q00[j]
+                    p01 = q01[j]
+                    p10 = q10[j]
+                    p11 = q11[j]
+                    t00 = ca[j] * p00 + sa[j] * p10
+                    t01 = ca[j] * p01 + sa[j] * p11
+                    t10 = -sa[j] * p00 + ca[j] * p10
+                    t11 = -sa[j] * p01 + ca[j] * p11
+                    r00 = t00 * cb[j] + t01 * sb[j]
+                    r01 = -t00 * sb[j] + t01 * cb[j]
+                    r10 = t10 * cb[j] + t11 * sb[j]
+                    r11 = -t10 * sb[j] + t11 * cb[j]
+                    q00[j] = r00 + qd
+                    q01[j] = 0.5 * (r01 + r10)
+                    q11[j] = r11 + qd
+            else:
+                for j in range(N):
+                    p00 = q00[j]
+                    p01 = q01[j]
+                    p10 = q10[j]
+                    p11 = q11[j]
+                    t00 = ca[j] * p00 + sa[j] * p10
+                    t01 = ca[j] * p01 + sa[j] * p11
+                    t10 = -sa[j] * p00 + ca[j] * p10
+                    t11 = -sa[j] * p01 + ca[j] * p11
+                    q00[j] = t00 * cb[j] + t01 * sb[j]
+                    q01[j] = -t00 * sb[j] + t01 * cb[j]
+                    q10[j] = t10 * cb[j] + t11 * sb[j]
+                    q11[j] = -t10 * sb[j] + t11 * cb[j]
+        c += (n - 2 * a) + (n - 2 * a - 1)
+    for a in range(n):
+        zr = Z[a]
+        xr = X[a, B:B + N]
+        for j in range(N):
+            xr[j] = zr[j]
+    c = n
+    for a in range(n):
+        ma = Z[a]
+        for b in range(a, n):
+            mb = Z[b]
+            zr = Z[c]
+            xr = X[c, B:B + N]
+            for j in range(N):
+                xr[j] = zr[j] + ma[j] * mb[j]
+            c += 1
+
+
+@njit(cache=True)
+def _merge(Z, X, w, kbT, B, rw, J, u, p0, n, lw, lamT, W):
+    """Steps 4-5 for every target point j: the banded transition's weights
+    ``lam_ij = w_i kb[j, i - j + B]`` (i = j + d, d = -B..B), the moments
+    ``sum_i lam_ij X[:, i]`` (summed in the order of i), the random-walk share ``rw``, the
+    uniform jump mass ``J u_j`` with the prior's moments (mean 0, second moment p0 I), and the
+    moment-matched Gaussian written to Z; ``lw[j] = log W_j``."""
+    N = Z.shape[1]
+    L = Z.shape[0]
+    E = 2 * B + 1
+    # lamT[e, j] = lam_(j+e-B),j, zero where j + e - B is off the grid: every offset then
+    # runs over all j against X's zero padding (adding 0 is exact)
+    for e in range(E):
+        d = e - B
+        lo = max(0, -d)
+        hi = min(N, N - d)
+        lr = lamT[e]
+        for j in range(lo):
+            lr[j] = 0.0
+        for j in range(hi, N):
+            lr[j] = 0.0
+        k_ = kbT[e, lo:hi]
+        l_ = lamT[e, lo:hi]
+        w_ = w[lo + d:hi + d]
+        for k in range(hi - lo):
+            l_[k] = w_[k] * k_[k]
+    for j in range(N):
+        W[j] = 0.0
+    for e in range(E):
+        lr = lamT[e]
+        for j in range(N):
+            W[j] += lr[j]
+    # sum over the band four offsets per pass (the sum's order is that of the offsets)
+    for c in range(L):
+        ar = Z[c]
+        xr = X[c]
+        for j in range(N):
+            ar[j] = 0.0
+        e = 0
+        while e + 4 <= E:
+            l0 = lamT[e]
+            l1 = lamT[e + 1]
+            l2 = lamT[e + 2]
+            l3 = lamT[e + 3]
+            x0 = xr[e:e + N]
+            x1 = xr[e + 1:e + 1 + N]
+            x2 = xr[e + 2:e + 2 + N]
+            x3 = xr[e + 3:e + 3 + N]
+            for j in range(N):
+                ar[j] = ar[j] + l0[j] * x0[j] + l1[j] * x1[j] + l2[j] * x2[j] + l3[j] * x3[j]
+            e += 4
+        while e < E:
+            l0 = lamT[e]
+            x0 = xr[e:e + N]
+            for j in range(N):
+                ar[j] = ar[j] + l0[j] * x0[j]
+            e += 1
+    if rw != 1.0:
+        for j in range(N):
+            W[j] *= rw
+        for c in range(L):
+            ar = Z[c]
+            for j in range(N):
+                ar[j] *= rw
+    # jump mass J u_j (with the prior's moments) where it is positive; adding 0 elsewhere is
+    # exact, so every point takes the same branch-free loop
+    Ju = lw  # lw is free until its last loop below
+    for j in range(N):
+        x = J * u[j]
+        Ju[j] = x if x > 0.0 else 0.0
+    for j in range(N):
+        W[j] += Ju[j]
+    c = n
+    for a in range(n):
+        ar = Z[c]
+        for j in range(N):
+            ar[j] += Ju[j] * p0
+        c += n - a
+    for j in range(N):
+        Ju[j] = 1.0 / W[j]
+    iv = Ju
+    for a in range(n):
+        ar = Z[a]
+        for j in range(N):
+            ar[j] = ar[j] * iv[j]
+    c = n
+    for a in range(n):
+        ma = Z[a]
+        for b in range(a, n):
+            mb = Z[b]
+            ar = Z[c]
+            for j in range(N):
+                ar[j] = ar[j] * iv[j] - ma[j] * mb[j]
+            c += 1
+    for j in range(N):
+        lw[j] = np.log(W[j])
+
+
+@njit(cache=True)
+def _work(N, n, B):
+    """Work space of :func:`_iterate`: w, v (N,), X (L, N + 2B) (the packed moments, point
+    i at column i + B, B zero columns either side), ph (n, N), rows (6, N), lamT (2B+1, N)."""
+    L = n + n * (n + 1) // 2
+    return (np.empty(N), np.empty(N), np.zeros((L, N + 2 * B)), np.empty((n, N)),
+            np.empty((6, N)), np.empty((2 * B + 1, N)))
+
+
+@njit(cache=True)
+def _iterate(lw, lw0, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_floor, q_lo,
+             q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, hold,
+             cur, ex, w, v, X, ph, rows, lamT, out, post, gll):
+    """One iteration in place on (lw, lw0[0], Z (the means and covariances, :func:`_layout`));
+    the constants are the fields of :class:`Tables` (passed one by one: the loop of
+    :func:`_run` calls this per sample, and numba passes scalars and array structs here
+    without packing a record per call), the rotations as ``ct``, ``st`` (M, N) and the band
+    kernel by offset ``kbT`` (2B+1, N) (:func:`_tables_soa`). Writes ``out``, ``post`` (N,)
+    and ``gll`` (N + 1,) per-point log-emissions (if sized): ``temper`` times the predictive
+    log-likelihood plus ``ex`` (N + 1,) extra log-evidence for this sample (if sized; last
+    entry for the "no line" state). ``null_mix``: the "no line" state's time-domain emission
+    is the signal part's predictive mixture (Config.null_model "mixture") instead of
+    N(0, null_var). ``w``, ``v``, ``X``, ``ph``, ``rows``, ``lamT``: work space
+    (:func:`_work`).
 
     Specialised to the harmonic model: ``h = [1, 0, 1, 0, ...]`` (rank-1 update with
-    ``P h' = sum of the even columns``), ``F`` block diagonal with rotations ``cs[i, m] =
-    (cos, sin)(m omega_i T)`` precomputed per grid point, ``Q = qd I``.
+    ``P h' = sum of the even columns``), ``F`` block diagonal with rotations ``(cos, sin)(m
+    omega_i T)`` precomputed per grid point, ``Q = qd I``.
     """
     N = grid.size
-    n = mean.shape[1]
-    M = n // 2
+    M = ct.shape[0]
+    n = 2 * M
     has_null = p_off > 0.0
     finite = np.isfinite(y)
-    ph = acc[:n]
     # ---- 1. measurement update per grid point: log w_j += log N(y; h m_j, S_j) ----------
     if finite:
+        _update(Z, pidx, M, y, r, temper, ph, rows)
+        lls = rows[0]
         for j in range(N):
-            mj = mean[j]
-            Pj = cov[j]
-            yhat = 0.0
-            for a in range(M):
-                yhat += mj[2 * a]
-            for i in range(n):
-                s_ = 0.0
-                for a in range(M):
-                    s_ += Pj[i, 2 * a]
-                ph[i] = s_
-            S = r
-            for a in range(M):
-                S += ph[2 * a]
-            nu = y - yhat
-            inv = 1.0 / S
-            g = nu * inv
-            for i in range(n):
-                mj[i] += ph[i] * g
-            for i in range(n):
-                pi = ph[i] * inv
-                for k in range(i, n):
-                    val = Pj[i, k] - pi * ph[k]
-                    Pj[i, k] = val
-                    Pj[k, i] = val
-            ll = -0.5 * (LOG_2PI + np.log(S) + nu * nu * inv) * temper
+            ll = lls[j]
             if null_mix:
                 v[j] = lw[j]  # prior log-weight
                 w[j] = lw[j] + ll  # prior times (tempered) predictive
@@ -193,6 +458,8 @@ def _iterate(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor,
             lw0[0] += ll0
             if gll.size > 0:
                 gll[N] = ll0
+        elif gll.size > 0:
+            gll[N] = ex[N] if ex.size > 0 else 0.0  # as for a NaN sample
     else:
         if ex.size > 0:
             for j in range(N):
@@ -230,115 +497,65 @@ def _iterate(lw, lw0, mean, cov, y, r, cs, qd, kb, B, grid, edges, u, log_floor,
     jmap = _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, cur)
     out[COL_LOGLIK] = pred_ll if finite else 0.0
     for a in range(M):
-        al = mean[jmap, 2 * a]
-        be = mean[jmap, 2 * a + 1]
+        al = Z[2 * a, jmap]
+        be = Z[2 * a + 1, jmap]
         out[N_OUT_FIXED + a] = np.sqrt(al * al + be * be)
     if post.size == N:
         for j in range(N):
             post[j] = w[j]
-    # ---- 3. linear time update per source point i (in place: m = F m, P = F P F' + Q),
-    #         packed into X[i] = [m_i-, upper(P_i- + m_i- m_i-')] -------------------------
-    for i in range(N):
-        m = mean[i]
-        P = cov[i]
-        for a in range(M):
-            c = cs[i, a, 0]
-            sn = cs[i, a, 1]
-            x0 = m[2 * a]
-            x1 = m[2 * a + 1]
-            m[2 * a] = c * x0 + sn * x1
-            m[2 * a + 1] = -sn * x0 + c * x1
-        for a in range(M):
-            a0 = 2 * a
-            ca = cs[i, a, 0]
-            sa = cs[i, a, 1]
-            for b in range(a, M):
-                c0 = 2 * b
-                cb = cs[i, b, 0]
-                sb = cs[i, b, 1]
-                p00 = P[a0, c0]
-                p01 = P[a0, c0 + 1]
-                p10 = P[a0 + 1, c0]
-                p11 = P[a0 + 1, c0 + 1]
-                # R_a P_ab, R = [[c, s], [-s, c]]
-                t00 = ca * p00 + sa * p10
-                t01 = ca * p01 + sa * p11
-                t10 = -sa * p00 + ca * p10
-                t11 = -sa * p01 + ca * p11
-                # (R_a P_ab) R_b'
-                r00 = t00 * cb + t01 * sb
-                r01 = -t00 * sb + t01 * cb
-                r10 = t10 * cb + t11 * sb
-                r11 = -t10 * sb + t11 * cb
-                if b == a:
-                    r01 = 0.5 * (r01 + r10)
-                    r10 = r01
-                    r00 += qd
-                    r11 += qd
-                P[a0, c0] = r00
-                P[a0, c0 + 1] = r01
-                P[a0 + 1, c0] = r10
-                P[a0 + 1, c0 + 1] = r11
-        Xi = X[i]
-        c = n
-        for a in range(n):
-            ma = m[a]
-            Xi[a] = ma
-            for b in range(a, n):
-                Xi[c] = P[a, b] + ma * m[b]
-                c += 1
+    # ---- 3. linear time update per source point (m = F m, P = F P F' + Q), packed into
+    #         X[:, i] = [m_i-, upper(P_i- + m_i- m_i-')] ---------------------------------
+    _time_update(Z, X, ct, st, qd, M, B)
     # ---- 4.-5. transition (random walk, jumps, null) and moment-matching merge ----------
-    L = X.shape[1]
     rw = 1.0 - eps - p_off
     J = eps * (1.0 - w0) + p_on * w0  # mass redistributed uniformly with the prior
-    for j in range(N):
-        lo = max(0, j - B)
-        hi = min(N - 1, j + B)
-        for c in range(L):
-            acc[c] = 0.0
-        W = 0.0
-        for i in range(lo, hi + 1):
-            lam = w[i] * kb[j, i - j + B]
-            W += lam
-            Xi = X[i]
-            for c in range(L):
-                acc[c] += lam * Xi[c]
-        if rw != 1.0:
-            W *= rw
-            for c in range(L):
-                acc[c] *= rw
-        Ju = J * u[j]
-        if Ju > 0.0:
-            W += Ju
-            # prior: mean 0, second moment p0 I
-            c = n
-            for a in range(n):
-                acc[c] += Ju * p0
-                c += n - a
-        inv = 1.0 / W
-        # m_j = sum lam m_i- / W ;  P_j = sum lam (P_i- + m_i- m_i-') / W - m_j m_j'
-        mj = mean[j]
-        Pj = cov[j]
-        for a in range(n):
-            mj[a] = acc[a] * inv
-        c = n
-        for a in range(n):
-            for b in range(a, n):
-                val = acc[c] * inv - mj[a] * mj[b]
-                Pj[a, b] = val
-                Pj[b, a] = val
-                c += 1
-        lw[j] = np.log(W)
+    _merge(Z, X, w, kbT, B, rw, J, u, p0, n, lw, lamT, rows[1])
     if has_null:
         lw0[0] = np.log(p_off * (1.0 - w0) + (1.0 - p_on) * w0)
 
 
 @njit(cache=True)
+def _step_from(sc, cs, kb, grid, edges, u, lw_in, mean_in, cov_in, lw0_in, cur_in, y, ex, lw,
+               mean, cov, out, post):
+    """One iteration from a state that is left as it is: (``lw_in``, ``mean_in``, ``cov_in``,
+    ``lw0_in``, ``cur_in``) is copied into the next state's storage ``lw`` (N,), ``mean``
+    (N, 2M), ``cov`` (N, 2M, 2M) and iterated there (:func:`_iterate`, the constants of
+    :class:`Tables` from ``sc`` (:func:`pack_scalars`) and the arrays); writes ``out`` and
+    ``post`` (N,) and returns the next state's ``(log_w_null, mode_j)``."""
+    N = grid.size
+    n = mean.shape[1]
+    if (lw_in.shape[0] != N or mean_in.shape[0] != N or mean_in.shape[1] != n
+            or cov_in.shape[0] != N or cov_in.shape[1] != n or cov_in.shape[2] != n
+            or lw.shape[0] != N or mean.shape[0] != N or cov.shape[0] != N
+            or cov.shape[1] != n or cov.shape[2] != n):
+        raise ValueError("grid state: log_w, mean, cov do not match the config's grid and "
+                         "model (N, 2M)")
+    for j in range(N):
+        lw[j] = lw_in[j]
+    B = int(sc[2])
+    L = n + n * (n + 1) // 2
+    Z = np.empty((L, N))
+    _to_soa(mean_in, cov_in, Z)
+    ct, st, kbT = _tables_soa(cs, kb)
+    w, v, X, ph, rows, lamT = _work(N, n, B)
+    lw0 = np.empty(1)
+    lw0[0] = lw0_in
+    cur = np.empty(1, dtype=np.int64)
+    cur[0] = cur_in
+    _iterate(lw, lw0, Z, y, sc[0], ct, st, sc[1], kbT, B, _layout(n), grid, edges, u, sc[3],
+             sc[4], sc[5], sc[6], sc[7], sc[8], sc[9], sc[10], sc[11], sc[12], sc[13],
+             sc[14] != 0.0, sc[15], cur, ex, w, v, X, ph, rows, lamT, out, post, np.empty(0))
+    _from_soa(Z, mean, cov)
+    return lw0[0], cur[0]
+
+
+@njit(cache=True)
 def _run(tb, lw, lw0, mean, cov, cur, ys, ex_idx, ex_val, want_post, want_gll):
-    """:func:`_step` over ``ys`` with the extra evidence rows ``ex_val[f]`` at the samples
-    ``ex_idx[f]``; returns the summary rows (n, N_OUT_FIXED + M) and, if wanted, the
-    posteriors (n, N) and per-state log-emissions (n, N + 1) as float32."""
-    r, cs, qd, kb, B = tb.r, tb.cs, tb.qd, tb.kb, tb.B
+    """:func:`_iterate` over ``ys`` with the extra evidence rows ``ex_val[f]`` at the samples
+    ``ex_idx[f]``, in place on the state (lw, lw0[0], mean (N, 2M), cov (N, 2M, 2M), cur[0]);
+    returns the summary rows (n, N_OUT_FIXED + M) and, if wanted, the posteriors (n, N) and
+    per-state log-emissions (n, N + 1) as float32."""
+    r, qd, B = tb.r, tb.qd, tb.B
     grid, edges, u, log_floor = tb.grid, tb.edges, tb.u, tb.log_floor
     q_lo, q_hi, eps, p_off, p_on = tb.q_lo, tb.q_hi, tb.eps, tb.p_off, tb.p_on
     null_var, p0, amb_rel, amb_abs = tb.null_var, tb.p0, tb.amb_rel, tb.amb_abs
@@ -352,11 +569,12 @@ def _run(tb, lw, lw0, mean, cov, cur, ys, ex_idx, ex_val, want_post, want_gll):
     glls = np.empty((n_s if want_gll else 0, N + 1), dtype=np.float32)
     post = np.empty(N if want_post else 0)
     gll = np.empty(N + 1 if want_gll else 0)
-    w = np.empty(N)
-    v = np.empty(N)
     L = n + n * (n + 1) // 2
-    X = np.empty((N, L))
-    acc = np.empty(L)
+    Z = np.empty((L, N))
+    _to_soa(mean, cov, Z)
+    ct, st, kbT = _tables_soa(tb.cs, tb.kb)
+    pidx = _layout(n)
+    w, v, X, ph, rows, lamT = _work(N, n, B)
     no_ex = np.empty(0)
     f = 0
     n_ex = ex_idx.size
@@ -364,13 +582,14 @@ def _run(tb, lw, lw0, mean, cov, cur, ys, ex_idx, ex_val, want_post, want_gll):
         while f < n_ex and ex_idx[f] < k:
             f += 1
         ex = ex_val[f] if (f < n_ex and ex_idx[f] == k) else no_ex
-        _iterate(lw, lw0, mean, cov, ys[k], r, cs, qd, kb, B, grid, edges, u, log_floor, q_lo,
-                 q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, hold,
-                 cur, ex, w, v, X, acc, outs[k], post, gll)
+        _iterate(lw, lw0, Z, ys[k], r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_floor,
+                 q_lo, q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper,
+                 null_mix, hold, cur, ex, w, v, X, ph, rows, lamT, outs[k], post, gll)
         if want_post:
             for j in range(N):
                 posts[k, j] = post[j]
         if want_gll:
             for j in range(N + 1):
                 glls[k, j] = gll[j]
+    _from_soa(Z, mean, cov)
     return outs, posts, glls
