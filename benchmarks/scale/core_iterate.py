@@ -117,9 +117,9 @@ def parts(core, tb, st, y, idx, vals, calls: int) -> list[tuple[str, float]]:
             core._time_update(Z, X, ct, st, qd, M, B)
 
     @njit
-    def loop_merge(k, Z, X, w, kbT, B, rw, J, u, p0, n, lw, lamT, W):
+    def loop_merge(k, Z, X, w, kbT, B, rw, J, u, p0, n, lw, lamT, W, iv, Jp):
         for _ in range(k):
-            core._merge(Z, X, w, kbT, B, rw, J, u, p0, n, lw, lamT, W)
+            core._merge(Z, X, w, kbT, B, rw, J, u, p0, n, lw, lamT, W, iv, Jp)
 
     h = y.size // 2
     _, (_, _, lw, lw0, mean, cov, cur) = call(core, tb, st, y[:h], idx[idx < h],
@@ -138,7 +138,7 @@ def parts(core, tb, st, y, idx, vals, calls: int) -> list[tuple[str, float]]:
             ("time update and packing", loop_time, (Z.copy(), X, ct, sn, tb.qd, M, tb.B)),
             ("transition and merge", loop_merge,
              (Z.copy(), X, w, kbT, tb.B, rw, tb.eps, tb.u, tb.p0, n, lw.copy(), lamT,
-              rows[1]))]
+              rows[1], rows[2], rows[3]))]
     res = []
     for name, f, args in jobs:
         f(1, *args)

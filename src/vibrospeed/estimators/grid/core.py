@@ -290,14 +290,14 @@ def _time_update(Z, X, ct, st, qd, M, B):
 
 
 @njit(cache=True)
-def _merge(Z, X, w, kbT, B, rw, J, u, p0, n, lw, lamT, W):
+def _merge(Z, X, w, kbT, B, rw, J, u, p0, n, lw, lamT, W, iv, Jp):
     """Steps 4-5 for every target point j: the banded transition's weights
     ``lam_ij = w_i kb[j, i - j + B]`` (i = j + d, d = -B..B), the moments
     ``sum_i lam_ij X[:, i]`` (summed in the order of i), the random-walk share ``rw``, the
     uniform jump mass ``J u_j`` with the prior's moments (mean 0, second moment p0 I), and the
-    moment-matched Gaussian written to Z; ``lw[j] = log W_j``."""
+    moment-matched Gaussian written to Z; ``lw[j] = log W_j``. ``W``, ``iv``, ``Jp`` (N,):
+    work space."""
     N = Z.shape[1]
-    L = Z.shape[0]
     E = 2 * B + 1
     # lamT[e, j] = lam_(j+e-B),j, zero where j + e - B is off the grid: every offset then
     # runs over all j against X's zero padding (adding 0 is exact)
@@ -315,76 +315,71 @@ def _merge(Z, X, w, kbT, B, rw, J, u, p0, n, lw, lamT, W):
         w_ = w[lo + d:hi + d]
         for k in range(hi - lo):
             l_[k] = w_[k] * k_[k]
+    # W_j = rw sum_i lam_ij + J u_j, the jump mass only where it is positive (adding 0 is
+    # exact, so every point takes the same branch-free loop)
     for j in range(N):
         W[j] = 0.0
     for e in range(E):
         lr = lamT[e]
         for j in range(N):
             W[j] += lr[j]
-    # sum over the band four offsets per pass (the sum's order is that of the offsets)
-    for c in range(L):
-        ar = Z[c]
-        xr = X[c]
-        for j in range(N):
-            ar[j] = 0.0
-        e = 0
-        while e + 4 <= E:
-            l0 = lamT[e]
-            l1 = lamT[e + 1]
-            l2 = lamT[e + 2]
-            l3 = lamT[e + 3]
-            x0 = xr[e:e + N]
-            x1 = xr[e + 1:e + 1 + N]
-            x2 = xr[e + 2:e + 2 + N]
-            x3 = xr[e + 3:e + 3 + N]
-            for j in range(N):
-                ar[j] = ar[j] + l0[j] * x0[j] + l1[j] * x1[j] + l2[j] * x2[j] + l3[j] * x3[j]
-            e += 4
-        while e < E:
-            l0 = lamT[e]
-            x0 = xr[e:e + N]
-            for j in range(N):
-                ar[j] = ar[j] + l0[j] * x0[j]
-            e += 1
-    if rw != 1.0:
-        for j in range(N):
-            W[j] *= rw
-        for c in range(L):
-            ar = Z[c]
-            for j in range(N):
-                ar[j] *= rw
-    # jump mass J u_j (with the prior's moments) where it is positive; adding 0 elsewhere is
-    # exact, so every point takes the same branch-free loop
-    Ju = lw  # lw is free until its last loop below
     for j in range(N):
         x = J * u[j]
-        Ju[j] = x if x > 0.0 else 0.0
-    for j in range(N):
-        W[j] += Ju[j]
-    c = n
+        Jp[j] = x * p0 if x > 0.0 else 0.0
+        W[j] = W[j] * rw + (x if x > 0.0 else 0.0)
+        iv[j] = 1.0 / W[j]
+    # each moment summed over the band (:func:`_band_sum`), times rw (exact where rw = 1),
+    # the jumped mass's prior second moment added on the diagonal, divided by W: the means
+    # first, then the covariances P = E[x x'] - m m', each row while it is in the cache
     for a in range(n):
-        ar = Z[c]
+        zr = Z[a]
+        _band_sum(zr, X[a], lamT, N)
         for j in range(N):
-            ar[j] += Ju[j] * p0
-        c += n - a
-    for j in range(N):
-        Ju[j] = 1.0 / W[j]
-    iv = Ju
-    for a in range(n):
-        ar = Z[a]
-        for j in range(N):
-            ar[j] = ar[j] * iv[j]
+            zr[j] = zr[j] * rw * iv[j]
     c = n
     for a in range(n):
         ma = Z[a]
         for b in range(a, n):
             mb = Z[b]
-            ar = Z[c]
-            for j in range(N):
-                ar[j] = ar[j] * iv[j] - ma[j] * mb[j]
+            zr = Z[c]
+            _band_sum(zr, X[c], lamT, N)
+            if b == a:
+                for j in range(N):
+                    zr[j] = (zr[j] * rw + Jp[j]) * iv[j] - ma[j] * mb[j]
+            else:
+                for j in range(N):
+                    zr[j] = zr[j] * rw * iv[j] - ma[j] * mb[j]
             c += 1
     for j in range(N):
         lw[j] = np.log(W[j])
+
+
+@njit(cache=True, inline="always")
+def _band_sum(ar, xr, lamT, N):
+    """``ar[j] = sum_e lamT[e, j] xr[j + e]`` (xr zero-padded by B either side), summed in the
+    order of e, four offsets per pass."""
+    E = lamT.shape[0]
+    e = 0
+    for j in range(N):
+        ar[j] = 0.0
+    while e + 4 <= E:
+        l0 = lamT[e]
+        l1 = lamT[e + 1]
+        l2 = lamT[e + 2]
+        l3 = lamT[e + 3]
+        x0 = xr[e:e + N]
+        x1 = xr[e + 1:e + 1 + N]
+        x2 = xr[e + 2:e + 2 + N]
+        x3 = xr[e + 3:e + 3 + N]
+        for j in range(N):
+            ar[j] = ar[j] + l0[j] * x0[j] + l1[j] * x1[j] + l2[j] * x2[j] + l3[j] * x3[j]
+        e += 4
+    while e < E:
+        l0 = lamT[e]
+        x0 = xr[e:e + N]
+        for j in range(N):
+            ar[j] = ar[j] + l0[j] * x0[j]
+        e += 1
 
 
 @njit(cache=True)
@@ -509,7 +504,7 @@ def _iterate(lw, lw0, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_flo
     # ---- 4.-5. transition (random walk, jumps, null) and moment-matching merge ----------
     rw = 1.0 - eps - p_off
     J = eps * (1.0 - w0) + p_on * w0  # mass redistributed uniformly with the prior
-    _merge(Z, X, w, kbT, B, rw, J, u, p0, n, lw, lamT, rows[1])
+    _merge(Z, X, w, kbT, B, rw, J, u, p0, n, lw, lamT, rows[1], rows[2], rows[3])
     if has_null:
         lw0[0] = np.log(p_off * (1.0 - w0) + (1.0 - p_on) * w0)
 
