@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -117,7 +118,12 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
         known = math.sqrt(P[3, 3]) < cfg.octave_rel * abs(x[3])
         if not (fresh and x[0] >= cfg.vib_min_speed):
             acq = None
-        if not (arrays["line"][i] and moving and dt > 0 and om > 0):
+        soft = bool(arrays.get("soft", np.zeros(arrays["t"].size, bool))[i])
+        offered = arrays["line"][i] and moving and dt > 0 and om > 0
+        if soft:  # an unclaimed line: only the re-lock's band, away from GPS, r known
+            acq = None
+            offered = offered and known and not fresh
+        if not offered:
             if dt > 0:  # a consistency run needs a line at every sample
                 acq = run = None
         else:
@@ -135,11 +141,12 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
             if np.isfinite(arrays["accel"][i]) and abs(arrays["accel"][i] - x[2]) > abs(a_lag):
                 a_lag = arrays["accel"][i] - x[2]
             vlag = (cfg.vib_lag * a_lag) ** 2
+            hard = abs(a_lag) > cfg.vib_amax
             R1 = {k: (rh * k) ** 2 * var + vlag for k in (1.0, 0.5, 2.0)}  # one sample's
             R = {k: R1[k] * cfg.vib_corr / dt for k in R1}  # per correlation time
             sv3 = 3 * math.sqrt(P[0, 0])
             costs = {}
-            for k in (1.0, 0.5, 2.0) if ready else ():
+            for k in (1.0, 0.5, 2.0) if ready and not (hard or soft) else ():
                 if not (cfg.radius_min * k * om <= x[0] + sv3
                         and x[0] - sv3 <= cfg.radius_max * k * om):
                     continue
@@ -153,7 +160,7 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
                         fresh or 3 * math.sqrt(P[0, 0] + (rh * kb) ** 2 * var)
                         <= cfg.vib_sep * rh * kb * om):
                     take = kb
-            if ready and known and take is None:
+            if ready and known and not hard and take is None:
                 u = x[3] * om
                 d = u - x[0]
                 if run is None or t - t_gps <= cfg.vib_relock or abs(d - run[1]) > cfg.acq_rel * u:
@@ -164,8 +171,9 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
                     moved = (abs(u - run[2]) >= cfg.acq_change * u
                              and abs(run[1] - run[3]) <= 0.4 * abs(u - run[2]))
                     if t - run[0] >= cfg.vib_relock and (moved or abs(d) <= sv3):
-                        P[0, 0] += (x[0] - x[3] * om) ** 2
-                        take = 1.0
+                        gap2 = (x[0] - x[3] * om) ** 2  # soft: the band widened to the gap
+                        P[0, 0] = max(P[0, 0], gap2) if soft else P[0, 0] + gap2
+                        take = None if soft else 1.0
                         run = None
             if take is not None:
                 k_used = take
@@ -176,10 +184,13 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
     return np.array(speeds), np.array(radii), np.array(ks)
 
 
-@pytest.mark.parametrize("kw", [{}, {"vib_lag": 1.5, "gps_lag_std": 0.5}])
+@pytest.mark.parametrize("kw", [{}, {"vib_lag": 1.5, "gps_lag_std": 0.5}, {"vib_amax": 0.4}])
 def test_filter_matches_independent_reference(kw):
     cfg = fuse.Config(acc_psd=0.01, **kw)
     arrays, _ = synth(seed=1, T=60.0, outage=(20.0, 40.0), no_line=(30.0, 35.0))
+    # unclaimed lines offered to the re-lock only, in and out of the outage
+    arrays["soft"] = (arrays["t"] >= 32.0) & (arrays["t"] < 35.0) | (arrays["t"] < 2.0)
+    arrays["line"] = arrays["line"] | arrays["soft"]
     # octave errors of the tracker in places: the filter must resolve them as the reference does
     arrays["omega"][200:230] *= 2.0
     arrays["omega"][600:620] *= 0.5
@@ -197,6 +208,7 @@ def test_filter_matches_independent_reference(kw):
 def test_step_equals_run_bitwise():
     cfg = fuse.Config(acc_psd=0.01)
     arrays, _ = synth(seed=2, T=30.0, outage=(10.0, 20.0), still=(24.0, 28.0))
+    arrays["soft"] = (arrays["t"] >= 12.0) & (arrays["t"] < 15.0)
     st0 = fuse.init(cfg, 15.0)
     end, o = fuse.run(cfg, arrays, state=st0)
     st = st0
@@ -663,6 +675,76 @@ def test_relock_when_the_filter_diverged_in_an_outage():
     assert np.median(np.abs(stuck.speed[late] - v[late])) > 10.0
     assert np.all(np.abs(o.speed[late] - v[late]) < 0.03 * v[late])
     assert np.all(o.source[late] == fuse.SRC_VIBRATION)
+
+
+def test_unclaimed_lines_widen_the_band_so_that_a_claimed_line_relocks():
+    """The drift of the re-lock test, with the wheel's line held but not claimed (``soft``) for
+    the 10 s before its claims return at 130 s: the unclaimed lines are not taken (the speed
+    stays where the accelerometer put it, the radius untouched), but their consistent gap
+    widens the band to it, so the claimed line re-locks after one run of ``vib_relock`` s
+    instead of waiting until it has moved with the speed by ``acq_change``."""
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=11, T=200.0, outage=(100.0, 200.0), no_line=(100.0, 130.0))
+    t = arrays["t"]
+    arrays["accel"] = np.where((t >= 100.0) & (t < 115.0), arrays["accel"] + 2.0,
+                               arrays["accel"])  # the speed runs 30 m/s away
+    _, hard = fuse.run(cfg, arrays)
+    soft = (t >= 120.0) & (t < 130.0)
+    arrays["line"] = arrays["line"] | soft
+    arrays["soft"] = soft
+    _, o = fuse.run(cfg, arrays)
+    # not taken: the speed is as far off as without them, no vibration source, r unchanged
+    np.testing.assert_array_equal(o.speed[soft], hard.speed[soft])
+    np.testing.assert_array_equal(o.radius[soft], hard.radius[soft])
+    assert not np.any(o.source[soft] == fuse.SRC_VIBRATION)
+    assert np.all(np.abs(o.speed[soft] - v[soft]) > 10.0)
+    # but the band grew by the gap: the truth is inside 3 sigma at 130 s, not without them
+    i0 = np.flatnonzero(t >= 130.0)[0]
+    assert abs(o.speed[i0 - 1] - v[i0 - 1]) <= 3.0 * o.speed_std[i0 - 1]
+    assert abs(hard.speed[i0 - 1] - v[i0 - 1]) > 3.0 * hard.speed_std[i0 - 1]
+    # without them the claimed line waits until its speed has moved by acq_change (14.8 s
+    # here) or the inertial band has grown to its gap
+    early = (t >= 130.0 + cfg.vib_relock + 0.5) & (t < 135.0)
+    assert np.all(np.abs(o.speed[early] - v[early]) < 0.03 * v[early])
+    assert np.all(np.abs(hard.speed[early] - v[early]) > 10.0)
+    late = t >= 130.0 + cfg.vib_relock + 0.5
+    assert np.all(np.abs(o.speed[late] - v[late]) < 0.03 * v[late])
+
+
+def test_no_line_is_used_beyond_vib_amax():
+    """A causal tracker's line trails the speed by 2 s. In an outage the car brakes at 3 m/s^2
+    from 20 to 8 m/s: with ``vib_amax`` no line is taken while the acceleration exceeds it and
+    the accelerometer (its offset learned while GPS held the speed) carries the braking within
+    0.3 m/s; with every line taken (weighted by the lag variance ``(vib_lag a)^2``) the lagging
+    line drags the speed up."""
+    cfg0 = fuse.Config(acc_psd=1e-3, vib_lag=2.0)
+    rng = np.random.default_rng(6)
+    t = np.arange(0.0, 120.0, 1.0 / FR)
+    a = np.where((t >= 70.0) & (t < 74.0), -3.0, 0.0)
+    v = 20.0 + np.concatenate([[0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) / FR)])
+    v_lag = np.interp(t - 2.0, t, v)
+    am = a + 0.2 + rng.normal(0.0, math.sqrt(1e-3 * FR), t.size)
+    am[0] = np.nan
+    rx = simulate_receiver(t, v, cfg0.lag)
+    g = np.full(t.size, np.nan)
+    g[::2] = rx[::2] + rng.normal(0.0, 0.1, t[::2].size)
+    g[t >= 60.0] = np.nan
+    arrays = {"t": t, "accel": am, "gps_speed": g, "gps_sats": np.full(t.size, 9.0),
+              "omega": v_lag / 0.31 + rng.normal(0.0, 0.05, t.size),
+              "omega_std": np.full(t.size, 0.05), "line": np.ones(t.size, bool)}
+    st = fuse.init(cfg0, 20.0)
+    _, every = fuse.run(cfg0, arrays, state=st)
+    _, o = fuse.run(replace(cfg0, vib_amax=1.5), arrays, state=st)
+    braking = (t >= 70.3) & (t < 74.0)
+    assert not np.any(np.isfinite(o.harmonic[braking]))
+    assert np.mean(np.isfinite(every.harmonic[braking])) > 0.9
+    # where the acceleration is small, the lines are taken as before
+    calm = (t >= 80.0) & (t < 120.0)
+    assert np.mean(np.isfinite(o.harmonic[calm])) > 0.95
+    err = np.abs(o.speed[braking] - v[braking])
+    err_every = np.abs(every.speed[braking] - v[braking])
+    assert err.max() < 0.3
+    assert err_every.max() > 5.0 * err.max()
 
 
 def test_a_long_stop_is_taken_even_when_the_integrated_speed_drifted():

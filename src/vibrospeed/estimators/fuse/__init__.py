@@ -94,7 +94,13 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    octave of the one that taught r (``v = c r omega``, c = 2 or 1/2) changes the gap by
    ``|1 - c| >= 1/2`` of its own change, which a running mean alone would follow. A constant
    line far outside the band (an idling engine at a stop in a tunnel) is not taken until it
-   moves with the speed. Both runs (acquisition,
+   moves with the speed. A line the tracker holds at a line probability of ``vib_soft`` or
+   more without claiming it (the ``soft`` input) joins only the re-lock run, away from GPS
+   with r known: when its run completes, ``P_vv`` grows by ``d^2`` but the line is not taken
+   (a claimed line at that gap then re-locks inside the band). Where the acceleration exceeds
+   ``vib_amax`` (the same ``a`` as for ``vib_lag``) no line is used, directly or by re-lock:
+   a causal tracker's line trails a hard acceleration by more than its spread, or jumps an
+   octave. Both runs (acquisition,
    re-lock) need a line at every fusion sample: a sample without one ends the run, so a line
    claimed now and then (a resonance or an engine order between the wheel's claims) does not
    add up to a run.
@@ -143,7 +149,9 @@ re-exported.
 """
 
 from vibrospeed.estimators.fuse.config import (
+    CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
+    CAUSAL_VIB_SOFT,
     HARMONIC_FACTORS,
     IA,
     IB,
@@ -187,7 +195,9 @@ from vibrospeed.estimators.fuse.method import (
 from vibrospeed.estimators.fuse.smoother import _rts, smooth
 
 __all__ = [
+    "CAUSAL_VIB_AMAX",
     "CAUSAL_VIB_LAG",
+    "CAUSAL_VIB_SOFT",
     "EXTRAS",
     "HARMONIC_FACTORS",
     "IA",

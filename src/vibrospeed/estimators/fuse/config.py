@@ -6,6 +6,7 @@ and the parameter vector the compiled core reads, so both have one definition.""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +37,17 @@ TRACKER_DEFAULTS = {name: float(value) for name, value in STRICT_COMB.items()}
 #: s, the causal grid tracker's lag behind an acceleration that ``estimate(online=True)`` gives
 #: its lines (``Config.vib_lag``): it follows a hard braking a second or two late
 CAUSAL_VIB_LAG = 2.0
+
+#: m/s^2, ``Config.vib_amax`` of ``estimate(online=True)``: beyond it the causal tracker's line
+#: trails the speed by 5-17 % (1-2 s at 2-2.5 m/s^2) or has jumped to another octave while its
+#: mode stays narrow, and the accelerometer carries the speed better (benchmarks/fuse/RESULTS.md)
+CAUSAL_VIB_AMAX = 1.5
+
+#: ``Config.vib_soft`` of ``estimate(online=True)``: the causal tracker's line probability from
+#: which its unclaimed mode is offered to the re-lock. Where it claims no line in the simulated
+#: tunnels while a line is visible, its mode is the wheel's on 84 % of the samples with a line
+#: probability of 0.3-0.5 and on 55 % below (its "no line" state saturates near 0.83 there)
+CAUSAL_VIB_SOFT = 0.3
 
 # state indices
 IV, IA, IB, IR, IG = 0, 1, 2, 3, 4
@@ -97,6 +109,20 @@ class Config(GpsFields):
         speed variance ``(vib_lag a)^2`` (item 3). 0 (default) for the smoothed
         tracker; :func:`estimate` with ``online`` and no ``vib_lag`` given uses
         :data:`CAUSAL_VIB_LAG`.
+    vib_amax : m/s^2; no wheel-frequency update (direct or re-lock) where the acceleration
+        (the larger of the filter's and the accelerometer's, as for ``vib_lag``) exceeds it: a
+        causal tracker's line lags a hard acceleration or braking by more than its spread says,
+        or jumps to another octave, and the ``(vib_lag a)^2`` that admits the lag would also
+        admit the octave. ``inf`` (default): no limit; :func:`estimate` with ``online`` and no
+        ``vib_amax`` given uses :data:`CAUSAL_VIB_AMAX`.
+    vib_soft : line probability ``1 - p_null`` of the tracker from which :func:`estimate`
+        offers a line the tracker does not claim (its mode, with the spread within the mode)
+        to the re-lock's band only (item 3): away from GPS, with r known, a re-lock run of
+        such lines (``vib_relock`` s, each moving with the speed) widens the filter's band by
+        its gap, ``P_vv += d^2``, but the line is not taken, and it teaches neither r nor the
+        first radius; a claimed line at that gap then lies inside the band and re-locks.
+        ``1`` (default): none; :func:`estimate` with ``online`` and no ``vib_soft`` given uses
+        :data:`CAUSAL_VIB_SOFT`.
     vib_spread : the line's spread ``s`` in :func:`estimate` where the tracker claims a line:
         ``"posterior"`` (default; its whole posterior's ``omega_std``: all its modes and its
         "no line" mass) or ``"mode"`` (the grid tracker's ``omega_mode_std``, the spread
@@ -152,6 +178,8 @@ class Config(GpsFields):
     acq_change: float = 0.1
     vib_sep: float = 0.35
     vib_lag: float = 0.0
+    vib_amax: float = math.inf
+    vib_soft: float = 1.0
     vib_spread: str = "posterior"
     nonneg: bool = True
     fuse_rate: float = 25.0
@@ -167,9 +195,11 @@ class Config(GpsFields):
                      "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
                      "vib_min_speed", "octave_rel", "vib_relock", "radius_min", "radius_max",
                      "still_relock", "learn_hold", "acq_time", "acq_rel", "acq_change",
-                     "vib_sep", "vib_lag"):
+                     "vib_sep", "vib_lag", "vib_amax"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
+        if not 0.0 < self.vib_soft <= 1.0:
+            raise ParameterError(f"fuse: vib_soft must be in (0, 1], got {self.vib_soft}")
         if self.vib_spread not in ("mode", "posterior"):
             raise ParameterError(f"fuse: vib_spread must be mode or posterior, got "
                                  f"'{self.vib_spread}'")
@@ -202,6 +232,6 @@ class Config(GpsFields):
             self.octave_tau, float(self.nonneg), self.vib_min_speed, self.octave_rel,
             self.vib_relock, self.radius_min, self.radius_max, self.still_relock,
             self.learn_hold, self.acq_time, self.acq_rel, self.acq_change, self.vib_sep,
-            self.vib_lag, self.radius0, self.radius_std0,
+            self.vib_lag, self.radius0, self.radius_std0, self.vib_amax,
         ], dtype=np.float64)
         return Ac, qc, p

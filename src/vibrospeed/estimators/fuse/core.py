@@ -23,7 +23,8 @@ from vibrospeed.models.gps_riss import transition
 
 
 @njit(cache=True)
-def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, out, xp, Pp):
+def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, soft, out, xp,
+               Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
     t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run]``;
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
@@ -73,8 +74,23 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
     known = math.sqrt(max(P[IR, IR], 0.0)) < p[19] * abs(x[IR])
     if not (fresh and x[IV] >= p[18]):
         sc[8] = math.nan  # an acquisition run needs the GPS speed
+    # the tracker's lag behind the speed: a causal tracker follows a hard acceleration late
+    # while its mode stays narrow. The acceleration is the larger of the filter's and the
+    # accelerometer's (less the offset): a lagging line accepted at the onset of a braking
+    # pulls the filter's own acceleration towards 0
+    a_lag = x[IA]
+    if not math.isnan(am) and abs(am - x[IB]) > abs(a_lag):
+        a_lag = am - x[IB]
+    # beyond vib_amax the causal tracker's line trails the speed by more than its spread or
+    # has jumped an octave: no line is used
+    hard = abs(a_lag) > p[32]
     offered = (line and moving and dt > 0.0 and om > 0.0 and not math.isnan(om)
                and not math.isnan(om_std))
+    if soft:
+        # a line the tracker does not claim: only for the re-lock's band, away from GPS, with
+        # r known
+        sc[8] = math.nan
+        offered = offered and known and not fresh
     if dt > 0.0 and not offered:
         # a consistency run (acquisition, re-lock) needs a line at every sample: a line
         # claimed now and then (a resonance, an engine order between the wheel's claims)
@@ -96,19 +112,12 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         best = math.inf
         r_hat = max(x[IR], 1e-3)
         var_om = om_std * om_std + (p[5] * om) ** 2
-        # the tracker's lag behind the speed, (m/s)^2: a causal tracker follows a hard
-        # acceleration late while its mode stays narrow. The acceleration is the larger of
-        # the filter's and the accelerometer's (less the offset): a lagging line accepted at
-        # the onset of a braking pulls the filter's own acceleration towards 0
-        a_lag = x[IA]
-        if not math.isnan(am) and abs(am - x[IB]) > abs(a_lag):
-            a_lag = am - x[IB]
         var_lag = (p[29] * a_lag) ** 2
         infl = p[6] / dt
         sv3 = 3.0 * math.sqrt(max(P[IV, IV], 0.0))
         # octaves: the speed prior decides (GPS or the filter's own speed, with the decisive
         # gate away from GPS) and, while r is not known yet, the radius prior
-        for j in range(3 if ready else 0):
+        for j in range(3 if ready and not (hard or soft) else 0):
             k = 1.0 if j == 0 else (0.5 if j == 1 else 2.0)
             if (x[IV] + sv3) < p[21] * k * om or (x[IV] - sv3) > p[22] * k * om:
                 continue  # no physical radius explains this line at this speed
@@ -123,7 +132,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         # direct use needs a decisive gate: the band narrow against the octaves' spacing
         decisive = not math.isnan(kk) and (fresh or 3.0 * math.sqrt(
             P[IV, IV] + (r_hat * kk) ** 2 * var_om) <= p[28] * r_hat * kk * om)
-        if ready and known and not (best <= p[7] and decisive):
+        if ready and known and not hard and not (best <= p[7] and decisive):
             # re-lock run on the line at k = 1 (the octave that taught r): the gap
             # d = r omega - v between the line's speed and the filter's must hold for
             # vib_relock s (no GPS in that time), and the line must have moved with the speed
@@ -148,11 +157,18 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 du = abs(u - sc[11])
                 moved = du >= p[27] * u and abs(sc[10] - sc[12]) <= 0.4 * du
                 if t - sc[6] >= p[20] and (moved or abs(d) <= sv3):
-                    P[IV, IV] += d * d
-                    Pp[IV, IV] += d * d  # process noise of this step, for the smoother
-                    best = 0.0
-                    kk = 1.0
+                    # an unclaimed line widens the band to its gap (one sigma), a claimed
+                    # one by its gap; Pp gets the same, the process noise of this step for
+                    # the smoother
+                    dpv = max(d * d - P[IV, IV], 0.0) if soft else d * d
+                    P[IV, IV] += dpv
+                    Pp[IV, IV] += dpv
                     sc[6] = math.nan
+                    if not soft:
+                        best = 0.0
+                        kk = 1.0
+                    # an unclaimed line widens the band by its gap but is not taken: a
+                    # claimed line at that gap then lies inside the band and re-locks
         if best <= p[7]:
             h[IV] = 1.0
             h[IR] = -kk * om
@@ -229,12 +245,12 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
 
 
 @njit(cache=True)
-def _run_core(Ac, qc, p, x, P, sc, t, am, g, sats, om, om_std, line, still, out, xp, Pp, xf,
-              Pf, dts):
+def _run_core(Ac, qc, p, x, P, sc, t, am, g, sats, om, om_std, line, still, soft, out, xp, Pp,
+              xf, Pf, dts):
     Fc = np.eye(x.size)
     for k in range(t.size):
         dts[k] = _step_core(Ac, qc, p, x, P, sc, Fc, t[k], am[k], g[k], sats[k], om[k],
-                            om_std[k], line[k], still[k], out[k], xp[k], Pp[k])
+                            om_std[k], line[k], still[k], soft[k], out[k], xp[k], Pp[k])
         xf[k, :] = x
         Pf[k, :, :] = P
 

@@ -53,7 +53,8 @@ class Sample(NamedTuple):
     """One fusion sample, or (n,) arrays of them (:func:`step`, :func:`run`): time (s), mean
     longitudinal acceleration since the previous sample (m/s^2, NaN: none), GPS speed (m/s,
     NaN: no fix now), satellites (NaN: unknown), the tracker's omega and spread (rad/s),
-    whether it claims a line, whether the vibration reports a stop."""
+    whether it claims a line, whether the vibration reports a stop, whether the line is an
+    unclaimed one offered to the re-lock only (``Config.vib_soft``)."""
 
     t: float
     accel: float = math.nan
@@ -63,6 +64,7 @@ class Sample(NamedTuple):
     omega_std: float = math.nan
     line: bool = False
     still: bool = False
+    soft: bool = False
 
 
 #: the per-sample values of :func:`step`'s Estimate besides ``speed`` / ``speed_std``: radius
@@ -149,13 +151,15 @@ def _pack(x, P, sc) -> State:
 
 
 _SAMPLE = Sample._fields
+_FLAGS = ("line", "still", "soft")
 
 
 def step(config: Config, state: State, y) -> tuple[State, Estimate]:
     """One fusion sample ``y``, a :class:`Sample` or the tuple ``(t, accel, gps_speed,
-    gps_sats, omega, omega_std, line, still)``; the Estimate holds ``speed``, ``speed_std`` and
-    the :data:`EXTRAS`."""
-    t, am, g, sats, om, om_std, line, still = y
+    gps_sats, omega, omega_std, line, still[, soft])``; the Estimate holds ``speed``,
+    ``speed_std`` and the :data:`EXTRAS`."""
+    t, am, g, sats, om, om_std, line, still, *rest = y
+    soft = bool(rest[0]) if rest else False
     t = float(t)
     if not math.isnan(state.t) and not t >= state.t:
         raise InputError(f"fuse: time goes backwards at t = {t} s (previous {state.t} s)")
@@ -164,7 +168,8 @@ def step(config: Config, state: State, y) -> tuple[State, Estimate]:
     out = np.empty(7)
     n = x.size
     _step_core(Ac, qc, p, x, P, sc, np.eye(n), t, float(am), float(g), float(sats), float(om),
-               float(om_std), bool(line), bool(still), out, np.empty(n), np.empty((n, n)))
+               float(om_std), bool(line), bool(still), soft, out, np.empty(n),
+               np.empty((n, n)))
     est = Estimate(speed=float(out[0]), speed_std=float(out[1]),
                    extras=dict(zip(EXTRAS, (float(out[2]), float(out[3]), float(out[4]),
                                             int(out[5]), float(out[6])), strict=True)))
@@ -180,9 +185,9 @@ def _as_inputs(arrays) -> list[np.ndarray]:
     for name in _SAMPLE[1:]:
         v = arrays.get(name)
         if v is None:
-            dflt = False if name in ("line", "still") else np.nan
+            dflt = False if name in _FLAGS else np.nan
             v = np.full(n, dflt)
-        v = np.ascontiguousarray(v, dtype=np.bool_ if name in ("line", "still") else np.float64)
+        v = np.ascontiguousarray(v, dtype=np.bool_ if name in _FLAGS else np.float64)
         if v.shape != (n,):
             raise InputError(f"fuse: input '{name}' has shape {v.shape}, expected ({n},)")
         out.append(v)
@@ -196,9 +201,9 @@ def run(config: Config, y, state: State | None = None) -> Result:
     """Forward filter over fusion samples; the numbers of repeated :func:`step`.
 
     ``y``: a :class:`Sample` of (n,) arrays, or a mapping of its names (``t``, ``accel``,
-    ``gps_speed``, ``gps_sats``, ``omega``, ``omega_std``, ``line``, ``still``) to arrays; a
-    missing one is "none" (NaN / False). ``state`` defaults to :func:`init` at the first valid
-    fix (or 0).
+    ``gps_speed``, ``gps_sats``, ``omega``, ``omega_std``, ``line``, ``still``, ``soft``) to
+    arrays; a missing one is "none" (NaN / False). ``state`` defaults to :func:`init` at the
+    first valid fix (or 0).
     """
     ins = _as_inputs(y)
     t, g, s = ins[0], ins[2], ins[3]

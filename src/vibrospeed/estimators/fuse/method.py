@@ -17,7 +17,9 @@ import numpy as np
 from vibrospeed.config import config_from_params, parse_flag
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators.fuse.config import (
+    CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
+    CAUSAL_VIB_SOFT,
     IB,
     IR,
     IV,
@@ -140,6 +142,10 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         cfg = replace(cfg, vib_lag=CAUSAL_VIB_LAG)
     if online and "vib_spread" not in fuse_kw:
         cfg = replace(cfg, vib_spread="mode")
+    if online and "vib_amax" not in fuse_kw:
+        cfg = replace(cfg, vib_amax=CAUSAL_VIB_AMAX)
+    if online and "vib_soft" not in fuse_kw:
+        cfg = replace(cfg, vib_soft=CAUSAL_VIB_SOFT)
     rf = radius_from if radius_from is not None else own.get("radius_from")
     acc_ch = _axis_channel(str(own.get("accel_axis", "x")))
     name = recording.source or "recording"
@@ -180,6 +186,17 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     if cfg.vib_spread == "mode" and "omega_mode_std" in vib.extras:
         spread = np.where(claim, np.asarray(vib.extras["omega_mode_std"], dtype=np.float64),
                           spread)
+    # lines the tracker does not claim but holds at a line probability of at least vib_soft:
+    # its mode, with the spread within the mode, offered to the re-lock only
+    soft = np.zeros(len(vib), dtype=bool)
+    if cfg.vib_soft < 1.0 and cfg.vib_use == "line" and "p_null" in vib.extras:
+        p_line = 1.0 - np.nan_to_num(np.asarray(vib.extras["p_null"], dtype=np.float64),
+                                     nan=1.0)
+        soft = ~line & ~still & (p_line >= cfg.vib_soft) & (np.nan_to_num(vib.omega) > 0)
+        if "omega_mode_std" in vib.extras:
+            spread = np.where(soft, np.asarray(vib.extras["omega_mode_std"], dtype=np.float64),
+                              spread)
+        line = line | soft
     # 2. fusion samples
     t = recording.t
     g = recording.channels.get("gps_speed", np.full(t.size, np.nan))
@@ -190,6 +207,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         "t": t[ends], "accel": _block_mean(recording.channel(acc_ch), ends),
         "gps_speed": g[ends], "gps_sats": s[ends], "omega": vib.omega[ends],
         "omega_std": spread[ends], "line": line[ends], "still": _block_all(still, ends),
+        "soft": soft[ends],
     }
     fin = np.flatnonzero(cfg.valid_fixes(g, s))
     v0 = float(g[fin[0]]) if fin.size else 0.0
