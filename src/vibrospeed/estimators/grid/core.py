@@ -94,7 +94,9 @@ def _layout(n):
 
 @njit(cache=True)
 def _to_soa(mean, cov, Z):
-    """Z (L, N) from the means (N, n) and the covariances' upper triangles (N, n, n)."""
+    """Z (L, N) from the means (N, n) and the covariances' upper triangles (N, n, n) (a state's
+    covariances are symmetric: every update writes both triangles, and the lower one is not
+    read)."""
     N, n = mean.shape
     for a in range(n):
         for j in range(N):
@@ -111,16 +113,20 @@ def _to_soa(mean, cov, Z):
 def _from_soa(Z, mean, cov):
     """The means (N, n) and symmetric covariances (N, n, n) held in Z (L, N)."""
     N, n = mean.shape
-    for j in range(N):
-        for a in range(n):
-            mean[j, a] = Z[a, j]
-        c = n
-        for a in range(n):
-            for b in range(a, n):
-                val = Z[c, j]
-                cov[j, a, b] = val
-                cov[j, b, a] = val
-                c += 1
+    for a in range(n):
+        zr = Z[a]
+        for j in range(N):
+            mean[j, a] = zr[j]
+    c = n
+    for a in range(n):
+        for b in range(a, n):
+            zr = Z[c]
+            for j in range(N):
+                cov[j, a, b] = zr[j]
+            if b != a:
+                for j in range(N):
+                    cov[j, b, a] = zr[j]
+            c += 1
 
 
 @njit(cache=True)
