@@ -225,6 +225,23 @@ def test_step_equals_run_bitwise():
     np.testing.assert_array_equal(np.concatenate([o1.speed, o2.speed]), o.speed)
 
 
+def test_a_sample_of_arrays_without_soft_runs_as_none_soft():
+    """``run`` takes a :class:`Sample` of arrays whose later fields keep their scalar defaults
+    (``soft=False`` before the field existed): the same numbers as with ``soft`` all False,
+    and a given ``soft`` array is used."""
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, _ = synth(seed=3, T=40.0, outage=(10.0, 40.0), no_line=(10.0, 20.0))
+    st0 = fuse.init(cfg, 15.0)
+    sample = fuse.Sample(*(arrays[k] for k in fuse._SAMPLE[:-1]))
+    assert sample.soft is False
+    _, o = fuse.run(cfg, sample, state=st0)
+    _, o_dict = fuse.run(cfg, {**arrays, "soft": np.zeros(arrays["t"].size, bool)}, state=st0)
+    np.testing.assert_array_equal(o.speed, o_dict.speed)
+    soft = (arrays["t"] >= 10.0) & (arrays["t"] < 20.0)
+    _, o_soft = fuse.run(cfg, sample._replace(line=arrays["line"] | soft, soft=soft), state=st0)
+    assert not np.array_equal(o_soft.speed_std, o.speed_std)
+
+
 def test_radius_converges_to_truth_and_carries_the_outage():
     cfg = fuse.Config(acc_psd=0.01)
     arrays, v = synth(seed=3, T=240.0, r_true=0.3217, outage=(120.0, 200.0))

@@ -185,8 +185,9 @@ def _as_inputs(arrays) -> list[np.ndarray]:
     for name in _SAMPLE[1:]:
         v = arrays.get(name)
         if v is None:
-            dflt = False if name in _FLAGS else np.nan
-            v = np.full(n, dflt)
+            v = False if name in _FLAGS else np.nan
+        if np.ndim(v) == 0:  # one value for every sample (a Sample's scalar default)
+            v = np.full(n, v)
         v = np.ascontiguousarray(v, dtype=np.bool_ if name in _FLAGS else np.float64)
         if v.shape != (n,):
             raise InputError(f"fuse: input '{name}' has shape {v.shape}, expected ({n},)")
