@@ -515,38 +515,70 @@ def _iterate(lw, lw0, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_flo
         lw0[0] = np.log(p_off * (1.0 - w0) + (1.0 - p_on) * w0)
 
 
+def step_table(cs: np.ndarray, kb: np.ndarray) -> np.ndarray:
+    """The rotations and the band kernel in the loop's layout, stacked as one (2M + 2B + 1, N)
+    array for :func:`_step_from`: rows 0..M-1 ``cos(m omega_j T)``, M..2M-1 the sines, then
+    ``kbT`` (:func:`_tables_soa`); built once per config, so that a step transposes nothing."""
+    ct, st, kbT = _tables_soa(cs, kb)
+    return np.ascontiguousarray(np.concatenate([ct, st, kbT]))
+
+
 @njit(cache=True)
-def _step_from(sc, cs, kb, grid, edges, u, lw_in, mean_in, cov_in, lw0_in, cur_in, y, ex, lw,
-               mean, cov, out, post):
-    """One iteration from a state that is left as it is: (``lw_in``, ``mean_in``, ``cov_in``,
-    ``lw0_in``, ``cur_in``) is copied into the next state's storage ``lw`` (N,), ``mean``
-    (N, 2M), ``cov`` (N, 2M, 2M) and iterated there (:func:`_iterate`, the constants of
-    :class:`Tables` from ``sc`` (:func:`pack_scalars`) and the arrays); writes ``out`` and
-    ``post`` (N,) and returns the next state's ``(log_w_null, mode_j)``."""
+def soa_to_state(Z, mean, cov):
+    """The means (N, n) and symmetric covariances (N, n, n) of a state held in the loop's
+    layout Z (L, N) (:func:`_from_soa`, for a :class:`~vibrospeed.estimators.grid.filter.State`
+    read after :func:`_step_from`)."""
+    _from_soa(Z, mean, cov)
+
+
+@njit(cache=True)
+def _step_from(sc, tab, grid, edges, u, lw_in, z_in, mean_in, cov_in, lw0_in, cur_in, y, ex,
+               lw, Z, out, post):
+    """One iteration from a state that is left as it is: (``lw_in``, the means and covariances,
+    ``lw0_in``, ``cur_in``) is copied into the next state's storage ``lw`` (N,) and ``Z``
+    (L, N) (the loop's layout, :func:`_layout`) and iterated there (:func:`_iterate`, the
+    constants of :class:`Tables` from ``sc`` (:func:`pack_scalars`), the rotations and the band
+    kernel from ``tab`` (:func:`step_table`) and the arrays). The means and covariances come
+    from ``z_in`` (L, N) in the loop's layout when it is sized (a state this function made,
+    copied as it is), else from ``mean_in`` (N, 2M) and ``cov_in`` (N, 2M, 2M) (their upper
+    triangles). Writes ``out`` and ``post`` (N,) and returns the next state's
+    ``(log_w_null, mode_j)``."""
     N = grid.size
-    n = mean.shape[1]
-    if (lw_in.shape[0] != N or mean_in.shape[0] != N or mean_in.shape[1] != n
-            or cov_in.shape[0] != N or cov_in.shape[1] != n or cov_in.shape[2] != n
-            or lw.shape[0] != N or mean.shape[0] != N or cov.shape[0] != N
-            or cov.shape[1] != n or cov.shape[2] != n):
+    L = Z.shape[0]
+    B = int(sc[2])
+    E = 2 * B + 1
+    M = (tab.shape[0] - E) // 2
+    n = 2 * M
+    if (lw_in.shape[0] != N or lw.shape[0] != N or Z.shape[1] != N or tab.shape[1] != N
+            or L != n + n * (n + 1) // 2):
         raise ValueError("grid state: log_w, mean, cov do not match the config's grid and "
                          "model (N, 2M)")
+    if z_in.shape[0] > 0:
+        if z_in.shape[0] != L or z_in.shape[1] != N:
+            raise ValueError("grid state: log_w, mean, cov do not match the config's grid "
+                             "and model (N, 2M)")
+        for c in range(L):
+            zi = z_in[c]
+            zo = Z[c]
+            for j in range(N):
+                zo[j] = zi[j]
+    else:
+        if (mean_in.shape[0] != N or mean_in.shape[1] != n or cov_in.shape[0] != N
+                or cov_in.shape[1] != n or cov_in.shape[2] != n):
+            raise ValueError("grid state: log_w, mean, cov do not match the config's grid "
+                             "and model (N, 2M)")
+        _to_soa(mean_in, cov_in, Z)
     for j in range(N):
         lw[j] = lw_in[j]
-    B = int(sc[2])
-    L = n + n * (n + 1) // 2
-    Z = np.empty((L, N))
-    _to_soa(mean_in, cov_in, Z)
-    ct, st, kbT = _tables_soa(cs, kb)
     w, v, X, ph, rows, lamT = _work(N, n, B)
     lw0 = np.empty(1)
     lw0[0] = lw0_in
     cur = np.empty(1, dtype=np.int64)
     cur[0] = cur_in
-    _iterate(lw, lw0, Z, y, sc[0], ct, st, sc[1], kbT, B, _layout(n), grid, edges, u, sc[3],
-             sc[4], sc[5], sc[6], sc[7], sc[8], sc[9], sc[10], sc[11], sc[12], sc[13],
-             sc[14] != 0.0, sc[15], cur, ex, w, v, X, ph, rows, lamT, out, post, np.empty(0))
-    _from_soa(Z, mean, cov)
+    _iterate(lw, lw0, Z, y, sc[0], tab[:M], tab[M:n], sc[1], tab[n:], B, _layout(n), grid,
+             edges, u, sc[3], sc[4], sc[5], sc[6], sc[7], sc[8], sc[9], sc[10], sc[11], sc[12],
+             sc[13], sc[14] != 0.0, sc[15], cur, ex, w, v, X, ph, rows, lamT, out, post,
+             np.empty(0))
     return lw0[0], cur[0]
 
 

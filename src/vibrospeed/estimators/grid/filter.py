@@ -29,6 +29,7 @@ The state stored between samples is the *prior* for the next sample (as in
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Mapping
 from typing import NamedTuple
 
@@ -37,22 +38,113 @@ import numpy as np
 import vibrospeed.estimators.grid.summary as cols
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.grid.config import Config
-from vibrospeed.estimators.grid.core import Tables, _run, _step_from, pack_scalars
+from vibrospeed.estimators.grid.core import (
+    Tables,
+    _run,
+    _step_from,
+    pack_scalars,
+    soa_to_state,
+    step_table,
+)
 from vibrospeed.estimators.grid.summary import N_OUT_FIXED
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Estimate
 
+_tuple_item = tuple.__getitem__
 
-class State(NamedTuple):
+
+class State(tuple):
     """Prior for the next sample: ``log_w`` (N,) log-weights of the grid points, ``mean``
     (N, 2M), ``cov`` (N, 2M, 2M) per grid point, ``log_w_null`` log-weight of the "no line"
-    state (-inf when the model has none). The weights sum to 1 over grid and null."""
+    state (-inf when the model has none), ``mode_j`` the mode window's grid point (hysteresis;
+    -1: none yet). The weights sum to 1 over grid and null.
 
-    log_w: np.ndarray
-    mean: np.ndarray
-    cov: np.ndarray
-    log_w_null: float = -np.inf
-    mode_j: int = -1
+    A named tuple of these five fields (unpacking, indexing, ``_replace``, ``_asdict``,
+    pickling). A state made by :func:`step` holds the means and covariances in the compiled
+    loop's layout (one (L, N) array, L = 2M + 2M (2M + 1) / 2: the means and the covariances'
+    upper triangles, the grid index innermost; :mod:`vibrospeed.estimators.grid.core`) and
+    builds ``mean`` and ``cov`` when they are first read (one compiled pass; the numbers the
+    loop holds): a stream of steps converts nothing between samples (about 5 us per sample
+    at N = 200). From that read on, ``mean`` and ``cov`` are the state (a step reads them, so
+    arrays changed in place count, as with plain arrays)."""
+
+    _fields = ("log_w", "mean", "cov", "log_w_null", "mode_j")
+    #: the means and covariances in the loop's layout while ``mean`` and ``cov`` are unbuilt
+    _z = None
+
+    def __new__(cls, log_w: np.ndarray, mean: np.ndarray, cov: np.ndarray,
+                log_w_null: float = -np.inf, mode_j: int = -1) -> State:
+        return tuple.__new__(cls, (log_w, mean, cov, log_w_null, mode_j))
+
+    @classmethod
+    def _in_loop_layout(cls, log_w: np.ndarray, z: np.ndarray, log_w_null: float,
+                        mode_j: int) -> State:
+        st = tuple.__new__(cls, (log_w, None, None, log_w_null, mode_j))
+        st._z = z
+        return st
+
+    # the tuple's own slots (its __getitem__ and __iter__ below build mean and cov)
+    log_w = property(lambda s: _tuple_item(s, 0), doc="(N,) log-weights of the grid points")
+    log_w_null = property(lambda s: _tuple_item(s, 3), doc='log-weight of "no line"')
+    mode_j = property(lambda s: _tuple_item(s, 4), doc="the mode window's grid point (-1: none)")
+
+    def _built(self) -> tuple[np.ndarray, np.ndarray]:
+        z = self._z
+        if z is None:
+            got = self.__dict__.get("_mc")
+            return got if got is not None else (_tuple_item(self, 1), _tuple_item(self, 2))
+        L, N = z.shape
+        n = (math.isqrt(9 + 8 * L) - 3) // 2  # L = n + n (n + 1) / 2
+        mean = np.empty((N, n))
+        cov = np.empty((N, n, n))
+        soa_to_state(z, mean, cov)
+        self._mc = (mean, cov)
+        self._z = None
+        return self._mc
+
+    @property
+    def mean(self) -> np.ndarray:
+        """(N, 2M) phasor means per grid point."""
+        return self._built()[0]
+
+    @property
+    def cov(self) -> np.ndarray:
+        """(N, 2M, 2M) phasor covariances per grid point."""
+        return self._built()[1]
+
+    def _values(self) -> tuple:
+        mean, cov = self._built()
+        return (self.log_w, mean, cov, self.log_w_null, self.mode_j)
+
+    def __iter__(self) -> Iterator:
+        return iter(self._values())
+
+    def __getitem__(self, i):
+        return self._values()[i]
+
+    def _replace(self, **kw) -> State:
+        bad = set(kw) - set(self._fields)
+        if bad:
+            raise ValueError(f"got unexpected field names: {sorted(bad)}")
+        if self._z is not None and "mean" not in kw and "cov" not in kw:
+            return State._in_loop_layout(kw.get("log_w", self.log_w), self._z,
+                                         kw.get("log_w_null", self.log_w_null),
+                                         kw.get("mode_j", self.mode_j))
+        return State(*(kw[f] if f in kw else v for f, v in zip(self._fields, self._values(),
+                                                               strict=True)))
+
+    @classmethod
+    def _make(cls, iterable) -> State:
+        return cls(*iterable)
+
+    def _asdict(self) -> dict:
+        return dict(zip(self._fields, self._values(), strict=True))
+
+    def __reduce__(self):
+        return State, self._values()
+
+    def __repr__(self) -> str:
+        return "State(" + ", ".join(f"{f}={v!r}" for f, v in self._asdict().items()) + ")"
 
 
 #: extras of the filter's :class:`~vibrospeed.types.Estimate` (rad/s or shares of the mass):
@@ -191,17 +283,19 @@ def _extra_vec(config: Config, ex) -> np.ndarray:
 
 class _StepPlan(NamedTuple):
     """What :func:`step` needs of a Config per sample, built once (:func:`_plan`): the compiled
-    core's constants (scalars packed, :func:`~vibrospeed.estimators.grid.core.pack_scalars`),
-    the sizes, the summary column of the reported omega and the claim level."""
+    core's constants (scalars packed, :func:`~vibrospeed.estimators.grid.core.pack_scalars`;
+    the rotations and band kernel in the loop's layout,
+    :func:`~vibrospeed.estimators.grid.core.step_table`), the sizes (L: rows of a state in the
+    loop's layout), the summary column of the reported omega and the claim level."""
 
     sc: np.ndarray
-    cs: np.ndarray
-    kb: np.ndarray
+    tab: np.ndarray
     grid: np.ndarray
     edges: np.ndarray
     u: np.ndarray
     N: int
     n: int
+    L: int
     n_out: int
     col_omega: int
     claim_level: float
@@ -213,9 +307,9 @@ def _plan(config: Config) -> _StepPlan:
         tb = tables(config)
         N, n = config.n_grid, config.model.n_lin
         plan = config.__dict__["_step_plan"] = _StepPlan(
-            pack_scalars(tb), tb.cs, tb.kb, tb.grid, tb.edges, tb.u, N, n,
-            N_OUT_FIXED + n // 2, cols.COL_MODE if config.point == "mode" else cols.COL_MEAN,
-            float(config.claim_level))
+            pack_scalars(tb), step_table(tb.cs, tb.kb), tb.grid, tb.edges, tb.u, N, n,
+            n + n * (n + 1) // 2, N_OUT_FIXED + n // 2,
+            cols.COL_MODE if config.point == "mode" else cols.COL_MEAN, float(config.claim_level))
     return plan
 
 
@@ -267,6 +361,9 @@ class StepExtras(Mapping):
 
 
 _NO_EXTRA = np.empty(0)
+_NO_Z = np.empty((0, 0))
+_NO_MEAN = np.empty((0, 0))
+_NO_COV = np.empty((0, 0, 0))
 
 
 def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Estimate]:
@@ -276,23 +373,29 @@ def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Est
     line" state's) log-weights with this sample (e.g. :mod:`vibrospeed.estimators.grid`).
 
     ``state`` is left as it is: one compiled call copies it into the next state's storage and
-    iterates there, so a state can be stepped again (or kept) safely."""
+    iterates there, so a state can be stepped again (or kept) safely. The next state keeps the
+    means and covariances in the compiled loop's layout (:class:`State`), so a stream of steps
+    converts nothing between samples."""
     p = _plan(config)
-    N, n = p.N, p.n
-    lw = np.empty(N)
-    mean = np.empty((N, n))
-    cov = np.empty((N, n, n))
+    lw = np.empty(p.N)
+    z = np.empty((p.L, p.N))
     out = np.empty(p.n_out)
-    post = np.empty(N)
+    post = np.empty(p.N)
     ex = _NO_EXTRA if extra is None else _extra_vec(config, extra)
-    lw0, cur = _step_from(p.sc, p.cs, p.kb, p.grid, p.edges, p.u, state.log_w, state.mean,
-                          state.cov, float(state.log_w_null), int(state.mode_j), float(y), ex,
-                          lw, mean, cov, out, post)
+    zi = state._z if type(state) is State else None
+    if zi is None:  # plain arrays (a state made by init, run or a caller)
+        lw0, cur = _step_from(p.sc, p.tab, p.grid, p.edges, p.u, state.log_w, _NO_Z, state.mean,
+                              state.cov, float(state.log_w_null), int(state.mode_j), float(y),
+                              ex, lw, z, out, post)
+    else:
+        lw0, cur = _step_from(p.sc, p.tab, p.grid, p.edges, p.u, state.log_w, zi, _NO_MEAN,
+                              _NO_COV, float(state.log_w_null), int(state.mode_j), float(y),
+                              ex, lw, z, out, post)
     p_null = out[cols.COL_P_NULL]
     est = Estimate(out[p.col_omega], out[cols.COL_STD], out[cols.COL_LO], out[cols.COL_HI],
                    np.nan, np.nan, 1.0 if 1.0 - p_null >= p.claim_level else 0.0, np.nan,
                    StepExtras(out, post))
-    return State(lw, mean, cov, lw0, cur), est
+    return State._in_loop_layout(lw, z, lw0, cur), est
 
 
 def run(
