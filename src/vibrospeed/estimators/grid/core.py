@@ -72,10 +72,12 @@ def pack_scalars(tb: Tables) -> np.ndarray:
 # elementwise parts of an iteration (measurement update, rotation, packing, merge) are loops
 # over j that the compiler turns into SIMD instructions. The state of grid point j is the
 # column Z[:, j] of Z (L, N), L = n + n (n + 1) / 2: rows 0..n-1 the mean, rows n..L-1 the
-# covariance's upper triangle row by row (P[a, b], b >= a, at row pidx[a, b]). Callers keep
-# the (N, n) means and (N, n, n) covariances; :func:`_run` and :func:`_step_from` convert at
-# entry and exit. Every sum is taken in the order of the per-point form, so the numbers are
-# those of the per-point loop.
+# covariance's upper triangle row by row (P[a, b], b >= a, at row pidx[a, b]). Callers see
+# the (N, n) means and (N, n, n) covariances: :func:`_run` converts at entry and exit;
+# :func:`_step_from` converts a state of plain arrays at entry and leaves its result in Z
+# (the filter's State builds the plain arrays when they are read, :func:`soa_to_state`).
+# Every sum is taken in the order of the per-point form, so the numbers are those of the
+# per-point loop.
 # ------------------------------------------------------------------------------------------
 
 
