@@ -8,13 +8,25 @@ tracker's time-domain model spends its harmonics on it. The whitener instead div
 background out, whatever its shape:
 
 * every ``BLOCK_S`` s, the background spectrum of the last ``WINDOW_S`` s is estimated line-
-  robustly: a Welch periodogram (``SEGMENT_S`` s Hann segments) smoothed by a running *median*
-  over ``SMOOTH_HZ`` Hz, so narrow lines (wheel harmonics, engine orders) do not enter it;
+  robustly: per frequency the *median* over the ``SEGMENT_S`` s Hann segments (Welch with a
+  median average), so a line that sweeps across a frequency while the vehicle speeds up or
+  brakes does not enter it, then a running *median* over ``SMOOTH_HZ`` Hz, so a steady narrow
+  line (wheel harmonics, engine orders) does not enter it either;
 * its autocorrelation (inverse FFT) gives, by Levinson-Durbin (``scipy.linalg.solve_toeplitz``),
   the order-``ORDER`` linear predictor ``a``; the block is filtered by the prediction-error FIR
   ``e[n] = sum_k a[k] x[n - k]``, ``a[0] = 1`` (Yule-Walker: ``e`` is white where ``x`` was
   the background alone), scaled so that the history keeps its power (the output stays in the
   input's units);
+* across each block the output fades linearly from the previous block's FIR to the new one,
+  ``e = (1 - l) e_prev + l e_new`` with ``l = (i + 1) / B`` at the block's i-th of B samples.
+  A FIR applies its own gain and phase to a line, so a FIR switched at once puts a step in
+  every line's amplitude and phase, and the tracker's phasor model, which integrates a weak
+  line coherently over many seconds, loses the line at each step. The 9 s window keeps
+  consecutive FIRs close and the fade makes their change continuous, while the 1 s blocks
+  keep the FIR fresh. A median follows a change of the background (a start, a stop) once
+  half the window has changed, so the window is a trade between holding the lines (longer)
+  and following the stops (shorter); benchmarks/robustness/RESULTS.md, "levers measured in
+  stop 24";
 * before ``SEGMENT_S`` s of data the FIR is the identity.
 
 Streaming (:func:`init` / :func:`step`) and batch (:func:`apply`) give the same numbers: both
@@ -39,14 +51,16 @@ from scipy.linalg import solve_toeplitz
 from scipy.ndimage import median_filter
 
 ORDER = 12
-WINDOW_S = 6.0
+WINDOW_S = 9.0
 BLOCK_S = 1.0
 SEGMENT_S = 2.0
 SMOOTH_HZ = 1.0
 
 
 class WhitenState(NamedTuple):
-    """History of finite samples, samples seen, the current FIR ``a`` (ORDER + 1) and its gain.
+    """History of finite samples, samples seen, the current FIR ``a`` (ORDER + 1) and its gain,
+    and the previous block's FIR and gain that the output fades from (``a_prev`` None: the two
+    are equal, nothing to fade).
 
     The history is ``buf[max(0, end - K):end]``, K = ``max(WINDOW_S s, ORDER + 1)`` samples,
     oldest first. ``buf`` is storage shared with the states that follow: a step appends at
@@ -60,6 +74,8 @@ class WhitenState(NamedTuple):
     count: int
     a: np.ndarray
     gain: float
+    a_prev: np.ndarray | None
+    gain_prev: float
 
 
 @functools.lru_cache(maxsize=64)
@@ -76,7 +92,7 @@ def predictor(hist: np.ndarray, fs: float) -> tuple[np.ndarray, float]:
     ident[0] = 1.0
     if hist.size < seg:
         return ident, 1.0
-    f, P = sps.welch(hist, fs=fs, nperseg=seg)
+    f, P = sps.welch(hist, fs=fs, nperseg=seg, average="median")
     k = 2 * max(1, int(round(0.5 * SMOOTH_HZ / (f[1] - f[0])))) + 1
     S = median_filter(P, size=k, mode="nearest")
     r = np.fft.irfft(S)[: ORDER + 1]
@@ -129,22 +145,27 @@ def init() -> WhitenState:
     """Empty history, identity FIR."""
     a = np.zeros(ORDER + 1)
     a[0] = 1.0
-    return WhitenState(np.zeros(0), 0, np.zeros(1, dtype=np.int64), 0, a, 1.0)
+    return WhitenState(np.zeros(0), 0, np.zeros(1, dtype=np.int64), 0, a, 1.0, a, 1.0)
 
 
 def step(state: WhitenState, x: float, fs: float) -> tuple[WhitenState, float]:
     """Whiten one sample; NaN passes as NaN and leaves the state unchanged.
 
     Per sample: one store into the history (a copy of K samples only when its storage is full,
-    every 3 K samples) and one compiled FIR dot product; every ``BLOCK_S`` s the predictor is
-    made from the last ``WINDOW_S`` s, as :func:`apply` does."""
+    every 3 K samples) and two compiled FIR dot products (the previous and the current FIR,
+    faded); every ``BLOCK_S`` s the predictor is made from the last ``WINDOW_S`` s, as
+    :func:`apply` does."""
     x = float(x)
     if not math.isfinite(x):
         return state, math.nan
     W, B, _ = _sizes(fs)
     buf, end, tip, a, gain = state.buf, state.end, state.tip, state.a, state.gain
+    a_prev, gain_prev = state.a_prev, state.gain_prev
     if state.count % B == 0:  # a block starts: new predictor from the history so far
+        a_prev, gain_prev = a, gain
         a, gain = predictor(buf[max(0, end - W) : end], fs)
+        if gain == gain_prev and np.array_equal(a, a_prev):
+            a_prev = None  # the same FIR: nothing to fade
     if end < buf.size and tip[0] == end:
         buf[end] = x
         tip[0] = end = end + 1
@@ -156,7 +177,11 @@ def step(state: WhitenState, x: float, fs: float) -> tuple[WhitenState, float]:
         buf[old.size] = x
         end = old.size + 1
         tip = np.array([end], dtype=np.int64)
-    return WhitenState(buf, end, tip, state.count + 1, a, gain), _fir_last(a, buf, end, gain)
+    out = _fir_last(a, buf, end, gain)
+    if a_prev is not None:
+        lam = ((state.count % B) + 1.0) / B
+        out = (1.0 - lam) * _fir_last(a_prev, buf, end, gain_prev) + lam * out
+    return WhitenState(buf, end, tip, state.count + 1, a, gain, a_prev, gain_prev), out
 
 
 def apply(x: np.ndarray, fs: float) -> np.ndarray:
@@ -167,12 +192,21 @@ def apply(x: np.ndarray, fs: float) -> np.ndarray:
     z = np.ascontiguousarray(x[fin])
     W, B, _ = _sizes(fs)
     out = np.zeros(z.size)
+    a = np.zeros(ORDER + 1)
+    a[0], gain = 1.0, 1.0
     for b0 in range(0, z.size, B):
+        a_prev, gain_prev = a, gain
         a, gain = predictor(z[max(0, b0 - W) : b0], fs)
         lo = max(0, b0 - ORDER)
         seg = np.ascontiguousarray(z[lo : b0 + B])
         tmp = np.zeros(seg.size)
         _fir(a, seg, b0 - lo, seg.size, gain, tmp)  # samples before the start count 0
-        out[b0 : b0 + B] = tmp[b0 - lo :]
+        new = tmp[b0 - lo :]
+        if not (gain == gain_prev and np.array_equal(a, a_prev)):
+            old = np.zeros(seg.size)
+            _fir(a_prev, seg, b0 - lo, seg.size, gain_prev, old)
+            lam = (np.arange(new.size) + 1.0) / B
+            new = (1.0 - lam) * old[b0 - lo :] + lam * new
+        out[b0 : b0 + B] = new
     y[fin] = out
     return y
