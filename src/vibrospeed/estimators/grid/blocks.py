@@ -232,12 +232,9 @@ class Blocks:
     def __iter__(self) -> Iterator[Track]:
         cfg = self.config.tracker
         n, nb, la = self.y.size, self.nb, self.la
-        lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _sm._setup(cfg)
+        lw, fwd, cmn, tabs = _sm._chain(cfg)
+        grid = cmn[2]
         N1 = grid.size + 1
-        fwd = (kb, B, u, eps, p_off, p_on, cfg.has_null, float(cfg.log_floor))
-        cmn = (kb, B, grid, edges, u, eps, p_off, p_on, cfg.has_null, q, 1.0 - q,
-               float(cfg.amb_rel), float(cfg.amb_abs))
-        tabs = _sm._viterbi_tables(kb, B, u, eps, p_off, p_on, cfg.has_null)
         lw_f = lw.copy()  # forward recursion: log predicted weights before the block
         delta, nd = np.empty(N1), np.empty(N1)  # Viterbi scores at the sample before it
         a_s, pr = np.empty(N1), np.empty(N1)
@@ -275,11 +272,9 @@ class Blocks:
                                   outs, posts, False)
                 sm = _sm._result(outs[off:off + b - a], None)
                 back = np.empty((m - off, N1), dtype=np.int32)
-                _sm._viterbi_range(gll, off, off + b - a, lw, delta, nd, back, B, cfg.has_null,
-                                   *tabs)
+                _sm._viterbi_range(gll, off, off + b - a, lw, delta, nd, back, *tabs)
                 carry = delta.copy()
-                _sm._viterbi_range(gll, off + b - a, m, lw, delta, nd, back[b - a:], B,
-                                   cfg.has_null, *tabs)
+                _sm._viterbi_range(gll, off + b - a, m, lw, delta, nd, back[b - a:], *tabs)
                 path = np.empty(m, dtype=np.int64)
                 k = 0
                 for j in range(N1):

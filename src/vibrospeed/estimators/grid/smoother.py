@@ -94,25 +94,70 @@ def _setup(config: Config):
     return lw, k.kb, int(k.B), k.grid, k.edges, u, eps, p_off, p_on, q
 
 
+def band_tables(kb: np.ndarray, B: int) -> tuple[np.ndarray, np.ndarray]:
+    """The band kernel by offset, grid index innermost, for loops that run over the grid.
+
+    ``kb[j, d]`` (N, W = 2B + 1) is ``K(i -> j)`` for the source ``i = j + d - B``. Returns
+    ``kf`` (W, N), ``kf[d, j] = K(j + d - B -> j)`` (the sources of target j in increasing
+    order: the forward sum), and ``kr`` (W, N), ``kr[d, i] = K(i -> i + d - B)`` (the targets of
+    source i in increasing order: the backward sum); 0 where that grid point does not exist.
+    With the vector padded by B zeros on each side, a sum over the band is then
+    ``s[j] += x[j + d] k[d, j]`` for d = 0..W-1: the terms of each point in the order of the
+    per-point loop (the added zeros change no bit), in a loop over j that compiles to SIMD."""
+    kb = np.asarray(kb, dtype=np.float64)
+    N, W = kb.shape
+    kf = np.zeros((W, N))
+    kr = np.zeros((W, N))
+    j = np.arange(N)
+    for d in range(W):
+        src = j + d - B  # forward: source of target j
+        ok = (src >= 0) & (src < N)
+        kf[d, ok] = kb[j[ok], d]
+        tgt = j + d - B  # backward: target of source j, K(j -> tgt) = kb[tgt, j - tgt + B]
+        ok = (tgt >= 0) & (tgt < N)
+        kr[d, ok] = kb[tgt[ok], 2 * B - d]
+    return kf, kr
+
+
+def _chain(config: Config) -> tuple:
+    """``(lw, fwd, common, viterbi)``: the prior log weights (N+1) and the argument tuples of
+    :func:`_forward_range`, :func:`_smooth_range` and :func:`_viterbi_range` after their
+    per-run arrays, built once per Config (kept with it)."""
+    got = config.__dict__.get("_smoother_chain")
+    if got is None:
+        lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
+        kf, kr = band_tables(kb, B)
+        has_null = bool(config.has_null)
+        fwd = (kf, B, u, eps, p_off, p_on, has_null, float(config.log_floor))
+        common = (kr, B, grid, edges, u, eps, p_off, p_on, has_null, q, 1.0 - q,
+                  float(config.amb_rel), float(config.amb_abs))
+        vit = (B, has_null, *_viterbi_tables(kb, B, u, eps, p_off, p_on, has_null))
+        got = config.__dict__["_smoother_chain"] = (lw, fwd, common, vit)
+    return got
+
+
 @njit(cache=True)
-def _predict(a, kb, B, u, eps, p_off, p_on, has_null, out):
-    """out = a T (one transition of the probability vector a (N+1,))."""
+def _predict(a, kf, B, u, eps, p_off, p_on, has_null, ap, s, out):
+    """out = a T (one transition of the probability vector a (N+1,)); ``ap`` (N + 2B) holds
+    zeros in its first and last B entries, ``s`` (N): scratch."""
     N = u.size
+    W = kf.shape[0]
     a0 = a[N] if has_null else 0.0
     rw = 1.0 - eps - p_off
     J = eps * (1.0 - a0) + p_on * a0
+    for i in range(N):
+        ap[B + i] = a[i]
+        s[i] = 0.0
+    for d in range(W):  # s[j] = sum_i a[i] K(i -> j), sources i = j + d - B in order
+        for j in range(N):
+            s[j] += ap[j + d] * kf[d, j]
     for j in range(N):
-        lo = max(0, j - B)
-        hi = min(N - 1, j + B)
-        s = 0.0
-        for i in range(lo, hi + 1):
-            s += a[i] * kb[j, i - j + B]
-        out[j] = rw * s + J * u[j]
+        out[j] = rw * s[j] + J * u[j]
     out[N] = p_off * (1.0 - a0) + (1.0 - p_on) * a0 if has_null else 0.0
 
 
 @njit(cache=True)
-def _forward_range(gll, t0, t1, lw, kb, B, u, eps, p_off, p_on, has_null, log_floor, alpha, a,
+def _forward_range(gll, t0, t1, lw, kf, B, u, eps, p_off, p_on, has_null, log_floor, alpha, a,
                    pr):
     """The forward recursion for t in [t0, t1): ``lw`` (N+1, the log predicted weights before
     t0) is advanced in place; filtered probabilities of t go to ``alpha[t - t0]`` (float32)
@@ -120,15 +165,19 @@ def _forward_range(gll, t0, t1, lw, kb, B, u, eps, p_off, p_on, has_null, log_fl
     N1 = gll.shape[1]
     N = N1 - 1
     keep = alpha.shape[0] > 0
+    ap = np.zeros(N + 2 * B)
+    s = np.empty(N)
     for t in range(t0, t1):
         mx = -np.inf
-        for j in range(N1):
-            if j == N and not has_null:
-                continue
+        for j in range(N):
             lw[j] += gll[t, j]
             if lw[j] > mx:
                 mx = lw[j]
-        s = 0.0
+        if has_null:
+            lw[N] += gll[t, N]
+            if lw[N] > mx:
+                mx = lw[N]
+        tot = 0.0
         for j in range(N1):
             if j == N and not has_null:
                 a[j] = 0.0
@@ -137,32 +186,36 @@ def _forward_range(gll, t0, t1, lw, kb, B, u, eps, p_off, p_on, has_null, log_fl
             if d < -log_floor:
                 d = -log_floor
             a[j] = np.exp(d)
-            s += a[j]
+            tot += a[j]
         for j in range(N1):
-            a[j] /= s
-            # stored as float32: floored at 1e-37 (the smallest normal float32 is 1.2e-38) so
-            # that alpha * beta cannot vanish on every state when strong evidence disagrees
-            if keep:
-                alpha[t - t0, j] = max(a[j], 1e-37) if (j < N or has_null) else 0.0
-        _predict(a, kb, B, u, eps, p_off, p_on, has_null, pr)
+            a[j] /= tot
+        # stored as float32: floored at 1e-37 (the smallest normal float32 is 1.2e-38) so
+        # that alpha * beta cannot vanish on every state when strong evidence disagrees
+        if keep:
+            for j in range(N):
+                alpha[t - t0, j] = max(a[j], 1e-37)
+            alpha[t - t0, N] = max(a[N], 1e-37) if has_null else 0.0
+        _predict(a, kf, B, u, eps, p_off, p_on, has_null, ap, s, pr)
         for j in range(N1):
             lw[j] = np.log(pr[j]) if pr[j] > 0.0 else -np.inf
 
 
 @njit(cache=True)
-def _forward(gll, lw_init, kb, B, u, eps, p_off, p_on, has_null, log_floor):
+def _forward(gll, lw_init, kf, B, u, eps, p_off, p_on, has_null, log_floor):
     """Filtered probabilities alpha (n, N+1) float32, exactly the RBPMF's weight recursion."""
     n_s, N1 = gll.shape
     alpha = np.empty((n_s, N1), dtype=np.float32)
-    _forward_range(gll, 0, n_s, lw_init.copy(), kb, B, u, eps, p_off, p_on, has_null,
+    _forward_range(gll, 0, n_s, lw_init.copy(), kf, B, u, eps, p_off, p_on, has_null,
                    log_floor, alpha, np.empty(N1), np.empty(N1))
     return alpha
 
 
 @njit(cache=True)
-def _backstep(beta, gll_next, kb, B, u, eps, p_off, p_on, has_null, e, out):
-    """out(i) = sum_j T(i -> j) l_{t+1}(j) beta_{t+1}(j), normalised to max 1."""
+def _backstep(beta, gll_next, kr, B, u, eps, p_off, p_on, has_null, e, ep, s, out):
+    """out(i) = sum_j T(i -> j) l_{t+1}(j) beta_{t+1}(j), normalised to max 1. ``ep``
+    (N + 2B) holds zeros in its first and last B entries, ``e`` (N+1), ``s`` (N): scratch."""
     N = u.size
+    W = kr.shape[0]
     mx = -np.inf
     for j in range(N + 1):
         if (j < N or has_null) and gll_next[j] > mx:
@@ -173,14 +226,17 @@ def _backstep(beta, gll_next, kb, B, u, eps, p_off, p_on, has_null, e, out):
         ue += u[j] * e[j]
     e[N] = np.exp(gll_next[N] - mx) * beta[N] if has_null else 0.0
     rw = 1.0 - eps - p_off
+    for j in range(N):
+        ep[B + j] = e[j]
+        s[j] = 0.0
+    for d in range(W):  # s[i] = sum_j K(i -> j) e[j], targets j = i + d - B in order
+        for i in range(N):
+            s[i] += kr[d, i] * ep[i + d]
+    jump = eps * ue
+    off = p_off * e[N]
     top = 0.0
     for i in range(N):
-        lo = max(0, i - B)
-        hi = min(N - 1, i + B)
-        s = 0.0
-        for j in range(lo, hi + 1):
-            s += kb[j, i - j + B] * e[j]
-        out[i] = rw * s + eps * ue + p_off * e[N]
+        out[i] = rw * s[i] + jump + off
         if out[i] > top:
             top = out[i]
     out[N] = (1.0 - p_on) * e[N] + p_on * ue if has_null else 0.0
@@ -216,20 +272,22 @@ def _emit(alpha_t, beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, row
 
 
 @njit(cache=True)
-def _smooth_range(alpha, a0, gll, t_end, t_lo, t_hi, beta, kb, B, grid, edges, u, eps, p_off,
+def _smooth_range(alpha, a0, gll, t_end, t_lo, t_hi, beta, kr, B, grid, edges, u, eps, p_off,
                   p_on, has_null, q_lo, q_hi, amb_rel, amb_abs, outs, posts, want_post):
     """Backward from t_end down to t_lo, ``beta`` (N+1) holding beta_{t_end} on entry and
     beta_{t_lo} on exit; outputs for t in [t_lo, t_hi) from ``alpha[t - a0]``."""
     N = grid.size
     nb = np.empty(N + 1)
     e = np.empty(N + 1)
+    ep = np.zeros(N + 2 * B)
+    s = np.empty(N)
     g = np.empty(N + 1)
     v = np.empty(N)
     empty = np.empty(0, dtype=np.float32)
     cur = np.full(1, -1, np.int64)
     for t in range(t_end, t_lo - 1, -1):
         if t < t_end:
-            _backstep(beta, gll[t + 1], kb, B, u, eps, p_off, p_on, has_null, e, nb)
+            _backstep(beta, gll[t + 1], kr, B, u, eps, p_off, p_on, has_null, e, ep, s, nb)
             for j in range(N + 1):
                 beta[j] = nb[j]
         if t < t_hi:
@@ -260,22 +318,19 @@ def _emissions(gll: np.ndarray, N: int) -> np.ndarray:
 
 
 def _prep(config, gll, return_posterior):
-    lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
-    gll = _emissions(gll, grid.size)
+    lw, fwd, common, _ = _chain(config)
+    N = common[2].size
+    gll = _emissions(gll, N)
     n = gll.shape[0]
     outs = np.zeros((n, N_OUT_FIXED))
-    posts = np.zeros((n if return_posterior else 1, grid.size), dtype=np.float32)
-    fwd = (kb, B, u, eps, p_off, p_on, config.has_null, float(config.log_floor))
-    common = (kb, B, grid, edges, u, eps, p_off, p_on, config.has_null, q, 1.0 - q,
-              float(config.amb_rel), float(config.amb_abs))
-    return lw, gll, outs, posts, fwd, common
+    posts = np.zeros((n if return_posterior else 1, N), dtype=np.float32)
+    return lw.copy(), gll, outs, posts, fwd, common
 
 
 def filtered(config: Config, grid_loglik: np.ndarray) -> np.ndarray:
     """(n, N+1) filtered probabilities recomputed from the emissions (the RBPMF's weights)."""
-    lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
-    return _forward(_emissions(grid_loglik, grid.size), lw, kb, B, u, eps, p_off, p_on,
-                    config.has_null, float(config.log_floor))
+    lw, fwd, common, _ = _chain(config)
+    return _forward(_emissions(grid_loglik, common[2].size), lw, *fwd)
 
 
 #: Samples between the forward states the smoother keeps (:func:`smooth`).
@@ -348,18 +403,19 @@ def fixed_lag(config: Config, grid_loglik: np.ndarray, *, lag: float = 2.0,
 
 @njit(cache=True)
 def _viterbi_tables(kb, B, u, eps, p_off, p_on, has_null):
-    """Log transition terms: ``lt`` (N, W) for targets j from sources in the band (indexed
-    like kb), jump-in ``lju``, "none -> line" ``lon``, ``loff``, ``lstay0``."""
+    """Log transition terms: ``lt`` (W, N), ``lt[d, j]`` for the target j from the source
+    ``j + d - B`` in the band (-inf where it is off the grid), jump-in ``lju``, "none -> line"
+    ``lon``, ``loff``, ``lstay0``."""
     N = u.size
     rw = 1.0 - eps - p_off
     W = kb.shape[1]
-    lt = np.full((N, W), -np.inf)
+    lt = np.full((W, N), -np.inf)
     for j in range(N):
         for d in range(W):
             val = rw * kb[j, d] + eps * u[j]
             i = j + d - B
             if 0 <= i < N and val > 0.0:
-                lt[j, d] = np.log(val)
+                lt[d, j] = np.log(val)
     lju = np.full(N, -np.inf)
     lon = np.full(N, -np.inf)
     for j in range(N):
@@ -377,9 +433,18 @@ def _viterbi_range(gll, t0, t1, lw_init, delta, nd, back, B, has_null, lt, lju, 
                    lstay0):
     """The Viterbi recursion for t in [t0, t1): ``delta`` (N+1) holds delta_{t0-1} on entry
     (ignored when t0 = 0: the start from ``lw_init``) and delta_{t1-1} on exit; the back
-    pointers of t go to ``back[t - t0]``."""
+    pointers of t go to ``back[t - t0]``.
+
+    Per target j the best source is the first maximum over the band's sources in increasing
+    order, then the jump from the best point, then "no line"; the band is scanned offset by
+    offset over all j at once (scores padded with B -inf on each side), the same comparisons
+    in the same order per j."""
     N1 = gll.shape[1]
     N = N1 - 1
+    W = lt.shape[0]
+    dp = np.full(N + 2 * B, -np.inf)
+    bv = np.empty(N)
+    bi = np.empty(N, dtype=np.int32)
     start = t0
     if t0 == 0:
         for j in range(N1):
@@ -391,30 +456,35 @@ def _viterbi_range(gll, t0, t1, lw_init, delta, nd, back, B, has_null, lt, lju, 
         for i in range(N):
             if delta[i] > delta[best]:
                 best = i
+        for i in range(N):
+            dp[B + i] = delta[i]
+            bv[i] = -np.inf
+            bi[i] = i
+        for d in range(W):  # source i = j + d - B
+            for j in range(N):
+                val = dp[j + d] + lt[d, j]
+                if val > bv[j]:
+                    bv[j] = val
+                    bi[j] = j + d - B
+        db = delta[best]
+        dn = delta[N]
         for j in range(N):
-            lo = max(0, j - B)
-            hi = min(N - 1, j + B)
-            bv = -np.inf
-            bi = j
-            for i in range(lo, hi + 1):
-                val = delta[i] + lt[j, i - j + B]
-                if val > bv:
-                    bv = val
-                    bi = i
-            val = delta[best] + lju[j]
-            if val > bv:
-                bv = val
-                bi = best
-            if has_null:
-                val = delta[N] + lon[j]
-                if val > bv:
-                    bv = val
-                    bi = N
-            nd[j] = bv + gll[t, j]
-            back[t - t0, j] = bi
+            val = db + lju[j]
+            if val > bv[j]:
+                bv[j] = val
+                bi[j] = best
         if has_null:
-            a = delta[N] + lstay0
-            b = delta[best] + loff
+            for j in range(N):
+                val = dn + lon[j]
+                if val > bv[j]:
+                    bv[j] = val
+                    bi[j] = N
+        for j in range(N):
+            nd[j] = bv[j] + gll[t, j]
+            back[t - t0, j] = bi[j]
+        if has_null:
+            a = dn + lstay0
+            b = db + loff
             if a >= b:
                 nd[N] = a + gll[t, N]
                 back[t - t0, N] = N
@@ -443,10 +513,10 @@ def viterbi(config: Config, grid_loglik: np.ndarray, *,
     ``checkpoint`` samples; the traceback, from the last segment to the first, recomputes each
     segment's back pointers from its checkpoint (bitwise the whole-log result,
     ``checkpoint=None``): back pointers for one segment instead of (n, N+1) int32."""
-    lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
+    lw, _, common, tabs = _chain(config)
+    grid = common[2]
     gll = _emissions(grid_loglik, grid.size)
     n, N1 = gll.shape
-    tabs = _viterbi_tables(kb, B, u, eps, p_off, p_on, config.has_null)
     K = n if checkpoint is None else int(checkpoint)
     if K < 1:
         raise ValueError(f"checkpoint must be at least 1 sample, got {checkpoint}")
@@ -457,7 +527,7 @@ def viterbi(config: Config, grid_loglik: np.ndarray, *,
     back = np.empty((K, N1), dtype=np.int32)
     for s, t0 in enumerate(starts):  # forward: delta before each segment
         states[s] = delta
-        _viterbi_range(gll, t0, min(t0 + K, n), lw, delta, nd, back, B, config.has_null, *tabs)
+        _viterbi_range(gll, t0, min(t0 + K, n), lw, delta, nd, back, *tabs)
     path = np.empty(n, dtype=np.int64)
     k = 0
     for j in range(N1):
@@ -470,7 +540,7 @@ def viterbi(config: Config, grid_loglik: np.ndarray, *,
         t1 = min(t0 + K, n)
         if starts.size > 1:  # one segment: its back pointers are still there
             delta[:] = states[s]
-            _viterbi_range(gll, t0, t1, lw, delta, nd, back, B, config.has_null, *tabs)
+            _viterbi_range(gll, t0, t1, lw, delta, nd, back, *tabs)
         _trace(back, t0, t1, path)
     om = np.where(path < grid.size, grid[np.minimum(path, grid.size - 1)], np.nan)
     return Path(path, om, lj)

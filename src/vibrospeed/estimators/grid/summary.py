@@ -38,13 +38,36 @@ def _quantile(w, edges, q):
 
 
 @njit(cache=True)
+def _near(grid, x, hw):
+    """``(a, b)``: the grid points with ``|grid_j - x| <= hw`` are ``a <= j < b`` (``grid``
+    increasing: ``|grid_j - x|`` rounds monotonically on each side of x, so they are
+    contiguous); found by bisection for x and a walk out over the window, the same test
+    per point as a scan of the whole grid."""
+    N = grid.size
+    lo = 0
+    hi = N
+    while lo < hi:  # first point >= x
+        mid = (lo + hi) // 2
+        if grid[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    a = lo
+    while a > 0 and abs(grid[a - 1] - x) <= hw:
+        a -= 1
+    b = lo
+    while b < N and abs(grid[b] - x) <= hw:
+        b += 1
+    return a, b
+
+
+@njit(cache=True)
 def _mass_near(w, grid, x, rel, ab):
-    """Mass of ``w`` on grid points within max(ab, rel x) of x."""
-    hw = max(ab, rel * x)
+    """Mass of ``w`` on grid points within max(ab, rel x) of x (summed in grid order)."""
+    a, b = _near(grid, x, max(ab, rel * x))
     s = 0.0
-    for j in range(grid.size):
-        if abs(grid[j] - x) <= hw:
-            s += w[j]
+    for j in range(a, b):
+        s += w[j]
     return s
 
 
@@ -101,8 +124,9 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, 
         c = cur[0]
         hwc = max(amb_abs, amb_rel * grid[c])
         jc = c
-        for j in range(N):
-            if abs(grid[j] - grid[c]) <= hwc and v[j] > v[jc]:
+        a, b = _near(grid, grid[c], hwc)
+        for j in range(a, b):
+            if v[j] > v[jc]:
                 jc = j
         if not v[jb] > hold * v[jc]:
             jb = jc
@@ -110,10 +134,10 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, 
     hw = max(amb_abs, amb_rel * grid[jb])
     sb = 0.0
     mb = 0.0
-    for j in range(N):
-        if abs(grid[j] - grid[jb]) <= hw:
-            sb += w[j]
-            mb += w[j] * grid[j]
+    a, b = _near(grid, grid[jb], hw)
+    for j in range(a, b):
+        sb += w[j]
+        mb += w[j] * grid[j]
     out[COL_MODE] = mb / sb if sb > 0.0 else grid[jb]
     # its basin: the windows reached from jb by non-increasing window mass; p_mode is the
     # signal mass they cover (1e-12: the running sums' rounding, so a flat posterior is one
@@ -129,13 +153,17 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, 
         b += 1
     x_lo = grid[a] - max(amb_abs, amb_rel * grid[a])
     x_hi = grid[b] + max(amb_abs, amb_rel * grid[b])
+    # the grid points in [x_lo, x_hi]: from a (x_lo <= grid[a]) out to both sides
+    while a > 0 and grid[a - 1] >= x_lo:
+        a -= 1
+    while b < N - 1 and grid[b + 1] <= x_hi:
+        b += 1
     sb = 0.0
     ss = 0.0
-    for j in range(N):
-        if grid[j] >= x_lo and grid[j] <= x_hi:
-            sb += w[j]
-            d = grid[j] - mode
-            ss += w[j] * d * d
+    for j in range(a, b + 1):
+        sb += w[j]
+        d = grid[j] - mode
+        ss += w[j] * d * d
     sig = 1.0 - w0
     out[COL_P_MODE] = min(1.0, sb / sig) if sig > 1e-300 else 1.0
     out[COL_MODE_STD] = np.sqrt(ss / sb) if sb > 0.0 else 0.0
