@@ -335,20 +335,27 @@ def filtered(config: Config, grid_loglik: np.ndarray) -> np.ndarray:
 
 #: Samples between the forward states the smoother keeps (:func:`smooth`).
 CHECKPOINT = 4096
+#: Bytes of filtered probabilities (float32) that :func:`smooth`'s first forward pass keeps
+#: for the last segments, so that the backward pass does not compute those again: 64 MiB,
+#: about 83 000 samples at N = 200 (the whole of a 10 min log at 100 Hz; a block of the
+#: streaming path keeps its 600 s the same way).
+KEEP_BYTES = 64 * 2**20
 
 
 def smooth(config: Config, grid_loglik: np.ndarray, *, return_posterior: bool = False,
-           checkpoint: int | None = CHECKPOINT) -> Smoothed:
+           checkpoint: int | None = CHECKPOINT, keep: int | None = None) -> Smoothed:
     """Forward-backward marginals ``p(omega_t | y_1..T)`` for the whole log.
 
     ``grid_loglik`` : (n, N+1) from ``rbpmf.run(config, y, return_grid_loglik=True)``.
 
     Checkpointed: the forward pass keeps its state (N+1 log weights) every ``checkpoint``
-    samples only; the backward pass, from the last segment to the first, recomputes each
-    segment's filtered probabilities from its checkpoint (the same operations, so the result
-    is bitwise that of the whole-log pass, ``checkpoint=None``). Memory for alpha: one segment
-    (``checkpoint`` x (N+1) float32) instead of the whole log; time: the forward pass twice
-    (it is a small part of the filter's cost).
+    samples, and the filtered probabilities of the last segments that fit in ``keep`` samples
+    (default :data:`KEEP_BYTES` of float32); the backward pass, from the last segment to the
+    first, recomputes the other segments' filtered probabilities from their checkpoints (the
+    same operations, so the result is bitwise that of the whole-log pass,
+    ``checkpoint=None``). Memory for alpha: ``keep`` rows and one segment (``checkpoint`` x
+    (N+1) float32) instead of the whole log; time: the forward pass once over the kept
+    samples, twice over the rest.
     """
     lw, gll, outs, posts, fwd, c = _prep(config, grid_loglik, return_posterior)
     n, N1 = gll.shape
@@ -361,16 +368,27 @@ def smooth(config: Config, grid_loglik: np.ndarray, *, return_posterior: bool = 
     K = int(checkpoint)
     if K < 1:
         raise ValueError(f"checkpoint must be at least 1 sample, got {checkpoint}")
+    R = KEEP_BYTES // (4 * N1) if keep is None else max(0, int(keep))
     starts = np.arange(0, n, K)
-    states = np.empty((starts.size, N1))
+    # the segments from s_keep on fit in R rows: their alpha is kept from the first pass
+    s_keep = starts.size
+    while s_keep > 0 and n - starts[s_keep - 1] <= R:
+        s_keep -= 1
+    t_keep = int(starts[s_keep]) if s_keep < starts.size else n
+    tail = np.empty((n - t_keep, N1), dtype=np.float32)
+    states = np.empty((s_keep, N1))
     a, pr = np.empty(N1), np.empty(N1)
     none = np.empty((0, N1), dtype=np.float32)
     lw = lw.copy()
-    for s, t0 in enumerate(starts):  # forward: the state before each segment
+    for s in range(s_keep):  # forward: the state before each segment
+        t0 = int(starts[s])
         states[s] = lw
         _forward_range(gll, t0, min(t0 + K, n), lw, *fwd, none, a, pr)
-    alpha = np.empty((K, N1), dtype=np.float32)
-    for s in range(starts.size - 1, -1, -1):  # backward, segment by segment
+    if t_keep < n:
+        _forward_range(gll, t_keep, n, lw, *fwd, tail, a, pr)
+        _smooth_range(tail, t_keep, gll, n - 1, t_keep, n, beta, *c, outs, posts, want)
+    alpha = np.empty((min(K, n), N1), dtype=np.float32)
+    for s in range(s_keep - 1, -1, -1):  # backward, segment by segment
         t0 = int(starts[s])
         t1 = min(t0 + K, n)
         lw = states[s].copy()
