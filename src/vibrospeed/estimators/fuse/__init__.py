@@ -55,7 +55,12 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    standstill (an idling engine) would otherwise teach ``r = v / omega = 0``; nor a hypothesis
    whose radius cannot be physical for any speed within 3 sigma:
    ``(v + 3 sqrt(P_vv)) / (k omega) < radius_min`` or ``(v - 3 sqrt(P_vv)) / (k omega) >
-   radius_max`` (an engine line while the vehicle starts to roll).
+   radius_max`` (an engine line while the vehicle starts to roll). Once r is known, only the
+   octave whose speed lies within a factor sqrt 2 of the filter's is a hypothesis,
+   ``|log2(k r omega / v)| <= 1/2`` (one of the three at most; ``v <= 0``: none): a line that
+   jumped an octave against the prediction (a causal tracker on the 2nd harmonic in a hard
+   braking, let in at k = 1 by the lag variance) is read at the octave it jumped to, and no
+   update moves the speed by a factor 2.
 
    The speed prior decides the octave: the GPS speed, away from GPS the filter's own speed
    (with the decisive gate above), and while r is not yet known within ``octave_rel`` the
@@ -87,12 +92,18 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    directly, the gap ``d = r omega - v`` between the line's speed (k = 1, the octave that
    taught r) and the filter's is followed; if it has stayed within ``acq_rel r omega`` of its
    running mean for ``vib_relock`` s (the line moves as the accelerometer says the speed
-   does) and either ``|d| <= 3 sqrt(P_vv)`` or the line's speed has changed by ``acq_change``
+   does) and either ``|d| <= 3 sqrt(P_vv)`` with ``r omega`` within a factor sqrt 2 of ``v``,
+   or the line's speed has changed by ``acq_change``
    of itself in that run, the filter, not the line, has drifted: ``P_vv`` is increased by
-   ``d^2`` and the line is taken. "Moved with the speed" also asks that the mean gap has
-   changed by less than 0.4 of the line's change since the run began: a line at another
-   octave of the one that taught r (``v = c r omega``, c = 2 or 1/2) changes the gap by
-   ``|1 - c| >= 1/2`` of its own change, which a running mean alone would follow. A constant
+   ``d^2`` and the line is taken. A band that holds the line's speed and one of its octaves
+   (``r omega / 2``, ``2 r omega``) cannot tell which octave the line is, and the tracker may
+   have left the one that taught r (r learned on half the wheel's frequency, the wheel's own
+   line in the outage): a line nearer an octave of ``v`` than ``v`` itself is not taken
+   inside the band, only once it has moved with the speed. "Moved with the speed" also asks
+   that the mean gap has changed by less than 0.4 of the line's change since the run began:
+   a line at another octave of the one that taught r (``v = c r omega``, c = 2 or 1/2)
+   changes the gap by ``|1 - c| >= 1/2`` of its own change, which a running mean alone
+   would follow. A constant
    line far outside the band (an idling engine at a stop in a tunnel) is not taken until it
    moves with the speed. A line the tracker holds at a line probability of ``vib_soft`` or
    more without claiming it (the ``soft`` input) joins only the re-lock run, away from GPS

@@ -121,6 +121,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             k = 1.0 if j == 0 else (0.5 if j == 1 else 2.0)
             if (x[IV] + sv3) < p[21] * k * om or (x[IV] - sv3) > p[22] * k * om:
                 continue  # no physical radius explains this line at this speed
+            if known and not (x[IV] > 0.0 and abs(math.log2(k * x[IR] * om / x[IV])) <= 0.5):
+                continue  # nearer another octave of the filter's speed than this one
             hr = -k * om
             nu = -(x[IV] + hr * x[IR])
             s = (P[IV, IV] + 2.0 * hr * P[IV, IR] + hr * hr * P[IR, IR]
@@ -156,7 +158,11 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 # that drifts with the speed)
                 du = abs(u - sc[11])
                 moved = du >= p[27] * u and abs(sc[10] - sc[12]) <= 0.4 * du
-                if t - sc[6] >= p[20] and (moved or abs(d) <= sv3):
+                # inside the band only a line within a factor sqrt 2 of the filter's speed:
+                # nearer another octave of it (2 u, u / 2), a band that wide cannot tell
+                # which octave the line is, and a re-lock never moves the speed by a factor 2
+                inside = abs(d) <= sv3 and x[IV] > 0.0 and abs(math.log2(u / x[IV])) <= 0.5
+                if t - sc[6] >= p[20] and (moved or inside):
                     # an unclaimed line widens the band to its gap (one sigma), a claimed
                     # one by its gap; Pp gets the same, the process noise of this step for
                     # the smoother
