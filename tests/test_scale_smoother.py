@@ -156,3 +156,13 @@ def test_window_sums_over_index_ranges_equal_the_scan():
             a, b = summary._near(grid, x, max(ab, rel * x))
             inside = np.flatnonzero(np.abs(grid - x) <= max(ab, rel * x))
             np.testing.assert_array_equal(np.arange(a, b), inside)
+
+
+@pytest.mark.parametrize("keep", [0, 1, 250, 299, 300, 450, 899, 900, None])
+def test_viterbi_kept_tail_equals_whole_log(keep):
+    cfg, gll = _emissions()
+    whole = gs.viterbi(cfg, gll, checkpoint=None)
+    part = gs.viterbi(cfg, gll, checkpoint=150, keep=keep)
+    np.testing.assert_array_equal(part.state, whole.state)
+    np.testing.assert_array_equal(part.omega, whole.omega)
+    assert part.log_joint == whole.log_joint

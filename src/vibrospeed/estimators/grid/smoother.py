@@ -343,9 +343,10 @@ def filtered(config: Config, grid_loglik: np.ndarray) -> np.ndarray:
 #: Samples between the forward states the smoother keeps (:func:`smooth`).
 CHECKPOINT = 4096
 #: Bytes of filtered probabilities (float32) that :func:`smooth`'s first forward pass keeps
-#: for the last segments, so that the backward pass does not compute those again: 64 MiB,
-#: about 83 000 samples at N = 200 (the whole of a 10 min log at 100 Hz; a block of the
-#: streaming path keeps its 600 s the same way).
+#: for the last segments, so that the backward pass does not compute those again, and of
+#: back pointers (int32) that :func:`viterbi`'s keeps for its traceback: 64 MiB each (one at
+#: a time), about 83 000 samples at N = 200 (the whole of a 10 min log at 100 Hz; a block of
+#: the streaming path keeps its 600 s the same way).
 KEEP_BYTES = 64 * 2**20
 
 
@@ -531,13 +532,15 @@ def _trace(back, t0, t1, path):
 
 
 def viterbi(config: Config, grid_loglik: np.ndarray, *,
-            checkpoint: int | None = CHECKPOINT) -> Path:
+            checkpoint: int | None = CHECKPOINT, keep: int | None = None) -> Path:
     """Most probable state sequence of the grid chain (Viterbi, log domain, O(n N B)).
 
     Checkpointed like :func:`smooth`: the recursion's state (N+1 log scores) is kept every
-    ``checkpoint`` samples; the traceback, from the last segment to the first, recomputes each
-    segment's back pointers from its checkpoint (bitwise the whole-log result,
-    ``checkpoint=None``): back pointers for one segment instead of (n, N+1) int32."""
+    ``checkpoint`` samples, and the back pointers of the last segments that fit in ``keep``
+    samples (default :data:`KEEP_BYTES` of int32); the traceback, from the last segment to
+    the first, recomputes the other segments' back pointers from their checkpoints (bitwise
+    the whole-log result, ``checkpoint=None``): back pointers for ``keep`` samples and one
+    segment instead of (n, N+1) int32."""
     lw, _, common, tabs = _chain(config)
     grid = common[2]
     gll = _emissions(grid_loglik, grid.size)
@@ -546,13 +549,25 @@ def viterbi(config: Config, grid_loglik: np.ndarray, *,
     if K < 1:
         raise ValueError(f"checkpoint must be at least 1 sample, got {checkpoint}")
     K = min(K, n)
+    if checkpoint is None:
+        R = n
+    else:
+        R = KEEP_BYTES // (4 * N1) if keep is None else max(0, int(keep))
     starts = np.arange(0, n, K)
-    states = np.empty((starts.size, N1))
+    s_keep = starts.size  # the segments from s_keep on keep their back pointers
+    while s_keep > 0 and n - starts[s_keep - 1] <= R:
+        s_keep -= 1
+    t_keep = int(starts[s_keep]) if s_keep < starts.size else n
+    states = np.empty((s_keep, N1))
     delta, nd = np.empty(N1), np.empty(N1)
-    back = np.empty((K, N1), dtype=np.int32)
-    for s, t0 in enumerate(starts):  # forward: delta before each segment
+    back = np.empty((K if s_keep else 0, N1), dtype=np.int32)
+    tail = np.empty((n - t_keep, N1), dtype=np.int32)
+    for s in range(s_keep):  # forward: delta before each segment
+        t0 = int(starts[s])
         states[s] = delta
         _viterbi_range(gll, t0, min(t0 + K, n), lw, delta, nd, back, *tabs)
+    if t_keep < n:
+        _viterbi_range(gll, t_keep, n, lw, delta, nd, tail, *tabs)
     path = np.empty(n, dtype=np.int64)
     k = 0
     for j in range(N1):
@@ -560,12 +575,13 @@ def viterbi(config: Config, grid_loglik: np.ndarray, *,
             k = j
     lj = float(delta[k])
     path[n - 1] = k
-    for s in range(starts.size - 1, -1, -1):  # traceback, segment by segment
+    if t_keep < n:
+        _trace(tail, t_keep, n, path)
+    for s in range(s_keep - 1, -1, -1):  # traceback, segment by segment
         t0 = int(starts[s])
         t1 = min(t0 + K, n)
-        if starts.size > 1:  # one segment: its back pointers are still there
-            delta[:] = states[s]
-            _viterbi_range(gll, t0, t1, lw, delta, nd, back, *tabs)
+        delta[:] = states[s]
+        _viterbi_range(gll, t0, t1, lw, delta, nd, back, *tabs)
         _trace(back, t0, t1, path)
     om = np.where(path < grid.size, grid[np.minimum(path, grid.size - 1)], np.nan)
     return Path(path, om, lj)
