@@ -258,6 +258,31 @@ def test_claim_level_per_smoothing_mode():
                                       p_line[moving] >= level)
 
 
+def test_default_walk_in_proportion_to_the_range():
+    """q_omega defaults to 16 omega_max / 120 (rad/s)^2/s: the car's 10-120 rad/s keeps the
+    paper's 16, a cart's 2-30 gets 4, a kart's 20-300 40; a given q_omega (or a preset's) is
+    kept; the aided tracker on the grid uses the grid product's walk for its range."""
+    from vibrospeed.estimators import aided
+
+    t = np.arange(0, 6, 0.005)
+    rec = Recording(t, {"ay": np.sin(20 * t), "ax": 0.1 * np.cos(3 * t), "az": 0 * t})
+    rec.wheel_radius = 0.2
+
+    def q(params):
+        return grid.config_for(rec, params=params).tracker.model.q_omega
+
+    assert q({}) == 16.0
+    assert q({"omega_min": 2, "omega_max": 30}) == 4.0
+    assert q({"omega_min": 20, "omega_max": "300"}) == 40.0
+    assert q({"omega_min": 2, "omega_max": 30, "q_omega": 9}) == 9.0
+    assert grid.q_omega_for(120.0) == 16.0
+    cart = {"omega_min": 2.0, "omega_max": 30.0, "n_grid": 40}
+    a = aided.estimate(rec, wheel_radius=0.2, params={**cart, "tracker": "grid"})
+    assert a.params["q_omega"] == 4.0
+    g = grid.estimate(rec, params=dict(cart))
+    assert g.params["q_omega"] == 4.0
+
+
 def test_mixture_null_gets_no_time_domain_evidence():
     """null_model="mixture": the "no line" state's emission is the signal part's predictive
     mixture, so without extra evidence p_null follows the two-state switching chain alone

@@ -146,7 +146,8 @@ PARAMETERS: dict[str, dict[str, Parameter]] = {
         "comb_axes": Parameter("all", "axes read by the comb evidence: all, or e.g. x,y,z "
                                "(tracking stays on --axis)"),
         "M": Parameter("2", "harmonics of the wheel frequency in the model"),
-        "q_omega": Parameter("8", "(rad/s)^2/s, how fast omega may wander (acceleration)"),
+        "q_omega": Parameter("8", "(rad/s)^2/s, how fast omega may wander (acceleration); "
+                             "default 16 omega_max / 120: 16 on 10-120, 4 on 2-30"),
         "prefilter": Parameter("whiten", "pre-filter: whiten (default), thesis-hp, paper-hp, "
                                "range, none"),
         "fit": Parameter("q_omega,r", "noise parameters fitted to the recording by marginal "

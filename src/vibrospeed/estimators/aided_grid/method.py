@@ -23,7 +23,7 @@ from vibrospeed.estimators.aiding import (
     standstill_flags,
     standstill_offset,
 )
-from vibrospeed.estimators.grid.method import CLAIM_LEVEL, GRID_DEFAULTS
+from vibrospeed.estimators.grid.method import CLAIM_LEVEL, GRID_DEFAULTS, q_omega_for
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Track
 
@@ -34,10 +34,10 @@ INPUT_PARAMS = ("accel_axis", "lp_cutoff", "reference", "wheelbase", "accel_detr
 #: ``tracker=grid``: the grid product's tracker and model settings
 #: (:data:`vibrospeed.estimators.grid.method.GRID_DEFAULTS`: jumps, "no line" state with the
 #: mixture null model, likelihood tempered to 0.2 per 10 ms, whitening pre-filter, running-RMS
-#: scaling, mode estimate; r, q_amp, q_omega of the product) plus its comb evidence
-#: (:class:`vibrospeed.estimators.grid.Config` defaults); the aiding: broadband standstill
+#: scaling, mode estimate; r, q_amp of the product, its q_omega for the range) plus its comb
+#: evidence (:class:`vibrospeed.estimators.grid.Config` defaults); the aiding: broadband standstill
 #: flags, continuous aiding, a_x from the mount estimate (:mod:`vibrospeed.signal.mount`).
-GRID_TRACKER = {**{k: v for k, v in GRID_DEFAULTS.items() if k != "smooth"},
+GRID_TRACKER = {**{k: v for k, v in GRID_DEFAULTS.items() if k not in ("smooth", "q_omega")},
                 "scaling": "rms", "standstill": "broadband", "aiding": "continuous",
                 "accel_axis": "mount"}
 #: comb-evidence parameters accepted by :func:`estimate` (grid.Config fields)
@@ -135,6 +135,8 @@ def estimate(
     dt = check_uniform(recording)
     if kind == "grid":
         params = {**GRID_TRACKER, **params}
+        # the grid product's walk for this range (grid.method.q_omega_for)
+        params.setdefault("q_omega", q_omega_for(float(params.get("omega_max", 120.0))))
     inp = {k: params.pop(k) for k in INPUT_PARAMS if k in params}
     comb_kw = {k: params.pop(k) for k in COMB_PARAMS if k in params}
     if comb_kw and kind != "grid":

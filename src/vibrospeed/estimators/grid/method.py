@@ -40,7 +40,8 @@ AXES_EXPONENT = 0.834
 #: tracker settings of the product on top of the paper's Config (benchmarks/beyond/RESULTS.md,
 #: "grid"):
 #: jumps 0.05/s, "no line" in 0.01/s out 0.5/s, noise from the marginal-likelihood fits
-#: (r 0.15, q_amp 0.002; q_omega 16 (rad/s)^2/s follows car accelerations of ~8 rad/s^2),
+#: (r 0.15, q_amp 0.002; q_omega 16 (rad/s)^2/s follows car accelerations of ~8 rad/s^2 on
+#: a car's 10-120 rad/s range; for other ranges see :func:`q_omega_for`),
 #: likelihood tempered to 0.2 per 0.01 s of data (``temper_fs`` 100 Hz: 0.05 per sample at
 #: 400 Hz, so the time-domain evidence per second does not grow with the sample rate; the
 #: time-domain model, which must explain a vehicle's body motion and resonances with
@@ -64,6 +65,28 @@ GRID_DEFAULTS = {
     "q_omega": 16.0, "temper": 0.2, "temper_fs": 100.0, "prefilter": "whiten",
     "smooth": "fb", "null_model": "mixture", "point": "mode", "kernel_var": "matched",
 }
+
+#: ``(q_omega, omega_max)`` of the reference range: the default walk is ``q_omega`` times
+#: ``omega_max / 120 rad/s`` (:func:`q_omega_for`)
+Q_OMEGA_REF = (16.0, 120.0)
+
+
+def q_omega_for(omega_max: float) -> float:
+    """(rad/s)^2/s, the default omega walk for a search range up to ``omega_max`` rad/s:
+    ``q = 16 omega_max / 120``, in proportion to the range (a car's 10-120 rad/s: 16; a
+    cart's or forklift's 2-30: 4; a kart's 20-300: 40).
+
+    Why: the walk sets how far omega may move per second against the evidence, and what it
+    must not do is hop between a wheel's harmonics, which lie ``omega`` apart. A range a
+    user gives scales with the speeds the wheel reaches, so a walk in proportion to it keeps
+    the same agility relative to the lines: a fixed 16 lets a slow cart's estimate wander
+    across its closely spaced harmonics, and holds a kart's fast wheel back in its corners.
+    Measured on the randomised family (carts and forklifts: 4 against 16 and 8) and on the
+    GoPro kart (40 against 16): benchmarks/robustness/RESULTS.md, "levers measured in stop
+    25"."""
+    q_ref, om_ref = Q_OMEGA_REF
+    return q_ref * (float(omega_max) / om_ref)
+
 
 #: ``claim_level`` per ``smooth``: the line probability at which each claims a line
 #: (``has_signal``), chosen so that every mode's claims are within tolerance about 90 % of the
@@ -370,6 +393,8 @@ def _prepare(recording: Recording, axis: str, params: dict | None):
     comb_kw = {k: params.pop(k) for k in list(params) if k in _COMB}
     model_names = {f.name for f in dataclasses.fields(HarmonicModel)}
     params = {**{k: v for k, v in GRID_DEFAULTS.items() if k not in model_names}, **params}
+    if "q_omega" not in params:
+        params["q_omega"] = q_omega_for(float(params.get("omega_max", _cfg.Config.omega_max)))
     params.setdefault("claim_level", CLAIM_LEVEL.get(str(params["smooth"]), CLAIM_LEVEL["fb"]))
     config_t, y, rms, notes = _app.prepare(recording, axis, _cfg.Config, params, _grid_model)
     config = config_from_params(Config, comb_kw, tracker=config_t)
