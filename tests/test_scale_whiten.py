@@ -50,11 +50,11 @@ def _apply_reference(x, fs):
     return y
 
 
-@pytest.mark.parametrize("fs", [100.0, 400.0, 99.5, 37.3])
+@pytest.mark.parametrize("fs", [100.0, 400.0, 99.5, 37.3, 7.0, 6.0, 1.0])
 def test_predictor_equals_scipy_bitwise(fs):
     rng = np.random.default_rng(int(fs * 10))
     W, _, seg = wh._sizes(fs)
-    for n in [0, seg - 1, seg, seg + 1, 3 * seg // 2, W // 2, W - 1, W, W + 37, 2 * W]:
+    for n in sorted({0, seg - 1, seg, seg + 1, 3 * seg // 2, W // 2, W - 1, W, W + 37, 2 * W}):
         h = _history(rng, n)
         a, g = wh.predictor(h, fs)
         a_ref, g_ref = wh.predictor_reference(h, fs)
@@ -94,3 +94,13 @@ def test_pairwise_sum_is_numpys():
     for n in [0, 1, 7, 8, 9, 127, 128, 129, 200, 257, 888, 1000, 4099]:
         x = rng.normal(size=n + 3) * 10 ** rng.uniform(-3, 3, n + 3)
         assert wh._pairwise(x, 3, n) == np.sum(x[3:])
+
+
+@pytest.mark.parametrize("fs", [1.0, 6.0, 7.0])
+def test_apply_at_low_rates_equals_the_reference(fs):
+    """Segments shorter than the predictor (the autocorrelation has fewer than ORDER + 1 lags):
+    the identity, as the scipy form."""
+    rng = np.random.default_rng(int(fs))
+    x = _history(rng, 400)
+    x[[3, 50]] = 1000.0
+    np.testing.assert_array_equal(wh.apply(x, fs), _apply_reference(x, fs))

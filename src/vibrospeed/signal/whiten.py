@@ -431,6 +431,8 @@ def _predictors(z: np.ndarray, w0: np.ndarray, w1: np.ndarray,
     uniq, inv = np.unique(starts[valid], return_inverse=True)
     rows = np.zeros(starts.shape, dtype=np.int64)
     rows[valid] = inv
+    if 2 * (pl.seg // 2) < ORDER + 1:  # the autocorrelation is shorter than the predictor
+        return A, G  # (solve_toeplitz's shapes disagree: the identity, as predictor_reference)
     segs = np.empty((uniq.size, pl.seg))
     _segments(z, uniq.astype(np.int64), pl.seg, pl.win, segs)
     X = sp_fft.rfft(segs, n=pl.seg, axis=-1)
