@@ -3,9 +3,9 @@
     PYTHONPATH=src .venv/bin/python benchmarks/robustness/real_check.py [--write]
 
 Old defaults: thesis high-pass, likelihood tempered to 0.2 per 0.01 s, claims at a line
-probability of 0.9 in every mode, no standstill stage
-(passed explicitly: ``prefilter=thesis-hp, temper=0.2, claim_level=0.9``; the standstill
-stage switched off).
+probability of 0.9 in every mode, the omega walk 16 (rad/s)^2/s at every range, no standstill
+stage (passed explicitly: ``prefilter=thesis-hp, temper=0.2, claim_level=0.9, q_omega=16``;
+the standstill stage switched off).
 New: the defaults of this version. Both offline (smoothed) and causal (``smooth=none``).
 
 * GoPro kart (a real speed-proportional line, GPS truth): share of GPS samples with
@@ -36,7 +36,8 @@ import real_recordings as R  # noqa: E402
 from vibrospeed import io  # noqa: E402
 from vibrospeed.estimators import grid  # noqa: E402
 
-OLD = {"prefilter": "thesis-hp", "temper": 0.2, "kernel_var": "sampled", "claim_level": 0.9}
+OLD = {"prefilter": "thesis-hp", "temper": 0.2, "kernel_var": "sampled", "claim_level": 0.9,
+       "q_omega": 16.0}
 _WITH_STANDSTILL = grid.with_standstill
 
 
@@ -127,7 +128,7 @@ def main(argv=None):
     head = (f"# The grid tracker's old and new defaults on the real recordings\n\n"
             f"`PYTHONPATH=src .venv/bin/python benchmarks/robustness/real_check.py --write` "
             f"({time.time() - t0:.0f} s). Old: `prefilter=thesis-hp, temper=0.2, "
-            "kernel_var=sampled`, no standstill stage; new: this version's defaults. "
+            "kernel_var=sampled, q_omega=16`, no standstill stage; new: this version's defaults. "
             "Method: this script's docstring.\n\n")
     print(text)
     if a.write:
