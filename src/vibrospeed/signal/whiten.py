@@ -364,11 +364,6 @@ def _finish(R, z, w0, w1, order, A, G):
         G[b] = np.sqrt(ref / var) if var > 0 and ref > 0 else 1.0
 
 
-#: scipy's welch as imported; where it has been replaced, :func:`predictor` calls the
-#: replacement through :func:`predictor_reference`
-_SCIPY_WELCH = sps.welch
-
-
 class _Plan(NamedTuple):
     """Welch's constants at one sample rate: segment length and hop, the window it applies
     (Hann, scaled to a density), the bins it doubles, the running median's width and the
@@ -410,10 +405,6 @@ def _predictors(z: np.ndarray, w0: np.ndarray, w1: np.ndarray,
                 fs: float) -> tuple[np.ndarray, np.ndarray]:
     """``(A, G)``: :func:`predictor` of ``z[w0[b]:w1[b]]`` for each block b (``z``
     contiguous float64), each distinct Welch segment's spectrum computed once."""
-    if sps.welch is not _SCIPY_WELCH:  # replaced (a test varying Welch's averaging)
-        rows = [predictor_reference(z[a:b], fs) for a, b in zip(w0, w1, strict=True)]
-        return (np.array([r[0] for r in rows]).reshape(-1, ORDER + 1),
-                np.array([r[1] for r in rows], dtype=np.float64))
     pl = _plan(fs)
     nb = w0.size
     A = np.zeros((nb, ORDER + 1))
