@@ -287,15 +287,9 @@ def quad_form(h, P):
 
 
 @njit(cache=True)
-def row_update(x, P, h, z, r, keep=-1, keep2=-1):
-    """Scalar update ``z = h x + e``, ``var(e) = r``, in place, Joseph form::
-
-        S = h P h' + r,  k = P h' / S,  x += k (z - h x),
-        P = (I - k h) P (I - k h)' + r k k'
-
-    (symmetrised), which keeps P the covariance of the estimate for *any* gain: ``keep``,
-    ``keep2 >= 0`` are "consider" states (Schmidt) whose gain is set to 0, so the update
-    leaves their means and variances unchanged. Returns the innovation ``z - h x``."""
+def innovation(x, P, h, z, r):
+    """``(P h', S, nu)`` of the scalar measurement ``z = h x + e``, ``var(e) = r``:
+    ``S = h P h' + r`` and ``nu = z - h x`` (P symmetric)."""
     n = x.size
     Ph = np.empty(n)
     matvec(P, h, Ph)
@@ -304,11 +298,28 @@ def row_update(x, P, h, z, r, keep=-1, keep2=-1):
     for i in range(n):
         S += h[i] * Ph[i]
         nu -= h[i] * x[i]
+    return Ph, S, nu
+
+
+@njit(cache=True)
+def row_update(x, P, h, z, r, keep=-1, keep2=-1, keep3=-1):
+    """Scalar update ``z = h x + e``, ``var(e) = r``, in place, Joseph form::
+
+        S = h P h' + r,  k = P h' / S,  x += k (z - h x),
+        P = (I - k h) P (I - k h)' + r k k'
+
+    (symmetrised), which keeps P the covariance of the estimate for *any* gain: ``keep``,
+    ``keep2``, ``keep3 >= 0`` are "consider" states (Schmidt) whose gain is set to 0, so the
+    update leaves their means and variances unchanged. Returns the innovation ``z - h x``."""
+    n = x.size
+    Ph, S, nu = innovation(x, P, h, z, r)
     k = Ph / S
     if keep >= 0:
         k[keep] = 0.0
     if keep2 >= 0:
         k[keep2] = 0.0
+    if keep3 >= 0:
+        k[keep3] = 0.0
     for i in range(n):
         x[i] += k[i] * nu
     # A = I - k h; A P = P - k (h P) with h P = Ph' (P symmetric); then (A P) A' + r k k'

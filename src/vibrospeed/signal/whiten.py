@@ -478,22 +478,10 @@ def predictor_reference(hist: np.ndarray, fs: float) -> tuple[np.ndarray, float]
 
 
 @njit(cache=True)
-def _fir(a, x, start, stop, gain, out):
-    """``out[n] = gain sum_k a[k] x[n - k]`` for ``start <= n < stop`` (x before 0 counts 0)."""
-    p = a.size - 1
-    for n in range(start, stop):
-        acc = 0.0
-        for k in range(p + 1):
-            j = n - k
-            if j >= 0:
-                acc += a[k] * x[j]
-        out[n] = gain * acc
-
-
-@njit(cache=True)
 def _fir_last(a, buf, end, gain):
     """``gain sum_k a[k] buf[end - 1 - k]`` over the samples that exist (index >= 0): the
-    last output of :func:`_fir` on the same samples, the same operations in the same order."""
+    prediction-error FIR's output at sample ``end - 1`` (the one dot product of the streaming
+    and the batch paths)."""
     p = a.size - 1
     n = end - 1
     acc = 0.0
@@ -551,8 +539,8 @@ def step(state: WhitenState, x: float, fs: float) -> tuple[WhitenState, float]:
 def _filter_blocks(z, b0s, B, A, G, a_first, g_first, out):
     """The output of blocks starting at ``b0s`` (B samples each, the last one cut at the end
     of ``z``): each block's FIR ``A[i]`` with gain ``G[i]``, faded in from the previous
-    block's (``a_first``, ``g_first`` before the first) unless the two are equal; the sums
-    of :func:`_fir`, in its order."""
+    block's (``a_first``, ``g_first`` before the first) unless the two are equal; each
+    output by :func:`_fir_last`, as :func:`step` makes it."""
     p = A.shape[1] - 1
     n = z.size
     for i in range(b0s.size):
@@ -566,19 +554,9 @@ def _filter_blocks(z, b0s, B, A, G, a_first, g_first, out):
             if a[k] != ap[k]:
                 same = False
         for t in range(b0, min(b0 + B, n)):
-            acc = 0.0
-            for k in range(p + 1):
-                j = t - k
-                if j >= 0:
-                    acc += a[k] * z[j]
-            new = g * acc
+            new = _fir_last(a, z, t + 1, g)
             if not same:
-                acc = 0.0
-                for k in range(p + 1):
-                    j = t - k
-                    if j >= 0:
-                        acc += ap[k] * z[j]
-                old = gp * acc
+                old = _fir_last(ap, z, t + 1, gp)
                 lam = ((t - b0) + 1.0) / B
                 new = (1.0 - lam) * old + lam * new
             out[t] = new

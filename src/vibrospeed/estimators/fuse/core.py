@@ -5,9 +5,9 @@ acquisition and re-lock, standstill, the ``v >= 0`` projection) and the loop ove
 (:func:`_run_core`, which also stores the predictions and posteriors the smoother reads).
 The state arrives as flat arrays and the parameters as one float vector
 (:meth:`~vibrospeed.estimators.fuse.config.Config._arrays`), so ``step`` and ``run`` are this
-same code. The measurement updates are :func:`vibrospeed.estimators.kalman.row_update`'s
-arithmetic (Joseph form) with up to three consider states (:func:`_row_update_consider3`:
-the gain error is one in every row but its own window measurement, :func:`_gain_window`).
+same code. The measurement updates are :func:`vibrospeed.estimators.kalman.row_update`
+(Joseph form) with up to three consider states (the gain error is one in every row but its
+own window measurement, :func:`_gain_window`, an update of that state alone).
 """
 
 from __future__ import annotations
@@ -19,45 +19,8 @@ from numba import njit
 
 from vibrospeed.estimators.fuse.config import IA, IB, IG, IK, IR, IV
 from vibrospeed.estimators.gps_riss.core import _lag_row
-from vibrospeed.estimators.kalman import dense_predict, matvec, quad_form
+from vibrospeed.estimators.kalman import dense_predict, innovation, matvec, quad_form, row_update
 from vibrospeed.models.gps_riss import transition
-
-
-@njit(cache=True)
-def _row_update_consider3(x, P, h, z, r, keep, keep2, keep3):
-    """:func:`vibrospeed.estimators.kalman.row_update` with three consider states (gain 0 on
-    ``keep``, ``keep2``, ``keep3`` where >= 0), the same arithmetic in the same order: a
-    wheel-frequency update away from GPS leaves the radius, the offset and the gain alone."""
-    n = x.size
-    Ph = np.empty(n)
-    matvec(P, h, Ph)
-    S = r
-    nu = z
-    for i in range(n):
-        S += h[i] * Ph[i]
-        nu -= h[i] * x[i]
-    k = Ph / S
-    if keep >= 0:
-        k[keep] = 0.0
-    if keep2 >= 0:
-        k[keep2] = 0.0
-    if keep3 >= 0:
-        k[keep3] = 0.0
-    for i in range(n):
-        x[i] += k[i] * nu
-    AP = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            AP[i, j] = P[i, j] - k[i] * Ph[j]
-    APh = np.empty(n)
-    matvec(AP, h, APh)
-    for i in range(n):
-        for j in range(i, n):
-            v = (0.5 * (AP[i, j] - APh[i] * k[j] + AP[j, i] - APh[j] * k[i])
-                 + r * k[i] * k[j])
-            P[i, j] = v
-            P[j, i] = v
-    return nu
 
 
 @njit(cache=True)
@@ -66,13 +29,7 @@ def _row_update_only(x, P, h, z, r, idx):
     only (every other state a consider state, Schmidt), Joseph form: ``S = h P h' + r``,
     ``k = e_idx (P h)_idx / S``, ``P = (I - k h) P (I - k h)' + r k k'``."""
     n = x.size
-    Ph = np.empty(n)
-    matvec(P, h, Ph)
-    S = r
-    nu = z
-    for i in range(n):
-        S += h[i] * Ph[i]
-        nu -= h[i] * x[i]
+    Ph, S, nu = innovation(x, P, h, z, r)
     kg = Ph[idx] / S
     x[idx] += kg * nu
     # (I - k h) P: row idx less kg (h P); then times (I - k h)' and plus r k k'
@@ -155,7 +112,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         h[IA] = 1.0 + x[IK]
         h[IB] = 1.0
         h[IK] = x[IA]
-        _row_update_consider3(x, P, h, am + x[IK] * x[IA], p[0] / dt, IK, -1, -1)
+        row_update(x, P, h, am + x[IK] * x[IA], p[0] / dt, IK, -1, -1)
         h[IA] = 0.0
         h[IB] = 0.0
         h[IK] = 0.0
@@ -174,7 +131,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 nu -= hg[i] * x[i]
             s0 = quad_form(hg, P) + p[1]
             e2 = min(max(nu * nu - s0, 0.0), p[3] * p[3])
-            _row_update_consider3(x, P, hg, zg, p[1] + p[2] * e2, IK, -1, -1)
+            row_update(x, P, hg, zg, p[1] + p[2] * e2, IK, -1, -1)
             sc[1] = t
     # 1b. the gain error from a window of gain_window s with GPS: the accelerometer's mean over
     # the window against the change of the GPS-held speed, mean(a_m) = (1 + kappa) dv / W + b
@@ -295,7 +252,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             # there carries the speed but teaches none of them (a wrong or lagging line accepted
             # in an outage would corrupt the radius and the offset and gain the inertial
             # stretches rest on)
-            _row_update_consider3(x, P, h, 0.0, ((r_hat * kk) ** 2 * var_om + var_lag) * infl,
+            row_update(x, P, h, 0.0, ((r_hat * kk) ** 2 * var_om + var_lag) * infl,
                                   -1 if fresh else IR, -1 if fresh else IB, IK)
             h[IV] = 0.0
             h[IR] = 0.0
@@ -332,10 +289,10 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         if gps_ok and consistent:
             sc[7] = math.nan
             h[IV] = 1.0
-            _row_update_consider3(x, P, h, 0.0, p[9], IK, -1, -1)
+            row_update(x, P, h, 0.0, p[9], IK, -1, -1)
             h[IV] = 0.0
             h[IA] = 1.0
-            _row_update_consider3(x, P, h, 0.0, p[10], IK, -1, -1)
+            row_update(x, P, h, 0.0, p[10], IK, -1, -1)
             h[IA] = 0.0
             stopped = True
     # 5. speed >= 0: project onto the constraint surface
