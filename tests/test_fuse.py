@@ -874,14 +874,11 @@ def test_a_relock_never_moves_the_speed_by_an_octave():
     assert np.all(np.abs(c.speed[late] - v[late]) < 0.03 * v[late])
 
 
-def test_a_line_an_octave_off_the_prediction_is_read_at_that_octave():
-    """In a hard braking the causal tracker's line jumps to the wheel's 2nd harmonic for 2 s;
-    the lag variance ``(vib_lag a)^2`` (6 m/s at 3 m/s^2) would let the doubled line in at
-    k = 1. Its speed at k = 1 is twice the filter's (beyond a factor sqrt 2), so only k = 1/2
-    is a hypothesis: it is read as the wheel's (harmonic 1/2) and the speed follows the
-    braking; never k = 1."""
-    cfg = fuse.Config(acc_psd=1e-3, vib_lag=2.0)
-    rng = np.random.default_rng(7)
+def _braking_outage(cfg, seed):
+    """``(rng, t, v, a_m, gps)``: 120 s at 20 m/s braking at 3 m/s^2 over 70-74 s, the
+    accelerometer with offset 0.2 m/s^2 and white noise, GPS (through the receiver lag) every
+    second sample until 60 s, then an outage; ``rng`` continues the stream."""
+    rng = np.random.default_rng(seed)
     t = np.arange(0.0, 120.0, 1.0 / FR)
     a = np.where((t >= 70.0) & (t < 74.0), -3.0, 0.0)
     v = 20.0 + np.concatenate([[0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) / FR)])
@@ -891,6 +888,17 @@ def test_a_line_an_octave_off_the_prediction_is_read_at_that_octave():
     g = np.full(t.size, np.nan)
     g[::2] = rx[::2] + rng.normal(0.0, 0.1, t[::2].size)
     g[t >= 60.0] = np.nan
+    return rng, t, v, am, g
+
+
+def test_a_line_an_octave_off_the_prediction_is_read_at_that_octave():
+    """In a hard braking the causal tracker's line jumps to the wheel's 2nd harmonic for 2 s;
+    the lag variance ``(vib_lag a)^2`` (6 m/s at 3 m/s^2) would let the doubled line in at
+    k = 1. Its speed at k = 1 is twice the filter's (beyond a factor sqrt 2), so only k = 1/2
+    is a hypothesis: it is read as the wheel's (harmonic 1/2) and the speed follows the
+    braking; never k = 1."""
+    cfg = fuse.Config(acc_psd=1e-3, vib_lag=2.0)
+    rng, t, v, am, g = _braking_outage(cfg, 7)
     om = v / 0.31 + rng.normal(0.0, 0.05, t.size)
     jump = (t >= 71.0) & (t < 73.0)
     om[jump] *= 2.0
@@ -911,17 +919,8 @@ def test_no_line_is_used_beyond_vib_amax():
     0.3 m/s; with every line taken (weighted by the lag variance ``(vib_lag a)^2``) the lagging
     line drags the speed up."""
     cfg0 = fuse.Config(acc_psd=1e-3, vib_lag=2.0)
-    rng = np.random.default_rng(6)
-    t = np.arange(0.0, 120.0, 1.0 / FR)
-    a = np.where((t >= 70.0) & (t < 74.0), -3.0, 0.0)
-    v = 20.0 + np.concatenate([[0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) / FR)])
+    rng, t, v, am, g = _braking_outage(cfg0, 6)
     v_lag = np.interp(t - 2.0, t, v)
-    am = a + 0.2 + rng.normal(0.0, math.sqrt(1e-3 * FR), t.size)
-    am[0] = np.nan
-    rx = simulate_receiver(t, v, cfg0.lag)
-    g = np.full(t.size, np.nan)
-    g[::2] = rx[::2] + rng.normal(0.0, 0.1, t[::2].size)
-    g[t >= 60.0] = np.nan
     arrays = {"t": t, "accel": am, "gps_speed": g, "gps_sats": np.full(t.size, 9.0),
               "omega": v_lag / 0.31 + rng.normal(0.0, 0.05, t.size),
               "omega_std": np.full(t.size, 0.05), "line": np.ones(t.size, bool)}
