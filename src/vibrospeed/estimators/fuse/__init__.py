@@ -1,33 +1,23 @@
 """One speed from every sensor a log has: longitudinal acceleration, GPS speed and the wheel
 vibration's frequency, with the effective wheel radius learned on the way (``--method fuse``).
 
-State ``X = [v, a, b, r, kappa, x3, x4, d..., dl]``: speed (m/s), acceleration (m/s^2),
-accelerometer offset b (m/s^2: road slope ``g sin theta``, mount tilt and bias), the effective
-wheel radius r (m, the speed-to-wheel-frequency ratio ``v = r omega``), the accelerometer's gain
-error kappa (1: calibration and the mount's pitch cosine, ``Config.accel_gain``), the GPS
-receiver chain of the GPS/RISS model (:mod:`vibrospeed.models.gps_riss`: reported speed x3, its
-derivative x4, Pade delay states) and the receiver's extra lag dl (s, random walk
-``q_gps_lag`` from ``0 +- gps_lag_std``; :mod:`vibrospeed.estimators.gps_riss` explains it).
-Continuous time ``v' = a``, ``a' = w_a``, ``b' = w_b``, ``r' = w_r``, ``kappa' = w_kappa``,
+State ``X = [v, a, b, r, x3, x4, d..., dl]``: speed (m/s), acceleration (m/s^2), accelerometer
+offset b (m/s^2: road slope ``g sin theta``, mount tilt and bias), the effective wheel radius r
+(m, the speed-to-wheel-frequency ratio ``v = r omega``), the GPS receiver chain of the GPS/RISS
+model (:mod:`vibrospeed.models.gps_riss`: reported speed x3, its derivative x4, Pade delay
+states) and the receiver's extra lag dl (s, random walk ``q_gps_lag`` from ``0 +-
+gps_lag_std``; :mod:`vibrospeed.estimators.gps_riss` explains it).
+Continuous time ``v' = a``, ``a' = w_a``, ``b' = w_b``, ``r' = w_r``,
 ``[x3, x4, d]' = Ar [x3, x4, d] + Br v`` (paper eq. 1-2); each step predicts with the exact
 transition ``F = expm(A_c dt)`` and ``Q = diag(q) dt``.
 
 Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph form):
 
-1. accelerometer ``a_m = (1 + kappa) a + b + e``, ``var e = acc_psd / dt``: the mean of the raw
-   samples over the ``dt`` since the previous fusion sample (white noise of density
-   ``acc_psd``); an extended Kalman row linearised at the estimate, ``h = [0, 1 + kappa, 1, 0,
-   a, 0...]``, in which kappa is a consider state. The gain error (``Config.accel_gain``; off:
-   kappa is 0 with no variance and no noise, the row ``[0, 1, 1, 0...]``) learns from its own
-   measurement only, over windows of ``W = gain_window`` s in which GPS holds the speed:
-   ``mean(a_m) = (1 + kappa) dv / W + b + e'``, ``dv`` the change of the filter's speed over
-   the window, ``var e' = acc_psd / W + 2 (1 + kappa)^2 P_vv / W^2``, an update of kappa alone
-   (the offset a consider state). Sample by sample the regressor would be the filter's
-   acceleration, which holds the accelerometer's own recent noise: body motion correlated over
-   tenths of a second then reads as gain (on the simulated tunnels the sample-wise state
-   learned +0.06 to +0.25 where a regression of 5 s means gives -0.08 to +0.04). Its prior
-   ``0 +- gain_std0`` and random walk ``q_gain`` keep it near constant, so a gain learned with
-   GPS scales the acceleration integrated in an outage.
+1. accelerometer ``a_m = a + b + e``, ``var e = acc_psd / dt``: the mean of the raw samples over
+   the ``dt`` since the previous fusion sample (white noise of density ``acc_psd``). Its gain
+   is taken as 1: on the simulated drives body motion and pitch leave 0.17-0.26 m/s^2 on 5 s
+   means of the acceleration, against 0.02-0.08 m/s^2 for a gain error of 2-8 %, so GPS does
+   not teach a gain state better than its prior (``benchmarks/fuse/RESULTS.md``).
 2. GPS speed ``g = x3(t - dl) + e ~ x3 - dl x3' + e`` (GPS/RISS paper section VI, the
    receiver's extra lag learned; extended Kalman row linearised at the estimate, ``x3' = A_c[x3]
    X``): used only with ``sats >= min_sats``
@@ -90,12 +80,11 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    The speed is unchanged by this, only the octave of r.
 
    The radius learns only from GPS and a line together. Away from GPS (no fix in the past
-   ``learn_hold`` s) a wheel-frequency update carries the speed but leaves r, the offset b
-   and the gain error kappa alone (they are "consider" states, Schmidt: their gains are set to
-   0 and the Joseph form keeps P exact for those gains), so a wrong line taken in an outage
-   cannot corrupt the radius the next drive reuses, and a line that lags the speed while
-   braking (a causal tracker's) cannot teach the offset and gain the inertial stretches of the
-   outage rest on.
+   ``learn_hold`` s) a wheel-frequency update carries the speed but leaves r and the offset b
+   alone (they are "consider" states, Schmidt: their gains are set to 0 and the Joseph form
+   keeps P exact for those gains), so a wrong line taken in an outage cannot corrupt the
+   radius the next drive reuses, and a line that lags the speed while braking (a causal
+   tracker's) cannot teach the offset the inertial stretches of the outage rest on.
    The first radius (r not yet known within ``octave_rel``) comes from a line whose ratio
    ``ln(v / omega)`` to the GPS-held speed has stayed within ``acq_rel`` of its running mean
    (time constant ``acq_time``) for ``acq_time`` s: a wheel line scales with the speed, an
@@ -181,7 +170,6 @@ from vibrospeed.estimators.fuse.config import (
     IA,
     IB,
     IG,
-    IK,
     IR,
     IV,
     SOURCES,
@@ -229,7 +217,6 @@ __all__ = [
     "IA",
     "IB",
     "IG",
-    "IK",
     "IR",
     "IV",
     "SOURCES",

@@ -49,9 +49,9 @@ CAUSAL_VIB_AMAX = 1.5
 #: probability of 0.3-0.5 and on 55 % below (its "no line" state saturates near 0.83 there)
 CAUSAL_VIB_SOFT = 0.3
 
-# state indices: speed, acceleration, accelerometer offset, radius, accelerometer gain error,
-# then the receiver chain from IG on (its extra lag last)
-IV, IA, IB, IR, IK, IG = 0, 1, 2, 3, 4, 5
+# state indices: speed, acceleration, accelerometer offset, radius, then the receiver chain
+# from IG on (its extra lag last)
+IV, IA, IB, IR, IG = 0, 1, 2, 3, 4
 
 
 @dataclass(frozen=True)
@@ -66,14 +66,6 @@ class Config(GpsFields):
         (:class:`vibrospeed.estimators.gps_riss.GpsFields`).
     q_speed, q_accel, q_offset, q_gps, q_radius : process noise intensities per second of v
         ((m/s)^2/s), a (jerk, (m/s^2)^2/s), b ((m/s^2)^2/s), the receiver states and r (m^2/s).
-    accel_gain : whether the accelerometer's gain error kappa is a state (item 1:
-        ``a_m = (1 + kappa) a + b + e``, kappa learned from windows of ``gain_window`` s with
-        GPS); off, kappa is held at 0 with no variance and the filter is the one without the
-        state; the sidecar's ``learned_accel_gain`` (``_std``) is kappa at the end. Off by
-        default: on the simulated tunnels body motion and pitch hide a gain of a few % over a
-        drive, and the prior's spread alone cost accuracy (benchmarks/fuse/RESULTS.md).
-        gain_std0 : prior std of kappa (1).  q_gain : its random walk (1/s).
-        gain_window : s, the window of the gain's measurement (item 1).
     acc_psd : accelerometer white-noise density ((m/s^2)^2 s = (m/s^2)^2/Hz); a fusion sample
         averaging ``dt`` s has variance ``acc_psd / dt``. The default (0.32 m/s^2/sqrt(Hz)) is
         far above a MEMS sensor's own noise: it stands for the body motion, the wheel vibration
@@ -153,10 +145,6 @@ class Config(GpsFields):
     q_offset: float = 5e-3
     q_gps: float = 1e-6
     q_radius: float = 1e-9
-    accel_gain: bool = False
-    gain_std0: float = 0.03
-    q_gain: float = 1e-7
-    gain_window: float = 5.0
     acc_psd: float = 0.1
     r_gps: float = 0.01
     r_gps_sq: float = 0.5
@@ -201,11 +189,10 @@ class Config(GpsFields):
         self._check_gps("fuse: ")
         for name in ("acc_psd", "r_gps", "vib_rel", "vib_corr", "vib_gate", "r_still",
                      "r_still_acc", "still_gate", "p0_speed", "p0_accel", "p0_offset",
-                     "radius0", "radius_std0", "fuse_rate", "octave_tau", "gain_std0",
-                     "gain_window"):
+                     "radius0", "radius_std0", "fuse_rate", "octave_tau"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"fuse: {name} must be > 0, got {getattr(self, name)}")
-        for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "q_gain", "e_max",
+        for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "e_max",
                      "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
                      "vib_min_speed", "octave_rel", "vib_relock", "radius_min", "radius_max",
                      "still_relock", "learn_hold", "acq_time", "acq_rel", "acq_change",
@@ -237,8 +224,7 @@ class Config(GpsFields):
         Ac[IG:-1, IG:-1] = Ar
         Ac[IG:-1, IV] = Br
         qc = np.full(n, self.q_gps)
-        qc[:IG] = (self.q_speed, self.q_accel, self.q_offset, self.q_radius,
-                   self.q_gain if self.accel_gain else 0.0)
+        qc[:IG] = (self.q_speed, self.q_accel, self.q_offset, self.q_radius)
         qc[-1] = self.q_gps_lag
         p = np.array([
             self.acc_psd, self.r_gps, self.r_gps_sq, self.e_max, self.min_sats, self.vib_rel,
@@ -247,7 +233,6 @@ class Config(GpsFields):
             self.octave_tau, float(self.nonneg), self.vib_min_speed, self.octave_rel,
             self.vib_relock, self.radius_min, self.radius_max, self.still_relock,
             self.learn_hold, self.acq_time, self.acq_rel, self.acq_change, self.vib_sep,
-            self.vib_lag, self.radius0, self.radius_std0, self.vib_amax, self.gain_window,
-            float(self.accel_gain),
+            self.vib_lag, self.radius0, self.radius_std0, self.vib_amax,
         ], dtype=np.float64)
         return Ac, qc, p

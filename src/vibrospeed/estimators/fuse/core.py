@@ -6,8 +6,7 @@ acquisition and re-lock, standstill, the ``v >= 0`` projection) and the loop ove
 The state arrives as flat arrays and the parameters as one float vector
 (:meth:`~vibrospeed.estimators.fuse.config.Config._arrays`), so ``step`` and ``run`` are this
 same code. The measurement updates are :func:`vibrospeed.estimators.kalman.row_update`
-(Joseph form) with up to three consider states (the gain error is one in every row but its
-own window measurement, :func:`_gain_window`, an update of that state alone).
+(Joseph form) with consider states where a row must not teach some (item 3).
 """
 
 from __future__ import annotations
@@ -17,78 +16,17 @@ import math
 import numpy as np
 from numba import njit
 
-from vibrospeed.estimators.fuse.config import IA, IB, IG, IK, IR, IV
+from vibrospeed.estimators.fuse.config import IA, IB, IG, IR, IV
 from vibrospeed.estimators.gps_riss.core import _lag_row
-from vibrospeed.estimators.kalman import dense_predict, innovation, matvec, quad_form, row_update
+from vibrospeed.estimators.kalman import dense_predict, quad_form, row_update
 from vibrospeed.models.gps_riss import transition
-
-
-@njit(cache=True)
-def _row_update_only(x, P, h, z, r, idx):
-    """Scalar update ``z = h x + e``, ``var(e) = r``, in place, with gain on the state ``idx``
-    only (every other state a consider state, Schmidt), Joseph form: ``S = h P h' + r``,
-    ``k = e_idx (P h)_idx / S``, ``P = (I - k h) P (I - k h)' + r k k'``."""
-    n = x.size
-    Ph, S, nu = innovation(x, P, h, z, r)
-    kg = Ph[idx] / S
-    x[idx] += kg * nu
-    # (I - k h) P: row idx less kg (h P); then times (I - k h)' and plus r k k'
-    AP = P.copy()
-    for j in range(n):
-        AP[idx, j] -= kg * Ph[j]
-    APh = np.empty(n)
-    matvec(AP, h, APh)
-    # (rows and columns other than idx keep P's values)
-    for i in range(n):
-        P[i, idx] = AP[i, idx] - APh[i] * kg
-        P[idx, i] = P[i, idx]
-    P[idx, idx] = AP[idx, idx] - APh[idx] * kg + r * kg * kg
-    return nu
-
-
-@njit(cache=True)
-def _gain_window(x, P, sc, h, p, t, dt, am, fresh):
-    """Item 1, the gain's measurement: windows ``[t0, t0 + W]`` (``W = gain_window``) in which
-    GPS holds the speed throughout and every sample has an accelerometer mean; at the window's
-    end ``z = mean(a_m) = (1 + kappa) dv / W + b + e`` with ``dv`` the change of the filter's
-    speed over the window, an update of kappa alone (row ``[0, 0, 1, 0, dv / W, 0...]``, the
-    offset a consider state), ``var e = acc_psd / W + 2 (1 + kappa)^2 P_vv / W^2`` (the
-    accelerometer's noise averaged over W, the speed's error at both ends). Sample by sample
-    the accelerometer rows leave kappa alone: their regressor, the filter's acceleration, holds
-    the accelerometer's own recent noise, and body motion (correlated over tenths of a second)
-    would read as gain. ``sc[13:17] = [t0, v(t0), sum a_m dt, sum dt]``."""
-    if not fresh or (dt > 0.0 and math.isnan(am)):
-        sc[13] = math.nan
-        return
-    if math.isnan(sc[13]):
-        sc[13] = t
-        sc[14] = x[IV]
-        sc[15] = 0.0
-        sc[16] = 0.0
-        return
-    if dt > 0.0:
-        sc[15] += am * dt
-        sc[16] += dt
-    w = t - sc[13]
-    if w >= p[33] and sc[16] > 0.0:
-        slope = (x[IV] - sc[14]) / w
-        h[IB] = 1.0
-        h[IK] = slope
-        r = p[0] / w + 2.0 * (1.0 + x[IK]) ** 2 * P[IV, IV] / (w * w)
-        _row_update_only(x, P, h, sc[15] / sc[16] - slope, r, IK)
-        h[IB] = 0.0
-        h[IK] = 0.0
-        sc[13] = t
-        sc[14] = x[IV]
-        sc[15] = 0.0
-        sc[16] = 0.0
 
 
 @njit(cache=True)
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, soft, out, xp,
                Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
-    t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run, t_gw, v_gw, s_gw, n_gw]``;
+    t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run]``;
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
     prediction (for the smoother). Returns dt."""
     n = x.size
@@ -105,17 +43,13 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         for j in range(n):
             Pp[i, j] = P[i, j]
     h = np.zeros(n)
-    # 1. accelerometer (mean over the interval): a_m = (1 + kappa) a + b, the row linearised
-    # at x (h = [0, 1 + kappa, 1, 0, a, 0...], z = a_m + kappa a); kappa = 0 with no variance
-    # where the gain state is off: the row [0, 1, 1, 0...] exactly
+    # 1. accelerometer (mean over the interval): a_m = a + b
     if dt > 0.0 and not math.isnan(am):
-        h[IA] = 1.0 + x[IK]
+        h[IA] = 1.0
         h[IB] = 1.0
-        h[IK] = x[IA]
-        row_update(x, P, h, am + x[IK] * x[IA], p[0] / dt, IK, -1, -1)
+        row_update(x, P, h, am, p[0] / dt)
         h[IA] = 0.0
         h[IB] = 0.0
-        h[IK] = 0.0
     # 2. GPS, gated by satellites, weighted by the unexplained innovation
     if not math.isnan(g):
         valid = math.isnan(sats) or sats >= p[4]
@@ -131,12 +65,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 nu -= hg[i] * x[i]
             s0 = quad_form(hg, P) + p[1]
             e2 = min(max(nu * nu - s0, 0.0), p[3] * p[3])
-            row_update(x, P, hg, zg, p[1] + p[2] * e2, IK, -1, -1)
+            row_update(x, P, hg, zg, p[1] + p[2] * e2)
             sc[1] = t
-    # 1b. the gain error from a window of gain_window s with GPS: the accelerometer's mean over
-    # the window against the change of the GPS-held speed, mean(a_m) = (1 + kappa) dv / W + b
-    if p[34] > 0.5:
-        _gain_window(x, P, sc, h, p, t, dt, am, t - sc[1] <= p[24])
     # 3. wheel frequency, octave chosen by the speed prior
     kk = math.nan
     moving = x[IV] + 3.0 * math.sqrt(max(P[IV, IV], 0.0)) >= p[18]
@@ -149,8 +79,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
     # accelerometer's (less the offset): a lagging line accepted at the onset of a braking
     # pulls the filter's own acceleration towards 0
     a_lag = x[IA]
-    if not math.isnan(am) and abs((am - x[IB]) / (1.0 + x[IK])) > abs(a_lag):
-        a_lag = (am - x[IB]) / (1.0 + x[IK])
+    if not math.isnan(am) and abs(am - x[IB]) > abs(a_lag):
+        a_lag = am - x[IB]
     # beyond vib_amax the causal tracker's line trails the speed by more than its spread or
     # has jumped an octave: no line is used
     hard = abs(a_lag) > p[32]
@@ -248,12 +178,11 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         if best <= p[7]:
             h[IV] = 1.0
             h[IR] = -kk * om
-            # away from GPS the radius, the offset and the gain are consider states: a line
-            # there carries the speed but teaches none of them (a wrong or lagging line accepted
-            # in an outage would corrupt the radius and the offset and gain the inertial
-            # stretches rest on)
+            # away from GPS the radius and the offset are consider states: a line there
+            # carries the speed but teaches neither (a wrong or lagging line accepted in an
+            # outage would corrupt the radius and the offset the inertial stretches rest on)
             row_update(x, P, h, 0.0, ((r_hat * kk) ** 2 * var_om + var_lag) * infl,
-                                  -1 if fresh else IR, -1 if fresh else IB, IK)
+                       -1 if fresh else IR, -1 if fresh else IB)
             h[IV] = 0.0
             h[IR] = 0.0
             # the radius follows the octave most updates use (where GPS confirms them), as
@@ -289,19 +218,17 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         if gps_ok and consistent:
             sc[7] = math.nan
             h[IV] = 1.0
-            row_update(x, P, h, 0.0, p[9], IK, -1, -1)
+            row_update(x, P, h, 0.0, p[9])
             h[IV] = 0.0
             h[IA] = 1.0
-            row_update(x, P, h, 0.0, p[10], IK, -1, -1)
+            row_update(x, P, h, 0.0, p[10])
             h[IA] = 0.0
             stopped = True
     # 5. speed >= 0: project onto the constraint surface
     if p[17] > 0.5 and x[IV] < 0.0 and P[IV, IV] > 0.0:
         f = x[IV] / P[IV, IV]
-        col = P[:, IV].copy()
-        col[IK] = 0.0  # the gain learns from its window measurement only (item 1)
         for i in range(n):
-            x[i] -= col[i] * f
+            x[i] -= P[i, IV] * f
         x[IV] = 0.0
     if stopped:
         src = 3

@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vibrospeed.errors import InputError, ParameterError
-from vibrospeed.estimators.fuse.config import IA, IB, IG, IK, IR, IV, Config
+from vibrospeed.estimators.fuse.config import IA, IB, IG, IR, IV, Config
 from vibrospeed.estimators.fuse.core import _run_core, _step_core
 from vibrospeed.models.gps_riss import receiver_matrices
 from vibrospeed.types import Estimate
@@ -21,7 +21,7 @@ from vibrospeed.types import Estimate
 class State(NamedTuple):
     """Filter state after the last sample.
 
-    x, P : (n,), (n, n) mean and covariance of ``[v, a, b, r, kappa, x3, x4, d..., dl]``.
+    x, P : (n,), (n, n) mean and covariance of ``[v, a, b, r, x3, x4, d..., dl]``.
     t : time of the last sample (NaN before the first).  t_gps : time of the last accepted
     fix (-inf: none).  t_fix, v_fix : time and value of the last valid fix (for the standstill
     veto).  octave : average of log2 k over recent wheel-frequency updates (module notes, 3).
@@ -31,8 +31,6 @@ class State(NamedTuple):
     t_acq, z_acq : start and mean log ratio
     ``ln(v / omega)`` of the current run of consistent lines while the radius is not known
     yet (NaN: none; module notes, 3).
-    t_gw, v_gw, s_gw, n_gw : start, speed at the start, sum of ``a_m dt`` and of ``dt`` of the
-    current window of the gain's measurement (NaN: none; module notes, 1).
     """
 
     x: np.ndarray
@@ -49,10 +47,6 @@ class State(NamedTuple):
     d_run: float = math.nan
     u_run: float = math.nan
     d0_run: float = math.nan
-    t_gw: float = math.nan
-    v_gw: float = math.nan
-    s_gw: float = 0.0
-    n_gw: float = 0.0
 
 
 class Sample(NamedTuple):
@@ -110,8 +104,7 @@ class Result(NamedTuple):
 def init(config: Config, v0: float = 0.0, *, radius: float | None = None,
          radius_std: float | None = None, p0_speed: float | None = None) -> State:
     """Start state: speed ``v0`` (variance ``p0_speed``, default the config's), the receiver in
-    steady state at ``v0``, radius prior ``radius +- radius_std`` (default the config's), the
-    accelerometer's gain error ``0 +- gain_std0`` (0 exactly without ``accel_gain``)."""
+    steady state at ``v0``, radius prior ``radius +- radius_std`` (default the config's)."""
     lag = config.lag
     n = config.n_states
     x = np.zeros(n)
@@ -130,8 +123,6 @@ def init(config: Config, v0: float = 0.0, *, radius: float | None = None,
     P[IA, IA] = config.p0_accel
     P[IB, IB] = config.p0_offset
     P[IR, IR] = rs * rs
-    # the gain error starts at 0; without the gain state it stays there (no variance, no noise)
-    P[IK, IK] = config.gain_std0 ** 2 if config.accel_gain else 0.0
     gain = -np.linalg.solve(Ar, Br)  # receiver states follow v at steady state
     P[IG:m, IV] = gain * pv
     P[IV, IG:m] = gain * pv
@@ -149,16 +140,14 @@ def _unpack(state: State, n: int):
     P = np.array(state.P, dtype=np.float64)
     sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0, state.octave,
                    state.t_run, state.t_still, state.t_acq, state.z_acq, state.d_run,
-                   state.u_run, state.d0_run, state.t_gw, state.v_gw, state.s_gw,
-                   state.n_gw])
+                   state.u_run, state.d0_run])
     return x, P, sc
 
 
 def _pack(x, P, sc) -> State:
     return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]),
                  float(sc[6]), float(sc[7]), float(sc[8]), float(sc[9]), float(sc[10]),
-                 float(sc[11]), float(sc[12]), float(sc[13]), float(sc[14]), float(sc[15]),
-                 float(sc[16]))
+                 float(sc[11]), float(sc[12]))
 
 
 _SAMPLE = Sample._fields

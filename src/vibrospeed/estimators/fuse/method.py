@@ -21,7 +21,6 @@ from vibrospeed.estimators.fuse.config import (
     CAUSAL_VIB_LAG,
     CAUSAL_VIB_SOFT,
     IB,
-    IK,
     IR,
     IV,
     SOURCES,
@@ -249,9 +248,6 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
                   "learned_gps_lag_std": math.sqrt(max(float(end.P[-1, -1]), 0.0)),
                   "radius_prior": [r0, rs0], "tracker": vib.method, **{
                       f"tracker_{k}": v for k, v in rest.items()}})
-    if cfg.accel_gain:  # the accelerometer's learned gain error kappa (a_m = (1 + kappa) a + b)
-        pdict.update({"learned_accel_gain": float(end.x[IK]),
-                      "learned_accel_gain_std": math.sqrt(max(float(end.P[IK, IK]), 0.0))})
     extras = {
         "source": o.source.astype(np.float64)[blk], "radius": back(rr),
         "radius_std": back(rrs), "offset": back(off), "harmonic": o.harmonic[blk],
