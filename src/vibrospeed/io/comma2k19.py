@@ -26,13 +26,16 @@ for any radius. ``meta['L1']`` = 1.13 m is an assumed CG to front axle distance 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from vibrospeed.errors import ReaderError
 from vibrospeed.io.timebase import place_nearest
 from vibrospeed.types import WHEEL_CHANNELS, Recording
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 RAV4_WHEEL_RADIUS = 0.362  # m, 225/65R17: (17 * 25.4 + 2 * 0.65 * 225) / 2 mm
 RAV4_L1 = 1.13  # m, assumed
@@ -50,6 +53,8 @@ def _npy(path: Path) -> np.ndarray:
 def _csv(path: Path, cols: list[str]) -> pd.DataFrame:
     if not path.exists():
         raise ReaderError(path, "missing file (decoded CAN csv)")
+    import pandas as pd  # ~0.5 s to import: only when such a file is read
+
     try:
         df = pd.read_csv(path)
     except Exception as exc:  # noqa: BLE001

@@ -24,12 +24,15 @@ particle-filter speed as truth on DS1-DS4.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from vibrospeed.errors import ReaderError
 from vibrospeed.types import WHEEL_CHANNELS, Recording
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 G = 9.80665
 F1TENTH_L1 = 0.15875  # m, F1TENTH gym default lf
@@ -39,6 +42,8 @@ F1TENTH_WHEEL_RADIUS = 0.05  # m, nominal
 def _read(path: Path, cols: list[str]) -> tuple[np.ndarray, pd.DataFrame]:
     if not path.exists():
         raise ReaderError(path, "missing file (expected an F1/10 FrictionMaps DS folder)")
+    import pandas as pd  # ~0.5 s to import: only when such a file is read
+
     try:
         df = pd.read_csv(path)
     except Exception as exc:  # noqa: BLE001
