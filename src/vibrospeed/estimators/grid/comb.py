@@ -209,6 +209,80 @@ def _windowed(x: np.ndarray, w_i0: np.ndarray, w_fr: np.ndarray, hann: np.ndarra
 
 
 @njit(cache=True)
+def _interp_tables(n: int, step: int, nc: int, ij: np.ndarray, ifr: np.ndarray,
+                   ifr1: np.ndarray) -> None:
+    """The linear interpolation of :func:`_background` between its evaluated windows, for a
+    spectrum of ``n`` bins, windows every ``step`` bins (``nc`` of them): bin i lies between
+    windows ``ij[i]`` and ``ij[i] + 1`` with weights ``ifr1[i]`` = 1 - fr and ``ifr[i]`` = fr
+    (each computed as there, so the products are the same)."""
+    for i in range(n):
+        j = min(i // step, nc - 2)
+        c0 = min(j * step, n - 1)
+        c1 = min((j + 1) * step, n - 1)
+        fr = (i - c0) / max(c1 - c0, 1)
+        ij[i] = j
+        ifr[i] = fr
+        ifr1[i] = 1.0 - fr
+
+
+@njit(cache=True, inline="always")
+def _frame_background(row: np.ndarray, width: int, step: int, rank: int, scale: float,
+                      net: np.ndarray, mat: np.ndarray, buf: np.ndarray, med: np.ndarray,
+                      ph: np.ndarray, ij: np.ndarray, ifr: np.ndarray, ifr1: np.ndarray,
+                      out: np.ndarray) -> None:
+    """:func:`_background` (the running ``rank``-th smallest of ``row`` over ``width`` bins,
+    every ``step`` bins, interpolated, divided by ``scale``), bitwise, with its windows built
+    from contiguous copies: window c is ``Pp[c step : c step + width]`` of the row extended by
+    ``h = width // 2`` edge values either side (``Pp``; the last window's centre clipped to
+    ``n - 1``), so its wire i is phase ``i % step`` of ``Pp`` at ``i // step + c``; the phases
+    ``ph[p, m] = Pp[p + step m]`` are read once (``n + 2 h`` values instead of ``width`` per
+    window) and each wire's row of ``mat`` is a slice of one of them. The network, the order
+    statistic and the interpolation (positions ``ij``, ``ifr``, ``ifr1`` from
+    :func:`_interp_tables`) are those of :func:`_background`. A row holding a NaN goes through
+    :func:`_background` itself (its windows with NaN give NaN)."""
+    n = row.size
+    h = width // 2
+    nc = (n + step - 2) // step + 1
+    nan = False
+    for i in range(n):
+        nan |= row[i] != row[i]
+    if nan:
+        _background(row, width, step, rank, scale, net, mat, buf, med, out)
+        return
+    m_n = nc + (width - 1) // step + 1
+    for p in range(step):
+        pr = ph[p]
+        for m in range(m_n):
+            pr[m] = row[min(max(p + step * m - h, 0), n - 1)]
+    for i in range(width):
+        src = ph[i % step]
+        o = i // step
+        mi = mat[i]
+        for c in range(nc):
+            mi[c] = src[o + c]
+    cl = min((nc - 1) * step, n - 1)
+    if cl != (nc - 1) * step:  # the last window's centre is clipped to the last bin
+        for i in range(width):
+            mat[i, nc - 1] = row[min(max(cl - h + i, 0), n - 1)]
+    for t in range(net.shape[0]):
+        lo = mat[net[t, 0]]
+        hi = mat[net[t, 1]]
+        for c in range(nc):
+            x = lo[c]
+            y = hi[c]
+            lo[c] = x if x < y else y
+            hi[c] = y if x < y else x
+    mk = mat[rank]
+    if step == 1:
+        for i in range(n):
+            out[i] = mk[i] / scale
+        return
+    for i in range(n):
+        j = ij[i]
+        out[i] = (mk[j] * ifr1[i] + mk[j + 1] * ifr[i]) / scale
+
+
+@njit(cache=True)
 def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np.ndarray,
                    widths: np.ndarray, steps: np.ndarray, ranks: np.ndarray, scale: float,
                    net: np.ndarray, net_at: np.ndarray, h_i0: np.ndarray, h_fr: np.ndarray,
@@ -217,13 +291,14 @@ def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np
     """``E[b, f, j]`` = the comb log-evidence of grid point j in frame f at rate b (module
     docstring) before the mixture over the rates, from the (R, A, F, nb) power spectra ``P``:
     per axis the whitened spectrum ``S = P / max(bg, 1e-300 + 1e-12 max(bg))``
-    (:func:`_background`, rate b's selection network: ``net[net_at[b]:net_at[b + 1]]``); per
-    harmonic k the term ``S(k omega) c_s - c_0`` (``c_s = a / (1 +
-    a)``, ``c_0 = log(1 + a)``; S interpolated at ``h_i0``, ``h_fr``), summed over the
-    ``good`` (A, F) axes and capped at ``A_f cap``; their sum over k, the best term's lead over
-    the second best limited to ``lead`` (F,) (``use_lead``), times ``weight`` (F,) with several
-    axes, plus the rate's log prior ``logp`` (R,). The operations and their order are those of
-    the array form (numpy), so the numbers are the same to the last bit."""
+    (:func:`_background`, computed as :func:`_frame_background` does, rate b's selection
+    network: ``net[net_at[b]:net_at[b + 1]]``); per harmonic k the term
+    ``S(k omega) c_s - c_0`` (``c_s = a / (1 + a)``, ``c_0 = log(1 + a)``; S interpolated at
+    ``h_i0``, ``h_fr``), summed over the ``good`` (A, F) axes and capped at ``A_f cap``; their
+    sum over k, the best term's lead over the second best limited to ``lead`` (F,)
+    (``use_lead``), times ``weight`` (F,) with several axes, plus the rate's log prior
+    ``logp`` (R,). The operations and their order are those of the array form (numpy), so the
+    numbers are the same to the last bit."""
     R, A, F, n = P.shape
     M = h_i0.shape[1]
     N = h_i0.shape[2]
@@ -238,11 +313,16 @@ def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np
     bg = np.empty(n)
     S = np.empty(n)
     acc = np.empty((M, N))
+    ij = np.empty(n, np.int64)
+    ifr = np.empty(n)
+    ifr1 = np.empty(n)
+    ph = np.empty((wmax, n // max(1, steps.min()) + wmax + 2))
     for b in range(R):
         w = widths[b]
         nc = (n + steps[b] - 2) // steps[b] + 1
         mat = flat[: w * nc].reshape((w, nc))
         net_b = net[net_at[b] : net_at[b + 1]]
+        _interp_tables(n, steps[b], nc, ij, ifr, ifr1)
         for f in range(F):
             ng = 0
             for a in range(A):
@@ -251,7 +331,8 @@ def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np
             capf = cap if A == 1 else ng * cap
             for a in range(A):
                 row = P[b, a, f]
-                _background(row, w, steps[b], ranks[b], scale, net_b, mat, buf[:w], med, bg)
+                _frame_background(row, w, steps[b], ranks[b], scale, net_b, mat, buf[:w],
+                                  med, ph, ij, ifr, ifr1, bg)
                 mx = bg[0]
                 for i in range(n):  # np.max: NaN if any is
                     v = bg[i]
