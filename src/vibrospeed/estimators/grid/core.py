@@ -424,6 +424,12 @@ def _iterate(lw, lw0, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_flo
     n = 2 * M
     has_null = p_off > 0.0
     finite = np.isfinite(y)
+    # the signal part's mixture exponentials exp(lw_j + ll_j - max), kept (rows[4]) for the
+    # normalisation below, which takes the same exponentials when no extra evidence came and
+    # the best state is a grid point (the same arguments, so the same values)
+    ea = rows[4]
+    reuse = False
+    ma = -np.inf
     # ---- 1. measurement update per grid point: log w_j += log N(y; h m_j, S_j) ----------
     if finite:
         _update(Z, pidx, M, y, r, temper, ph, rows)
@@ -451,9 +457,11 @@ def _iterate(lw, lw0, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_flo
                 sa = 0.0
                 sb = 0.0
                 for j in range(N):
-                    sa += np.exp(w[j] - ma)
+                    ea[j] = np.exp(w[j] - ma)
+                    sa += ea[j]
                     sb += np.exp(v[j] - mb)
                 ll0 = ma + np.log(sa) - mb - np.log(sb)
+                reuse = ex.size == 0
             else:
                 ll0 = -0.5 * (LOG_2PI + np.log(null_var) + y * y / null_var) * temper
             if ex.size > 0:
@@ -476,14 +484,22 @@ def _iterate(lw, lw0, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_flo
     for j in range(N):
         if lw[j] > mx:
             mx = lw[j]
-    # floor at log_floor nats below the best state, then normalise (one exp per point)
+    # floor at log_floor nats below the best state, then normalise (one exp per point; with
+    # no extra evidence lw_j = w_j of the mixture above, so where its maximum ma is mx the
+    # exponential exp(lw_j - mx) is ea_j)
     s = 0.0
-    for j in range(N):
-        d = lw[j] - mx
-        if d < -log_floor:
-            d = -log_floor
-        w[j] = np.exp(d)
-        s += w[j]
+    if reuse and mx == ma:
+        e_floor = np.exp(-log_floor)
+        for j in range(N):
+            w[j] = e_floor if lw[j] - mx < -log_floor else ea[j]
+            s += w[j]
+    else:
+        for j in range(N):
+            d = lw[j] - mx
+            if d < -log_floor:
+                d = -log_floor
+            w[j] = np.exp(d)
+            s += w[j]
     w0 = 0.0
     if has_null:
         d = lw0[0] - mx
