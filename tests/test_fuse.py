@@ -90,6 +90,7 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
     t_gps = -math.inf
     acq = None  # (start, mean log ratio) of the consistent run while r is unknown
     run = None  # (start, mean gap, line speed at start) of the re-lock run
+    prev = None  # (omega, k) of the line used at the previous sample
     for i in range(arrays["t"].size):
         t = arrays["t"][i]
         dt = 0.0 if math.isnan(t_prev) else t - t_prev
@@ -159,8 +160,12 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
             take = None
             if costs:
                 kb = min(costs, key=lambda k: costs[k][0])
+                # a claimed line that continues the previous sample's (same k, within half
+                # an octave of its omega) keeps its octave without the decisive gate
+                cont = (cfg.vib_use == "line" and prev is not None and kb == prev[1]
+                        and abs(math.log2(om / prev[0])) <= 0.5)
                 if costs[kb][0] <= cfg.vib_gate and (
-                        fresh or 3 * math.sqrt(P[0, 0] + (rh * kb) ** 2 * var)
+                        fresh or cont or 3 * math.sqrt(P[0, 0] + (rh * kb) ** 2 * var)
                         <= cfg.vib_sep * rh * kb * om):
                     take = kb
             if ready and known and not hard and take is None:
@@ -182,13 +187,17 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
             if take is not None:
                 k_used = take
                 upd_consider(e[0] - take * om * e[3], 0.0, R[take], None if fresh else [2, 3])
+                prev = (om, take)
+        if dt > 0 and math.isnan(k_used):
+            prev = None
         speeds.append(x[0])
         radii.append(x[3])
         ks.append(k_used)
     return np.array(speeds), np.array(radii), np.array(ks)
 
 
-@pytest.mark.parametrize("kw", [{}, {"vib_lag": 1.5, "gps_lag_std": 0.5}, {"vib_amax": 0.4}])
+@pytest.mark.parametrize("kw", [{}, {"vib_lag": 1.5, "gps_lag_std": 0.5}, {"vib_amax": 0.4},
+                                {"vib_use": "all"}])
 def test_filter_matches_independent_reference(kw):
     cfg = fuse.Config(acc_psd=0.01, **kw)
     arrays, _ = synth(seed=1, T=60.0, outage=(20.0, 40.0), no_line=(30.0, 35.0))
@@ -833,6 +842,31 @@ def test_no_line_is_used_beyond_vib_amax():
     err_every = np.abs(every.speed[braking] - v[braking])
     assert err.max() < 0.3
     assert err_every.max() > 5.0 * err.max()
+
+
+def test_a_continuing_line_is_taken_without_the_decisive_gate():
+    """A line that continues the one used at the previous sample keeps its octave: here the
+    tracker reports a spread of 6 rad/s (12-16 % of omega), so ``3 sqrt(P_vv + (r s)^2) <=
+    vib_sep r omega`` never holds away from GPS, yet the line taken with GPS at 30 s is taken
+    at every sample of the outage until it stops at 40 s; when it comes back at 50 s (no line
+    used just before) it waits for the re-lock run of ``vib_relock`` s and is then taken at
+    every sample again."""
+    cfg = fuse.Config(acc_psd=0.01)
+    arrays, v = synth(seed=4, T=70.0, outage=(30.0, 70.0), no_line=(40.0, 50.0), cfg=cfg)
+    arrays["omega_std"][:] = 6.0
+    _, o = fuse.run(cfg, arrays)
+    t = arrays["t"]
+    u = o.radius * arrays["omega"]
+    spread = 3 * np.sqrt(o.speed_std**2 + (o.radius * 6.0) ** 2)
+    away = (t >= 30.04) & (t < 40.0)
+    assert np.all(spread[away] > cfg.vib_sep * u[away])  # never decisive there
+    assert np.all(o.harmonic[away] == 1.0)
+    assert np.all(o.source[(t >= 31.6) & (t < 40.0)] == fuse.SRC_VIBRATION)
+    assert np.max(np.abs(o.speed - v)[away]) < 0.5
+    back = t >= 50.0
+    first = t[back][np.isfinite(o.harmonic[back])][0]
+    assert first == pytest.approx(50.0 + cfg.vib_relock, abs=0.05)
+    assert np.all(o.harmonic[t >= first] == 1.0)
 
 
 def test_a_long_stop_is_taken_even_when_the_integrated_speed_drifted():

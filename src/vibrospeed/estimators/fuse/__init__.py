@@ -52,10 +52,17 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    ``3 sqrt(P_vv + (r k)^2 (s^2 + (vib_rel omega)^2)) <= vib_sep r k omega``
    (the band and the line's own spread are narrow against the spacing of the octaves;
    after a long stretch on the accelerometer alone it is not, and a gate of 4 sigma would pass
-   an idling engine's line or the wrong octave); else the sample has no direct vibration
-   update (re-lock below). No line is used where the filter knows the vehicle to be
-   slower than ``vib_min_speed`` (``v + 3 sqrt(P_vv) < vib_min_speed``): a line claimed at a
-   standstill (an idling engine) would otherwise teach ``r = v / omega = 0``; nor a hypothesis
+   an idling engine's line or the wrong octave), or the tracker claims a line that continues
+   the one used at the previous fusion sample (the same k, its omega within half an octave of
+   that sample's, ``|log2(omega / omega_prev)| <= 1/2``): the octave was decided when the line
+   was first taken, and a claimed line that moves by less than half an octave from one sample
+   to the next has not changed harmonic (at 4-8 m/s the causal tracker's spread within its
+   mode is 6-15 % of omega, so the decisive gate alone refused its right lines sample after
+   sample; with ``vib_use="all"`` the omegas offered are not claims and this does not apply);
+   else the sample has no direct vibration update (re-lock below). No line is used where the
+   filter knows the vehicle to be slower than ``vib_min_speed`` (``v + 3 sqrt(P_vv) <
+   vib_min_speed``): a line claimed at a standstill (an idling engine) would otherwise teach
+   ``r = v / omega = 0``; nor a hypothesis
    whose radius cannot be physical for any speed within 3 sigma:
    ``(v + 3 sqrt(P_vv)) / (k omega) < radius_min`` or ``(v - 3 sqrt(P_vv)) / (k omega) >
    radius_max`` (an engine line while the vehicle starts to roll). Once r is known, only the

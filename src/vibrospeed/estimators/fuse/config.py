@@ -135,7 +135,8 @@ class Config(GpsFields):
     vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
         (where the tracker claims a line, ``has_signal``) or ``"all"`` (every positive omega,
         its posterior spread and the gate decide: for trackers whose null state dominates on a
-        real line).
+        real line; those omegas are not claims, so no line continues one used before without
+        the decisive gate, item 3).
     nonneg : project negative speeds onto 0 (item 5).
     fuse_rate : Hz of the fusion samples in :func:`estimate` (plus one per GPS fix).
     """
@@ -234,5 +235,6 @@ class Config(GpsFields):
             self.vib_relock, self.radius_min, self.radius_max, self.still_relock,
             self.learn_hold, self.acq_time, self.acq_rel, self.acq_change, self.vib_sep,
             self.vib_lag, self.radius0, self.radius_std0, self.vib_amax,
+            float(self.vib_use == "line"),
         ], dtype=np.float64)
         return Ac, qc, p

@@ -26,7 +26,7 @@ from vibrospeed.models.gps_riss import transition
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, soft, out, xp,
                Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
-    t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run]``;
+    t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run, om_line, k_line]``;
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
     prediction (for the smoother). Returns dt."""
     n = x.size
@@ -132,7 +132,14 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 best = cost
                 kk = k
         # direct use needs a decisive gate: the band narrow against the octaves' spacing
-        decisive = not math.isnan(kk) and (fresh or 3.0 * math.sqrt(
+        # or the tracker claims a line that continues the one used at the previous fusion
+        # sample (at the same octave, within half an octave of its omega): the octave was
+        # decided when the line was first taken, and a claimed line that moves by less than
+        # half an octave from one sample to the next has not changed harmonic (with
+        # vib_use=all the omegas offered are not claims: no continuation)
+        cont = (p[33] > 0.5 and not math.isnan(kk) and kk == sc[14]
+                and not math.isnan(sc[13]) and abs(math.log2(om / sc[13])) <= 0.5)
+        decisive = not math.isnan(kk) and (fresh or cont or 3.0 * math.sqrt(
             P[IV, IV] + (r_hat * kk) ** 2 * var_om) <= p[28] * r_hat * kk * om)
         if ready and known and not hard and not (best <= p[7] and decisive):
             # re-lock run on the line at k = 1 (the octave that taught r): the gap
@@ -176,6 +183,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                     # an unclaimed line widens the band by its gap but is not taken: a
                     # claimed line at that gap then lies inside the band and re-locks
         if best <= p[7]:
+            sc[13] = om
+            sc[14] = kk
             h[IV] = 1.0
             h[IR] = -kk * om
             # away from GPS the radius and the offset are consider states: a line there
@@ -200,6 +209,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 sc[5] = 0.0
         else:
             kk = math.nan
+    if dt > 0.0 and math.isnan(kk):
+        sc[13] = math.nan  # no line used at this sample: the next one is not a continuation
     # 4. standstill from all evidence
     stopped = False
     if not still:
