@@ -72,6 +72,7 @@ benchmarks/trackers/RESULTS.md).
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -151,6 +152,15 @@ def _frame_tables(config, L: int, centre: bool) -> _FrameTables:
     return tb
 
 
+@lru_cache(maxsize=64)
+def _network(n: int, k: int) -> np.ndarray:
+    """:func:`selection_network` ``(n, k)``, made once per process (every rate of every frame
+    length asks for it; it is Python and most of a frame table's cost); read-only."""
+    net = selection_network(n, k)
+    net.flags.writeable = False
+    return net
+
+
 def _build_frame_tables(config, L: int, centre: bool) -> _FrameTables:
     tr = config.tracker
     dt = tr.model.dt
@@ -180,7 +190,7 @@ def _build_frame_tables(config, L: int, centre: bool) -> _FrameTables:
             i0k = np.minimum(pos.astype(np.int64), f.size - 2)
             h_i0[b, k - 1], h_fr[b, k - 1] = i0k, pos - i0k
     steps = np.maximum(1, widths // 8)
-    nets = [selection_network(int(w), int(k)) for w, k in zip(widths, ranks, strict=True)]
+    nets = [_network(int(w), int(k)) for w, k in zip(widths, ranks, strict=True)]
     net_at = np.cumsum([0] + [len(c) for c in nets]).astype(np.int64)
     return _FrameTables(np.log(config.rate_prior(rates)), w_i0, w_fr, np.hanning(L), nfft,
                         widths, steps, ranks, scale, np.concatenate(nets), net_at, h_i0, h_fr)
