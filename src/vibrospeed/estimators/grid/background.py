@@ -131,6 +131,20 @@ def selection_network(n: int, k: int) -> np.ndarray:
 
 
 @njit(cache=True)
+def _sort_columns(mat, net, nc):
+    """Apply the selection network ``net`` (comparator rows) to the first ``nc`` columns of
+    ``mat``: each comparator puts the smaller value in its first row."""
+    for t in range(net.shape[0]):
+        lo = mat[net[t, 0]]
+        hi = mat[net[t, 1]]
+        for c in range(nc):
+            x = lo[c]
+            y = hi[c]
+            lo[c] = x if x < y else y
+            hi[c] = y if x < y else x
+
+
+@njit(cache=True)
 def _background(row: np.ndarray, width: int, step: int, rank: int, scale: float,
                 net: np.ndarray, mat: np.ndarray, buf: np.ndarray, med: np.ndarray,
                 out: np.ndarray) -> None:
@@ -170,14 +184,7 @@ def _background(row: np.ndarray, width: int, step: int, rank: int, scale: float,
             else:
                 for i in range(width):
                     mat[i, c] = row[min(max(s0 + i, 0), n - 1)]
-        for t in range(net.shape[0]):
-            lo = mat[net[t, 0]]
-            hi = mat[net[t, 1]]
-            for c in range(nc):
-                x = lo[c]
-                y = hi[c]
-                lo[c] = x if x < y else y
-                hi[c] = y if x < y else x
+        _sort_columns(mat, net, nc)
         mk = mat[rank]
         for c in range(nc):
             med[c] = mk[c]

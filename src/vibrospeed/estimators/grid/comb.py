@@ -84,6 +84,7 @@ from vibrospeed.estimators.grid.background import (  # noqa: F401 (re-exported)
     _background,
     _background_stat,
     _kth,
+    _sort_columns,
     _window_medians,
     running_median,
     selection_network,
@@ -274,14 +275,7 @@ def _frame_background(row: np.ndarray, width: int, step: int, rank: int, scale: 
     if cl != (nc - 1) * step:  # the last window's centre is clipped to the last bin
         for i in range(width):
             mat[i, nc - 1] = row[min(max(cl - h + i, 0), n - 1)]
-    for t in range(net.shape[0]):
-        lo = mat[net[t, 0]]
-        hi = mat[net[t, 1]]
-        for c in range(nc):
-            x = lo[c]
-            y = hi[c]
-            lo[c] = x if x < y else y
-            hi[c] = y if x < y else x
+    _sort_columns(mat, net, nc)
     mk = mat[rank]
     if step == 1:
         for i in range(n):
