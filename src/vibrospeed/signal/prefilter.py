@@ -29,9 +29,9 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit
-from scipy import signal as sps
 
 from vibrospeed.errors import ParameterError
+from vibrospeed.signal import dsp
 
 #: thesis low-pass cut-offs (rad/s) per number of harmonics M (thesis section 3.5, table 3.1)
 THESIS_LP_CUTOFF = {1: 25.0, 2: 19.0, 3: 10.0}
@@ -65,7 +65,9 @@ def _rad_to_hz(w: float) -> float:
 def butter_sos(
     kind: str, cutoff_hz: float | tuple[float, float], fs: float, order: int = 2
 ) -> np.ndarray:
-    """Digital Butterworth SOS; ``kind`` in 'highpass', 'lowpass', 'bandpass'."""
+    """Digital Butterworth SOS; ``kind`` in 'highpass', 'lowpass', 'bandpass'
+    (``scipy.signal.butter(order, cutoff_hz, kind, fs=fs, output="sos")`` bit for bit, computed
+    by :func:`vibrospeed.signal.dsp.butter_sos` without importing ``scipy.signal``)."""
     nyq = fs / 2.0
     cuts = np.atleast_1d(np.asarray(cutoff_hz, dtype=float))
     if np.any(cuts <= 0) or np.any(cuts >= nyq):
@@ -73,7 +75,7 @@ def butter_sos(
             f"{kind} cut-off {cutoff_hz} Hz must lie in (0, {nyq:g}) Hz for fs = {fs:g} Hz"
         )
     wn = float(cuts[0]) if cuts.size == 1 else (float(cuts[0]), float(cuts[1]))
-    return sps.butter(order, wn, btype=kind, fs=fs, output="sos")
+    return dsp.butter_sos(order, wn, kind, fs)
 
 
 def design(
@@ -144,7 +146,7 @@ def init(sos: np.ndarray, level: float | None = None) -> PrefilterState:
     """
     if level is None or not np.isfinite(level):
         return PrefilterState(np.zeros((sos.shape[0], 2)), False)
-    return PrefilterState(sps.sosfilt_zi(sos) * float(level), True)
+    return PrefilterState(dsp.sosfilt_zi(sos) * float(level), True)
 
 
 @njit(cache=True)
@@ -173,7 +175,7 @@ def step(sos: np.ndarray, state: PrefilterState, x: float) -> tuple[PrefilterSta
         return state, math.nan
     if type(sos) is not np.ndarray or sos.dtype != np.float64 or not sos.flags.c_contiguous:
         sos = np.ascontiguousarray(sos, dtype=np.float64)
-    zi = state.zi if state.started else sps.sosfilt_zi(sos) * x
+    zi = state.zi if state.started else dsp.sosfilt_zi(sos) * x
     zf = np.empty((sos.shape[0], 2))
     return PrefilterState(zf, True), _sos_step(sos, zi, x, zf)
 
@@ -190,14 +192,14 @@ def apply(sos: np.ndarray, x: np.ndarray, level: float | None = None) -> np.ndar
     finite = np.isfinite(x)
     if not finite.any():
         return y
-    zi = None if level is None or not np.isfinite(level) else sps.sosfilt_zi(sos) * float(level)
+    zi = None if level is None or not np.isfinite(level) else dsp.sosfilt_zi(sos) * float(level)
     # contiguous runs of finite samples; the state carries over NaN gaps unchanged
     idx = np.flatnonzero(finite)
     breaks = np.flatnonzero(np.diff(idx) > 1) + 1
     for run in np.split(idx, breaks):
         seg = x[run[0] : run[-1] + 1]
         if zi is None:
-            zi = sps.sosfilt_zi(sos) * seg[0]
-        out, zi = sps.sosfilt(sos, seg, zi=zi)
+            zi = dsp.sosfilt_zi(sos) * seg[0]
+        out, zi = dsp.sosfilt(sos, seg, zi)
         y[run[0] : run[-1] + 1] = out
     return y

@@ -62,7 +62,19 @@ from numba import njit
 from numba.core import types
 from numba.extending import intrinsic
 from scipy import fft as sp_fft
-from scipy import signal as sps
+
+from vibrospeed.signal import dsp
+
+
+def __getattr__(name: str):
+    """``whiten.sps``: ``scipy.signal``, imported on first use (by :func:`predictor_reference`
+    and the tests that patch it) rather than with this module, which does not need it."""
+    if name == "sps":
+        from scipy import signal
+
+        return signal
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 ORDER = 12
 WINDOW_S = 9.0
@@ -381,10 +393,10 @@ class _Plan(NamedTuple):
 def _plan(fs: float) -> _Plan:
     W, _, seg = _sizes(fs)
     hop = seg - seg // 2
-    sft = sps.ShortTimeFFT(sps.get_window("hann", seg), hop, fs, fft_mode="onesided",
-                           mfft=seg, scale_to="psd", phase_shift=None)
-    win = np.ascontiguousarray(sft.win.conj(), dtype=np.float64)
-    f = sft.f
+    # ShortTimeFFT(get_window("hann", seg), hop, fs, mfft=seg, scale_to="psd")'s window and
+    # frequencies (scipy.signal's numbers, from vibrospeed.signal.dsp)
+    win = np.ascontiguousarray(dsp.psd_window(dsp.hann(seg), fs), dtype=np.float64)
+    f = np.fft.rfftfreq(seg, 1 / fs)
     k = 2 * max(1, int(round(0.5 * SMOOTH_HZ / (f[1] - f[0])))) + 1
     return _Plan(seg, hop, win, seg // 2 if seg % 2 == 0 else seg // 2 + 1, k,
                  _bias(max(W, seg) // hop + 2))
@@ -449,6 +461,7 @@ def predictor(hist: np.ndarray, fs: float) -> tuple[np.ndarray, float]:
 
 def predictor_reference(hist: np.ndarray, fs: float) -> tuple[np.ndarray, float]:
     """:func:`predictor` by the scipy and numpy calls it reproduces (for tests; ~1 ms)."""
+    from scipy import signal as sps
     from scipy.linalg import solve_toeplitz
     from scipy.ndimage import median_filter
 

@@ -69,9 +69,8 @@ def prefilter_note(config: Config, fs: float) -> str | None:
     """A note when the pre-filter's high-pass attenuates ``omega_min`` by more than half: e.g.
     ``paper-hp`` (8 Hz = 50 rad/s) on a 10 rad/s cart leaves the fundamental at 4 % and the
     2nd harmonic at 16 % of their amplitudes, so a body resonance wins."""
-    from scipy.signal import sosfreqz
-
     from vibrospeed.signal import prefilter as pf
+    from vibrospeed.signal.dsp import sosfreqz
 
     try:
         sos = pf.design(config.prefilter, fs, M=config.model.M,

@@ -263,7 +263,7 @@ class StreamPlot:
     """
 
     def __init__(self, rec, channel: str, n: int, window_s: float = 3.0, batch: int = 256):
-        from scipy.signal import get_window
+        from vibrospeed.signal.dsp import get_window
 
         self.channel, self.source = channel, rec.source
         x = rec.channel(channel)
