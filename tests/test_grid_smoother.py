@@ -9,6 +9,7 @@ import numpy as np
 from mode_reference import check_mode
 from vibrospeed.estimators import grid_smoother as gs
 from vibrospeed.estimators import rbpmf
+from vibrospeed.estimators.grid.filter import tables
 from vibrospeed.models.harmonic import HarmonicModel
 
 
@@ -158,7 +159,7 @@ def test_smoothed_mode_is_the_highest_mass_window_of_the_smoothed_posterior():
     g = cfg.grid
     for k in range(20, 300, 7):  # the posterior comes back as float32: loose tolerances
         check_mode(sm.posterior[k], g, cfg.amb_rel, cfg.amb_abs, sm.omega_mode[k],
-                   sm.p_mode[k], tol=1e-4)
+                   sm.p_mode[k], tables(cfg).u, tol=1e-4)
     # a peaked, unimodal smoothed posterior: mode mean = mean
     one = (sm.p_mode > 1 - 1e-9) & (sm.omega_std < 0.25)
     assert one.sum() > 100

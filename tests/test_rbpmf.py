@@ -8,6 +8,7 @@ import pytest
 from mode_reference import check_mode
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import kalman, rbpmf
+from vibrospeed.estimators.grid.filter import tables
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Recording
 
@@ -262,7 +263,7 @@ def test_mode_is_the_highest_mass_window():
         st, est = rbpmf.step(cfg, st, v)
         assert est.omega_mode == res.omega_mode[k] and est.p_mode == res.p_mode[k]
         check_mode(est.posterior, cfg.grid, cfg.amb_rel, cfg.amb_abs, est.omega_mode,
-                    est.p_mode)
+                   est.p_mode, tables(cfg).u)
     # a two-bump posterior (masses 0.35 at 30, 0.65 at 45 rad/s, sd 1.5) shown by a NaN step
     g = cfg.grid
     w = 0.35 * np.exp(-0.5 * ((g - 30) / 1.5) ** 2) + 0.65 * np.exp(-0.5 * ((g - 45) / 1.5) ** 2)
@@ -284,6 +285,28 @@ def test_mode_is_the_highest_mass_window():
     narrow = (res.p_mode > 1 - 1e-9) & (res.omega_std < 0.75)
     assert narrow.sum() > 100
     np.testing.assert_allclose(res.omega_mode[narrow], res.omega[narrow], atol=0.02)
+
+
+def test_mode_is_the_window_in_excess_of_a_flat_posterior():
+    """The windows widen with omega (amb_rel) while the prior is uniform in omega: a nearly
+    flat posterior with a small bump at 20 rad/s (mass 0.05 on a 10-120 rad/s grid) has its
+    largest window *mass* at the top of the range (half-width 6 rad/s holds ~0.09) but its
+    only *excess* over a flat posterior at the bump; an exactly flat posterior's windows all
+    tie and the one nearest the mean (65 rad/s) wins."""
+    model = HarmonicModel(M=1, dt=0.01, q_omega=1e-6, q_amp=0.001, r=0.05, p0_amp=0.1)
+    cfg = rbpmf.Config(model=model, n_grid=221, omega_min=10.0, omega_max=120.0,
+                       jump_rate=0.0)
+    g = cfg.grid
+    u = tables(cfg).u
+    bump = np.exp(-0.5 * ((g - 20.0) / 0.3) ** 2)
+    w = 0.95 * u + 0.05 * bump / bump.sum()
+    st0 = rbpmf.init(cfg)
+    _, est = rbpmf.step(cfg, st0._replace(log_w=np.log(w)), np.nan)
+    masses = [w[np.abs(g - x) <= max(cfg.amb_abs, cfg.amb_rel * x)].sum() for x in g]
+    assert g[int(np.argmax(masses))] > 100  # what the plain mass would pick
+    assert abs(est.omega_mode - 20.0) < 0.5
+    _, est = rbpmf.step(cfg, st0._replace(log_w=np.log(u)), np.nan)
+    assert abs(est.omega_mode - 65.0) < 1.0 and est.p_mode > 1 - 1e-9
 
 
 def test_point_mode_in_estimate():
@@ -525,7 +548,7 @@ def test_mode_hold_matches_brute_force_and_streams():
     cfg = dataclasses.replace(base, mode_hold=4.0)
     held = rbpmf.run(cfg, y, return_posterior=True)
     np.testing.assert_array_equal(held.posterior, free.posterior)  # the point only
-    ref = held_modes(held.posterior, cfg.grid, cfg.amb_rel, cfg.amb_abs, 4.0)
+    ref = held_modes(held.posterior, cfg.grid, cfg.amb_rel, cfg.amb_abs, 4.0, tables(cfg).u)
     np.testing.assert_allclose(held.omega, ref, rtol=1e-6)
     hops = lambda om: int(np.sum(np.abs(np.diff(om)) > 5.0))  # noqa: E731
     assert hops(free.omega) > 20 and hops(held.omega) <= 1

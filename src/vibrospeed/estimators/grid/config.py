@@ -100,10 +100,14 @@ class Config:
         switching rates. The data still place omega within the signal part.
     point : the point estimate :func:`estimate` reports as the Track's ``omega``: ``"mean"``
         (the paper's posterior mean) or ``"mode"``: the conditional mean of the window
-        ``|omega - x| <= max(amb_abs, amb_rel x)`` that holds the most mass (a window, not the
-        highest grid point, so a spiky posterior does not make the point hop between close
-        peaks; benchmarks/trackers/RESULTS.md). Its basin is the set of windows reached from
-        it by non-increasing window mass; ``p_mode`` is the mass they cover. For a unimodal
+        ``|omega - x| <= max(amb_abs, amb_rel x)`` whose mass most exceeds a flat posterior's,
+        ``sum_window (w_j - (1 - p_null) u_j)`` with ``u`` the prior (uniform in omega): a
+        window, not the highest grid point, so a spiky posterior does not make the point hop
+        between close peaks (benchmarks/trackers/RESULTS.md); its excess, not its mass, so
+        where the data say little the widest windows (the top of the range) do not win
+        (benchmarks/robustness/RESULTS.md). Windows tied within round-off (a flat posterior)
+        go to the one nearest the mean. Its basin is the set of windows reached from it by
+        non-increasing window excess; ``p_mode`` is the mass they cover. For a unimodal
         posterior both are equal; while the posterior is split between lines (acquisition
         from a uniform prior, a resonance, omega/2) the global mean lies between the modes,
         on no line, while the mode mean stays on the most probable one. Both are always in
@@ -112,7 +116,8 @@ class Config:
         ``step``/``run`` report the chosen one as ``omega`` (and the mean as ``omega_mean``).
     mode_hold : hysteresis of the mode in the causal filter (``step`` / ``run``; 1: none): the
         current mode window, re-centred on its best window within its half-width, is kept
-        unless another window holds more than ``mode_hold`` times its mass, so a second line
+        unless the best window holds more than ``mode_hold`` times its mass (plain masses:
+        their ratio, unlike that of excesses, has a meaning), so a second line
         that briefly draws level does not make the point estimate hop.
         The smoothers report the stateless mode.
     claim_level : posterior probability of "a line is present", ``1 - p_null``, at which the

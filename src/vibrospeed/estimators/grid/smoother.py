@@ -58,6 +58,8 @@ from numba import njit
 import vibrospeed.estimators.grid.summary as cols
 from vibrospeed.estimators.grid.config import Config
 from vibrospeed.estimators.grid.filter import init
+
+# _summary is compiled into _emit (numba's cache keys on this file: see core.py)
 from vibrospeed.estimators.grid.summary import COL_LOGLIK, N_OUT_FIXED, _summary
 
 

@@ -18,6 +18,9 @@ COL_P_NULL, COL_P_HALF, COL_P_DOUBLE, COL_P_THIRD, COL_P_TRIPLE = 6, 7, 8, 9, 10
 COL_MODE, COL_P_MODE, COL_MODE_STD = 11, 12, 13
 #: fixed columns per row; the filter appends the M amplitudes at the MAP point after them
 N_OUT_FIXED = 14
+#: window excesses within TIE x the signal mass of each other are tied (the running sums'
+#: round-off)
+TIE = 1e-9
 
 
 @njit(cache=True)
@@ -99,36 +102,51 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, 
     out[COL_LO] = _quantile(v, edges, q_lo)
     out[COL_HI] = _quantile(v, edges, q_hi)
     out[COL_P_NULL] = w0
-    # the mode: the window of half-width max(amb_abs, amb_rel x) around a grid point x that
-    # holds the most signal mass (v_j, two pointers; v is free after the quantiles), reported
-    # as the window's conditional mean; a window, not the single highest point, so a spiky
-    # posterior (fine grid, tempered data) does not hop between neighbouring peaks
+    # the mode: the window of half-width max(amb_abs, amb_rel x) around a grid point x whose
+    # signal mass most exceeds that of a flat posterior, sum_window (w_j - (1 - w0) u_j) (two
+    # pointers; v is free after the quantiles), reported as the window's conditional mean. A
+    # window, not the single highest point, so a spiky posterior (fine grid, tempered data)
+    # does not hop between neighbouring peaks; the excess, not the mass, because the windows
+    # widen with x while the prior u is uniform in omega: where the data say little, the
+    # widest window (the top of the range) would otherwise win
+    sig = 1.0 - w0
     lo = 0
     hi = 0
     s = 0.0
-    jb = 0
+    top = -np.inf
     for j in range(N):
         hw = max(amb_abs, amb_rel * grid[j])
         while hi < N and grid[hi] <= grid[j] + hw:
-            s += w[hi]
+            s += w[hi] - sig * u[hi]
             hi += 1
         while grid[lo] < grid[j] - hw:
-            s -= w[lo]
+            s -= w[lo] - sig * u[lo]
             lo += 1
         v[j] = s
-        if s > v[jb]:
+        top = max(top, s)
+    # windows within the sums' round-off of the best (a flat posterior: all of them) are
+    # tied; the one nearest the posterior mean given a line wins, so ties do not go to an end
+    tie = top - TIE * sig
+    mean = out[COL_MEAN]
+    jb = -1
+    for j in range(N):
+        if v[j] >= tie and (jb < 0 or abs(grid[j] - mean) < abs(grid[jb] - mean)):
             jb = j
     # hysteresis (mode_hold > 1): keep the current window, re-centred on its best window
-    # within its half-width, unless the best window holds more than hold x its mass
+    # within its half-width, unless the best window holds more than hold x its mass (plain
+    # masses throughout: a ratio of excesses, which may be negative, means nothing)
     if hold > 1.0 and cur[0] >= 0:
         c = cur[0]
         hwc = max(amb_abs, amb_rel * grid[c])
         jc = c
+        mcur = _mass_near(w, grid, grid[c], amb_rel, amb_abs)
         a, b = _near(grid, grid[c], hwc)
         for j in range(a, b):
-            if v[j] > v[jc]:
+            mj = _mass_near(w, grid, grid[j], amb_rel, amb_abs)
+            if mj > mcur:
                 jc = j
-        if not v[jb] > hold * v[jc]:
+                mcur = mj
+        if not _mass_near(w, grid, grid[jb], amb_rel, amb_abs) > hold * mcur:
             jb = jc
     cur[0] = jb
     hw = max(amb_abs, amb_rel * grid[jb])
@@ -139,17 +157,17 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, 
         sb += w[j]
         mb += w[j] * grid[j]
     out[COL_MODE] = mb / sb if sb > 0.0 else grid[jb]
-    # its basin: the windows reached from jb by non-increasing window mass; p_mode is the
-    # signal mass they cover (1e-12: the running sums' rounding, so a flat posterior is one
-    # basin); the within-mode spread is the root-mean-square distance of omega from the
+    # its basin: the windows reached from jb by non-increasing window excess (within TIE:
+    # the running sums' round-off, so a flat posterior is one basin); p_mode is the signal
+    # mass they cover; the within-mode spread is the root-mean-square distance of omega from the
     # mode's mean over the basin, sqrt(sum_basin w_j (g_j - mode)^2 / sum_basin w_j): the
     # spread of the posterior given the mode, about the point the mode reports
     mode = out[COL_MODE]
     a = jb
-    while a > 0 and v[a - 1] <= v[a] + 1e-12:
+    while a > 0 and v[a - 1] <= v[a] + TIE * sig:
         a -= 1
     b = jb
-    while b < N - 1 and v[b + 1] <= v[b] + 1e-12:
+    while b < N - 1 and v[b + 1] <= v[b] + TIE * sig:
         b += 1
     x_lo = grid[a] - max(amb_abs, amb_rel * grid[a])
     x_hi = grid[b] + max(amb_abs, amb_rel * grid[b])
@@ -164,7 +182,6 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, 
         sb += w[j]
         d = grid[j] - mode
         ss += w[j] * d * d
-    sig = 1.0 - w0
     out[COL_P_MODE] = min(1.0, sb / sig) if sig > 1e-300 else 1.0
     out[COL_MODE_STD] = np.sqrt(ss / sb) if sb > 0.0 else 0.0
     if sig > 1e-300:
