@@ -1,5 +1,5 @@
-"""``vibrospeed.signal.dsp`` against the ``scipy.signal`` calls it reproduces, bit for bit, and
-the default estimate path without ``scipy.signal``.
+"""``vibrospeed.signal.dsp`` against the ``scipy.signal`` (and ``scipy.ndimage``) calls it
+reproduces, bit for bit, and the default estimate path without them.
 
 The Butterworth design, the steady state, the filter loop, the response at a frequency and the
 Hann window must be the installed scipy's numbers exactly (``np.array_equal``), so that no
@@ -188,6 +188,34 @@ def test_hann_and_psd_window_equal_scipy_bitwise(M):
         assert np.array_equal(np.fft.rfftfreq(M, 1 / fs), sft.f)
 
 
+def _median_loop(x, size):
+    """The median of each edge-extended window by sorting it (plain Python)."""
+    h = size // 2
+    n = len(x)
+    return np.array([sorted(x[min(max(j, 0), n - 1)] for j in range(i - h, i + h + 1))[h]
+                     for i in range(n)])
+
+
+@pytest.mark.parametrize("size", [1, 3, 5, 7, 9, 15, 31, 101])
+def test_median_filter_equals_scipy_ndimage(size):
+    """Values equal to ``scipy.ndimage.median_filter(mode="nearest")`` and to sorting each
+    window, for noise, heavily tied (quantised) values and zeros, any length."""
+    from scipy.ndimage import median_filter
+
+    rng = np.random.default_rng(size)
+    for n in [*range(1, 40), 1000, 50_000]:
+        for x in (rng.normal(size=n), np.round(rng.normal(size=n) * 2) / 2,
+                  np.where(rng.random(n) < 0.5, 0.0, rng.normal(size=n))):
+            got = dsp.median_filter(x, size)
+            assert np.array_equal(got, median_filter(x, size=size, mode="nearest")), (size, n)
+            if n <= 200:
+                assert np.array_equal(got, _median_loop(x, size))
+    with pytest.raises(ValueError):
+        dsp.median_filter(np.array([1.0, np.nan]), 3)
+    with pytest.raises(ValueError):
+        dsp.median_filter(np.ones(5), 4)
+
+
 _NO_SCIPY_SIGNAL = r"""
 import sys
 import numpy as np
@@ -208,7 +236,8 @@ cfg = grid.config_for(rec, axis="z", params={"smooth": "none", "n_grid": 40})
 trk = OnlineTracker(grid, cfg, level=start_level(rec["az"], 0.01))
 om = [trk.update(s).omega for s in rec["az"][:300]]
 assert np.isfinite(om[-1])
-bad = sorted(m for m in sys.modules if m == "scipy.signal" or m.startswith("scipy.signal."))
+bad = sorted(m for m in sys.modules if m.split(".")[:2] in (["scipy", "signal"],
+                                                            ["scipy", "ndimage"]))
 assert not bad, bad
 print("ok")
 """
@@ -216,7 +245,8 @@ print("ok")
 
 def test_default_estimate_path_does_not_import_scipy_signal(tmp_path):
     """The CLI's default estimate (fuse on a drive with GPS), the grid, its causal filter and the
-    grid's ``OnlineTracker`` in a fresh process: ``scipy.signal`` never imported."""
+    grid's ``OnlineTracker`` in a fresh process: ``scipy.signal`` (and ``scipy.ndimage``)
+    never imported."""
     from vibrospeed import io, sim
 
     path = tmp_path / "short.csv"

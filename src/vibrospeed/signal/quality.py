@@ -39,7 +39,8 @@ import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.ndimage import median_filter
+
+from vibrospeed.signal.dsp import median_filter  # scipy.ndimage's, mode "nearest"
 
 SATURATED = 1
 STUCK = 2
@@ -131,7 +132,7 @@ def channel_quality(x: np.ndarray, fs: float, name: str = "") -> ChannelQuality:
         flags[a:b] |= STUCK
     # spikes: residual from a 7-sample running median, robust local scale
     xf = np.where(fin, x, 0.0)
-    med = median_filter(xf, size=_MED, mode="nearest")
+    med = median_filter(xf, _MED)
     r = np.where(fin, x - med, np.nan)
     s = np.maximum(_scale(r, max(_MED, int(round(SCALE_S * fs)))), _resolution(x))
     with np.errstate(invalid="ignore"):
