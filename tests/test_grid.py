@@ -8,6 +8,7 @@ import pytest
 
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import grid, rbpmf
+from vibrospeed.estimators.grid import comb
 from vibrospeed.types import Recording
 
 
@@ -98,13 +99,13 @@ def test_frame_evidence_matches_loop_reference():
     t = np.arange(cfg.frame_len) * 0.01
     fr = np.sin(30 * t) + 0.5 * np.sin(60 * t + 1) + 0.3 * rng.normal(size=t.size)
     fr[5] = np.nan
-    got = grid.frame_evidence(cfg, fr[None, :])[0]
+    got = grid.frame_evidence(cfg, fr[None, :], raw=True)[0]
     ref = _reference_evidence(cfg, fr)
     np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9)
-    np.testing.assert_allclose(grid.frame_evidence(cfg, fr[None, :], centre=True)[0],
+    np.testing.assert_allclose(grid.frame_evidence(cfg, fr[None, :], centre=True, raw=True)[0],
                                _reference_evidence(cfg, fr, centre=True), rtol=1e-9, atol=1e-9)
     one = dataclasses.replace(cfg, comb_rates=(0.0,))  # no warps: the stationary evidence
-    np.testing.assert_allclose(grid.frame_evidence(one, fr[None, :])[0],
+    np.testing.assert_allclose(grid.frame_evidence(one, fr[None, :], raw=True)[0],
                                _reference_evidence(one, fr), rtol=1e-9, atol=1e-9)
 
 
@@ -114,7 +115,7 @@ def test_frame_evidence_lead_matches_loop_reference(lead):
     rng = np.random.default_rng(4)
     t = np.arange(cfg.frame_len) * 0.01
     fr = 2 * np.sin(45 * t) + 0.2 * np.sin(30 * t) + 0.3 * rng.normal(size=t.size)
-    np.testing.assert_allclose(grid.frame_evidence(cfg, fr[None, :])[0],
+    np.testing.assert_allclose(grid.frame_evidence(cfg, fr[None, :], raw=True)[0],
                                _reference_evidence(cfg, fr), rtol=1e-9, atol=1e-9)
 
 
@@ -342,8 +343,10 @@ def test_growing_start_frames_match_reference_and_stream():
     full = np.arange(L - 1, y.size, H)
     np.testing.assert_array_equal(idx, np.r_[grow, full])
     for e, v in zip(idx, vals, strict=True):  # each frame: the (up to L) samples up to e
-        np.testing.assert_allclose(v, _reference_evidence(cfg, y[max(0, e - L + 1):e + 1]),
-                                   rtol=1e-7, atol=1e-7)
+        fr = y[max(0, e - L + 1):e + 1]  # centred on what white noise gives each grid point
+        ref = _reference_evidence(cfg, fr)
+        ref[:-1] -= cfg.comb_weight * comb.noise_offsets(cfg, fr.size)
+        np.testing.assert_allclose(v, ref, rtol=1e-7, atol=1e-7)
     # streaming == batch, split inside the growing phase
     res = grid.run(cfg, y)
     st = grid.init(cfg)
@@ -382,7 +385,7 @@ def test_short_start_frame_scores_a_clean_comb_in_full():
     t = np.arange(100) * 0.01  # 1 s: the first growing frame
     fr = (np.sin(50 * t) + 0.7 * np.sin(100 * t + 1) + 0.5 * np.sin(150 * t + 2)
           + 0.05 * rng.normal(size=t.size))
-    E = grid.frame_evidence(cfg, fr[None, :])[0, :-1]
+    E = grid.frame_evidence(cfg, fr[None, :], raw=True)[0, :-1]
     g = cfg.tracker.grid
     top = g[E >= E.max() - 0.01]  # the capped plateau around the comb
     assert abs(0.5 * (top.min() + top.max()) - 50.0) < 1.0 and np.ptp(top) < 6.0
@@ -414,8 +417,9 @@ def test_warped_evidence_scores_an_accelerating_comb_at_its_current_frequency():
     # and a steady comb keeps (nearly) its evidence: the warps only add alternatives
     xs = sum(a * np.cos(k * 55 * t) for k, a in ((1, 1.0), (2, 0.8), (3, 0.5)))
     xs = xs + 0.5 * np.random.default_rng(1).normal(size=t.size)
-    ws = grid.frame_evidence(grid.Config(tracker=tr), xs[None, :])[0, :-1]
-    fs_ = grid.frame_evidence(grid.Config(tracker=tr, comb_rates=(0.0,)), xs[None, :])[0, :-1]
+    ws = grid.frame_evidence(grid.Config(tracker=tr), xs[None, :], raw=True)[0, :-1]
+    fs_ = grid.frame_evidence(grid.Config(tracker=tr, comb_rates=(0.0,)), xs[None, :],
+                              raw=True)[0, :-1]
     assert abs(g[np.argmax(ws)] - 55) < 1.0
     assert ws.max() > fs_.max() + np.log(0.5) * 0.5 - 1e-9  # at worst the prior weight
 
@@ -537,9 +541,9 @@ def test_identical_axes_scale_the_evidence_exactly():
     t = np.arange(cfg.frame_len) * 0.01
     fr = (0.5 * np.sin(35 * t) + 0.3 * np.sin(70 * t + 1) + 3.0 * np.sin(52 * t)
           + 0.2 * rng.normal(size=t.size))[None, :]
-    e1 = grid.frame_evidence(cfg, fr)
+    e1 = grid.frame_evidence(cfg, fr, raw=True)
     for A in (2, 3):
-        eA = grid.frame_evidence(cfg, np.stack([fr] * A))
+        eA = grid.frame_evidence(cfg, np.stack([fr] * A), raw=True)
         np.testing.assert_allclose(eA, A * cfg.axes_weight(A) * e1, rtol=1e-12, atol=1e-12)
     assert cfg.axes_weight(1) == 1.0 and 0.3 < cfg.axes_weight(3) < 1.0 / np.sqrt(3)
 
@@ -671,3 +675,29 @@ def test_standstill_is_a_state_of_the_default_tracker():
     assert np.all(tr.omega[st] == 0) and np.all(tr.omega_hi[st] == 0)
     assert np.all(tr.extras["has_signal"][st] == 0)
     assert any("standstill on" in n for n in tr.notes)
+
+
+def test_comb_evidence_is_centred_on_white_noise():
+    """On white noise the raw comb evidence favours the bottom of a 2-30 rad/s range (its
+    harmonics read correlated bins there); centred (:func:`comb.noise_offsets`), its mean per
+    grid point over independent noise frames is flat up to the Monte Carlo errors, and the
+    offsets are the raw evidence's mean on their own noise, less its grid average."""
+    tr = rbpmf.improved(rbpmf.Config.from_paper_table1(0.01), n_grid=60, omega_min=2.0,
+                        omega_max=30.0)
+    cfg = grid.Config(tracker=tr)
+    L = cfg.frame_len
+    noise = np.random.default_rng(99).standard_normal((1, 256, L))
+    raw = grid.frame_evidence(cfg, noise, raw=True)[:, :-1].mean(axis=0) / cfg.comb_weight
+    got = grid.frame_evidence(cfg, noise)[:, :-1].mean(axis=0) / cfg.comb_weight
+    g = tr.grid
+    bottom = g < 4.5
+    gap = raw[bottom].mean() - raw[~bottom].mean()  # the bias being removed: ~0.15 nats
+    assert gap > 0.1
+    # (within the Monte Carlo errors: ~0.04 nats per grid point of the offsets' 64 frames,
+    # ~0.02 of these 256)
+    assert abs(got[bottom].mean() - got[~bottom].mean()) < 0.5 * gap
+    assert np.ptp(got) < 0.5 * np.ptp(raw)
+    own = np.random.default_rng(L).standard_normal((1, comb.NOISE_FRAMES, L))
+    m = grid.frame_evidence(cfg, own, raw=True)[:, :-1].mean(axis=0) / cfg.comb_weight
+    np.testing.assert_allclose(comb.noise_offsets(cfg, L), m - m.mean(), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got, raw - comb.noise_offsets(cfg, L), atol=1e-12)

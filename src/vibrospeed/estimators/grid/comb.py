@@ -48,6 +48,10 @@ and adds the evidence there, where a stationary spectrum describes the comb: a s
 braking is then not attributed 1.5 s late (benchmarks/beyond/RESULTS.md). The fixed-lag
 smoother does the same when ``lag >= W/2`` and shrinks its blocks to ``lag - W/2`` s, so a
 sample still uses data at most ``lag..2 lag - W/2`` s after it.
+Centred on noise: each grid point's evidence is less what white noise gives it on average
+(:func:`noise_offsets`): harmonics closer together than the frame's resolution read correlated
+bins, which the cap and the lead score higher, so without it a drive without a line would
+sit at the bottom of the range.
 Aliasing is folded like the rotation model (k omega above Nyquist appears at its alias). The
 grid point's evidence ``E(omega) = comb_weight * sum_k l_k(omega)`` (the "no line" state: 0)
 is added to the log-weights at the end of every frame (``rbpmf.step(..., extra=E)``). The
@@ -384,16 +388,18 @@ def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np
                 E[b, f, j] = e + logp[b]
 
 
-def frame_evidence(config, frames: np.ndarray, centre: bool = False) -> np.ndarray:
+def frame_evidence(config, frames: np.ndarray, centre: bool = False, *,
+                   raw: bool = False) -> np.ndarray:
     """(F, N + 1) comb log-evidence of the (F, L) sample frames, or of the (A, F, L) frames
     of A axes (``comb_axes``), per the module docstring; NaN samples count as 0; frames with
     more than half NaN give no evidence (zeros). With several ``comb_rates`` the frame is also
     warped for each relative rate (:func:`_warp`) and the evidences are averaged over the
     rates with their prior weights (in probability: ``E = log sum_b p_b exp(E_b)``), so an
     accelerating comb scores at its *current* frequencies instead of being smeared over the
-    frame. One FFT call for every rate, axis and frame, the rest compiled (:func:`_windowed`,
-    :func:`_rate_evidence`) with the constants of the frame length built once
-    (:func:`_frame_tables`)."""
+    frame. Each grid point's evidence is centred on what white noise gives it
+    (:func:`noise_offsets`; ``raw``: not centred). One FFT call for every rate, axis and frame,
+    the rest compiled (:func:`_windowed`, :func:`_rate_evidence`) with the constants of the
+    frame length built once (:func:`_frame_tables`)."""
     tr = config.tracker
     frames = np.asarray(frames, dtype=np.float64)
     if frames.ndim == 2:
@@ -422,9 +428,41 @@ def frame_evidence(config, frames: np.ndarray, centre: bool = False) -> np.ndarr
                    float(config.comb_cap), tb.logp, use_lead, E)
     mx = E.max(axis=0)  # (one rate: log p = 0 and this is E[0] exactly)
     out[:, :N] = mx + np.log(np.exp(E - mx).sum(axis=0))
+    if not raw:  # centred for the axes each frame uses (a dead axis drops out)
+        for g in np.unique(n_good[n_good > 0]):
+            out[n_good == g, :N] -= noise_offsets(config, L, centre, int(g))
     out[:, :N] *= config.comb_weight
     out[n_good == 0] = 0.0
     return out
+
+
+#: white-noise frames behind :func:`noise_offsets` (its Monte Carlo error per grid point is
+#: ~0.2 / sqrt(64) = 0.025 nats, against offsets of up to ~0.1-0.2 nats)
+NOISE_FRAMES = 64
+
+
+def noise_offsets(config, L: int, centre: bool = False, A: int = 1) -> np.ndarray:
+    """(N,) what the comb evidence gives each grid point, on average, where there is no line:
+    its mean over ``NOISE_FRAMES`` frames of white noise (``L`` samples, ``A`` axes; a fixed
+    seed per length), less that mean's average over the grid. :func:`frame_evidence`
+    subtracts it, so that data without a line favour no part of the range: where a grid
+    point's harmonics lie closer together than the frame's resolution (the bottom of the
+    range: 2-4.5 rad/s on a 3 s frame), they read correlated bins, which the per-harmonic cap
+    and the lead limit then score higher on average (+0.1 nats per frame on white noise), and
+    "no line" drives would otherwise sit at the bottom of the range. The grid's average is
+    kept, so the balance with the "no line" state (evidence 0) does not move. Built once per
+    Config and frame shape and kept with the Config (the causal step asks at every frame)."""
+    cache = config.__dict__.setdefault("_noise_offsets", {})
+    key = (int(L), bool(centre), int(A))
+    off = cache.get(key)
+    if off is None:
+        noise = np.random.default_rng(L).standard_normal((A, NOISE_FRAMES, L))
+        w = config.comb_weight
+        m = frame_evidence(config, noise, centre, raw=True)[:, :-1].mean(axis=0)
+        m = m / w if w != 0 else np.zeros_like(m)
+        off = cache[key] = m - m.mean()
+        off.flags.writeable = False
+    return off
 
 
 def _frame_plan(config) -> tuple[int, int, int, bool]:
