@@ -155,7 +155,7 @@ def test_a_sweeping_line_stays_out_of_the_background(monkeypatch):
     background; Welch's mean over the segments (the reference, patched in) lets it in."""
     median = [_sweeping_line_gain_db(s) for s in (1, 2, 3)]
     welch = sps.welch
-    monkeypatch.setattr(wh.sps, "welch", lambda *a, **k: welch(*a, **{**k, "average": "mean"}))
+    monkeypatch.setattr(sps, "welch", lambda *a, **k: welch(*a, **{**k, "average": "mean"}))
 
     def mean_predictors(z, w0, w1, fs):  # the scipy reference, with Welch's mean
         rows = [wh.predictor_reference(z[a:b], fs) for a, b in zip(w0, w1, strict=True)]

@@ -65,17 +65,6 @@ from scipy import fft as sp_fft
 
 from vibrospeed.signal import dsp
 
-
-def __getattr__(name: str):
-    """``whiten.sps``: ``scipy.signal``, imported on first use (by :func:`predictor_reference`
-    and the tests that patch it) rather than with this module, which does not need it."""
-    if name == "sps":
-        from scipy import signal
-
-        return signal
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 ORDER = 12
 WINDOW_S = 9.0
 BLOCK_S = 1.0
