@@ -91,6 +91,7 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
     acq = None  # (start, mean log ratio) of the consistent run while r is unknown
     run = None  # (start, mean gap, line speed at start) of the re-lock run
     prev = None  # (omega, k) of the line used at the previous sample
+    last = None  # (t, omega, k) of the last line used
     for i in range(arrays["t"].size):
         t = arrays["t"][i]
         dt = 0.0 if math.isnan(t_prev) else t - t_prev
@@ -147,7 +148,14 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
             R = {k: R1[k] * cfg.vib_corr / dt for k in R1}  # per correlation time
             sv3 = 3 * math.sqrt(P[0, 0])
             costs = {}
-            for k in (1.0, 0.5, 2.0) if ready and not (hard or soft) else ():
+            # an unclaimed line: only where it continues the last line used (at most
+            # vib_soft_hold s before the previous sample, within half an octave), at its k
+            soft_cont = (soft and cfg.vib_soft_gate > 0 and last is not None
+                         and t - last[0] <= dt + cfg.vib_soft_hold
+                         and abs(math.log2(om / last[1])) <= 0.5)
+            for k in (1.0, 0.5, 2.0) if ready and not hard and (soft_cont or not soft) else ():
+                if soft and k != last[2]:
+                    continue
                 if not (cfg.radius_min * k * om <= x[0] + sv3
                         and x[0] - sv3 <= cfg.radius_max * k * om):
                     continue
@@ -162,9 +170,10 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
                 kb = min(costs, key=lambda k: costs[k][0])
                 # a claimed line that continues the previous sample's (same k, within half
                 # an octave of its omega) keeps its octave without the decisive gate
-                cont = (cfg.vib_use == "line" and prev is not None and kb == prev[1]
-                        and abs(math.log2(om / prev[0])) <= 0.5)
-                if costs[kb][0] <= cfg.vib_gate and (
+                cont = cfg.vib_use == "line" and (soft_cont or (
+                    prev is not None and kb == prev[1] and abs(math.log2(om / prev[0])) <= 0.5))
+                gate = cfg.vib_soft_gate if soft else cfg.vib_gate
+                if costs[kb][0] <= gate and (
                         fresh or cont or 3 * math.sqrt(P[0, 0] + (rh * kb) ** 2 * var)
                         <= cfg.vib_sep * rh * kb * om):
                     take = kb
@@ -188,6 +197,7 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
                 k_used = take
                 upd_consider(e[0] - take * om * e[3], 0.0, R[take], None if fresh else [2, 3])
                 prev = (om, take)
+                last = (t, om, take)
         if dt > 0 and math.isnan(k_used):
             prev = None
         speeds.append(x[0])
@@ -201,9 +211,14 @@ def reference(cfg: fuse.Config, arrays: dict, state: fuse.State):
 def test_filter_matches_independent_reference(kw):
     cfg = fuse.Config(acc_psd=0.01, **kw)
     arrays, _ = synth(seed=1, T=60.0, outage=(20.0, 40.0), no_line=(30.0, 35.0))
-    # unclaimed lines offered to the re-lock only, in and out of the outage
-    arrays["soft"] = (arrays["t"] >= 32.0) & (arrays["t"] < 35.0) | (arrays["t"] < 2.0)
+    # unclaimed lines, in and out of the outage: continuing the claimed line (25-27 s, with a
+    # stretch 25 % off that the soft gate refuses), after a gap shorter than vib_soft_hold
+    # (30.5-31 s) and after a longer one (32.5-35 s: the re-lock's band only)
+    t = arrays["t"]
+    arrays["soft"] = (((t >= 25.0) & (t < 27.0)) | ((t >= 30.5) & (t < 31.0))
+                      | ((t >= 32.5) & (t < 35.0)) | (t < 2.0))
     arrays["line"] = arrays["line"] | arrays["soft"]
+    arrays["omega"][(t >= 26.0) & (t < 26.2)] *= 1.25
     # octave errors of the tracker in places: the filter must resolve them as the reference does
     arrays["omega"][200:230] *= 2.0
     arrays["omega"][600:620] *= 0.5
@@ -213,6 +228,13 @@ def test_filter_matches_independent_reference(kw):
     np.testing.assert_allclose(o.speed, vs, rtol=0, atol=1e-7)
     np.testing.assert_allclose(o.radius, rs, rtol=0, atol=1e-9)
     np.testing.assert_array_equal(np.isnan(o.harmonic), np.isnan(ks))
+    if kw.get("vib_use", "line") == "line" and "vib_amax" not in kw:
+        # the unclaimed continuations are taken, the 25 % jump is not, nor the line after the
+        # gap longer than vib_soft_hold
+        assert np.all(np.isfinite(o.harmonic[(t >= 25.0) & (t < 26.0)]))
+        assert not np.any(np.isfinite(o.harmonic[(t >= 26.0) & (t < 26.2)]))
+        assert np.all(np.isfinite(o.harmonic[(t >= 30.5) & (t < 31.0)]))
+        assert not np.any(np.isfinite(o.harmonic[(t >= 32.5) & (t < 35.0)]))
     # the doubled / halved stretches were read as 2 omega and omega / 2 (k = 1/2 and 2)
     assert np.nanmedian(o.harmonic[205:230]) == 0.5
     assert np.nanmedian(o.harmonic[605:620]) == 2.0
@@ -744,6 +766,40 @@ def test_unclaimed_lines_widen_the_band_so_that_a_claimed_line_relocks():
     assert np.all(np.abs(hard.speed[early] - v[early]) > 4.0)
     late = t >= 130.0 + cfg.vib_relock + 0.5
     assert np.all(np.abs(o.speed[late] - v[late]) < 0.03 * v[late])
+
+
+def test_an_unclaimed_line_that_continues_the_used_one_is_taken():
+    """In an outage the accelerometer reads 0.1 m/s^2 too high from 100 s on; the tracker
+    claims the wheel's line until 110 s and then holds it unclaimed (``soft``) to 130 s, with
+    a stretch at 118-118.2 s where its mode jumps 25 % (a resonance). Each unclaimed line that
+    continues the last one used (within ``vib_soft_hold`` s, half an octave) and lies within
+    the soft gate (2 sigma) of the prediction is taken: the speed stays on the wheel's line
+    (within 3 %) where with ``vib_soft_gate = 0`` (none taken) it drifts by the offset's
+    integral; the 25 % jump is refused and the line after it, 0.2 s later, continues the
+    last one used before the jump. A line unclaimed after 2 s without any line used is not
+    taken directly (no continuation)."""
+    cfg = fuse.Config(acc_psd=0.01, q_offset=1e-5)
+    arrays, v = synth(seed=12, T=160.0, outage=(100.0, 160.0), no_line=(110.0, 160.0),
+                      cfg=cfg)
+    t = arrays["t"]
+    arrays["accel"] = np.where(t >= 100.0, arrays["accel"] + 0.1, arrays["accel"])
+    jump = (t >= 118.0) & (t < 118.2)
+    soft = ((t >= 110.0) & (t < 130.0)) | (t >= 142.0)  # 12 s without a line before 142 s
+    arrays["omega"] = np.where(jump, 1.25 * arrays["omega"], arrays["omega"])
+    arrays["line"] = arrays["line"] | soft
+    arrays["soft"] = soft
+    _, o = fuse.run(cfg, arrays)
+    _, off = fuse.run(replace(cfg, vib_soft_gate=0.0), arrays)
+    held = soft & (t < 130.0) & ~jump
+    assert np.all(np.isfinite(o.harmonic[held]))
+    assert np.all(o.source[held] == fuse.SRC_VIBRATION)
+    assert not np.any(np.isfinite(o.harmonic[jump]))
+    assert not np.any(np.isfinite(off.harmonic[soft]))
+    assert np.all(np.abs(o.speed[held] - v[held]) < 0.03 * v[held])
+    late = (t >= 125.0) & (t < 130.0)
+    assert np.all(np.abs(off.speed[late] - v[late]) > 1.0)
+    # after 12 s without a line the unclaimed one is no continuation
+    assert not np.any(np.isfinite(o.harmonic[t >= 142.0]))
 
 
 def test_a_relock_never_moves_the_speed_by_an_octave():

@@ -116,8 +116,16 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    would follow. A constant
    line far outside the band (an idling engine at a stop in a tunnel) is not taken until it
    moves with the speed. A line the tracker holds at a line probability of ``vib_soft`` or
-   more without claiming it (the ``soft`` input) joins only the re-lock run, away from GPS
-   with r known: when its run completes, ``P_vv`` grows by ``d^2`` but the line is not taken
+   more without claiming it (the ``soft`` input) is used only away from GPS with r known, and
+   only in two ways. (a) Where it continues the last line used, at most ``vib_soft_hold`` s
+   before the previous fusion sample (the same k, which is then its only hypothesis, its omega
+   within half an octave of that line's), it is taken directly if its normalised innovation is
+   at most ``vib_soft_gate`` (two sigma; no decisive gate: the octave was decided when the
+   chain began with a claimed line): a causal tracker's claims come and go on a line it
+   keeps as its mode, and the chain of lines used carries the speed through those gaps
+   instead of the accelerometer. A chain ends at the first gap longer than the hold, so an
+   unclaimed line is never the first line taken after one. (b) Otherwise it joins only the
+   re-lock run: when its run completes, ``P_vv`` grows by ``d^2`` but the line is not taken
    (a claimed line at that gap then re-locks inside the band). Where the acceleration exceeds
    ``vib_amax`` (the same ``a`` as for ``vib_lag``) no line is used, directly or by re-lock:
    a causal tracker's line trails a hard acceleration by more than its spread, or jumps an

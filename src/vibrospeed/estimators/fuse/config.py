@@ -44,10 +44,15 @@ CAUSAL_VIB_LAG = 2.0
 CAUSAL_VIB_AMAX = 1.5
 
 #: ``Config.vib_soft`` of ``estimate(online=True)``: the causal tracker's line probability from
-#: which its unclaimed mode is offered to the re-lock. Where it claims no line in the simulated
-#: tunnels while a line is visible, its mode is the wheel's on 84 % of the samples with a line
-#: probability of 0.3-0.5 and on 55 % below (its "no line" state saturates near 0.83 there)
-CAUSAL_VIB_SOFT = 0.3
+#: which its unclaimed mode is offered (to the re-lock, and taken directly where it continues
+#: the line in use, ``vib_soft_hold``). Where it claims no line in the simulated tunnels while
+#: a line is visible, its line probability is 0.1-0.5 (its "no line" state saturates near 0.88)
+#: and its mode is the wheel's on 63 % of the samples at 0.1-0.2, 74 % at 0.2-0.3, 84 % at
+#: 0.3-0.5. With those continuations taken, offered from 0.25 rather than 0.3 the online share
+#: within 3 % where a line is visible rose 81.6 -> 82.1 %, from 0.1 to 83.8 %, but on the
+#: Hungary phone drives (GPS withheld) below 0.25 the online share within 3 % fell 16.1 ->
+#: 14.6-14.9 % and the tunnels' RMSE rose (benchmarks/fuse/RESULTS.md)
+CAUSAL_VIB_SOFT = 0.25
 
 # state indices: speed, acceleration, accelerometer offset, radius, then the receiver chain
 # from IG on (its extra lag last)
@@ -123,7 +128,18 @@ class Config(GpsFields):
         its gap, ``P_vv += d^2``, but the line is not taken, and it teaches neither r nor the
         first radius; a claimed line at that gap then lies inside the band and re-locks.
         ``1`` (default): none; :func:`estimate` with ``online`` and no ``vib_soft`` given uses
-        :data:`CAUSAL_VIB_SOFT`.
+        :data:`CAUSAL_VIB_SOFT`. Such a line is also taken directly where it continues the last
+        line used (``vib_soft_hold``, ``vib_soft_gate``).
+    vib_soft_hold, vib_soft_gate : an unclaimed line (the ``soft`` input) is taken directly,
+        away from GPS with r known, where it continues the last line used at most
+        ``vib_soft_hold`` s before the previous fusion sample (the same k, its omega within half
+        an octave of that line's) and its normalised innovation is at most ``vib_soft_gate``
+        (4: two sigma of the prediction and the mode's own spread, where a claimed line has
+        ``vib_gate``); its octave is the one in use, decided when a line was first taken
+        (item 3). The chain of lines used then carries the speed through the tracker's gaps in
+        its claims. ``vib_soft_gate = 0``: no unclaimed line is taken (the re-lock's band
+        only). The hold bounds the gap: with 1.5 s a causal tracker's mode stuck through a
+        braking was taken on the simulated tunnels (benchmarks/fuse/RESULTS.md).
     vib_spread : the line's spread ``s`` in :func:`estimate` where the tracker claims a line:
         ``"posterior"`` (default; its whole posterior's ``omega_std``: all its modes and its
         "no line" mass) or ``"mode"`` (the grid tracker's ``omega_mode_std``, the spread
@@ -183,6 +199,8 @@ class Config(GpsFields):
     vib_amax: float = math.inf
     vib_soft: float = 1.0
     vib_spread: str = "posterior"
+    vib_soft_hold: float = 1.0
+    vib_soft_gate: float = 4.0
     nonneg: bool = True
     fuse_rate: float = 25.0
 
@@ -197,7 +215,7 @@ class Config(GpsFields):
                      "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
                      "vib_min_speed", "octave_rel", "vib_relock", "radius_min", "radius_max",
                      "still_relock", "learn_hold", "acq_time", "acq_rel", "acq_change",
-                     "vib_sep", "vib_lag", "vib_amax"):
+                     "vib_sep", "vib_lag", "vib_amax", "vib_soft_hold", "vib_soft_gate"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
         if not 0.0 < self.vib_soft <= 1.0:
@@ -235,6 +253,6 @@ class Config(GpsFields):
             self.vib_relock, self.radius_min, self.radius_max, self.still_relock,
             self.learn_hold, self.acq_time, self.acq_rel, self.acq_change, self.vib_sep,
             self.vib_lag, self.radius0, self.radius_std0, self.vib_amax,
-            float(self.vib_use == "line"),
+            float(self.vib_use == "line"), self.vib_soft_hold, self.vib_soft_gate,
         ], dtype=np.float64)
         return Ac, qc, p

@@ -26,7 +26,8 @@ from vibrospeed.models.gps_riss import transition
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, soft, out, xp,
                Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
-    t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run, om_line, k_line]``;
+    t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run, om_line, k_line, t_last, om_last,
+    k_last]``;
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
     prediction (for the smoother). Returns dt."""
     n = x.size
@@ -117,8 +118,15 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         sv3 = 3.0 * math.sqrt(max(P[IV, IV], 0.0))
         # octaves: the speed prior decides (GPS or the filter's own speed, with the decisive
         # gate away from GPS) and, while r is not known yet, the radius prior
-        for j in range(3 if ready and not (hard or soft) else 0):
+        # an unclaimed line is a hypothesis only where it continues the last line used (at
+        # most vib_soft_hold s before the previous fusion sample, within half an octave of
+        # its omega), and only at that line's octave
+        soft_cont = (soft and p[35] > 0.0 and not math.isnan(sc[16])
+                     and t - sc[15] <= dt + p[34] and abs(math.log2(om / sc[16])) <= 0.5)
+        for j in range(3 if ready and not hard and (soft_cont or not soft) else 0):
             k = 1.0 if j == 0 else (0.5 if j == 1 else 2.0)
+            if soft and k != sc[17]:
+                continue
             if (x[IV] + sv3) < p[21] * k * om or (x[IV] - sv3) > p[22] * k * om:
                 continue  # no physical radius explains this line at this speed
             if known and not (x[IV] > 0.0 and abs(math.log2(k * x[IR] * om / x[IV])) <= 0.5):
@@ -138,10 +146,12 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         # half an octave from one sample to the next has not changed harmonic (with
         # vib_use=all the omegas offered are not claims: no continuation)
         cont = (p[33] > 0.5 and not math.isnan(kk) and kk == sc[14]
-                and not math.isnan(sc[13]) and abs(math.log2(om / sc[13])) <= 0.5)
+                and not math.isnan(sc[13]) and abs(math.log2(om / sc[13])) <= 0.5) or (
+                    soft_cont and p[33] > 0.5)
         decisive = not math.isnan(kk) and (fresh or cont or 3.0 * math.sqrt(
             P[IV, IV] + (r_hat * kk) ** 2 * var_om) <= p[28] * r_hat * kk * om)
-        if ready and known and not hard and not (best <= p[7] and decisive):
+        glim = p[35] if soft else p[7]
+        if ready and known and not hard and not (best <= glim and decisive):
             # re-lock run on the line at k = 1 (the octave that taught r): the gap
             # d = r omega - v between the line's speed and the filter's must hold for
             # vib_relock s (no GPS in that time), and the line must have moved with the speed
@@ -182,9 +192,12 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                         kk = 1.0
                     # an unclaimed line widens the band by its gap but is not taken: a
                     # claimed line at that gap then lies inside the band and re-locks
-        if best <= p[7]:
+        if best <= glim:
             sc[13] = om
             sc[14] = kk
+            sc[15] = t
+            sc[16] = om
+            sc[17] = kk
             h[IV] = 1.0
             h[IR] = -kk * om
             # away from GPS the radius and the offset are consider states: a line there
