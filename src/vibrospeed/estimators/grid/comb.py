@@ -48,10 +48,7 @@ and adds the evidence there, where a stationary spectrum describes the comb: a s
 braking is then not attributed 1.5 s late (benchmarks/beyond/RESULTS.md). The fixed-lag
 smoother does the same when ``lag >= W/2`` and shrinks its blocks to ``lag - W/2`` s, so a
 sample still uses data at most ``lag..2 lag - W/2`` s after it.
-Centred on noise: each grid point's evidence is less what white noise gives it on average
-(:func:`noise_offsets`): harmonics closer together than the frame's resolution read correlated
-bins, which the cap and the lead score higher, so without it a drive without a line would
-sit at the bottom of the range.
+Each grid point's evidence is centred on what white noise gives it (:func:`noise_offsets`).
 Aliasing is folded like the rotation model (k omega above Nyquist appears at its alias). The
 grid point's evidence ``E(omega) = comb_weight * sum_k l_k(omega)`` (the "no line" state: 0)
 is added to the log-weights at the end of every frame (``rbpmf.step(..., extra=E)``). The
@@ -436,8 +433,8 @@ def frame_evidence(config, frames: np.ndarray, centre: bool = False, *,
     return out
 
 
-#: white-noise frames behind :func:`noise_offsets` (its Monte Carlo error per grid point is
-#: ~0.2 / sqrt(64) = 0.025 nats, against offsets of up to ~0.1-0.2 nats)
+#: white-noise frames behind :func:`noise_offsets` (measured Monte Carlo error ~0.04 nats per
+#: grid point, against offsets of up to ~0.4 nats at the bottom of a 2-30 rad/s range)
 NOISE_FRAMES = 64
 
 
