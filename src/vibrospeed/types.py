@@ -175,9 +175,9 @@ def _with_band(x, std, lo, hi, level: float):
     """Arrays ``(x, std, lo, hi)``; a missing band is ``x -+ z std`` for the level's quantile."""
     x = np.asarray(x, float)
     std = np.full_like(x, np.nan) if std is None else np.asarray(std, float)
-    from scipy import special  # imported here: `import vibrospeed` stays light
+    from statistics import NormalDist  # here: `import vibrospeed` stays light
 
-    z = float(special.ndtri(0.5 + level / 2.0))  # the standard normal quantile
+    z = NormalDist().inv_cdf(0.5 + level / 2.0)  # the standard normal quantile
     lo = x - z * std if lo is None else np.asarray(lo, float)
     hi = x + z * std if hi is None else np.asarray(hi, float)
     return x, std, lo, hi

@@ -34,7 +34,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy.linalg import expm
 
 from vibrospeed.errors import InputError, ParameterError
 
@@ -200,6 +199,8 @@ def discretise(lag: GpsLagModel, T: float, *, offset_state: bool = False) -> np.
     >>> bool(np.allclose(F[:2], [[1, 1 / 400, 0, 0], [0, 1, 0, 0]]))
     True
     """
+    from scipy.linalg import expm  # here: the compiled filters use expm_small, not scipy
+
     if not T > 0:
         raise ParameterError(f"sample period must be > 0, got {T}")
     return expm(continuous_matrix(lag, offset_state=offset_state) * T)

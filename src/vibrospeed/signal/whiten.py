@@ -61,7 +61,6 @@ from llvmlite import ir
 from numba import njit
 from numba.core import types
 from numba.extending import intrinsic
-from scipy import fft as sp_fft
 
 from vibrospeed.signal import dsp
 
@@ -427,7 +426,7 @@ def _predictors(z: np.ndarray, w0: np.ndarray, w1: np.ndarray,
         return A, G  # (solve_toeplitz's shapes disagree: the identity, as predictor_reference)
     segs = np.empty((uniq.size, pl.seg))
     _segments(z, uniq.astype(np.int64), pl.seg, pl.win, segs)
-    X = sp_fft.rfft(segs, n=pl.seg, axis=-1)
+    X = np.fft.rfft(segs, n=pl.seg, axis=-1)
     S = np.empty((use.size, X.shape[1]))
     bias = pl.bias if mx < pl.bias.size else _bias(mx)
     _backgrounds(X, rows, nseg[use].astype(np.int64), bias, pl.dbl_hi, pl.k, S)
