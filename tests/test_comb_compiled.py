@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from vibrospeed.estimators import grid
-from vibrospeed.estimators.grid import comb
+from vibrospeed.estimators.grid import comb, frames
 
 # ------------------------------------------------------------------------------------------
 # selection network
@@ -228,12 +228,12 @@ def test_step_evidence_is_the_batch_evidence_bitwise(A):
     got_idx, got = [], []
     for i in range(Y.shape[0]):
         y = Y[i] if A > 1 else Y[i, 0]
-        e = comb.step_evidence(cfg, st_.buf, st_.count, np.atleast_1d(y))
+        e = frames.step_evidence(cfg, st_.buf, st_.count, np.atleast_1d(y))
         if e is not None:
             got_idx.append(i)
             got.append(e)
         st_, _ = grid.step(cfg, st_, y)
-    idx, vals = comb.evidence(cfg, Y if A > 1 else Y[:, 0])
+    idx, vals = frames.evidence(cfg, Y if A > 1 else Y[:, 0])
     np.testing.assert_array_equal(np.array(got_idx), idx)
     np.testing.assert_array_equal(np.array(got), vals)
     assert idx[0] == cfg.min_frame_len - 1  # the growing frames are there

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 from vibrospeed import io, sim
 from vibrospeed.cli.app import app
-from vibrospeed.estimators.grid import blocks, comb, stream
+from vibrospeed.estimators.grid import blocks, frames, stream
 from vibrospeed.estimators.grid import method as gm
 
 COLS = ("omega", "omega_std", "omega_lo", "omega_hi", "speed")
@@ -95,10 +95,10 @@ def test_blocks_with_a_short_look_ahead_within_tolerance(drive):
 @pytest.mark.parametrize("centre", [True, False])
 def test_evidence_plan_is_the_whole_log_evidence(drive, centre):
     """The per-range comb evidence (computed for a block as it is needed) is bitwise the
-    whole-log :func:`comb.evidence`, split anywhere."""
+    whole-log :func:`frames.evidence`, split anywhere."""
     config = gm.config_for(drive, axis="y")
     y = gm._prepare(drive, "y", {})[1]
-    idx, vals = comb.evidence(config, y, centre=centre)
+    idx, vals = frames.evidence(config, y, centre=centre)
     plan = blocks._EvidencePlan(config, y, centre=centre)
     cuts = [0, 1, 149, 150, 4000, 4001, 7777, y.size]
     got = [plan.rows(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]

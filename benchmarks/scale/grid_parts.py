@@ -8,7 +8,7 @@ of ``--repeat`` runs (``time.process_time``):
 
 * pre-filter, whitener, running-RMS scaling (``grid.method._prepare`` as a whole, and
   ``whiten.apply`` alone);
-* the comb evidence (``grid.comb.evidence``, mid-frame);
+* the comb evidence (``grid.frames.evidence``, mid-frame);
 * the filter (``grid.filter.run`` with the log-emissions kept);
 * the forward-backward smoother (``grid.smoother.smooth``) and the Viterbi path
   (``grid.smoother.viterbi``);

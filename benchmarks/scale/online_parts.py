@@ -8,7 +8,7 @@ marks cost ~0.05 us each, so the parts add up to a little more than the whole):
 
 * pre-filter (``prefilter.step``), whitener (``whiten.step``, the adaptive pre-filter), scaling
   (``normalize.step`` and the target RMS);
-* comb evidence (``grid.comb.step_evidence``: a frame's spectrum every ``hop_len`` samples,
+* comb evidence (``grid.frames.step_evidence``: a frame's spectrum every ``hop_len`` samples,
   0.25 s; the figure is per sample, averaged over the frames' samples);
 * the grid filter's ``step`` (``grid.filter.step``, the compiled iteration and its Python);
 * the rest of the grid method's step and the outputs (the frame ring buffer's copy, the
@@ -41,7 +41,7 @@ def main(argv=None) -> None:
     from vibrospeed.estimators.common import start_level
     from vibrospeed.estimators.grid import filter as gf
     from vibrospeed.estimators.grid import method as gm
-    from vibrospeed.estimators.grid.comb import frame_ends_at, step_evidence
+    from vibrospeed.estimators.grid.frames import frame_ends_at, step_evidence
     from vibrospeed.estimators.online import OnlineTracker
     from vibrospeed.signal import normalize as nz
     from vibrospeed.signal import prefilter as pf

@@ -42,6 +42,7 @@ import numpy as np
 
 import vibrospeed.estimators.grid.app as _app
 import vibrospeed.estimators.grid.comb as _comb
+import vibrospeed.estimators.grid.frames as _frames
 import vibrospeed.estimators.grid.method as _method
 import vibrospeed.estimators.grid.smoother as _sm
 from vibrospeed.errors import ParameterError
@@ -52,19 +53,19 @@ from vibrospeed.types import Recording, Track
 #: s, samples per block (the unit of memory) and the smoother's look-ahead past each block
 BLOCK_S = 600.0
 LOOKAHEAD_S = 120.0
-#: frames per batch of the comb evidence: the whole-log pass's (:func:`comb.evidence`)
+#: frames per batch of the comb evidence: the whole-log pass's (:func:`frames.evidence`)
 _CHUNK = 128
 
 
 class _EvidencePlan:
-    """Where :func:`vibrospeed.estimators.grid.comb.evidence` (whole log, from the start) places
+    """Where :func:`vibrospeed.estimators.grid.frames.evidence` (whole log, from the start) places
     each frame's evidence, and its values for a range of samples on demand: the growing frames
     at the start, the full frames (batched ``_CHUNK`` at a time from the first, as there) and,
     with ``centre``, the shrinking frames at the end, near-duplicate places dropped as there."""
 
     def __init__(self, config, Y: np.ndarray, centre: bool):
         self.config, self.centre = config, centre
-        self.Y = np.ascontiguousarray(_comb._as_signal(Y))
+        self.Y = np.ascontiguousarray(_frames._as_signal(Y))
         n = self.Y.shape[0]
         L, H, L0 = config.frame_len, config.hop_len, config.min_frame_len
         g = np.arange(n)

@@ -24,12 +24,8 @@ import vibrospeed.estimators.grid.config as _cfg
 import vibrospeed.estimators.grid.filter as _filt
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import ParameterError
-from vibrospeed.estimators.grid.comb import (  # noqa: F401 (frame_evidence: API)
-    evidence,
-    frame_ends_at,
-    frame_evidence,
-    step_evidence,
-)
+from vibrospeed.estimators.grid.comb import frame_evidence  # noqa: F401 (API)
+from vibrospeed.estimators.grid.frames import evidence, frame_ends_at, step_evidence
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Estimate, Recording, Track
 
