@@ -13,6 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
+from background_reference import sorted_windows
 from vibrospeed.estimators import grid
 from vibrospeed.estimators.grid import comb, frames
 
@@ -67,19 +68,8 @@ def _background(row: np.ndarray, width: int, rank: int, scale: float = 1.0) -> n
 
 
 def _reference_order(row: np.ndarray, width: int, rank: int) -> np.ndarray:
-    """Sort of each nearest-extended window, every max(1, width // 8) bins, interpolated."""
-    n = row.size
-    h = width // 2
-    step = max(1, width // 8)
-    pp = np.concatenate([np.repeat(row[:1], h), row, np.repeat(row[-1:], h)])
-    cent = np.minimum(np.arange(0, n + step - 1, step), n - 1)
-    med = np.array([np.sort(pp[c : c + width])[rank] for c in cent])
-    if step == 1:
-        return med
-    i = np.arange(n)
-    j = np.minimum(i // step, cent.size - 2)
-    fr = (i - cent[j]) / np.maximum(cent[j + 1] - cent[j], 1)
-    return med[j] * (1.0 - fr) + med[j + 1] * fr
+    """The brute-force background at the evidence's step, max(1, width // 8) bins."""
+    return sorted_windows(row, width, max(1, width // 8), rank)
 
 
 _values = st.one_of(st.sampled_from([0.0, 1.0, 2.0, 2.5, 1e-300, 7.0]),

@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
+from background_reference import sorted_windows
 from vibrospeed.estimators.grid import comb
 
 
@@ -32,21 +33,6 @@ def _both(row: np.ndarray, width: int, step: int, rank: int, scale: float):
     return fast, ref
 
 
-def _sorted_windows(row: np.ndarray, width: int, step: int, rank: int) -> np.ndarray:
-    """Sort of each nearest-extended window every ``step`` bins, interpolated (numpy)."""
-    n = row.size
-    h = width // 2
-    pp = np.concatenate([np.repeat(row[:1], h), row, np.repeat(row[-1:], h)])
-    cent = np.minimum(np.arange(0, n + step - 1, step), n - 1)
-    med = np.array([np.sort(pp[c : c + width])[rank] for c in cent])
-    if step == 1:
-        return med
-    i = np.arange(n)
-    j = np.minimum(i // step, cent.size - 2)
-    fr = (i - cent[j]) / np.maximum(cent[j + 1] - cent[j], 1)
-    return med[j] * (1.0 - fr) + med[j + 1] * fr
-
-
 _values = st.one_of(st.sampled_from([0.0, 1.0, 2.0, 2.5, 1e-300, 7.0]),
                     st.floats(0.0, 1e300, allow_nan=False, allow_infinity=False))
 
@@ -61,7 +47,7 @@ def test_frame_background_is_the_background_bitwise(row, half, step_div, q):
     fast, ref = _both(row, width, step, rank, float(np.log(2.0)))
     assert np.array_equal(fast.view(np.uint64), ref.view(np.uint64))
     np.testing.assert_array_equal(_both(row, width, step, rank, 1.0)[0],
-                                  _sorted_windows(row, width, step, rank))
+                                  sorted_windows(row, width, step, rank))
 
 
 @pytest.mark.parametrize(("n", "width"), [(1025, 41), (1025, 43), (513, 21), (2049, 83),
