@@ -9,8 +9,8 @@ as ``vibrospeed estimate`` runs it, scored as speeds against ``speed_true`` by
 98 % band ``speed_lo``..``speed_hi``, moving samples: true speed above 0.3 m/s; ``vibrospeed
 evaluate`` scores a track that has ``omega`` in rad/s against ``omega_true`` instead).
 Figures are pooled over the seeds' moving samples: the car rows of docs/fuse.md's band
-table. The grid tracker runs once per seed and mode (smoothed, causal) with fuse's settings
-(``fuse.TRACKER_DEFAULTS``), as ``fuse.estimate`` would run it.
+table. The grid tracker runs once per seed and mode (smoothed, causal: with its posterior)
+with fuse's settings (``fuse.TRACKER_DEFAULTS``), as ``fuse.estimate`` would run it.
 ``--fuse-param NAME=VALUE`` is added to every ``fuse`` run (variants; e.g. the receiver's lag
 taken as exact: ``gps_lag_std=0 q_gps_lag=0 vib_lag=0``), ``--gps-riss-param`` to every
 ``gps-riss`` run. Prints a markdown table; nothing is written.
@@ -41,9 +41,10 @@ def seed_counts(seed: int) -> dict:
     from vibrospeed.types import Track
 
     rec = simulate("car", seed=seed)
+    # the causal track with its posterior, which fuse online reads (vib_measure)
     tracks = {online: get("grid").estimate(rec, axis="y", params={
-        **fuse.TRACKER_DEFAULTS, **({"smooth": "none"} if online else {})})
-        for online in (False, True)}
+        **fuse.TRACKER_DEFAULTS, **({"smooth": "none"} if online else {})},
+        return_posterior=online) for online in (False, True)}
     out = {}
     for name, (method, base) in RUNS.items():
         kw = {"vibration": tracks[bool(base.get("online"))]} if method == "fuse" else {}

@@ -44,15 +44,26 @@ DATA = HERE.parents[2] / "shared" / "datasets"
 Z98 = 2.326
 
 
-def _grid(rec, params, cache, key, axis="y"):
+def _grid(rec, params, cache, key, axis="y", posterior=False):
     """The grid track ``fuse.estimate`` would run itself: fuse's tracker settings
-    (``fuse.TRACKER_DEFAULTS``, the strict comb) under ``params``; cached under ``key``."""
+    (``fuse.TRACKER_DEFAULTS``, the strict comb) under ``params``; cached under ``key``.
+    ``posterior``: with the tracker's grid posterior kept at ``fuse``'s fusion samples of the
+    recording with all its fixes (``extras["posterior"]``, ``"posterior_index"``, ``"grid"``;
+    a recording with fixes withheld has a subset of those samples), for ``vib_measure=
+    posterior``."""
     from vibrospeed.estimators import fuse, get
 
+    key = key + ("_post" if posterior else "")
     f = Path(cache) / f"{key}.pkl" if cache else None
     if f is not None and f.is_file():
         return pickle.loads(f.read_bytes())
-    tr = get("grid").estimate(rec, axis=axis, params={**fuse.TRACKER_DEFAULTS, **params})
+    tr = get("grid").estimate(rec, axis=axis, params={**fuse.TRACKER_DEFAULTS, **params},
+                              return_posterior=posterior)
+    if posterior:
+        g = rec.channels.get("gps_speed", np.full(len(rec), np.nan))
+        ends = fuse.fusion_samples(rec.t, np.isfinite(g), fuse.Config().fuse_rate)
+        tr.extras["posterior"] = np.ascontiguousarray(tr.extras["posterior"][ends])
+        tr.extras["posterior_index"] = ends
     if f is not None:
         f.parent.mkdir(parents=True, exist_ok=True)
         f.write_bytes(pickle.dumps(tr))
@@ -96,7 +107,7 @@ def sim_seed(seed: int, cache: str | None, extra: dict | None = None) -> dict:
     lo, hi = rec.meta["omega_range"]
     p = {"omega_min": lo, "omega_max": hi}
     g_off = _grid(rec, p, cache, f"sim{seed}_off")
-    g_on = _grid(rec, {**p, "smooth": "none"}, cache, f"sim{seed}_on")
+    g_on = _grid(rec, {**p, "smooth": "none"}, cache, f"sim{seed}_on", posterior=True)
     r = rec.meta["drawn"]["wheel_radius"]
     v = rec["speed_true"]
     tun = rec["gps_sats"] == 0
@@ -327,7 +338,8 @@ def real_windows(rec, axis, accel_axis, grid_params, cache, key):
     from vibrospeed.estimators import fuse, gps_riss
 
     g_off = _grid(rec, grid_params, cache, key + "_off", axis)
-    g_on = _grid(rec, {**grid_params, "smooth": "none"}, cache, key + "_on", axis)
+    g_on = _grid(rec, {**grid_params, "smooth": "none"}, cache, key + "_on", axis,
+                 posterior=True)
     full_off = fuse.estimate(rec, axis=axis, vibration=g_off, params={"accel_axis": accel_axis})
     full_on = fuse.estimate(rec, axis=axis, vibration=g_on,
                             params={"accel_axis": accel_axis, "online": True})

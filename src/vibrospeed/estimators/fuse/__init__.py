@@ -133,6 +133,28 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    re-lock) need a line at every fusion sample: a sample without one ends the run, so a line
    claimed now and then (a resonance or an engine order between the wheel's claims) does not
    add up to a run.
+
+   Read through the tracker's posterior (``vib_measure="posterior"``; :func:`estimate` online),
+   with r known each octave k is measured by the tracker's grid posterior instead of its mode.
+   The prediction of the line, ``N(omega; m_k, S_k)`` with ``m_k = v / (r k)`` and ``S_k = h P
+   h' + ((vib_lag a) / (r k))^2 + dg^2`` (h the row of ``v / (r k)`` in v and r, dg the grid
+   spacing: the posterior resolves no finer), times the line-conditional posterior ``q =
+   posterior / (1 - p_null)`` (the grid tracker's prior is flat on its uniform grid, so q is
+   its likelihood of omega) over the grid points within ``vib_post_width sqrt(S_k)`` of
+   ``m_k``, gives the Bayes factor ``B_k = sum q_j g_j / (sum g_j / N)`` (the posterior's
+   mass there against a flat posterior's) and the product's moment-matched mean ``mu`` and
+   variance ``V`` (plus ``dg^2 / 12``). Dividing the prediction out leaves a Gaussian
+   likelihood of the line, ``R = 1 / (1 / V - 1 / S_k)``, ``z = R (mu / V - m_k / S_k)``
+   (none where ``V >= S_k``: the posterior does not narrow the prediction), which is the
+   update's omega with the spread ``R + (vib_rel z)^2``. The octave is the one with the
+   smallest ``-2 ln B_k`` plus ``vib_penalty`` for k != 1; the line is there with probability
+   ``beta = p B / (p B + 1 - p)``, ``p = 1 - p_null`` (the "no line" state explains the data
+   as a flat posterior does), and is used where ``beta >= vib_post_min`` and the gate is
+   decisive (as above, with z and its spread), its variance divided by beta. An unclaimed
+   line (``soft``) is read the same way, its line probability in beta, without having to
+   continue the last line used. So a posterior whose mode is another line (a resonance, an
+   engine order) but which holds the wheel's line near the prediction gives the wheel's line,
+   and peaks at omega / 2 and omega are read at the octave the prediction implies.
 4. standstill: where the vibration tracker reports a stop (no wheel line, broadband vibration and
    body motion at their floors: the ``standstill`` input), the last valid GPS fix in the past
    ``gps_hold`` s (if any) is below ``gps_still``, and the speed the accelerometer has
@@ -167,7 +189,8 @@ The fusion filter is a package, one concern per module, each importing only the 
 ============  =============================================================================
 ``config``    ``source`` codes, octave factors, the tracker's settings under fuse, the state
               indices and :class:`Config` (with its system matrix and parameter vector)
-``core``      the compiled scalar update, per-sample step and loop (numba; items 1-5 above)
+``core``      the compiled scalar update, per-sample step and loop, the posterior's product
+              with the prediction (numba; items 1-5 above)
 ``filter``    ``State``, ``Sample``, ``Output``, ``Result``, ``init``, ``step``, ``run``
 ``smoother``  :func:`smooth`, the RTS smoother over a forward run
 ``method``    :func:`radius_from_json`, the fusion samples, :func:`estimate`, :func:`suits`
@@ -180,6 +203,8 @@ re-exported.
 from vibrospeed.estimators.fuse.config import (
     CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
+    CAUSAL_VIB_MEASURE,
+    CAUSAL_VIB_SEP,
     CAUSAL_VIB_SOFT,
     HARMONIC_FACTORS,
     IA,
@@ -226,6 +251,8 @@ from vibrospeed.estimators.fuse.smoother import _rts, smooth
 __all__ = [
     "CAUSAL_VIB_AMAX",
     "CAUSAL_VIB_LAG",
+    "CAUSAL_VIB_MEASURE",
+    "CAUSAL_VIB_SEP",
     "CAUSAL_VIB_SOFT",
     "EXTRAS",
     "HARMONIC_FACTORS",

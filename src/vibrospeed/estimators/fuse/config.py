@@ -54,6 +54,20 @@ CAUSAL_VIB_AMAX = 1.5
 #: 14.6-14.9 % and the tunnels' RMSE rose (benchmarks/fuse/RESULTS.md)
 CAUSAL_VIB_SOFT = 0.25
 
+#: ``Config.vib_measure`` of ``estimate(online=True)``: the causal tracker's posterior times the
+#: prediction (item 3), with the decisive gate at :data:`CAUSAL_VIB_SEP`. On the simulated
+#: tunnels online: line-visible time within 3 % 81.8 -> 82.8 %, tunnel RMSE 4.99 -> 4.94 m/s,
+#: seeds at most gps-riss 24 -> 25 (benchmarks/fuse/RESULTS.md)
+CAUSAL_VIB_MEASURE = "posterior"
+
+#: ``Config.vib_sep`` of ``estimate(online=True)`` with the posterior measurement: the product
+#: with the prediction reads the posterior's line nearest the prediction, so a wider band is
+#: decisive (line-visible within 3 % online: 0.35 / 0.45 / 0.55 / 0.65: 82.0 / 82.6 / 82.8 /
+#: 82.7 %); with the tracker's mode 0.55 did not help (81.9 %), and 0.75 (measured with
+#: ``vib_soft`` 0.1) read lines at the wrong octave after hard brakings, where the filter's
+#: speed had drifted far (75.0 %; benchmarks/fuse/RESULTS.md)
+CAUSAL_VIB_SEP = 0.55
+
 # state indices: speed, acceleration, accelerometer offset, radius, then the receiver chain
 # from IG on (its extra lag last)
 IV, IA, IB, IR, IG = 0, 1, 2, 3, 4
@@ -148,6 +162,17 @@ class Config(GpsFields):
         at low speed (other lines keep mass there) and kept them out of the tunnels, while the
         smoothed tracker's is narrow on them and its mode's spread taught an engine order's
         radius harder (benchmarks/fuse/RESULTS.md).
+    vib_measure : how a line is read (item 3): ``"mode"`` (default; the tracker's omega and
+        the spread ``vib_spread``) or ``"posterior"`` (with r known, the tracker's grid
+        posterior times the prediction's Gaussian on the line, read as a likelihood and weighed
+        by the probability that the line is there; the ``posterior`` input and the tracker's
+        grid). :func:`estimate` with ``online``, no ``vib_measure`` given and ``vib_use="line"``
+        uses :data:`CAUSAL_VIB_MEASURE` (and ``vib_sep`` :data:`CAUSAL_VIB_SEP`), unless the
+        given vibration track holds no posterior.
+    vib_post_width : the product's window, in standard deviations of the prediction (item 3).
+    vib_post_min : the least probability ``beta`` that the posterior's line is there for the
+        line to be used (item 3; online on the simulated tunnels 0.5 -> 0.2 took the
+        line-visible share within 3 % 82.4 -> 82.8 %, benchmarks/fuse/RESULTS.md).
     vib_use : which tracker samples are offered to item 3 in :func:`estimate`: ``"line"``
         (where the tracker claims a line, ``has_signal``) or ``"all"`` (every positive omega,
         its posterior spread and the gate decide: for trackers whose null state dominates on a
@@ -201,6 +226,9 @@ class Config(GpsFields):
     vib_spread: str = "posterior"
     vib_soft_hold: float = 1.0
     vib_soft_gate: float = 4.0
+    vib_measure: str = "mode"
+    vib_post_width: float = 4.0
+    vib_post_min: float = 0.2
     nonneg: bool = True
     fuse_rate: float = 25.0
 
@@ -223,6 +251,12 @@ class Config(GpsFields):
         if self.vib_spread not in ("mode", "posterior"):
             raise ParameterError(f"fuse: vib_spread must be mode or posterior, got "
                                  f"'{self.vib_spread}'")
+        if self.vib_measure not in ("mode", "posterior"):
+            raise ParameterError(f"fuse: vib_measure must be mode or posterior, got "
+                                 f"'{self.vib_measure}'")
+        if not (self.vib_post_width > 0 and 0.0 <= self.vib_post_min <= 1.0):
+            raise ParameterError(f"fuse: vib_post_width must be > 0 and vib_post_min in [0, 1], "
+                                 f"got {self.vib_post_width}, {self.vib_post_min}")
         if self.vib_use not in ("line", "all"):
             raise ParameterError(f"fuse: vib_use must be line or all, got '{self.vib_use}'")
         if not 0.0 < self.r_gps_sq < 1.0:
@@ -254,5 +288,6 @@ class Config(GpsFields):
             self.learn_hold, self.acq_time, self.acq_rel, self.acq_change, self.vib_sep,
             self.vib_lag, self.radius0, self.radius_std0, self.vib_amax,
             float(self.vib_use == "line"), self.vib_soft_hold, self.vib_soft_gate,
+            float(self.vib_measure == "posterior"), self.vib_post_width, self.vib_post_min,
         ], dtype=np.float64)
         return Ac, qc, p

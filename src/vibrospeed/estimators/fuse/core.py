@@ -23,8 +23,41 @@ from vibrospeed.models.gps_riss import transition
 
 
 @njit(cache=True)
-def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, soft, out, xp,
-               Pp):
+def _post_product(q, grid, m, s, width):
+    """``(bf, mean, var)`` of the product of the tracker's line-conditional posterior ``q`` (N,)
+    on the uniform ``grid`` (N,) with the Gaussian ``N(omega; m, s^2)``, over the grid points
+    within ``width s`` of ``m``: ``bf = sum q_j g_j / sum g_j / N`` (the posterior's mass there
+    against a flat posterior's, ``g_j = exp(-(grid_j - m)^2 / 2 s^2)``), the product's
+    moment-matched mean and variance (the cells' own ``dg^2 / 12`` added). ``bf = 0``: no grid
+    point in the window or no posterior mass there."""
+    N = grid.size
+    num = 0.0
+    flat = 0.0
+    s1 = 0.0
+    for j in range(N):
+        d = (grid[j] - m) / s
+        if abs(d) <= width:
+            gj = math.exp(-0.5 * d * d)
+            w = q[j] * gj
+            num += w
+            flat += gj
+            s1 += w * grid[j]
+    if not (num > 0.0 and flat > 0.0):
+        return 0.0, math.nan, math.nan
+    mean = s1 / num
+    s2 = 0.0
+    for j in range(N):
+        d = (grid[j] - m) / s
+        if abs(d) <= width:
+            e = grid[j] - mean
+            s2 += q[j] * math.exp(-0.5 * d * d) * e * e
+    dg = (grid[N - 1] - grid[0]) / (N - 1) if N > 1 else 0.0
+    return num / (flat / N), mean, s2 / num + dg * dg / 12.0
+
+
+@njit(cache=True)
+def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, soft, post,
+               grid, out, xp, Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
     t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run, om_line, k_line, t_last, om_last,
     k_last]``;
@@ -123,14 +156,51 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         # its omega), and only at that line's octave
         soft_cont = (soft and p[35] > 0.0 and not math.isnan(sc[16])
                      and t - sc[15] <= dt + p[34] and abs(math.log2(om / sc[16])) <= 0.5)
-        for j in range(3 if ready and not hard and (soft_cont or not soft) else 0):
+        # the tracker's posterior as the measurement (vib_measure="posterior", r known): per
+        # octave the product of its line-conditional posterior with the prediction's Gaussian
+        # on the line, N(v / (r k), S_k), read as the likelihood that product implies
+        pm = p[36] > 0.5 and post.size > 0 and known
+        p_line = 0.0
+        if pm:
+            for j in range(post.size):
+                p_line += post[j]
+            pm = p_line > 0.0
+        zu = om
+        vu = var_om
+        bfu = 0.0
+        beta = 1.0
+        # (read through the posterior, an unclaimed line is weighed by its line probability
+        # like a claimed one, so it need not continue the last line used)
+        for j in range(3 if ready and not hard and (soft_cont or not soft or pm) else 0):
             k = 1.0 if j == 0 else (0.5 if j == 1 else 2.0)
-            if soft and k != sc[17]:
+            if soft and not pm and k != sc[17]:
                 continue
             if (x[IV] + sv3) < p[21] * k * om or (x[IV] - sv3) > p[22] * k * om:
                 continue  # no physical radius explains this line at this speed
             if known and not (x[IV] > 0.0 and abs(math.log2(k * x[IR] * om / x[IV])) <= 0.5):
                 continue  # nearer another octave of the filter's speed than this one
+            if pm:
+                # the prediction of the line: omega = v / (r k), linearised in v and r, with
+                # the tracker's lag and one grid cell (the posterior's resolution)
+                rk = r_hat * k
+                m = x[IV] / rk
+                sp = ((P[IV, IV] - 2.0 * m * k * P[IV, IR] + (m * k) ** 2 * P[IR, IR]
+                       + var_lag) / (rk * rk) + (grid[1] - grid[0]) ** 2)
+                bf, mu, vp = _post_product(post, grid, m, math.sqrt(sp), p[37])
+                if not (bf > 0.0 and vp < sp):
+                    continue  # no posterior mass near the prediction, or none that narrows it
+                rz = 1.0 / (1.0 / vp - 1.0 / sp)  # the likelihood: the product / the prior
+                z = rz * (mu / vp - m / sp)
+                if not z > 0.0:
+                    continue
+                cost = -2.0 * math.log(bf / p_line) + (0.0 if j == 0 else p[8])
+                if cost < best:
+                    best = cost
+                    kk = k
+                    zu = z
+                    vu = rz + (p[5] * z) ** 2
+                    bfu = bf / p_line
+                continue
             hr = -k * om
             nu = -(x[IV] + hr * x[IR])
             s = (P[IV, IV] + 2.0 * hr * P[IV, IR] + hr * hr * P[IR, IR]
@@ -146,12 +216,22 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         # half an octave from one sample to the next has not changed harmonic (with
         # vib_use=all the omegas offered are not claims: no continuation)
         cont = (p[33] > 0.5 and not math.isnan(kk) and kk == sc[14]
-                and not math.isnan(sc[13]) and abs(math.log2(om / sc[13])) <= 0.5) or (
+                and not math.isnan(sc[13]) and abs(math.log2(zu / sc[13])) <= 0.5) or (
                     soft_cont and p[33] > 0.5)
         decisive = not math.isnan(kk) and (fresh or cont or 3.0 * math.sqrt(
-            P[IV, IV] + (r_hat * kk) ** 2 * var_om) <= p[28] * r_hat * kk * om)
+            P[IV, IV] + (r_hat * kk) ** 2 * vu) <= p[28] * r_hat * kk * zu)
         glim = p[35] if soft else p[7]
-        if ready and known and not hard and not (best <= glim and decisive):
+        if pm:
+            # the posterior's line is there with probability beta (its line probability and
+            # its mass near the prediction against a flat posterior's: the "no line" state
+            # explains the data as well as a flat posterior does)
+            if not math.isnan(kk):
+                beta = p_line * bfu / (p_line * bfu + 1.0 - p_line)
+            ok = not math.isnan(kk) and beta >= p[38] and decisive
+            best = 0.0 if ok else math.inf
+            glim = 0.0
+            vu = vu / max(beta, 1e-12)
+        if ready and known and not hard and not (best <= glim and decisive or pm and best <= glim):
             # re-lock run on the line at k = 1 (the octave that taught r): the gap
             # d = r omega - v between the line's speed and the filter's must hold for
             # vib_relock s (no GPS in that time), and the line must have moved with the speed
@@ -190,20 +270,22 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                     if not soft:
                         best = 0.0
                         kk = 1.0
+                        zu = om
+                        vu = var_om
                     # an unclaimed line widens the band by its gap but is not taken: a
                     # claimed line at that gap then lies inside the band and re-locks
         if best <= glim:
-            sc[13] = om
+            sc[13] = zu
             sc[14] = kk
             sc[15] = t
-            sc[16] = om
+            sc[16] = zu
             sc[17] = kk
             h[IV] = 1.0
-            h[IR] = -kk * om
+            h[IR] = -kk * zu
             # away from GPS the radius and the offset are consider states: a line there
             # carries the speed but teaches neither (a wrong or lagging line accepted in an
             # outage would corrupt the radius and the offset the inertial stretches rest on)
-            row_update(x, P, h, 0.0, ((r_hat * kk) ** 2 * var_om + var_lag) * infl,
+            row_update(x, P, h, 0.0, ((r_hat * kk) ** 2 * vu + var_lag) * infl,
                        -1 if fresh else IR, -1 if fresh else IB)
             h[IV] = 0.0
             h[IR] = 0.0
@@ -273,12 +355,15 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
 
 
 @njit(cache=True)
-def _run_core(Ac, qc, p, x, P, sc, t, am, g, sats, om, om_std, line, still, soft, out, xp, Pp,
-              xf, Pf, dts):
+def _run_core(Ac, qc, p, x, P, sc, t, am, g, sats, om, om_std, line, still, soft, posts, grid,
+              out, xp, Pp, xf, Pf, dts):
     Fc = np.eye(x.size)
+    none = np.empty(0)
+    have = posts.shape[0] == t.size
     for k in range(t.size):
         dts[k] = _step_core(Ac, qc, p, x, P, sc, Fc, t[k], am[k], g[k], sats[k], om[k],
-                            om_std[k], line[k], still[k], soft[k], out[k], xp[k], Pp[k])
+                            om_std[k], line[k], still[k], soft[k], posts[k] if have else none,
+                            grid, out[k], xp[k], Pp[k])
         xf[k, :] = x
         Pf[k, :, :] = P
 

@@ -63,7 +63,9 @@ class Sample(NamedTuple):
     longitudinal acceleration since the previous sample (m/s^2, NaN: none), GPS speed (m/s,
     NaN: no fix now), satellites (NaN: unknown), the tracker's omega and spread (rad/s),
     whether it claims a line, whether the vibration reports a stop, whether the line is an
-    unclaimed one offered to the re-lock only (``Config.vib_soft``)."""
+    unclaimed one offered to the re-lock only (``Config.vib_soft``), and the tracker's grid
+    posterior of the signal part (N,) (summing to its line probability; None: none), read with
+    ``Config.vib_measure="posterior"`` on the grid :func:`step` / :func:`run` are given."""
 
     t: float
     accel: float = math.nan
@@ -74,6 +76,7 @@ class Sample(NamedTuple):
     line: bool = False
     still: bool = False
     soft: bool = False
+    posterior: np.ndarray | None = None
 
 
 #: the per-sample values of :func:`step`'s Estimate besides ``speed`` / ``speed_std``: radius
@@ -161,16 +164,35 @@ def _pack(x, P, sc) -> State:
                  float(sc[16]), float(sc[17]))
 
 
-_SAMPLE = Sample._fields
+_SAMPLE = Sample._fields[:-1]  # the scalar fields; ``posterior`` is a row per sample
 _FLAGS = ("line", "still", "soft")
 
 
-def step(config: Config, state: State, y) -> tuple[State, Estimate]:
+def _grid_array(grid, posterior) -> np.ndarray:
+    """The tracker's grid as the core reads it (empty where no posterior is given)."""
+    if posterior is None:
+        return np.empty(0)
+    if grid is None:
+        raise InputError("fuse: a posterior needs the tracker's grid (grid=)")
+    g = np.ascontiguousarray(grid, dtype=np.float64)
+    if g.ndim != 1 or g.size < 2 or np.shape(posterior)[-1] != g.size:
+        raise InputError(f"fuse: the posterior has {np.shape(posterior)[-1]} points per sample, "
+                         f"the grid {g.size}")
+    return g
+
+
+def step(config: Config, state: State, y, grid=None) -> tuple[State, Estimate]:
     """One fusion sample ``y``, a :class:`Sample` or the tuple ``(t, accel, gps_speed,
-    gps_sats, omega, omega_std, line, still[, soft])``; the Estimate holds ``speed``,
-    ``speed_std`` and the :data:`EXTRAS`."""
+    gps_sats, omega, omega_std, line, still[, soft[, posterior]])``; ``posterior`` (N,) is the
+    tracker's grid posterior of the signal part (summing to its line probability) on ``grid``
+    (N,), read with ``vib_measure="posterior"``. The Estimate holds ``speed``, ``speed_std``
+    and the :data:`EXTRAS`."""
     t, am, g, sats, om, om_std, line, still, *rest = y
     soft = bool(rest[0]) if rest else False
+    post = rest[1] if len(rest) > 1 else None
+    gr = _grid_array(grid, post)
+    post = (np.empty(0) if post is None
+            else np.ascontiguousarray(post, dtype=np.float64).reshape(-1))
     t = float(t)
     if not math.isnan(state.t) and not t >= state.t:
         raise InputError(f"fuse: time goes backwards at t = {t} s (previous {state.t} s)")
@@ -179,7 +201,7 @@ def step(config: Config, state: State, y) -> tuple[State, Estimate]:
     out = np.empty(7)
     n = x.size
     _step_core(Ac, qc, p, x, P, sc, np.eye(n), t, float(am), float(g), float(sats), float(om),
-               float(om_std), bool(line), bool(still), soft, out, np.empty(n),
+               float(om_std), bool(line), bool(still), soft, post, gr, out, np.empty(n),
                np.empty((n, n)))
     est = Estimate(speed=float(out[0]), speed_std=float(out[1]),
                    extras=dict(zip(EXTRAS, (float(out[2]), float(out[3]), float(out[4]),
@@ -209,15 +231,25 @@ def _as_inputs(arrays) -> list[np.ndarray]:
     return out
 
 
-def run(config: Config, y, state: State | None = None) -> Result:
+def run(config: Config, y, state: State | None = None, grid=None) -> Result:
     """Forward filter over fusion samples; the numbers of repeated :func:`step`.
 
     ``y``: a :class:`Sample` of (n,) arrays, or a mapping of its names (``t``, ``accel``,
-    ``gps_speed``, ``gps_sats``, ``omega``, ``omega_std``, ``line``, ``still``, ``soft``) to
-    arrays; a missing one is "none" (NaN / False). ``state`` defaults to :func:`init` at the
-    first valid fix (or 0).
+    ``gps_speed``, ``gps_sats``, ``omega``, ``omega_std``, ``line``, ``still``, ``soft``,
+    ``posterior``) to arrays; a missing one is "none" (NaN / False / no posterior).
+    ``posterior`` (n, N): the tracker's grid posterior per sample on ``grid`` (N,) (as
+    :func:`step`). ``state`` defaults to :func:`init` at the first valid fix (or 0).
     """
     ins = _as_inputs(y)
+    post = y.posterior if hasattr(y, "_fields") else y.get("posterior")
+    gr = _grid_array(grid, post)
+    if post is None:
+        post = np.empty((0, 0))
+    else:
+        post = np.ascontiguousarray(post, dtype=np.float64)
+        if post.shape != (ins[0].size, gr.size):
+            raise InputError(f"fuse: posterior has shape {post.shape}, expected "
+                             f"({ins[0].size}, {gr.size})")
     t, g, s = ins[0], ins[2], ins[3]
     if state is None:
         fin = np.flatnonzero(config.valid_fixes(g, s))
@@ -229,7 +261,7 @@ def run(config: Config, y, state: State | None = None) -> Result:
     xp, Pp = np.empty((n, m)), np.empty((n, m, m))
     xf, Pf = np.empty((n, m)), np.empty((n, m, m))
     dts = np.empty(n)
-    _run_core(Ac, qc, p, x, P, sc, *ins, out, xp, Pp, xf, Pf, dts)
+    _run_core(Ac, qc, p, x, P, sc, *ins, post, gr, out, xp, Pp, xf, Pf, dts)
     o = Output(*(np.ascontiguousarray(out[:, i]) for i in range(5)),
                out[:, 5].astype(np.int8), np.ascontiguousarray(out[:, 6]), xp, Pp, xf, Pf, dts)
     return Result(_pack(x, P, sc), o)

@@ -19,6 +19,8 @@ from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators.fuse.config import (
     CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
+    CAUSAL_VIB_MEASURE,
+    CAUSAL_VIB_SEP,
     CAUSAL_VIB_SOFT,
     IB,
     IR,
@@ -115,14 +117,20 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     ``params``: :class:`Config` fields; ``accel_axis`` (longitudinal accelerometer channel,
     default ``ax``); ``online`` (true: the causal grid tracker and the forward filter only;
     default false: the smoothed grid tracker and the RTS smoother; online also ``vib_lag`` =
-    :data:`CAUSAL_VIB_LAG` and ``vib_spread="mode"`` unless given); ``radius_from`` (a JSON
+    :data:`CAUSAL_VIB_LAG`, ``vib_spread="mode"``, ``vib_amax``, ``vib_soft`` and
+    ``vib_measure`` = :data:`CAUSAL_VIB_MEASURE` with ``vib_sep`` = :data:`CAUSAL_VIB_SEP`
+    unless given); ``radius_from`` (a JSON
     file, :func:`radius_from_json`, seeding the radius prior; also a keyword); every other
     name goes to the grid tracker (e.g. ``omega_min``, ``omega_max``). A given ``wheel_radius``
     seeds the prior with 1 % spread. ``gps_speed`` / ``gps_sats`` are used where present;
     without GPS the radius prior must come from ``radius_from`` or ``wheel_radius``.
     ``return_posterior``: the vibration tracker's omega posterior in ``extras["posterior"]``.
     ``vibration``: a grid track of this recording already at hand (then no tracker runs; it
-    must be the causal one for ``online``).
+    must be the causal one for ``online``; with ``vib_measure="posterior"`` it must hold its
+    ``posterior`` and ``grid``, at every sample or at the fusion samples of the recording
+    with all its fixes, ``posterior_index``; online without a posterior it is read by its
+    mode). With ``vib_measure="posterior"`` the tracker runs with ``return_posterior`` and
+    its (n, N) posterior is kept at the fusion samples only.
 
     Columns: speed and its band (from the fused std); omega = speed / learned radius where
     the radius is known at the end (relative std below ``octave_rel``; else empty, with a
@@ -146,6 +154,12 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         cfg = replace(cfg, vib_amax=CAUSAL_VIB_AMAX)
     if online and "vib_soft" not in fuse_kw:
         cfg = replace(cfg, vib_soft=CAUSAL_VIB_SOFT)
+    if online and "vib_measure" not in fuse_kw and cfg.vib_use == "line":
+        # a given track without its posterior is read by its mode
+        if vibration is None or "posterior" in vibration.extras:
+            cfg = replace(cfg, vib_measure=CAUSAL_VIB_MEASURE)
+    if online and cfg.vib_measure == "posterior" and "vib_sep" not in fuse_kw:
+        cfg = replace(cfg, vib_sep=CAUSAL_VIB_SEP)
     rf = radius_from if radius_from is not None else own.get("radius_from")
     acc_ch = _axis_channel(str(own.get("accel_axis", "x")))
     name = recording.source or "recording"
@@ -169,9 +183,10 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     tparams = {**TRACKER_DEFAULTS, **rest}
     if online:
         tparams["smooth"] = "none"
+    want_post = cfg.vib_measure == "posterior"
     if vibration is None:
         vib = get("grid").estimate(recording, axis=axis, params=tparams, progress=progress,
-                                   return_posterior=return_posterior)
+                                   return_posterior=return_posterior or want_post)
     elif len(vibration) != len(recording):
         raise InputError(f"{name}: the vibration track has {len(vibration)} samples, the "
                          f"recording {len(recording)}")
@@ -209,11 +224,14 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         "omega_std": spread[ends], "line": line[ends], "still": _block_all(still, ends),
         "soft": soft[ends],
     }
+    grid = None
+    if want_post:
+        arrays["posterior"], grid = _posterior_rows(vib, ends, name)
     fin = np.flatnonzero(cfg.valid_fixes(g, s))
     v0 = float(g[fin[0]]) if fin.size else 0.0
     cfg = replace(cfg, radius0=r0, radius_std0=rs0)  # the prior the octave changes respect
     state0 = init(cfg, v0, radius=r0, radius_std=rs0)
-    end, o = run(cfg, arrays, state=state0)
+    end, o = run(cfg, arrays, state=state0, grid=grid)
     r_fin, rs_fin = float(o.radius[-1]), float(o.radius_std[-1])
     if online:
         v, vs, rr, rrs, off = o.speed, o.speed_std, o.radius, o.radius_std, o.offset
@@ -257,9 +275,32 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         extras["standstill"] = np.asarray(vib.extras["standstill"], dtype=np.float64)
     if return_posterior and "posterior" in vib.extras:  # the vibration tracker's omega posterior
         extras["posterior"] = vib.extras["posterior"]
+        for key in ("grid", "posterior_index"):
+            if key in vib.extras:
+                extras[key] = vib.extras[key]
     return Track.from_speed(t, speed, speed_std, wheel_radius=r_fin if known else None,
                             method="fuse",
                             params=pdict, extras=extras, notes=[*vib.notes, *notes])
+
+
+def _posterior_rows(vib: Track, ends: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """The tracker's grid posterior (signal part) at the fusion samples ``ends`` and its grid:
+    ``vib.extras["posterior"]`` holds a row per sample, or rows at the samples
+    ``extras["posterior_index"]`` (a track kept at the fusion samples only)."""
+    post, grid = vib.extras.get("posterior"), vib.extras.get("grid")
+    if post is None or grid is None:
+        raise InputError(f"{name}: vib_measure=posterior needs the tracker's posterior and grid "
+                         "(a grid track estimated with return_posterior)")
+    idx = vib.extras.get("posterior_index")
+    if idx is None:
+        rows = ends
+    else:
+        idx = np.asarray(idx, dtype=np.int64)
+        rows = np.searchsorted(idx, ends)
+        if np.any(rows >= idx.size) or np.any(idx[np.minimum(rows, idx.size - 1)] != ends):
+            raise InputError(f"{name}: the tracker's posterior is not kept at every fusion "
+                             "sample (posterior_index)")
+    return np.asarray(post[rows], dtype=np.float64), np.asarray(grid, dtype=np.float64)
 
 
 def suits(recording: Recording, accel_axis: str = "x") -> bool:
