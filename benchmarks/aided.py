@@ -1,6 +1,7 @@
 """Benchmark of the inertial-aided tracker (issue 4; thesis ch. 3). Run by hand:
 
     PYTHONPATH=src .venv/bin/python benchmarks/aided.py [sim] [sweep] [hungary] [hungary_grid]
+        [hungary_default]
 
 * sim: stop_and_go and sudden_change, 15 seeds each: RMSE over the whole drive (starts and stops
   included) of the aided tracker (window and CUSUM standstill tests, the thesis' scheme and the
@@ -14,6 +15,8 @@
   unaided EKF and RBPMF.
 * hungary_grid: the aided grid trackers (-p tracker=rbpmf and tracker=grid) on the same drives,
   with the band's coverage split by the "no line" state (has_signal = p_null <= 0.5).
+* hungary_default: ``-m grid`` and the aided trackers with their defaults (the candidates for
+  ``-m aided``'s default) on the same drives, speed vs GPS (radius fitted to ``-m grid``).
 Results are printed as markdown (pasted into benchmarks/aided/RESULTS.md).
 """
 
@@ -63,11 +66,13 @@ VARIANTS = {
     "aided (window, aid_always)": {**THESIS, "aid_always": True},
     "same kernel, no aiding": {**THESIS, **NO_AID},
     "aided RBPMF (window, -p tracker=rbpmf)": {"tracker": "rbpmf"},
-    "aided (default: grid tracker, mount, range 2-40 rad/s)": {"omega_min": 2.0,
-                                                                "omega_max": 40.0},
-    "aided grid on a_x (-p accel_axis=ax, range 2-40 rad/s)": {"omega_min": 2.0,
-                                                                 "omega_max": 40.0,
-                                                                 "accel_axis": "ax"},
+    "aided grid (-p tracker=grid: mount estimated, offline the aided smoother; range 2-40)":
+        {"tracker": "grid", "omega_min": 2.0, "omega_max": 40.0},
+    "aided grid on a_x (-p tracker=grid -p accel_axis=ax, range 2-40 rad/s)":
+        {"tracker": "grid", "omega_min": 2.0, "omega_max": 40.0, "accel_axis": "ax"},
+    "aided grid unaided (-p tracker=grid -p aiding=none: -m grid, range 2-40 rad/s)":
+        {"tracker": "grid", "omega_min": 2.0, "omega_max": 40.0, "accel_axis": "ax",
+         "aiding": "none"},
 }
 PLAIN_RBPMF = dict(omega_min=0.0, omega_max=40.0, n_grid=161, M=2, prefilter="thesis-hplp")
 
@@ -145,7 +150,7 @@ def _gps_stats(t, v, gps):
     return float(np.sqrt(np.mean(e**2))), float(np.median(np.abs(e))), float(c)
 
 
-HUNGARY_BASE = {"normalize_tau": 5.0, "prefilter": "thesis-hp"}
+HUNGARY_BASE = {"tracker": "ekf", "normalize_tau": 5.0, "prefilter": "thesis-hp"}
 HUNGARY = {
     "aided EKF (thesis scheme)": {**HUNGARY_BASE, **THESIS},
     "aided EKF (defaults: broadband standstill, a_x offset, comb check)": HUNGARY_BASE,
@@ -250,6 +255,48 @@ def bench_hungary_grid() -> None:
                   f"{med(ok & hs)} / {med(ok & ~hs)} |", flush=True)
 
 
+#: ``hungary_default``: the candidates for ``-m aided``'s default next to ``-m grid``, each on the
+#: phone's axes as logged in the body frame (x forward), the car's search range 10-120 rad/s
+HUNGARY_DEFAULT = {
+    "-m grid (unaided)": None,
+    "aided tracker=grid (mount estimated)": {"tracker": "grid"},
+    "aided tracker=grid, accel_axis=ax": {"tracker": "grid", "accel_axis": "ax"},
+    "aided tracker=ekf (family defaults)": {"tracker": "ekf", "omega_min": 10.0,
+                                            "omega_max": 120.0},
+}
+
+
+def bench_hungary_default() -> None:
+    """Speed vs GPS on the Hungary drives for ``-m grid`` and the aided trackers, one wheel
+    radius per drive fitted to ``-m grid``'s omega (so the aiding's r is that of the grid):
+    RMSE, share of the time with GPS above 5 m/s within 5 % / 10 % of it."""
+    from vibrospeed.estimators import grid
+    from vibrospeed.io import read
+    from vibrospeed.io.timebase import resample_uniform
+
+    drives = sorted(p for p in DATA.iterdir() if p.is_dir())
+    print("\n### Hungary drives: -m grid and the aided trackers (radius fitted to -m grid)\n")
+    print("| drive | tracker | r (m) | RMSE (m/s) | within 5 % | within 10 % | mount confident |")
+    print("|---|---|---|---|---|---|---|")
+    for d in drives:
+        rec = read(d, "phyphox")
+        rec = resample_uniform(rec) if not rec.is_uniform(0.01) else rec
+        body = rec.with_channels(ax=rec["ay"], ay=-rec["ax"])
+        gps = rec["gps_speed"]
+        g = grid.estimate(body, axis="y")
+        r1 = _fit_radius(gps, g.omega)
+        for k, p in HUNGARY_DEFAULT.items():
+            tr = g if p is None else aided.estimate(body, axis="y", wheel_radius=r1, params=p)
+            v = r1 * np.asarray(tr.omega, float)
+            ok = np.isfinite(gps) & np.isfinite(v)
+            mv = ok & (gps > 5.0)
+            rel = np.abs(v[mv] - gps[mv]) / gps[mv]
+            rm = float(np.sqrt(np.mean((v[ok] - gps[ok]) ** 2)))
+            conf = tr.params.get("mount_confident", "-")
+            print(f"| {d.name} | {k} | {r1:.3f} | {rm:.2f} | {100 * np.mean(rel <= 0.05):.1f} % "
+                  f"| {100 * np.mean(rel <= 0.10):.1f} % | {conf} |", flush=True)
+
+
 def _row(v, lo, hi, gps) -> str:
     rm, mae, c = _gps_stats(None, v, gps)
     ok = np.isfinite(gps) & np.isfinite(v)
@@ -270,3 +317,5 @@ if __name__ == "__main__":
         bench_hungary()
     if "hungary_grid" in parts:
         bench_hungary_grid()
+    if "hungary_default" in parts:
+        bench_hungary_default()

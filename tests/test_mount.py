@@ -65,9 +65,15 @@ def test_not_confident_without_a_reference_or_with_a_wrong_one():
     wrong = 20.0 + np.cumsum(rng.normal(size=omega.size)) * 0.05
     m = mount.estimate(acc, DT, omega=wrong, wheel_radius=0.3, still=still)
     assert not m.confident
-    # a third of the wheel speed: the slope leaves the accepted range
-    m = mount.estimate(acc, DT, omega=omega / 3.0, wheel_radius=0.3, still=still)
+    # a quarter of the wheel speed: the slope (about 4) leaves the accepted range, the axis is
+    # still the right one (the direction does not depend on the reference's scale)
+    m = mount.estimate(acc, DT, omega=omega / 4.0, wheel_radius=0.3, still=still)
     assert m.slope > mount.SLOPE_RANGE[1] and not m.confident
+    assert m.forward @ rot[:, 0] > 0.995
+    # half the wheel speed (a harmonic lock): slope 2, confident, the same axis
+    m = mount.estimate(acc, DT, omega=omega / 2.0, wheel_radius=0.3, still=still)
+    assert 1.5 < m.slope < mount.SLOPE_RANGE[1] and m.confident
+    assert m.forward @ rot[:, 0] > 0.995
 
 
 def test_bad_shapes():
@@ -88,3 +94,26 @@ def test_simulated_drive_mount():
                        still=rec["omega_true"] <= 0)
     assert m.confident
     assert m.forward @ rot[:, 0] > 0.98
+
+
+def test_running_mount_is_causal_and_converges():
+    """The mount from the data so far: the samples up to any time are the same whether the
+    log goes on or not (nothing after a sample is read for it); it is confident once enough
+    motion was seen, and from then on its longitudinal acceleration is the drive's (within
+    the sensor noise), its last estimate the whole-log one."""
+    rot = mount_matrix((0.3, -0.2, 1.1))
+    acc, omega, still, a_long = _drive(rot)
+    run = mount.running(acc, DT, omega=omega, wheel_radius=0.3, still=still)
+    k = 7_000
+    part = mount.running(acc[:k], DT, omega=omega[:k], wheel_radius=0.3, still=still[:k])
+    np.testing.assert_array_equal(part.u, run.u[:k])
+    np.testing.assert_array_equal(part.confident, run.confident[:k])
+    assert not run.confident[:1000].any()  # standing for 10 s: no forward axis yet
+    on = np.flatnonzero(run.confident)
+    assert on.size and on[0] * DT < 40.0 and run.confident[on[0]:].all()
+    assert np.sqrt(np.mean((run.u[on] - a_long[on]) ** 2)) < 0.35  # the sensor noise is 0.3
+    whole = mount.estimate(acc, DT, omega=omega, wheel_radius=0.3, still=still)
+    assert run.mounts[-1].forward @ whole.forward > 0.9999
+    # re-estimates every second at first, later every 2 % of the elapsed time
+    assert np.allclose(np.diff(run.times[:5]), 1.0)
+    assert run.times.size < omega.size * DT

@@ -100,14 +100,14 @@ PRESETS: dict[str, dict[str, Preset]] = {
         "online": Preset({}, _CAUSAL),
     },
     "aided": {
-        "default": Preset({}, "the aided EKF with the broadband standstill detector (whole "
-                          "log), a_x offset from the standing samples and the comb check"),
+        "default": Preset({}, "the grid tracker aided by the longitudinal acceleration of "
+                          "the estimated mount (offline the aided smoother), whole-log stops"),
         "paper": Preset({"tracker": "ekf", "standstill": "window", "accel_offset": "none",
                          "comb": "false", "causal": "true"},
                         "thesis ch. 3: the aided EKF, window standstill test, a_x used as "
                         "measured, no comb check"),
-        "online": Preset({"causal": "true"}, "causal standstill detector and a_x offset "
-                         "(as a device decides)"),
+        "online": Preset({"causal": "true"}, "the causal aided filter, causal standstill "
+                         "detector and the mount from the data so far (as a device decides)"),
     },
     "gps-riss": {
         "default": Preset({}, "physical noise levels, GPS innovation gating"),
@@ -188,13 +188,15 @@ PARAMETERS: dict[str, dict[str, Parameter]] = {
         "comb": Parameter("false", "comb check for acquisition and re-lock (default true)"),
     },
     "aided": {
-        "accel_axis": Parameter("ax", "longitudinal acceleration channel; a leading - "
-                                "negates (e.g. -ay)"),
+        "accel_axis": Parameter("ax", "longitudinal acceleration channel (default with "
+                                "tracker=grid: the estimated mount); a leading - negates "
+                                "(e.g. -ay)"),
         "standstill": Parameter("broadband", "standstill test: broadband (default), window, "
                                 "cusum, none"),
-        "causal": Parameter("true", "causal standstill detector and a_x offset"),
-        "tracker": Parameter("grid", "vibration tracker aided: ekf (default, the "
-                             "thesis' filter), grid, rbpmf"),
+        "causal": Parameter("true", "causal filter, standstill detector, a_x offset and "
+                            "mount"),
+        "tracker": Parameter("ekf", "vibration tracker aided: grid (default), ekf (the "
+                             "thesis' filter), rbpmf"),
         "M": Parameter("2", "harmonics in the model"),
     },
     "gps-riss": {

@@ -60,6 +60,10 @@ The harmonic EKF of :mod:`vibrospeed.estimators.ekf` extended with
   with a large ``p0_omega``); until then vibration updates do not touch omega, so the first fix
   sets it (a Kalman update from a prior of variance ``p0_omega``).
 
+``-m aided`` runs the grid tracker aided (``tracker=grid``, :data:`DEFAULT_TRACKER`:
+:mod:`vibrospeed.estimators.aided_grid`, offline its aided smoother) unless ``tracker=ekf``
+(``--preset paper``) asks for this EKF.
+
 The aided EKF is a package, one concern per module, each importing only the ones above it:
 
 ==========  ===============================================================================

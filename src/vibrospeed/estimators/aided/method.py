@@ -26,11 +26,13 @@ from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal.comb import COMB_FRAME_S, COMB_HOP_S, comb_candidates
 from vibrospeed.types import Recording, Track
 
-#: vibration tracker of :func:`estimate` when ``params`` names none: the thesis' aided EKF.
-#: ``tracker=grid`` scores like ``-m grid`` on the randomised family (the EKF below a tenth of
-#: that), but offline its result *is* the grid tracker's estimate (nothing aided) and on the
-#: thesis' cart its RMSE is ~4x the EKF's (benchmarks/robustness/AIDED.md)
-DEFAULT_TRACKER = "ekf"
+#: vibration tracker of :func:`estimate` when ``params`` names none: the grid tracker, aided
+#: (:func:`vibrospeed.estimators.aided_grid.estimate`; offline the aided forward-backward
+#: smoother). On the randomised family it is at or above ``-m grid`` on 59 of 60 tuning seeds
+#: (the aided EKF's moving-within median is a tenth of it) and on the thesis' simulated cart
+#: within 1.7x of the thesis EKF's RMSE on stop-and-go and below it on sudden-change
+#: (benchmarks/robustness/AIDED.md); ``tracker=ekf`` / ``--preset paper`` is the thesis' EKF.
+DEFAULT_TRACKER = "grid"
 
 
 def estimate(
@@ -53,12 +55,13 @@ def estimate(
     ``wheelbase`` (m, for bump fixes); ``accel_detrend`` (s; subtract a causal running mean of
     a_x with this time constant, for a tilted phone whose a_x carries a large gravity offset that
     would hold the mode detector in acceleration mode; default 0 = off, as in the thesis).
-    ``tracker``: 'ekf' (default, :data:`DEFAULT_TRACKER`: the thesis' aided EKF, this
-    function; ``--preset paper`` with the thesis' tests), 'grid' (the grid product's filter, its
-    smoothed estimate offline or where the mount of the phone is not known well enough to aid
-    it, see :func:`vibrospeed.estimators.aided_grid.estimate`) or 'rbpmf' (the aiding around
-    the paper's grid filter on the thesis cart's grid); the grid trackers go to
-    :func:`vibrospeed.estimators.aided_grid.estimate`. The parameters below are the EKF's.
+    ``tracker``: 'grid' (default, :data:`DEFAULT_TRACKER`: the grid product's filter aided by
+    the longitudinal acceleration of the phone's estimated mount, offline the aided
+    forward-backward smoother; where the mount is not known well enough to aid it, the grid
+    tracker's own estimate; see :func:`vibrospeed.estimators.aided_grid.estimate`), 'ekf' (the
+    thesis' aided EKF, this function; ``--preset paper`` with the thesis' tests) or 'rbpmf'
+    (the aiding around the paper's grid filter on the thesis cart's grid); the grid trackers go
+    to :func:`vibrospeed.estimators.aided_grid.estimate`. The parameters below are the EKF's.
 
     Defaults not in the thesis (measured in benchmarks/aided/RESULTS.md):
     ``standstill='broadband'`` (the

@@ -69,17 +69,19 @@ integration and the boost move only the line part; the "no line" part stays unif
 The aided grid tracker is a package, one concern per module, each importing only the ones
 above it:
 
-==========  ===============================================================================
-``config``  the tracker's :class:`Config` (the RBPMF config, detectors, aiding kind, comb
-            evidence) and the thesis cart's grid
-``shift``   the translation of the grid posterior by a number of cells (numba) and the
-            whole-cell / sub-cell bookkeeping of ``offset``
-``filter``  ``State``, ``init``, ``step``, ``run``: the detectors, the aiding's hooks around
-            :func:`vibrospeed.estimators.rbpmf.step`, plain stretches through
-            :func:`vibrospeed.estimators.rbpmf.run`
-``method``  a recording in, a Track out (:func:`estimate`): ``tracker=rbpmf`` on the cart's
-            grid, ``tracker=grid`` with the grid product's settings and the mount estimate
-==========  ===============================================================================
+============  =============================================================================
+``config``    the tracker's :class:`Config` (the RBPMF config, detectors, aiding kind, comb
+              evidence) and the thesis cart's grid
+``shift``     the translation of the grid posterior by a number of cells (numba) and the
+              whole-cell / sub-cell bookkeeping of ``offset``
+``filter``    ``State``, ``init``, ``step``, ``run``: the detectors, the aiding's hooks around
+              :func:`vibrospeed.estimators.rbpmf.step`, plain stretches through
+              :func:`vibrospeed.estimators.rbpmf.run`
+``smoother``  the aided forward-backward smoother (continuous aiding): the forward pass with
+              the per-state emissions, the shift inside the transition both ways
+``method``    a recording in, a Track out (:func:`estimate`): ``tracker=rbpmf`` on the cart's
+              grid, ``tracker=grid`` with the grid product's settings and the mount estimate
+============  =============================================================================
 """
 
 from vibrospeed.estimators.aided_grid.config import (

@@ -2,8 +2,9 @@
 ``tracker=grid``): a recording in, a Track out. ``tracker=rbpmf`` builds the thesis cart's grid
 at the log's rate; ``tracker=grid`` the grid product's tracker, pre-filter, scaling and comb
 evidence (:data:`GRID_TRACKER`), aided by the longitudinal acceleration of the mount estimate
-(:mod:`vibrospeed.signal.mount`) where that is confident and the filter causal, else the grid
-tracker's own estimate."""
+(:mod:`vibrospeed.signal.mount`) where that is confident (offline the aided forward-backward
+smoother of :mod:`vibrospeed.estimators.aided_grid.smoother`, causally the aided filter on the
+mount known so far), else the grid tracker's own estimate."""
 
 from __future__ import annotations
 
@@ -111,12 +112,15 @@ def estimate(
     not contain 0). ``accel_axis='mount'`` (default): first the grid product's own estimate
     (:func:`vibrospeed.estimators.grid.estimate`, smoothed offline, ``smooth=none`` with
     ``causal=true``); the mount estimate of :mod:`vibrospeed.signal.mount` on ``ax, ay, az``,
-    referenced to its speed where it claims a line. With ``causal=true`` and a confident mount
-    the aided causal filter runs on the longitudinal acceleration; otherwise the grid estimate
-    is the result (no trustworthy axis to aid with, or offline, where the smoother's
-    look-ahead scored above the aided causal filter on the randomised family). A named axis
-    (``ax``, ``-ay`` ...) is used as given, minus its
-    mean while standing (``accel_offset='standstill'``), in the aided causal filter.
+    referenced to its speed where it claims a line (whole-log offline; with ``causal=true`` the
+    mount from the data so far, :func:`vibrospeed.signal.mount.running`). With a confident
+    mount, offline: the aided forward-backward smoother on the grid product's config, emissions
+    and mid-frame comb evidence (:func:`_smoothed`); causally: the aided filter. Without one the
+    grid estimate is the result (no trustworthy axis to aid with). A named axis (``ax``,
+    ``-ay`` ...) is used as given, minus its mean while standing
+    (``accel_offset='standstill'``), in the same smoother or causal filter; the smoother needs
+    ``aiding='continuous'`` (or ``'none'``: then it is ``-m grid``'s smoother), a search range
+    above 0 and no reference fixes (with fixes the causal filter runs).
     The Track's band is the grid posterior's credible interval (``level``).
     """
     from vibrospeed.config import config_from_params, parse_flag
@@ -206,12 +210,7 @@ def estimate(
         gparams = {**model_kw, **tr_kw, **comb_kw, "smooth": "none" if causal else "fb"}
         base_tr = gridmod.estimate(recording, axis=axis, wheel_radius=float(r),
                                    params=gparams)
-        u, mount_info, note = _mount_input(recording, base_tr, dt, float(r))
-        if u is not None and not causal:
-            # offline the smoother's look-ahead beats the aided causal filter on the family
-            # even where the mount is confident (benchmarks/robustness/AIDED.md)
-            u, note = None, (f"{note}; offline the grid tracker's smoothed estimate is kept "
-                             "(the aiding is for the causal filter, causal=true)")
+        u, mount_info, note = _mount_input(recording, base_tr, dt, float(r), causal=causal)
         if u is None:
             base_params = {**base_tr.params, "tracker": kind, "accel_axis": accel_axis,
                            "causal": causal, **mount_info}
@@ -220,8 +219,11 @@ def estimate(
                 notes=[*base_tr.notes, f"{note}: the grid tracker's estimate (-m grid"
                        f"{'' if not causal else ' -p smooth=none'})"])
         still = np.asarray(base_tr.extras["standstill"], dtype=np.float64)
-        more = [f"{note}; the mount itself is estimated from the whole log (a device needs it "
-                "calibrated beforehand: -p accel_axis=... names the longitudinal axis)"]
+        more = [note]
+        if not causal:
+            return _smoothed(recording, axis, float(r), gparams, cfg_kw, u, still, more,
+                             {"tracker": kind, "accel_axis": accel_axis, "causal": causal,
+                              **mount_info})
     else:
         u, ref, ref_var, more = aiding_inputs(
             recording, dt, float(r), accel_axis=accel_axis,
@@ -233,6 +235,12 @@ def estimate(
             u = u - off
             more.append(f"'{accel_axis}' offset removed: its mean while standing "
                         f"({off[-1]:.3g} m/s^2 at the end)")
+        if kind == "grid" and not causal and still is not None and ref is None:
+            gparams = {**model_kw, **tr_kw, **comb_kw, "smooth": "fb"}
+            return _smoothed(recording, axis, float(r), gparams, cfg_kw, u, still, more,
+                             {"tracker": kind, "accel_axis": accel_axis, "causal": causal,
+                              **{k: inp.get(k) for k in INPUT_PARAMS
+                                 if k not in ("accel_axis", "causal")}})
     if comb is not None:
         notes.append(f"tracker=grid: 'no line' state (off {tracker.off_rate:g}/s, on "
                      f"{tracker.on_rate:g}/s, null model '{tracker.null_model}'), jumps "
@@ -269,21 +277,39 @@ def estimate(
                             extras=extras, notes=notes)
 
 
-def _mount_input(recording, base: Track, dt: float, r: float
+def _mount_input(recording, base: Track, dt: float, r: float, *, causal: bool = False
                  ) -> tuple[np.ndarray | None, dict, str]:
     """``accel_axis='mount'``: the longitudinal acceleration from the mount estimate of
     :mod:`vibrospeed.signal.mount` on ``ax, ay, az``, referenced to the grid tracker's track
-    ``base`` where it claims a line; None when the mount is not confident. Returns
-    ``(u or None, mount params, note)``."""
+    ``base`` where it claims a line; None when the mount is not confident. ``causal``: the
+    mount from the data so far (:func:`vibrospeed.signal.mount.running`; ``base`` is then the
+    causal tracker's with the causal stops), NaN (nothing aided) until it is confident.
+    Returns ``(u or None, mount params, note)``."""
     from vibrospeed.signal import mount as mountmod
 
     chans = ("ax", "ay", "az")
     if not all(c in recording and np.isfinite(recording.channel(c)).any() for c in chans):
         return None, {"mount_confident": False}, "not aided (the mount needs ax, ay and az)"
     A = np.column_stack([recording.channel(c) for c in chans])
-    m = mountmod.estimate(A, dt, omega=np.asarray(base.omega, dtype=np.float64),
-                          wheel_radius=r, still=base.extras.get("standstill"),
-                          usable=base.extras.get("has_signal"))
+    kw = dict(omega=np.asarray(base.omega, dtype=np.float64), wheel_radius=r,
+              still=base.extras.get("standstill"), usable=base.extras.get("has_signal"))
+    if causal:
+        run = mountmod.running(A, dt, **kw)
+        m = run.mounts[-1] if run.mounts else mountmod.estimate(A, dt, **kw)
+        on = run.confident
+        info = {"mount_confident": bool(on.any()), "mount_slope": m.slope, "mount_rho": m.rho,
+                "mount_t": m.t, "mount_forward": [float(v) for v in m.forward],
+                "mount_running": True}
+        if not on.any():
+            return None, info, ("not aided: the mount from the data so far (causal) was never "
+                                "confident")
+        first = float(np.flatnonzero(on)[0] * dt)
+        return run.u, info, (f"aided by the longitudinal acceleration of the mount known so far "
+                             f"(re-estimated {run.times.size} times, confident on "
+                             f"{100 * on.mean():.0f} % of the samples, first after {first:.0f} s"
+                             f"; last: forward axis {np.round(m.forward, 3).tolist()}, "
+                             f"correlation {m.rho:.2f}, slope {m.slope:.2f})")
+    m = mountmod.estimate(A, dt, **kw)
     info = {"mount_confident": m.confident, "mount_slope": m.slope, "mount_rho": m.rho,
             "mount_t": m.t,
             "mount_forward": [float(v) for v in m.forward]}
@@ -293,3 +319,51 @@ def _mount_input(recording, base: Track, dt: float, r: float
     if not m.confident:
         return None, info, f"not aided: {desc} not confident"
     return mountmod.longitudinal(A, m), info, f"aided by the longitudinal acceleration, {desc}"
+
+
+def _smoothed(recording, axis: str, r: float, gparams: dict, cfg_kw: dict, u: np.ndarray,
+              still: np.ndarray, more: list, extra_params: dict) -> Track:
+    """``tracker=grid`` offline with an aiding input: the grid product's pre-filter, config and
+    mid-frame comb evidence (:func:`vibrospeed.estimators.grid.method._prepare`, as ``-m grid``
+    builds them), the aided filter's forward pass and the aided forward-backward smoother
+    (:mod:`vibrospeed.estimators.aided_grid.smoother`), the Track's columns as ``-m grid``'s
+    (:func:`vibrospeed.estimators.grid.app.columns`; ``omega_map`` the smoothed marginal's MAP,
+    not a Viterbi path) and the stops ``still`` (whole-log detector) declared as ``-m grid``
+    declares them."""
+    from vibrospeed.config import config_from_params
+    from vibrospeed.estimators.aided_grid import smoother as asm
+    from vibrospeed.estimators.grid.app import columns
+    from vibrospeed.estimators.grid.method import apply_standstill
+
+    gconfig, Y, rms, notes = gridmod._prepare(recording, axis, gparams)
+    tr = gconfig.tracker
+    if tr.fit_names:
+        raise ParameterError("fit: the aided grid smoother takes the noise levels as given "
+                             "(fit them with -m grid, or use causal=true)")
+    y = Y if Y.ndim == 1 else np.ascontiguousarray(Y[:, 0])
+    ev = gridmod.evidence(gconfig, Y, centre=True)
+    config = config_from_params(Config, cfg_kw, tracker=dataclasses.replace(tr, smooth="none"),
+                                wheel_radius=r, comb=None)
+    fw = asm.forward(config, y, u, still=still, extra=ev)
+    sm = asm.smooth(config, fw)
+    (omega, std, lo, hi), extras = columns(tr, fw.filt, sm, sm.omega_map, rms)
+    moved = np.abs(fw.shift).sum() * config.dx
+    notes += [f"harmonic-comb evidence: {gconfig.comb_window:g} s frames every "
+              f"{gconfig.comb_hop:g} s, weight {gconfig.comb_weight:g} (mid-frame)",
+              f"aided forward-backward smoother on the grid: the posterior shifted by "
+              f"(T / r) sum a_x every {config.aid_hop:g} s inside the forward and the backward "
+              f"pass ({moved:.3g} rad/s moved in all); omega_map = the smoothed marginal's MAP",
+              *more]
+    params = {**gconfig.to_dict(), **{f.name: getattr(config, f.name)
+                                       for f in dataclasses.fields(Config)
+                                       if f.name not in ("tracker", "comb")},
+              "axis": axis, "smoother": "aided-fb", **extra_params}
+    track = Track.from_omega(recording.t, omega, std, lo=lo, hi=hi, level=tr.level,
+                             wheel_radius=r, method="aided", params=params, extras=extras,
+                             notes=notes)
+    st = np.asarray(still) > 0.5
+    apply_standstill(track, st)
+    if st.any():
+        track.notes.append(f"standstill on {100 * st.mean():.1f} % of the samples (whole-log "
+                           "detector): omega = 0 there")
+    return track

@@ -1,0 +1,291 @@
+"""The aided grid smoother: forward-backward on the grid with the acceleration shift inside the
+transition (``tracker=grid`` offline; package docstring, "Continuous aiding").
+
+The grid product's smoother (:mod:`vibrospeed.estimators.grid.smoother`) runs the backward
+recursion of the hidden Markov chain whose forward recursion is the RBPMF's weight update,
+with the filter's per-point emissions ``l_t(j)`` kept as computed. With continuous aiding the
+aided filter's transition from ``t`` to ``t + 1`` is the grid's transition ``T`` (random walk,
+jumps, "no line" state) followed by the translation ``S_t`` of the line part by
+``s_t = (T / (r dx)) sum_hop (u + b)`` cells at the last sample of each aiding hop (identity
+elsewhere; :func:`vibrospeed.estimators.aided_grid.shift._shift`: point ``i`` to ``i + k``
+with ``1 - f`` and to ``i + k + 1`` with ``f``, ``k = floor(s)``, ``f = s - k``, clamped to the
+grid's ends; the "no line" state is not moved)::
+
+    alpha_{t+1}(j) ∝ l_{t+1}(j) sum_i alpha_t(i) (T S_t)(i -> j)
+    beta_t(i)      = sum_j (T S_t)(i -> j) l_{t+1}(j) beta_{t+1}(j)
+                   = sum_m T(i -> m) sum_j S_t(m -> j) l_{t+1}(j) beta_{t+1}(j)
+
+so the backward step first pulls ``e = l beta`` back through the shift,
+``(S^T e)(m) = (1 - f) e(m + k) + f e(m + k + 1)`` (indices clamped as in the forward move),
+and then takes the grid smoother's step (:func:`~vibrospeed.estimators.grid.smoother._backstep`)
+on it. The smoothed posterior ``alpha_t beta_t`` uses the acceleration (through ``S``) and the
+vibration (through ``l``) on both sides of ``t``. Where no hop ends (``s_t = 0``) the steps
+are the grid smoother's own, so with ``u = 0`` the result is that of
+:func:`vibrospeed.estimators.grid.smoother.smooth` on the same emissions.
+
+The emissions are the aided filter's (the phasor filters travel with their mass under the
+shift, so ``l_t(j)`` is the predictive density of the filter that the aiding moved to ``j``):
+:func:`forward` runs the aided filter's forward pass in hop-long pieces of
+:func:`vibrospeed.estimators.rbpmf.run` (``return_grid_loglik=True``), shifting the state at
+each hop end, which gives the numbers of repeated :func:`vibrospeed.estimators.aided_grid.step`.
+The same approximation as the grid smoother's (module docstring there): the emissions are
+conditioned on the past only.
+
+Scope: continuous aiding (or none), the standstill read from per-sample flags or absent, no
+omega fixes, no standstill measurement on the grid (``omega_min > 0``): then every sample has
+the same grid transition and the shift is the only time-varying part. Memory: the filtered
+probabilities of the whole log, 4 (N + 1) bytes per sample (float32).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators import rbpmf
+from vibrospeed.estimators.aided_grid.config import Config
+from vibrospeed.estimators.aided_grid.filter import _aid_sums
+from vibrospeed.estimators.aided_grid.shift import _copy_grid, _resolve
+from vibrospeed.estimators.grid import smoother as gsm
+from vibrospeed.estimators.grid.filter import concat
+from vibrospeed.estimators.grid.summary import N_OUT_FIXED
+
+
+class Forward(NamedTuple):
+    """The aided filter's forward pass: ``filt`` the causal columns (an
+    :class:`vibrospeed.estimators.rbpmf.Result` over the whole log, ``grid_loglik`` (n, N + 1)
+    float32 the per-state emissions), ``shift`` (n,) cells moved after sample t's transition
+    (0: no hop ends there), ``still`` (n,) bool the standing samples (add nothing to a hop)."""
+
+    filt: rbpmf.Result
+    shift: np.ndarray
+    still: np.ndarray
+
+
+def _check(config: Config) -> None:
+    if config.aiding == "mode":
+        raise ParameterError("the aided grid smoother needs aiding='continuous' or 'none' (the "
+                             "mode detector's skipped updates and boosts are not a fixed "
+                             "chain)")
+    if config.standstill == "window":
+        raise ParameterError("the aided grid smoother reads standstill flags "
+                             "(standstill='broadband' or 'none')")
+    if config.standstill == "broadband" and config.ss_on_grid:
+        raise ParameterError("the aided grid smoother needs omega_min > 0 (a standstill "
+                             "measurement on the grid changes the walk while standing)")
+
+
+def forward(config: Config, y: np.ndarray, u: np.ndarray | None = None, *,
+            still: np.ndarray | None = None,
+            extra: tuple[np.ndarray, np.ndarray] | None = None) -> Forward:
+    """The aided filter (continuous aiding) over ``y`` (n,), the RBPMF input (pre-filtered and
+    scaled), with the longitudinal acceleration ``u`` (n,) m/s^2 (None or NaN: none), the
+    standstill flags ``still`` (n,) (standing samples add nothing to the hop's sum) and the
+    extra log-evidence ``extra = (idx, values)`` as :func:`vibrospeed.estimators.rbpmf.run`'s
+    (the comb evidence; end-referred gives the causal filter, mid-frame what the smoother
+    uses offline). The causal columns are those of repeated
+    :func:`vibrospeed.estimators.aided_grid.step` with that evidence."""
+    _check(config)
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    n = y.size
+    u = np.full(n, np.nan) if u is None else np.ascontiguousarray(u, dtype=np.float64)
+    if u.shape != (n,):
+        raise InputError(f"aided_grid.smoother.forward: 'u' has shape {u.shape}, expected ({n},)")
+    ss = np.zeros(n, np.bool_) if still is None else np.asarray(still, np.float64) > 0.5
+    if ss.shape != (n,):
+        raise InputError(f"aided_grid.smoother.forward: 'still' has shape {ss.shape}, "
+                         f"expected ({n},)")
+    shift = np.zeros(n)
+    if config.aiding == "continuous":
+        hop_end, total, _ = _aid_sums(config, u, ss, 0, 0.0)
+        shift[hop_end] = (config.tracker.model.dt * total[hop_end]
+                          / (config.wheel_radius * config.dx))
+    ex_idx = np.zeros(0, np.int64) if extra is None else np.asarray(extra[0], np.int64)
+    ex_val = None if extra is None else np.asarray(extra[1], np.float64)
+    tracker = config.tracker
+    g = rbpmf.init(tracker)
+    ends = np.flatnonzero(shift != 0.0)
+    cuts = np.concatenate([ends + 1, [n]]) if ends.size == 0 or ends[-1] != n - 1 else ends + 1
+    parts = []
+    k = 0
+    for e in cuts:
+        e = int(e)
+        if e <= k:
+            continue
+        sel = (ex_idx >= k) & (ex_idx < e)
+        ex = (ex_idx[sel] - k, ex_val[sel]) if np.any(sel) else None
+        res = rbpmf.run(tracker, y[k:e], g, extra=ex, return_grid_loglik=True)
+        parts.append(res)
+        g = res.final
+        if shift[e - 1] != 0.0:
+            g = _copy_grid(g)
+            _resolve(config, g, shift[e - 1] * config.dx)
+        k = e
+    filt = concat(parts)
+    if parts:
+        filt = filt._replace(final=g)
+    return Forward(filt, shift, ss)
+
+
+@njit(cache=True)
+def _shift_fwd(p, N, s, out):
+    """``out[:N] = S p[:N]`` (the line part moved by ``s`` cells, the terms in the order of
+    :func:`~vibrospeed.estimators.aided_grid.shift._shift`)."""
+    k = int(np.floor(s))
+    f = s - k
+    for j in range(N):
+        out[j] = 0.0
+    for i in range(N):
+        if p[i] == 0.0:
+            continue
+        for part in range(2):
+            a = (1.0 - f) if part == 0 else f
+            if a == 0.0:
+                continue
+            j = i + k + part
+            if j < 0:
+                j = 0
+            elif j > N - 1:
+                j = N - 1
+            out[j] += p[i] * a
+
+
+@njit(cache=True)
+def _shift_back(e, N, s, out):
+    """``out[:N] = S^T e[:N]``: ``out(m) = (1 - f) e(m + k) + f e(m + k + 1)`` (clamped)."""
+    k = int(np.floor(s))
+    f = s - k
+    for m in range(N):
+        acc = 0.0
+        for part in range(2):
+            a = (1.0 - f) if part == 0 else f
+            if a == 0.0:
+                continue
+            j = m + k + part
+            if j < 0:
+                j = 0
+            elif j > N - 1:
+                j = N - 1
+            acc += a * e[j]
+        out[m] = acc
+
+
+@njit(cache=True)
+def _forward_shifted(gll, shift, lw_init, kf, B, u, eps, p_off, p_on, has_null, log_floor):
+    """Filtered probabilities alpha (n, N+1) float32: the grid smoother's forward recursion
+    (:func:`~vibrospeed.estimators.grid.smoother._forward_range`) with the line part of the
+    prediction moved by ``shift[t]`` cells after sample t."""
+    n_s, N1 = gll.shape
+    N = N1 - 1
+    alpha = np.empty((n_s, N1), dtype=np.float32)
+    lw = lw_init.copy()
+    a = np.empty(N1)
+    pr = np.empty(N1)
+    ps = np.empty(N1)
+    ap = np.zeros(N + 2 * B)
+    s = np.empty(N)
+    for t in range(n_s):
+        mx = -np.inf
+        for j in range(N):
+            lw[j] += gll[t, j]
+            if lw[j] > mx:
+                mx = lw[j]
+        if has_null:
+            lw[N] += gll[t, N]
+            if lw[N] > mx:
+                mx = lw[N]
+        tot = 0.0
+        for j in range(N1):
+            if j == N and not has_null:
+                a[j] = 0.0
+                continue
+            d = lw[j] - mx
+            if d < -log_floor:
+                d = -log_floor
+            a[j] = np.exp(d)
+            tot += a[j]
+        for j in range(N1):
+            a[j] /= tot
+        for j in range(N):
+            alpha[t, j] = max(a[j], 1e-37)
+        alpha[t, N] = max(a[N], 1e-37) if has_null else 0.0
+        gsm._predict(a, kf, B, u, eps, p_off, p_on, has_null, ap, s, pr)
+        if shift[t] != 0.0:
+            _shift_fwd(pr, N, shift[t], ps)
+            for j in range(N):
+                pr[j] = ps[j]
+        for j in range(N1):
+            lw[j] = np.log(pr[j]) if pr[j] > 0.0 else -np.inf
+    return alpha
+
+
+@njit(cache=True)
+def _smooth_shifted(alpha, gll, shift, kr, B, grid, edges, u, eps, p_off, p_on, has_null,
+                    q_lo, q_hi, amb_rel, amb_abs, outs, posts, want_post):
+    """Backward from the last sample (beta = 1) to the first with the shift pulled back
+    before each of the grid smoother's steps; summary rows into ``outs``."""
+    n_s = alpha.shape[0]
+    N = grid.size
+    beta = np.ones(N + 1)
+    nb = np.empty(N + 1)
+    e = np.empty(N + 1)
+    es = np.empty(N + 1)
+    zero = np.zeros(N + 1)
+    ep = np.zeros(N + 2 * B)
+    s = np.empty(N)
+    g = np.empty(N + 1)
+    v = np.empty(N)
+    empty = np.empty(0, dtype=np.float32)
+    cur = np.full(1, -1, np.int64)
+    for t in range(n_s - 1, -1, -1):
+        if t < n_s - 1:
+            if shift[t] == 0.0:
+                gsm._backstep(beta, gll[t + 1], kr, B, u, eps, p_off, p_on, has_null, e, ep,
+                              s, nb)
+            else:
+                mx = -np.inf
+                for j in range(N + 1):
+                    if (j < N or has_null) and gll[t + 1, j] > mx:
+                        mx = gll[t + 1, j]
+                for j in range(N + 1):
+                    e[j] = np.exp(gll[t + 1, j] - mx) * beta[j] if (j < N or has_null) \
+                        else 0.0
+                _shift_back(e, N, shift[t], es)
+                es[N] = e[N]
+                gsm._backstep(es, zero, kr, B, u, eps, p_off, p_on, has_null, e, ep, s, nb)
+            for j in range(N + 1):
+                beta[j] = nb[j]
+        pr = posts[t] if want_post else empty
+        gsm._emit(alpha[t], beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, outs[t],
+                  pr, cur)
+
+
+def filtered(config: Config, fw: Forward) -> np.ndarray:
+    """(n, N+1) filtered probabilities recomputed from the emissions and the shifts (the
+    aided filter's weights, to float32 rounding)."""
+    lw, fwd, _, _ = gsm._chain(config.tracker)
+    gll = gsm._emissions(fw.filt.grid_loglik, config.tracker.n_grid)
+    return _forward_shifted(gll, np.ascontiguousarray(fw.shift, np.float64), lw, *fwd)
+
+
+def smooth(config: Config, fw: Forward, *, return_posterior: bool = False) -> gsm.Smoothed:
+    """Forward-backward marginals ``p(omega_t | y_1..n, u_1..n)`` of the aided chain from the
+    forward pass ``fw`` (:func:`forward`); columns as
+    :func:`vibrospeed.estimators.grid.smoother.smooth` (summaries of ``config.tracker``)."""
+    _check(config)
+    lw, fwd, common, _ = gsm._chain(config.tracker)
+    N = common[2].size
+    gll = gsm._emissions(fw.filt.grid_loglik, N)
+    n = gll.shape[0]
+    shift = np.ascontiguousarray(fw.shift, dtype=np.float64)
+    if shift.shape != (n,):
+        raise InputError(f"aided_grid.smoother.smooth: shift has shape {shift.shape}, "
+                         f"expected ({n},)")
+    alpha = _forward_shifted(gll, shift, lw, *fwd)
+    outs = np.zeros((n, N_OUT_FIXED))
+    posts = np.zeros((n if return_posterior else 1, N), dtype=np.float32)
+    _smooth_shifted(alpha, gll, shift, *common, outs, posts, bool(return_posterior))
+    return gsm._result(outs, posts if return_posterior else None)
