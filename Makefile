@@ -20,7 +20,7 @@ demo: venv
 	@mkdir -p $(OUT)
 	$(BIN)/vibrospeed simulate --scenario cart --seed 1 --set ticks=on -o $(OUT)/cart.csv
 	$(BIN)/vibrospeed truth $(OUT)/cart.csv --from-recording -o $(OUT)/cart_truth.csv
-	$(BIN)/vibrospeed estimate $(OUT)/cart.csv --method aided -o $(OUT)/cart_aided.csv --plot $(OUT)/cart_aided.png
+	$(BIN)/vibrospeed estimate $(OUT)/cart.csv --method aided -p omega_min=2 -p omega_max=30 -o $(OUT)/cart_aided.csv --plot $(OUT)/cart_aided.png
 	$(BIN)/vibrospeed evaluate $(OUT)/cart_aided.csv --truth $(OUT)/cart_truth.csv
 	$(BIN)/vibrospeed estimate $(OUT)/cart.csv --method ekf --init-omega 10 -o $(OUT)/cart_ekf.csv --plot $(OUT)/cart_ekf.png
 	$(BIN)/vibrospeed evaluate $(OUT)/cart_ekf.csv --truth $(OUT)/cart_truth.csv
