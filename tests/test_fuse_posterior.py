@@ -230,6 +230,10 @@ def test_estimate_online_reads_the_posterior_at_the_fusion_samples():
     g.extras["posterior_index"] = ends + 1
     with pytest.raises(InputError):
         fuse.estimate(rec, vibration=g, params={"online": True})
+    # offline the mode is the default; asked for, the smoothed tracker's posterior is read
+    assert fuse.estimate(rec).params["vib_measure"] == "mode"
+    off = fuse.estimate(rec, params={"vib_measure": "posterior"})
+    assert np.all(np.abs(off.speed[out] - v[out]) < 0.03 * v[out])
     # a track without its posterior is read by its mode online, and refused where asked for
     del g.extras["posterior"]
     assert fuse.estimate(rec, vibration=g, params={"online": True}).params["vib_measure"] == "mode"

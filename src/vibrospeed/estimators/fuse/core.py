@@ -2,7 +2,8 @@
 (:func:`_step_core`: exact prediction, then the measurement updates of the package notes --
 accelerometer, GPS with its adaptive variance, wheel frequency with octave choice,
 acquisition and re-lock, standstill, the ``v >= 0`` projection) and the loop over samples
-(:func:`_run_core`, which also stores the predictions and posteriors the smoother reads).
+(:func:`_run_core`, which also stores the predictions and posteriors the smoother reads), and
+the product of the tracker's grid posterior with the prediction (:func:`_post_product`).
 The state arrives as flat arrays and the parameters as one float vector
 (:meth:`~vibrospeed.estimators.fuse.config.Config._arrays`), so ``step`` and ``run`` are this
 same code. The measurement updates are :func:`vibrospeed.estimators.kalman.row_update`
@@ -60,7 +61,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                grid, out, xp, Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
     t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run, om_line, k_line, t_last, om_last,
-    k_last]``;
+    k_last]``; ``post`` (N,) the tracker's grid posterior of the signal part on ``grid`` (N,)
+    (empty: none; read with ``vib_measure="posterior"``);
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
     prediction (for the smoother). Returns dt."""
     n = x.size
