@@ -129,8 +129,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     must be the causal one for ``online``; with ``vib_measure="posterior"`` it must hold its
     ``posterior`` and ``grid``, at every sample or at the fusion samples of the recording
     with all its fixes, ``posterior_index``; online without a posterior it is read by its
-    mode). With ``vib_measure="posterior"`` the tracker runs with ``return_posterior`` and
-    its (n, N) posterior is kept at the fusion samples only.
+    mode). With ``vib_measure="posterior"`` the tracker keeps its posterior at the fusion
+    samples only (``grid.estimate``'s ``return_posterior`` with their indices).
 
     Columns: speed and its band (from the fused std); omega = speed / learned radius where
     the radius is known at the end (relative std below ``octave_rel``; else empty, with a
@@ -184,9 +184,16 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     if online:
         tparams["smooth"] = "none"
     want_post = cfg.vib_measure == "posterior"
+    t = recording.t
+    g = recording.channels.get("gps_speed", np.full(t.size, np.nan))
+    s = recording.channels.get("gps_sats", np.full(t.size, np.nan))
+    fix = np.isfinite(g)
+    ends = fusion_samples(t, fix, cfg.fuse_rate)
     if vibration is None:
+        # the posterior only where fuse reads it (its fusion samples), unless asked for whole
+        post = True if return_posterior else (ends if want_post else False)
         vib = get("grid").estimate(recording, axis=axis, params=tparams, progress=progress,
-                                   return_posterior=return_posterior or want_post)
+                                   return_posterior=post)
     elif len(vibration) != len(recording):
         raise InputError(f"{name}: the vibration track has {len(vibration)} samples, the "
                          f"recording {len(recording)}")
@@ -212,12 +219,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
             spread = np.where(soft, np.asarray(vib.extras["omega_mode_std"], dtype=np.float64),
                               spread)
         line = line | soft
-    # 2. fusion samples
-    t = recording.t
-    g = recording.channels.get("gps_speed", np.full(t.size, np.nan))
-    s = recording.channels.get("gps_sats", np.full(t.size, np.nan))
-    fix = np.isfinite(g)
-    ends = fusion_samples(t, fix, cfg.fuse_rate)
+    # 2. fusion samples (ends, above)
     arrays = {
         "t": t[ends], "accel": _block_mean(recording.channel(acc_ch), ends),
         "gps_speed": g[ends], "gps_sats": s[ends], "omega": vib.omega[ends],

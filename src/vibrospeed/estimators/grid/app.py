@@ -98,12 +98,14 @@ def fit_for_track(config: Config, y: np.ndarray, extra, notes: list) -> Config:
 
 def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, notes: list,
           *, axis: str, wheel_radius: float | None, progress: bool = False,
-          return_posterior: bool = False, method: str = "rbpmf",
+          return_posterior: bool | np.ndarray = False, method: str = "rbpmf",
           extra: tuple[np.ndarray, np.ndarray] | None = None,
           extra_params: dict | None = None) -> Track:
     """The part of :func:`estimate` after :func:`prepare` (shared with
     :mod:`vibrospeed.estimators.grid`): optional fit, filter or smoother, Track with extras.
-    ``extra``: log-evidence per :func:`run`."""
+    ``extra``: log-evidence per :func:`run`. ``return_posterior``: the posterior in the
+    extras, at every sample (True) or at the increasing sample indices given (then also
+    ``extras["posterior_index"]``)."""
     if config.fit_names:
         config = fit_for_track(config, y, extra, notes)
     for note in (check_grid_spacing(config), prefilter_note(config, 1.0 / config.model.dt)):
@@ -133,9 +135,12 @@ def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, 
         notes.append("omega = mean of the MAP mode (point='mode'); the posterior mean is in "
                      "extras['omega_mean']")
     (omega, std, lo, hi), extras = columns(config, res, sm, omap, rms)
-    if return_posterior:
+    every = isinstance(return_posterior, bool | np.bool_)
+    if not every or return_posterior:
         extras["posterior"] = post
         extras["grid"] = config.grid.copy()
+        if not every:
+            extras["posterior_index"] = np.asarray(return_posterior, dtype=np.int64)
     return Track.from_omega(
         recording.t, omega, std, lo=lo, hi=hi,
         level=config.level, wheel_radius=wheel_radius or recording.wheel_radius, method=method,
@@ -181,7 +186,7 @@ def columns(config: Config, res: Result, sm, omap: np.ndarray,
     return (omega, std, lo, hi), extras
 
 
-def _run_chunked(config: Config, y: np.ndarray, return_posterior: bool, progress: bool,
+def _run_chunked(config: Config, y: np.ndarray, return_posterior, progress: bool,
                  extra=None) -> Result:
     if not progress or extra is not None:
         return run(config, y, return_posterior=return_posterior, extra=extra)
@@ -193,7 +198,12 @@ def _run_chunked(config: Config, y: np.ndarray, return_posterior: bool, progress
     with Progress(transient=True) as bar:
         task = bar.add_task("rbpmf", total=y.size)
         for k0 in range(0, y.size, chunk):
-            res = run(config, y[k0 : k0 + chunk], state, return_posterior=return_posterior)
+            if isinstance(return_posterior, bool | np.bool_):
+                want = return_posterior
+            else:  # the chunk's own indices
+                idx = np.asarray(return_posterior)
+                want = idx[(idx >= k0) & (idx < k0 + chunk)] - k0
+            res = run(config, y[k0 : k0 + chunk], state, return_posterior=want)
             parts.append(res)
             state = res.final
             bar.update(task, advance=min(chunk, y.size - k0))

@@ -268,9 +268,9 @@ class Blocks:
                 alpha = np.empty((b - a, N1), dtype=np.float32)
                 _sm._forward_range(gll, off, off + b - a, lw_f, *fwd, alpha, a_s, pr)
                 outs = np.zeros((m, _sm.N_OUT_FIXED))
-                posts = np.zeros((1, grid.size), dtype=np.float32)
+                posts = np.zeros((0, grid.size), dtype=np.float32)
                 _sm._smooth_range(alpha, off, gll, m - 1, off, off + b - a, np.ones(N1), *cmn,
-                                  outs, posts, False)
+                                  outs, posts, np.zeros(0, np.int64))
                 sm = _sm._result(outs[off:off + b - a], None)
                 back = np.empty((m - off, N1), dtype=np.int32)
                 _sm._viterbi_range(gll, off, off + b - a, lw, delta, nd, back, *tabs)
@@ -290,13 +290,14 @@ class Blocks:
                 gll = _sm._emissions(rows.grid_loglik, grid.size)
                 base = a - off
                 outs = np.zeros((gll.shape[0], _sm.N_OUT_FIXED))
-                posts = np.zeros((1, grid.size), dtype=np.float32)
+                posts = np.zeros((0, grid.size), dtype=np.float32)
+                no_slot = np.zeros(0, np.int64)
                 for s0 in range(a, b, L):
                     s1 = min(s0 + L, n)
                     _sm._forward_range(gll, s0 - base, s1 - base, lw_f, *fwd, alpha_l, a_s, pr)
                     t_end = min(s0 + 2 * L, n) - 1 - base
                     _sm._smooth_range(alpha_l, s0 - base, gll, t_end, s0 - base, s1 - base,
-                                      np.ones(N1), *cmn, outs, posts, False)
+                                      np.ones(N1), *cmn, outs, posts, no_slot)
                 sm = _sm._result(outs[off:off + b - a], None)
                 omap = sm.omega_map
                 del gll, outs

@@ -602,10 +602,11 @@ def _step_from(sc, tab, grid, edges, u, lw_in, z_in, mean_in, cov_in, lw0_in, cu
 
 
 @njit(cache=True)
-def _run(tb, lw, lw0, mean, cov, cur, ys, ex_idx, ex_val, want_post, want_gll):
+def _run(tb, lw, lw0, mean, cov, cur, ys, ex_idx, ex_val, post_slot, want_gll):
     """:func:`_iterate` over ``ys`` with the extra evidence rows ``ex_val[f]`` at the samples
     ``ex_idx[f]``, in place on the state (lw, lw0[0], mean (N, 2M), cov (N, 2M, 2M), cur[0]);
-    returns the summary rows (n, N_OUT_FIXED + M) and, if wanted, the posteriors (n, N) and
+    returns the summary rows (n, N_OUT_FIXED + M), the posteriors as float32 rows (sample k's
+    in row ``post_slot[k]`` where that is >= 0; ``post_slot`` empty: none) and, if wanted, the
     per-state log-emissions (n, N + 1) as float32."""
     r, qd, B = tb.r, tb.qd, tb.B
     grid, edges, u, log_floor = tb.grid, tb.edges, tb.u, tb.log_floor
@@ -617,7 +618,11 @@ def _run(tb, lw, lw0, mean, cov, cur, ys, ex_idx, ex_val, want_post, want_gll):
     n = mean.shape[1]
     M = n // 2
     outs = np.empty((n_s, N_OUT_FIXED + M))
-    posts = np.empty((n_s if want_post else 0, N), dtype=np.float32)
+    want_post = post_slot.size > 0
+    n_post = 0
+    for k in range(post_slot.size):
+        n_post = max(n_post, post_slot[k] + 1)
+    posts = np.empty((n_post, N), dtype=np.float32)
     glls = np.empty((n_s if want_gll else 0, N + 1), dtype=np.float32)
     post = np.empty(N if want_post else 0)
     gll = np.empty(N + 1 if want_gll else 0)
@@ -637,9 +642,10 @@ def _run(tb, lw, lw0, mean, cov, cur, ys, ex_idx, ex_val, want_post, want_gll):
         _iterate(lw, lw0, Z, ys[k], r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_floor,
                  q_lo, q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper,
                  null_mix, hold, cur, ex, w, v, X, ph, rows, lamT, outs[k], post, gll)
-        if want_post:
+        if want_post and post_slot[k] >= 0:
+            row = posts[post_slot[k]]
             for j in range(N):
-                posts[k, j] = post[j]
+                row[j] = post[j]
         if want_gll:
             for j in range(N + 1):
                 glls[k, j] = gll[j]

@@ -398,17 +398,36 @@ def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Est
     return State._in_loop_layout(lw, z, lw0, cur), est
 
 
+def posterior_slots(n: int, return_posterior) -> np.ndarray:
+    """The posterior row of each of ``n`` samples (-1: not kept; empty: no posterior) for
+    ``return_posterior``: False (none), True (every sample) or the increasing sample indices
+    whose rows are kept (a consumer that reads the posterior at a few samples, e.g. fuse's
+    fusion samples, then holds ``len(idx)`` rows instead of ``n``)."""
+    if isinstance(return_posterior, bool | np.bool_):
+        return np.arange(n, dtype=np.int64) if return_posterior else np.zeros(0, np.int64)
+    idx = np.asarray(return_posterior)
+    if idx.ndim != 1 or (idx.size and not np.issubdtype(idx.dtype, np.integer)):
+        raise ParameterError("return_posterior: True, False or a 1-D array of sample indices")
+    if idx.size and (idx[0] < 0 or idx[-1] >= n or np.any(np.diff(idx) <= 0)):
+        raise ParameterError(f"return_posterior: the sample indices must increase within "
+                             f"0..{n - 1}")
+    slot = np.full(n, -1, dtype=np.int64)
+    slot[idx] = np.arange(idx.size)
+    return slot
+
+
 def run(
     config: Config,
     y: np.ndarray,
     state: State | None = None,
     *,
-    return_posterior: bool = False,
+    return_posterior: bool | np.ndarray = False,
     return_grid_loglik: bool = False,
     extra: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> Result:
     """Run over a whole (already pre-filtered, scaled) signal; identical to repeated
-    :func:`step`. ``return_posterior``: also return the grid posterior (n, N) as float32;
+    :func:`step`. ``return_posterior``: also return the grid posterior (n, N) as float32 (an
+    index array: only those samples' rows, :func:`posterior_slots`);
     ``return_grid_loglik``: the per-state log-emissions (n, N + 1) float32 that
     :mod:`vibrospeed.estimators.grid_smoother` needs (last column: the "no line" state).
     ``extra = (idx, values)``: log-evidence ``values[f]`` ((N,) or (N + 1,) per row) added at
@@ -433,8 +452,9 @@ def run(
         if ex_idx.size > 1 and np.any(np.diff(ex_idx) <= 0):
             raise ParameterError("extra evidence indices must be strictly increasing")
     cur = np.array([st.mode_j], dtype=np.int64)
+    slot = posterior_slots(ys.size, return_posterior)
     outs, posts, glls = _run(tables(config), lw, lw0, mean, cov, cur, ys, ex_idx, ex_val,
-                             bool(return_posterior), bool(return_grid_loglik))
+                             slot, bool(return_grid_loglik))
     if outs.shape[1] != N_OUT_FIXED + config.model.M:
         # numba's on-disk cache of core.py does not follow changes to summary.py's row layout
         raise RuntimeError(f"the compiled grid core writes {outs.shape[1]} columns per sample, "
@@ -442,6 +462,6 @@ def run(
                            "cache; delete the __pycache__ folders under "
                            "vibrospeed/estimators/grid")
     return Result(*_point_and_columns(config, outs.T), outs[:, N_OUT_FIXED:],
-                  posts if return_posterior else None, glls if return_grid_loglik else None,
+                  posts if slot.size else None, glls if return_grid_loglik else None,
                   State(lw, mean, cov, float(lw0[0]), int(cur[0])),
                   *(outs[:, c] for c in _TAIL), float(config.claim_level))

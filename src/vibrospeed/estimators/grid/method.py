@@ -425,7 +425,7 @@ def estimate(
     wheel_radius: float | None = None,
     params: dict | None = None,
     progress: bool = False,
-    return_posterior: bool = False,
+    return_posterior: bool | np.ndarray = False,
 ) -> Track:
     """Track omega on axis ``axis`` with the grid tracker (offline: smoothed).
 
@@ -434,6 +434,10 @@ def estimate(
     :data:`GRID_DEFAULTS` over the paper's); ``smooth=none`` gives the causal filter. Columns
     and extras as :func:`vibrospeed.estimators.rbpmf.estimate` (``p_half``, ``p_double``,
     ``p_third``, ``p_triple``, ``ambiguous``, ``confidence``, ``has_signal``, ...).
+    ``return_posterior``: the grid posterior in ``extras["posterior"]`` (float32 rows, the
+    signal part) and ``extras["grid"]``: True for every sample, or an increasing array of
+    sample indices for those rows only (``extras["posterior_index"]``; a consumer that reads
+    the posterior at a few samples then holds those rows alone).
 
     Examples
     --------

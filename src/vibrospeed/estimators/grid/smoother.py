@@ -57,7 +57,7 @@ from numba import njit
 
 import vibrospeed.estimators.grid.summary as cols
 from vibrospeed.estimators.grid.config import Config
-from vibrospeed.estimators.grid.filter import init
+from vibrospeed.estimators.grid.filter import init, posterior_slots
 
 # _summary is compiled into _emit (numba's cache keys on this file: see core.py)
 from vibrospeed.estimators.grid.summary import COL_LOGLIK, N_OUT_FIXED, _summary
@@ -282,9 +282,10 @@ def _emit(alpha_t, beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, row
 
 @njit(cache=True)
 def _smooth_range(alpha, a0, gll, t_end, t_lo, t_hi, beta, kr, B, grid, edges, u, eps, p_off,
-                  p_on, has_null, q_lo, q_hi, amb_rel, amb_abs, outs, posts, want_post):
+                  p_on, has_null, q_lo, q_hi, amb_rel, amb_abs, outs, posts, slot):
     """Backward from t_end down to t_lo, ``beta`` (N+1) holding beta_{t_end} on entry and
-    beta_{t_lo} on exit; outputs for t in [t_lo, t_hi) from ``alpha[t - a0]``."""
+    beta_{t_lo} on exit; outputs for t in [t_lo, t_hi) from ``alpha[t - a0]``, the posterior of
+    sample t into ``posts[slot[t]]`` where that is >= 0 (``slot`` empty: none)."""
     N = grid.size
     nb = np.empty(N + 1)
     e = np.empty(N + 1)
@@ -300,7 +301,7 @@ def _smooth_range(alpha, a0, gll, t_end, t_lo, t_hi, beta, kr, B, grid, edges, u
             for j in range(N + 1):
                 beta[j] = nb[j]
         if t < t_hi:
-            pr = posts[t] if want_post else empty
+            pr = posts[slot[t]] if slot.size > 0 and slot[t] >= 0 else empty
             _emit(alpha[t - a0], beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v,
                   outs[t], pr, cur)
 
@@ -327,13 +328,17 @@ def _emissions(gll: np.ndarray, N: int) -> np.ndarray:
 
 
 def _prep(config, gll, return_posterior):
+    """Chain tables, emissions, output rows, the posterior rows and their slots
+    (:func:`vibrospeed.estimators.grid.filter.posterior_slots`)."""
     lw, fwd, common, _ = _chain(config)
     N = common[2].size
     gll = _emissions(gll, N)
     n = gll.shape[0]
     outs = np.zeros((n, N_OUT_FIXED))
-    posts = np.zeros((n if return_posterior else 1, N), dtype=np.float32)
-    return lw.copy(), gll, outs, posts, fwd, common
+    slot = posterior_slots(n, return_posterior)
+    n_post = int(slot.max()) + 1 if slot.size else 0
+    posts = np.zeros((n_post, N), dtype=np.float32)
+    return lw.copy(), gll, outs, posts, slot, fwd, common
 
 
 def filtered(config: Config, grid_loglik: np.ndarray) -> np.ndarray:
@@ -352,11 +357,14 @@ CHECKPOINT = 4096
 KEEP_BYTES = 64 * 2**20
 
 
-def smooth(config: Config, grid_loglik: np.ndarray, *, return_posterior: bool = False,
-           checkpoint: int | None = CHECKPOINT, keep: int | None = None) -> Smoothed:
+def smooth(config: Config, grid_loglik: np.ndarray, *,
+           return_posterior: bool | np.ndarray = False, checkpoint: int | None = CHECKPOINT,
+           keep: int | None = None) -> Smoothed:
     """Forward-backward marginals ``p(omega_t | y_1..T)`` for the whole log.
 
     ``grid_loglik`` : (n, N+1) from ``rbpmf.run(config, y, return_grid_loglik=True)``.
+    ``return_posterior`` : the posterior rows at every sample (True) or at the increasing
+    sample indices given (:func:`vibrospeed.estimators.grid.filter.posterior_slots`).
 
     Checkpointed: the forward pass keeps its state (N+1 log weights) every ``checkpoint``
     samples, and the filtered probabilities of the last segments that fit in ``keep`` samples
@@ -367,14 +375,13 @@ def smooth(config: Config, grid_loglik: np.ndarray, *, return_posterior: bool = 
     (N+1) float32) instead of the whole log; time: the forward pass once over the kept
     samples, twice over the rest.
     """
-    lw, gll, outs, posts, fwd, c = _prep(config, grid_loglik, return_posterior)
+    lw, gll, outs, posts, slot, fwd, c = _prep(config, grid_loglik, return_posterior)
     n, N1 = gll.shape
-    want = bool(return_posterior)
     beta = np.ones(N1)
     if checkpoint is None or checkpoint >= n:
         alpha = _forward(gll, lw, *fwd)
-        _smooth_range(alpha, 0, gll, n - 1, 0, n, beta, *c, outs, posts, want)
-        return _result(outs, posts if want else None)
+        _smooth_range(alpha, 0, gll, n - 1, 0, n, beta, *c, outs, posts, slot)
+        return _result(outs, posts if slot.size else None)
     K = int(checkpoint)
     if K < 1:
         raise ValueError(f"checkpoint must be at least 1 sample, got {checkpoint}")
@@ -396,7 +403,7 @@ def smooth(config: Config, grid_loglik: np.ndarray, *, return_posterior: bool = 
         _forward_range(gll, t0, min(t0 + K, n), lw, *fwd, none, a, pr)
     if t_keep < n:
         _forward_range(gll, t_keep, n, lw, *fwd, tail, a, pr)
-        _smooth_range(tail, t_keep, gll, n - 1, t_keep, n, beta, *c, outs, posts, want)
+        _smooth_range(tail, t_keep, gll, n - 1, t_keep, n, beta, *c, outs, posts, slot)
     alpha = np.empty((min(K, n), N1), dtype=np.float32)
     for s in range(s_keep - 1, -1, -1):  # backward, segment by segment
         t0 = int(starts[s])
@@ -404,17 +411,17 @@ def smooth(config: Config, grid_loglik: np.ndarray, *, return_posterior: bool = 
         lw = states[s].copy()
         _forward_range(gll, t0, t1, lw, *fwd, alpha, a, pr)
         # from beta_{t1} (the next segment's first sample; at the end of the log beta = 1)
-        _smooth_range(alpha, t0, gll, min(t1, n - 1), t0, t1, beta, *c, outs, posts, want)
-    return _result(outs, posts if want else None)
+        _smooth_range(alpha, t0, gll, min(t1, n - 1), t0, t1, beta, *c, outs, posts, slot)
+    return _result(outs, posts if slot.size else None)
 
 
 def fixed_lag(config: Config, grid_loglik: np.ndarray, *, lag: float = 2.0,
-              return_posterior: bool = False) -> Smoothed:
+              return_posterior: bool | np.ndarray = False) -> Smoothed:
     """Fixed-lag smoother: each sample uses the data up to ``lag..2 lag`` s after it (blocks of
     ``lag`` s; an online device emits block b at the end of block b+1). Uses only data a
     device has at that time, computed here from the stored emissions; the filtered
     probabilities are kept for one block at a time."""
-    lw, gll, outs, posts, fwd, c = _prep(config, grid_loglik, return_posterior)
+    lw, gll, outs, posts, slot, fwd, c = _prep(config, grid_loglik, return_posterior)
     n, N1 = gll.shape
     L = max(1, int(round(lag / config.model.dt)))
     a, pr = np.empty(N1), np.empty(N1)
@@ -424,9 +431,8 @@ def fixed_lag(config: Config, grid_loglik: np.ndarray, *, lag: float = 2.0,
         s1 = min(s0 + L, n)
         _forward_range(gll, s0, s1, lw, *fwd, alpha, a, pr)
         t_end = min(s0 + 2 * L, n) - 1
-        _smooth_range(alpha, s0, gll, t_end, s0, s1, np.ones(N1), *c, outs, posts,
-                      bool(return_posterior))
-    return _result(outs, posts if return_posterior else None)
+        _smooth_range(alpha, s0, gll, t_end, s0, s1, np.ones(N1), *c, outs, posts, slot)
+    return _result(outs, posts if slot.size else None)
 
 
 @njit(cache=True)
