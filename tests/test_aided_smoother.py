@@ -191,3 +191,33 @@ def test_offline_tracker_grid_on_a_named_axis():
     err = np.sqrt(np.mean((tr.omega - w) ** 2))
     err0 = np.sqrt(np.mean((un.omega - w) ** 2))
     assert err < 0.5 * err0
+
+
+def test_checkpointed_is_the_whole_log_pass():
+    """The checkpointed smoother (forward state every K samples, alpha recomputed segment by
+    segment from the emissions and the shifts) gives the whole-log pass's columns and
+    posterior bitwise, for K that divides n or not, K = 1, K >= n, and keep = 0 / a few
+    segments / the whole log; the posterior at chosen sample indices is those rows."""
+    cfg = _config()
+    y, _ = _line(n=600, accel=0.06, seed=3)
+    u = np.full(y.size, 0.06)
+    u[300:330] = -0.1
+    still = np.zeros(y.size)
+    still[:30] = 1.0
+    fw = asm.forward(cfg, y, u, still=still, extra=gridmod.evidence(_comb(cfg), y, centre=True))
+    assert np.count_nonzero(fw.shift) > 50 and np.any(fw.shift < 0)
+    ref = asm.smooth(cfg, fw, return_posterior=True, checkpoint=None)
+    names = [f for f in ref._fields if getattr(ref, f) is not None]
+    assert "posterior" in names and "omega_mode" in names
+    for K in (1, 7, 100, 150, 599, 600, 1000):
+        for keep in (0, 64, 250, 10_000, None):
+            got = asm.smooth(cfg, fw, return_posterior=True, checkpoint=K, keep=keep)
+            for name in names:
+                np.testing.assert_array_equal(getattr(got, name), getattr(ref, name),
+                                              err_msg=f"{name}, checkpoint={K}, keep={keep}")
+    idx = np.array([0, 99, 100, 101, 417, 599])
+    part = asm.smooth(cfg, fw, return_posterior=idx, checkpoint=64, keep=100)
+    np.testing.assert_array_equal(part.posterior, ref.posterior[idx])
+    np.testing.assert_array_equal(part.omega, ref.omega)
+    with pytest.raises(ParameterError, match="checkpoint"):
+        asm.smooth(cfg, fw, checkpoint=0)

@@ -33,8 +33,13 @@ conditioned on the past only.
 
 Scope: continuous aiding (or none), the standstill read from per-sample flags or absent, no
 omega fixes, no standstill measurement on the grid (``omega_min > 0``): then every sample has
-the same grid transition and the shift is the only time-varying part. Memory: the filtered
-probabilities of the whole log, 4 (N + 1) bytes per sample (float32).
+the same grid transition and the shift is the only time-varying part. Memory: about
+``-m grid``'s. The forward pass keeps the emissions (one (n, N + 1) float32 array, 4 (N + 1)
+bytes per sample) and its pieces' per-sample columns, no piece's filter state past the next
+piece; :func:`smooth` is checkpointed as the grid smoother: the filtered probabilities of the
+last ``grid.smoother.KEEP_BYTES`` (64 MiB) of the log and of one ``CHECKPOINT``-sample segment,
+the others recomputed segment by segment from the emissions and the shifts (the aided filter
+is not run again).
 """
 
 from __future__ import annotations
@@ -50,7 +55,7 @@ from vibrospeed.estimators.aided_grid.config import Config
 from vibrospeed.estimators.aided_grid.filter import _aid_sums
 from vibrospeed.estimators.aided_grid.shift import _copy_grid, _resolve
 from vibrospeed.estimators.grid import smoother as gsm
-from vibrospeed.estimators.grid.filter import concat
+from vibrospeed.estimators.grid.filter import concat, posterior_slots
 from vibrospeed.estimators.grid.summary import N_OUT_FIXED
 
 
@@ -109,7 +114,11 @@ def forward(config: Config, y: np.ndarray, u: np.ndarray | None = None, *,
     g = rbpmf.init(tracker)
     ends = np.flatnonzero(shift != 0.0)
     cuts = np.concatenate([ends + 1, [n]]) if ends.size == 0 or ends[-1] != n - 1 else ends + 1
+    # the pieces keep their per-sample columns only: the emissions go straight into one
+    # (n, N + 1) array and each piece's final state (the phasor moments, ~80 kB at N = 200)
+    # is dropped once the next piece starts from it
     parts = []
+    gll = None
     k = 0
     for e in cuts:
         e = int(e)
@@ -118,15 +127,19 @@ def forward(config: Config, y: np.ndarray, u: np.ndarray | None = None, *,
         sel = (ex_idx >= k) & (ex_idx < e)
         ex = (ex_idx[sel] - k, ex_val[sel]) if np.any(sel) else None
         res = rbpmf.run(tracker, y[k:e], g, extra=ex, return_grid_loglik=True)
-        parts.append(res)
+        if gll is None:
+            gll = np.empty((n, res.grid_loglik.shape[1]), dtype=res.grid_loglik.dtype)
+        gll[k:e] = res.grid_loglik
+        parts.append(res._replace(final=None, grid_loglik=None))
         g = res.final
+        del res
         if shift[e - 1] != 0.0:
             g = _copy_grid(g)
             _resolve(config, g, shift[e - 1] * config.dx)
         k = e
     filt = concat(parts)
     if parts:
-        filt = filt._replace(final=g)
+        filt = filt._replace(final=g, grid_loglik=gll)
     return Forward(filt, shift, ss)
 
 
@@ -174,20 +187,21 @@ def _shift_back(e, N, s, out):
 
 
 @njit(cache=True)
-def _forward_shifted(gll, shift, lw_init, kf, B, u, eps, p_off, p_on, has_null, log_floor):
-    """Filtered probabilities alpha (n, N+1) float32: the grid smoother's forward recursion
+def _forward_shifted_range(gll, shift, t0, t1, lw, kf, B, u, eps, p_off, p_on, has_null,
+                           log_floor, alpha, a, pr):
+    """The grid smoother's forward recursion
     (:func:`~vibrospeed.estimators.grid.smoother._forward_range`) with the line part of the
-    prediction moved by ``shift[t]`` cells after sample t."""
-    n_s, N1 = gll.shape
+    prediction moved by ``shift[t]`` cells after sample t, for t in [t0, t1): ``lw`` (N+1, the
+    log predicted weights before t0) is advanced in place; the filtered probabilities of t go
+    to ``alpha[t - t0]`` (float32) when ``alpha`` has rows (none: the state alone is carried).
+    ``a``, ``pr``: scratch."""
+    N1 = gll.shape[1]
     N = N1 - 1
-    alpha = np.empty((n_s, N1), dtype=np.float32)
-    lw = lw_init.copy()
-    a = np.empty(N1)
-    pr = np.empty(N1)
+    keep = alpha.shape[0] > 0
     ps = np.empty(N1)
     ap = np.zeros(N + 2 * B)
     s = np.empty(N)
-    for t in range(n_s):
+    for t in range(t0, t1):
         mx = -np.inf
         for j in range(N):
             lw[j] += gll[t, j]
@@ -209,9 +223,10 @@ def _forward_shifted(gll, shift, lw_init, kf, B, u, eps, p_off, p_on, has_null, 
             tot += a[j]
         for j in range(N1):
             a[j] /= tot
-        for j in range(N):
-            alpha[t, j] = max(a[j], 1e-37)
-        alpha[t, N] = max(a[N], 1e-37) if has_null else 0.0
+        if keep:  # floored as the grid smoother's (alpha * beta cannot vanish everywhere)
+            for j in range(N):
+                alpha[t - t0, j] = max(a[j], 1e-37)
+            alpha[t - t0, N] = max(a[N], 1e-37) if has_null else 0.0
         gsm._predict(a, kf, B, u, eps, p_off, p_on, has_null, ap, s, pr)
         if shift[t] != 0.0:
             _shift_fwd(pr, N, shift[t], ps)
@@ -219,17 +234,29 @@ def _forward_shifted(gll, shift, lw_init, kf, B, u, eps, p_off, p_on, has_null, 
                 pr[j] = ps[j]
         for j in range(N1):
             lw[j] = np.log(pr[j]) if pr[j] > 0.0 else -np.inf
+
+
+@njit(cache=True)
+def _forward_shifted(gll, shift, lw_init, kf, B, u, eps, p_off, p_on, has_null, log_floor):
+    """Filtered probabilities alpha (n, N+1) float32 of the whole log
+    (:func:`_forward_shifted_range` from the prior ``lw_init``)."""
+    n_s, N1 = gll.shape
+    alpha = np.empty((n_s, N1), dtype=np.float32)
+    _forward_shifted_range(gll, shift, 0, n_s, lw_init.copy(), kf, B, u, eps, p_off, p_on,
+                           has_null, log_floor, alpha, np.empty(N1), np.empty(N1))
     return alpha
 
 
 @njit(cache=True)
-def _smooth_shifted(alpha, gll, shift, kr, B, grid, edges, u, eps, p_off, p_on, has_null,
-                    q_lo, q_hi, amb_rel, amb_abs, outs, posts, want_post):
-    """Backward from the last sample (beta = 1) to the first with the shift pulled back
-    before each of the grid smoother's steps; summary rows into ``outs``."""
-    n_s = alpha.shape[0]
+def _smooth_shifted_range(alpha, a0, gll, shift, t_end, t_lo, t_hi, beta, kr, B, grid, edges,
+                          u, eps, p_off, p_on, has_null, q_lo, q_hi, amb_rel, amb_abs, outs,
+                          posts, slot):
+    """Backward from t_end down to t_lo with the shift pulled back before each of the grid
+    smoother's steps (:func:`~vibrospeed.estimators.grid.smoother._smooth_range` with ``S_t``):
+    ``beta`` (N+1) holds beta_{t_end} on entry and beta_{t_lo} on exit; summary rows for t in
+    [t_lo, t_hi) from ``alpha[t - a0]`` into ``outs[t]``, the posterior of sample t into
+    ``posts[slot[t]]`` where that is >= 0 (``slot`` empty: none)."""
     N = grid.size
-    beta = np.ones(N + 1)
     nb = np.empty(N + 1)
     e = np.empty(N + 1)
     es = np.empty(N + 1)
@@ -240,8 +267,8 @@ def _smooth_shifted(alpha, gll, shift, kr, B, grid, edges, u, eps, p_off, p_on, 
     v = np.empty(N)
     empty = np.empty(0, dtype=np.float32)
     cur = np.full(1, -1, np.int64)
-    for t in range(n_s - 1, -1, -1):
-        if t < n_s - 1:
+    for t in range(t_end, t_lo - 1, -1):
+        if t < t_end:
             if shift[t] == 0.0:
                 gsm._backstep(beta, gll[t + 1], kr, B, u, eps, p_off, p_on, has_null, e, ep,
                               s, nb)
@@ -258,9 +285,10 @@ def _smooth_shifted(alpha, gll, shift, kr, B, grid, edges, u, eps, p_off, p_on, 
                 gsm._backstep(es, zero, kr, B, u, eps, p_off, p_on, has_null, e, ep, s, nb)
             for j in range(N + 1):
                 beta[j] = nb[j]
-        pr = posts[t] if want_post else empty
-        gsm._emit(alpha[t], beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v, outs[t],
-                  pr, cur)
+        if t < t_hi:
+            pr = posts[slot[t]] if slot.size > 0 and slot[t] >= 0 else empty
+            gsm._emit(alpha[t - a0], beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v,
+                      outs[t], pr, cur)
 
 
 def filtered(config: Config, fw: Forward) -> np.ndarray:
@@ -271,21 +299,73 @@ def filtered(config: Config, fw: Forward) -> np.ndarray:
     return _forward_shifted(gll, np.ascontiguousarray(fw.shift, np.float64), lw, *fwd)
 
 
-def smooth(config: Config, fw: Forward, *, return_posterior: bool = False) -> gsm.Smoothed:
+def smooth(config: Config, fw: Forward, *, return_posterior: bool | np.ndarray = False,
+           checkpoint: int | None = gsm.CHECKPOINT, keep: int | None = None) -> gsm.Smoothed:
     """Forward-backward marginals ``p(omega_t | y_1..n, u_1..n)`` of the aided chain from the
     forward pass ``fw`` (:func:`forward`); columns as
-    :func:`vibrospeed.estimators.grid.smoother.smooth` (summaries of ``config.tracker``)."""
+    :func:`vibrospeed.estimators.grid.smoother.smooth` (summaries of ``config.tracker``), the
+    posterior rows at every sample (``return_posterior=True``) or at the increasing sample
+    indices given (:func:`vibrospeed.estimators.grid.filter.posterior_slots`).
+
+    Checkpointed as the grid smoother: the forward HMM recursion over the stored emissions and
+    shifts keeps its state (N+1 log weights) every ``checkpoint`` samples, and the filtered
+    probabilities of the last segments that fit in ``keep`` samples (default
+    :data:`vibrospeed.estimators.grid.smoother.KEEP_BYTES` of float32); the backward pass,
+    from the last segment to the first, recomputes the other segments' filtered probabilities
+    from their checkpoints (the same operations: bitwise the whole-log result,
+    ``checkpoint=None``). The aided filter that made the emissions is not run again. Memory
+    for alpha: ``keep`` rows and one segment instead of (n, N+1) float32; time: the HMM
+    recursion once over the kept samples, twice over the rest."""
     _check(config)
     lw, fwd, common, _ = gsm._chain(config.tracker)
     N = common[2].size
     gll = gsm._emissions(fw.filt.grid_loglik, N)
-    n = gll.shape[0]
+    n, N1 = gll.shape
     shift = np.ascontiguousarray(fw.shift, dtype=np.float64)
     if shift.shape != (n,):
         raise InputError(f"aided_grid.smoother.smooth: shift has shape {shift.shape}, "
                          f"expected ({n},)")
-    alpha = _forward_shifted(gll, shift, lw, *fwd)
     outs = np.zeros((n, N_OUT_FIXED))
-    posts = np.zeros((n if return_posterior else 1, N), dtype=np.float32)
-    _smooth_shifted(alpha, gll, shift, *common, outs, posts, bool(return_posterior))
-    return gsm._result(outs, posts if return_posterior else None)
+    slot = posterior_slots(n, return_posterior)
+    posts = np.zeros((int(slot.max()) + 1 if slot.size else 0, N), dtype=np.float32)
+    result = posts if slot.size else None
+    beta = np.ones(N1)
+    if checkpoint is None or checkpoint >= n:
+        alpha = _forward_shifted(gll, shift, lw, *fwd)
+        _smooth_shifted_range(alpha, 0, gll, shift, n - 1, 0, n, beta, *common, outs, posts,
+                              slot)
+        return gsm._result(outs, result)
+    K = int(checkpoint)
+    if K < 1:
+        raise ParameterError(f"checkpoint must be at least 1 sample, got {checkpoint}")
+    R = gsm.KEEP_BYTES // (4 * N1) if keep is None else max(0, int(keep))
+    starts = np.arange(0, n, K)
+    # the segments from s_keep on fit in R rows: their alpha is kept from the first pass
+    s_keep = starts.size
+    while s_keep > 0 and n - starts[s_keep - 1] <= R:
+        s_keep -= 1
+    t_keep = int(starts[s_keep]) if s_keep < starts.size else n
+    states = np.empty((s_keep, N1))
+    a, pr = np.empty(N1), np.empty(N1)
+    none = np.empty((0, N1), dtype=np.float32)
+    lw = lw.copy()
+    for s in range(s_keep):  # forward: the state before each segment
+        t0 = int(starts[s])
+        states[s] = lw
+        _forward_shifted_range(gll, shift, t0, min(t0 + K, n), lw, *fwd, none, a, pr)
+    if t_keep < n:
+        tail = np.empty((n - t_keep, N1), dtype=np.float32)
+        _forward_shifted_range(gll, shift, t_keep, n, lw, *fwd, tail, a, pr)
+        _smooth_shifted_range(tail, t_keep, gll, shift, n - 1, t_keep, n, beta, *common, outs,
+                              posts, slot)
+        del tail
+    alpha = np.empty((K if s_keep else 0, N1), dtype=np.float32)
+    for s in range(s_keep - 1, -1, -1):  # backward, segment by segment
+        t0 = int(starts[s])
+        t1 = min(t0 + K, n)
+        lw = states[s].copy()
+        _forward_shifted_range(gll, shift, t0, t1, lw, *fwd, alpha, a, pr)
+        # from beta_{t1} (the next segment's first sample; at the end of the log beta = 1)
+        _smooth_shifted_range(alpha, t0, gll, shift, min(t1, n - 1), t0, t1, beta, *common,
+                              outs, posts, slot)
+    return gsm._result(outs, result)
