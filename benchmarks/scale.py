@@ -8,8 +8,9 @@ Parts (all in fresh child processes so that peak memory is the run's own):
   included) and RSS before the estimate. Methods: ``grid`` (the default, offline smoothed),
   ``grid-causal`` (``smooth=none``), ``rbpmf``, ``ekf`` and the 3 s STFT harmonic sum
   (:func:`vibrospeed.eval.baseline.stft_harmonic_sum` on the same pre-filtered axis as the grid
-  sees). Beyond the longest length the time and memory are extrapolated with the log-log slope
-  of the last two lengths (printed as such).
+  sees); on request (``--methods``) also ``aided`` (offline, ``accel_axis=ax``: the aided
+  grid smoother, the drive's wheel radius). Beyond the longest length the time and
+  memory are extrapolated with the log-log slope of the last two lengths (printed as such).
 * ``online``: microseconds per sample of :class:`~vibrospeed.estimators.online.OnlineTracker`
   (grid causal, rbpmf, ekf; 3000 samples after 300 warm-up, best of 3), of the causal grid's
   comb evidence alone (:func:`vibrospeed.estimators.grid.frame_evidence` on 100 successive
@@ -106,9 +107,15 @@ def _run(method: str, rec) -> int:
     from vibrospeed import estimators
 
     name, params = {"grid": ("grid", {}), "grid-causal": ("grid", {"smooth": "none"}),
-                    "rbpmf": ("rbpmf", {}), "ekf": ("ekf", {})}.get(method, (None, None))
+                    "rbpmf": ("rbpmf", {}), "ekf": ("ekf", {}),
+                    "aided": ("aided", {"accel_axis": "ax"})}.get(method, (None, None))
     if name is None:
         return _stft(rec)
+    if name == "aided":  # the Parquet file does not keep the drive's wheel radius
+        from vibrospeed import sim
+
+        r = sim.simulate("car", seed=1, duration=1.0).wheel_radius
+        return len(estimators.get(name).estimate(rec, axis="y", params=params, wheel_radius=r))
     return len(estimators.get(name).estimate(rec, axis="y", params=params))
 
 
