@@ -330,8 +330,8 @@ def _smoothed(recording, axis: str, r: float, gparams: dict, cfg_kw: dict, u: np
     (:func:`vibrospeed.estimators.grid.app.columns`; ``omega_map`` the smoothed marginal's MAP,
     not a Viterbi path) and the stops ``still`` (whole-log detector) declared as ``-m grid``
     declares them."""
+    import vibrospeed.estimators.aided_grid.smoother as asm
     from vibrospeed.config import config_from_params
-    from vibrospeed.estimators.aided_grid import smoother as asm
     from vibrospeed.estimators.grid.app import columns
     from vibrospeed.estimators.grid.method import apply_standstill
 
