@@ -144,151 +144,14 @@ def forward(config: Config, y: np.ndarray, u: np.ndarray | None = None, *,
 
 
 @njit(cache=True)
-def _shift_fwd(p, N, s, out):
-    """``out[:N] = S p[:N]`` (the line part moved by ``s`` cells, the terms in the order of
-    :func:`~vibrospeed.estimators.aided_grid.shift._shift`)."""
-    k = int(np.floor(s))
-    f = s - k
-    for j in range(N):
-        out[j] = 0.0
-    for i in range(N):
-        if p[i] == 0.0:
-            continue
-        for part in range(2):
-            a = (1.0 - f) if part == 0 else f
-            if a == 0.0:
-                continue
-            j = i + k + part
-            if j < 0:
-                j = 0
-            elif j > N - 1:
-                j = N - 1
-            out[j] += p[i] * a
-
-
-@njit(cache=True)
-def _shift_back(e, N, s, out):
-    """``out[:N] = S^T e[:N]``: ``out(m) = (1 - f) e(m + k) + f e(m + k + 1)`` (clamped)."""
-    k = int(np.floor(s))
-    f = s - k
-    for m in range(N):
-        acc = 0.0
-        for part in range(2):
-            a = (1.0 - f) if part == 0 else f
-            if a == 0.0:
-                continue
-            j = m + k + part
-            if j < 0:
-                j = 0
-            elif j > N - 1:
-                j = N - 1
-            acc += a * e[j]
-        out[m] = acc
-
-
-@njit(cache=True)
-def _forward_shifted_range(gll, shift, t0, t1, lw, kf, B, u, eps, p_off, p_on, has_null,
-                           log_floor, alpha, a, pr):
-    """The grid smoother's forward recursion
-    (:func:`~vibrospeed.estimators.grid.smoother._forward_range`) with the line part of the
-    prediction moved by ``shift[t]`` cells after sample t, for t in [t0, t1): ``lw`` (N+1, the
-    log predicted weights before t0) is advanced in place; the filtered probabilities of t go
-    to ``alpha[t - t0]`` (float32) when ``alpha`` has rows (none: the state alone is carried).
-    ``a``, ``pr``: scratch."""
-    N1 = gll.shape[1]
-    N = N1 - 1
-    keep = alpha.shape[0] > 0
-    ps = np.empty(N1)
-    ap = np.zeros(N + 2 * B)
-    s = np.empty(N)
-    for t in range(t0, t1):
-        mx = -np.inf
-        for j in range(N):
-            lw[j] += gll[t, j]
-            if lw[j] > mx:
-                mx = lw[j]
-        if has_null:
-            lw[N] += gll[t, N]
-            if lw[N] > mx:
-                mx = lw[N]
-        tot = 0.0
-        for j in range(N1):
-            if j == N and not has_null:
-                a[j] = 0.0
-                continue
-            d = lw[j] - mx
-            if d < -log_floor:
-                d = -log_floor
-            a[j] = np.exp(d)
-            tot += a[j]
-        for j in range(N1):
-            a[j] /= tot
-        if keep:  # floored as the grid smoother's (alpha * beta cannot vanish everywhere)
-            for j in range(N):
-                alpha[t - t0, j] = max(a[j], 1e-37)
-            alpha[t - t0, N] = max(a[N], 1e-37) if has_null else 0.0
-        gsm._predict(a, kf, B, u, eps, p_off, p_on, has_null, ap, s, pr)
-        if shift[t] != 0.0:
-            _shift_fwd(pr, N, shift[t], ps)
-            for j in range(N):
-                pr[j] = ps[j]
-        for j in range(N1):
-            lw[j] = np.log(pr[j]) if pr[j] > 0.0 else -np.inf
-
-
-@njit(cache=True)
 def _forward_shifted(gll, shift, lw_init, kf, B, u, eps, p_off, p_on, has_null, log_floor):
     """Filtered probabilities alpha (n, N+1) float32 of the whole log
-    (:func:`_forward_shifted_range` from the prior ``lw_init``)."""
+    (:func:`vibrospeed.estimators.grid.smoother._forward_shifted_range` from ``lw_init``)."""
     n_s, N1 = gll.shape
     alpha = np.empty((n_s, N1), dtype=np.float32)
-    _forward_shifted_range(gll, shift, 0, n_s, lw_init.copy(), kf, B, u, eps, p_off, p_on,
-                           has_null, log_floor, alpha, np.empty(N1), np.empty(N1))
+    gsm._forward_shifted_range(gll, shift, 0, n_s, lw_init.copy(), kf, B, u, eps, p_off, p_on,
+                               has_null, log_floor, alpha, np.empty(N1), np.empty(N1))
     return alpha
-
-
-@njit(cache=True)
-def _smooth_shifted_range(alpha, a0, gll, shift, t_end, t_lo, t_hi, beta, kr, B, grid, edges,
-                          u, eps, p_off, p_on, has_null, q_lo, q_hi, amb_rel, amb_abs, outs,
-                          posts, slot):
-    """Backward from t_end down to t_lo with the shift pulled back before each of the grid
-    smoother's steps (:func:`~vibrospeed.estimators.grid.smoother._smooth_range` with ``S_t``):
-    ``beta`` (N+1) holds beta_{t_end} on entry and beta_{t_lo} on exit; summary rows for t in
-    [t_lo, t_hi) from ``alpha[t - a0]`` into ``outs[t]``, the posterior of sample t into
-    ``posts[slot[t]]`` where that is >= 0 (``slot`` empty: none)."""
-    N = grid.size
-    nb = np.empty(N + 1)
-    e = np.empty(N + 1)
-    es = np.empty(N + 1)
-    zero = np.zeros(N + 1)
-    ep = np.zeros(N + 2 * B)
-    s = np.empty(N)
-    g = np.empty(N + 1)
-    v = np.empty(N)
-    empty = np.empty(0, dtype=np.float32)
-    cur = np.full(1, -1, np.int64)
-    for t in range(t_end, t_lo - 1, -1):
-        if t < t_end:
-            if shift[t] == 0.0:
-                gsm._backstep(beta, gll[t + 1], kr, B, u, eps, p_off, p_on, has_null, e, ep,
-                              s, nb)
-            else:
-                mx = -np.inf
-                for j in range(N + 1):
-                    if (j < N or has_null) and gll[t + 1, j] > mx:
-                        mx = gll[t + 1, j]
-                for j in range(N + 1):
-                    e[j] = np.exp(gll[t + 1, j] - mx) * beta[j] if (j < N or has_null) \
-                        else 0.0
-                _shift_back(e, N, shift[t], es)
-                es[N] = e[N]
-                gsm._backstep(es, zero, kr, B, u, eps, p_off, p_on, has_null, e, ep, s, nb)
-            for j in range(N + 1):
-                beta[j] = nb[j]
-        if t < t_hi:
-            pr = posts[slot[t]] if slot.size > 0 and slot[t] >= 0 else empty
-            gsm._emit(alpha[t - a0], beta, g, grid, edges, u, q_lo, q_hi, amb_rel, amb_abs, v,
-                      outs[t], pr, cur)
 
 
 def filtered(config: Config, fw: Forward) -> np.ndarray:
@@ -332,7 +195,7 @@ def smooth(config: Config, fw: Forward, *, return_posterior: bool | np.ndarray =
     beta = np.ones(N1)
     if checkpoint is None or checkpoint >= n:
         alpha = _forward_shifted(gll, shift, lw, *fwd)
-        _smooth_shifted_range(alpha, 0, gll, shift, n - 1, 0, n, beta, *common, outs, posts,
+        gsm._smooth_shifted_range(alpha, 0, gll, shift, n - 1, 0, n, beta, *common, outs, posts,
                               slot)
         return gsm._result(outs, result)
     K = int(checkpoint)
@@ -352,11 +215,11 @@ def smooth(config: Config, fw: Forward, *, return_posterior: bool | np.ndarray =
     for s in range(s_keep):  # forward: the state before each segment
         t0 = int(starts[s])
         states[s] = lw
-        _forward_shifted_range(gll, shift, t0, min(t0 + K, n), lw, *fwd, none, a, pr)
+        gsm._forward_shifted_range(gll, shift, t0, min(t0 + K, n), lw, *fwd, none, a, pr)
     if t_keep < n:
         tail = np.empty((n - t_keep, N1), dtype=np.float32)
-        _forward_shifted_range(gll, shift, t_keep, n, lw, *fwd, tail, a, pr)
-        _smooth_shifted_range(tail, t_keep, gll, shift, n - 1, t_keep, n, beta, *common, outs,
+        gsm._forward_shifted_range(gll, shift, t_keep, n, lw, *fwd, tail, a, pr)
+        gsm._smooth_shifted_range(tail, t_keep, gll, shift, n - 1, t_keep, n, beta, *common, outs,
                               posts, slot)
         del tail
     alpha = np.empty((K if s_keep else 0, N1), dtype=np.float32)
@@ -364,8 +227,8 @@ def smooth(config: Config, fw: Forward, *, return_posterior: bool | np.ndarray =
         t0 = int(starts[s])
         t1 = min(t0 + K, n)
         lw = states[s].copy()
-        _forward_shifted_range(gll, shift, t0, t1, lw, *fwd, alpha, a, pr)
+        gsm._forward_shifted_range(gll, shift, t0, t1, lw, *fwd, alpha, a, pr)
         # from beta_{t1} (the next segment's first sample; at the end of the log beta = 1)
-        _smooth_shifted_range(alpha, t0, gll, shift, min(t1, n - 1), t0, t1, beta, *common,
+        gsm._smooth_shifted_range(alpha, t0, gll, shift, min(t1, n - 1), t0, t1, beta, *common,
                               outs, posts, slot)
     return gsm._result(outs, result)

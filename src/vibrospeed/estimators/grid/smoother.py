@@ -166,14 +166,70 @@ def _predict(a, kf, B, u, eps, p_off, p_on, has_null, ap, s, out):
 
 
 @njit(cache=True)
+def _translate(p, N, s, out):
+    """``out[:N] = S p[:N]``: the line part moved by ``s`` cells (point ``i`` to ``i + k`` with
+    ``1 - f`` and to ``i + k + 1`` with ``f``, ``k = floor(s)``, ``f = s - k``, clamped to the
+    grid's ends; the aided tracker's shift, :mod:`vibrospeed.estimators.aided_grid.shift`)."""
+    k = int(np.floor(s))
+    f = s - k
+    for j in range(N):
+        out[j] = 0.0
+    for i in range(N):
+        if p[i] == 0.0:
+            continue
+        for part in range(2):
+            a = (1.0 - f) if part == 0 else f
+            if a == 0.0:
+                continue
+            j = i + k + part
+            if j < 0:
+                j = 0
+            elif j > N - 1:
+                j = N - 1
+            out[j] += p[i] * a
+
+
+@njit(cache=True)
+def _translate_back(e, N, s, out):
+    """``out[:N] = S^T e[:N]``: ``out(m) = (1 - f) e(m + k) + f e(m + k + 1)`` (clamped)."""
+    k = int(np.floor(s))
+    f = s - k
+    for m in range(N):
+        acc = 0.0
+        for part in range(2):
+            a = (1.0 - f) if part == 0 else f
+            if a == 0.0:
+                continue
+            j = m + k + part
+            if j < 0:
+                j = 0
+            elif j > N - 1:
+                j = N - 1
+            acc += a * e[j]
+        out[m] = acc
+
+
+@njit(cache=True)
 def _forward_range(gll, t0, t1, lw, kf, B, u, eps, p_off, p_on, has_null, log_floor, alpha, a,
                    pr):
     """The forward recursion for t in [t0, t1): ``lw`` (N+1, the log predicted weights before
     t0) is advanced in place; filtered probabilities of t go to ``alpha[t - t0]`` (float32)
     when ``alpha`` has rows (none: the state alone is carried). ``a``, ``pr``: scratch."""
+    _forward_shifted_range(gll, np.zeros(0), t0, t1, lw, kf, B, u, eps, p_off, p_on, has_null,
+                           log_floor, alpha, a, pr)
+
+
+@njit(cache=True)
+def _forward_shifted_range(gll, shift, t0, t1, lw, kf, B, u, eps, p_off, p_on, has_null,
+                           log_floor, alpha, a, pr):
+    """:func:`_forward_range` with the line part of the prediction moved by ``shift[t]`` cells
+    after sample t (:func:`_translate`; ``shift`` empty: none), the chain of the aided grid
+    smoother (:mod:`vibrospeed.estimators.aided_grid.smoother`)."""
     N1 = gll.shape[1]
     N = N1 - 1
     keep = alpha.shape[0] > 0
+    moves = shift.size > 0
+    ps = np.empty(N1)
     ap = np.zeros(N + 2 * B)
     s = np.empty(N)
     for t in range(t0, t1):
@@ -205,6 +261,10 @@ def _forward_range(gll, t0, t1, lw, kf, B, u, eps, p_off, p_on, has_null, log_fl
                 alpha[t - t0, j] = max(a[j], 1e-37)
             alpha[t - t0, N] = max(a[N], 1e-37) if has_null else 0.0
         _predict(a, kf, B, u, eps, p_off, p_on, has_null, ap, s, pr)
+        if moves and shift[t] != 0.0:
+            _translate(pr, N, shift[t], ps)
+            for j in range(N):
+                pr[j] = ps[j]
         for j in range(N1):
             lw[j] = np.log(pr[j]) if pr[j] > 0.0 else -np.inf
 
@@ -286,9 +346,25 @@ def _smooth_range(alpha, a0, gll, t_end, t_lo, t_hi, beta, kr, B, grid, edges, u
     """Backward from t_end down to t_lo, ``beta`` (N+1) holding beta_{t_end} on entry and
     beta_{t_lo} on exit; outputs for t in [t_lo, t_hi) from ``alpha[t - a0]``, the posterior of
     sample t into ``posts[slot[t]]`` where that is >= 0 (``slot`` empty: none)."""
+    _smooth_shifted_range(alpha, a0, gll, np.zeros(0), t_end, t_lo, t_hi, beta, kr, B, grid,
+                          edges, u, eps, p_off, p_on, has_null, q_lo, q_hi, amb_rel, amb_abs,
+                          outs, posts, slot)
+
+
+@njit(cache=True)
+def _smooth_shifted_range(alpha, a0, gll, shift, t_end, t_lo, t_hi, beta, kr, B, grid, edges,
+                          u, eps, p_off, p_on, has_null, q_lo, q_hi, amb_rel, amb_abs, outs,
+                          posts, slot):
+    """:func:`_smooth_range` of the chain of :func:`_forward_shifted_range`: where
+    ``shift[t]`` is not 0, ``e = l_{t+1} beta_{t+1}`` is pulled back through the shift
+    (:func:`_translate_back`) before the step, ``beta_t = T (S_t^T e)`` (``shift`` empty:
+    none)."""
     N = grid.size
+    moves = shift.size > 0
     nb = np.empty(N + 1)
     e = np.empty(N + 1)
+    es = np.empty(N + 1)
+    zero = np.zeros(N + 1)
     ep = np.zeros(N + 2 * B)
     s = np.empty(N)
     g = np.empty(N + 1)
@@ -297,7 +373,19 @@ def _smooth_range(alpha, a0, gll, t_end, t_lo, t_hi, beta, kr, B, grid, edges, u
     cur = np.full(1, -1, np.int64)
     for t in range(t_end, t_lo - 1, -1):
         if t < t_end:
-            _backstep(beta, gll[t + 1], kr, B, u, eps, p_off, p_on, has_null, e, ep, s, nb)
+            if not moves or shift[t] == 0.0:
+                _backstep(beta, gll[t + 1], kr, B, u, eps, p_off, p_on, has_null, e, ep, s, nb)
+            else:
+                mx = -np.inf
+                for j in range(N + 1):
+                    if (j < N or has_null) and gll[t + 1, j] > mx:
+                        mx = gll[t + 1, j]
+                for j in range(N + 1):
+                    e[j] = np.exp(gll[t + 1, j] - mx) * beta[j] if (j < N or has_null) \
+                        else 0.0
+                _translate_back(e, N, shift[t], es)
+                es[N] = e[N]
+                _backstep(es, zero, kr, B, u, eps, p_off, p_on, has_null, e, ep, s, nb)
             for j in range(N + 1):
                 beta[j] = nb[j]
         if t < t_hi:
