@@ -124,8 +124,8 @@ def forward(config: Config, y: np.ndarray, u: np.ndarray | None = None, *,
         e = int(e)
         if e <= k:
             continue
-        sel = (ex_idx >= k) & (ex_idx < e)
-        ex = (ex_idx[sel] - k, ex_val[sel]) if np.any(sel) else None
+        lo, hi = np.searchsorted(ex_idx, (k, e))  # the frames of this piece (increasing)
+        ex = (ex_idx[lo:hi] - k, ex_val[lo:hi]) if hi > lo else None
         res = rbpmf.run(tracker, y[k:e], g, extra=ex, return_grid_loglik=True)
         if gll is None:
             gll = np.empty((n, res.grid_loglik.shape[1]), dtype=res.grid_loglik.dtype)
