@@ -8,6 +8,7 @@ from vibrospeed import sim
 from vibrospeed.estimators import grid, rbpmf
 from vibrospeed.estimators.grid import app
 from vibrospeed.estimators.grid import smoother as gs
+from vibrospeed.estimators.grid import viterbi as gv
 from vibrospeed.models.harmonic import HarmonicModel
 
 FIELDS = ("omega", "omega_std", "omega_map", "omega_lo", "omega_hi", "p_null", "p_half",
@@ -49,8 +50,8 @@ def test_checkpointed_smoother_equals_whole_log(K):
 @pytest.mark.parametrize("K", [1, 5, 333, 900, None])
 def test_checkpointed_viterbi_equals_whole_log(K):
     cfg, gll = _emissions(seed=1)
-    whole = gs.viterbi(cfg, gll, checkpoint=None)
-    part = gs.viterbi(cfg, gll, checkpoint=K)
+    whole = gv.viterbi(cfg, gll, checkpoint=None)
+    part = gv.viterbi(cfg, gll, checkpoint=K)
     same(part.state, whole.state)
     same(part.omega, whole.omega)
     assert part.log_joint == whole.log_joint and np.isfinite(whole.log_joint)
@@ -62,7 +63,7 @@ def test_float32_emissions_are_not_copied_and_give_the_float64_numbers():
     b = gs.smooth(cfg, gll.astype(np.float64), checkpoint=None)
     for f in FIELDS:
         same(getattr(a, f), getattr(b, f))
-    same(gs.viterbi(cfg, gll).state, gs.viterbi(cfg, gll.astype(np.float64)).state)
+    same(gv.viterbi(cfg, gll).state, gv.viterbi(cfg, gll.astype(np.float64)).state)
     np.testing.assert_array_equal(gs.filtered(cfg, gll), gs.filtered(cfg, gll.astype(float)))
 
 
@@ -81,15 +82,15 @@ def test_fixed_lag_block_equals_smoothing_the_log_cut_at_the_block_horizon():
 def test_grid_estimate_on_a_short_drive_is_unchanged_by_the_checkpoints(monkeypatch):
     rec = sim.simulate("car", seed=1, duration=40)  # 4000 samples: several segments of 1000
     params = {"n_grid": 60}
-    orig_s, orig_v = gs.smooth, gs.viterbi
+    orig_s, orig_v = gs.smooth, gv.viterbi
     monkeypatch.setattr(app.grid_smoother, "smooth",
                         lambda *a, **k: orig_s(*a, **{**k, "checkpoint": 1000}))
-    monkeypatch.setattr(app.grid_smoother, "viterbi",
+    monkeypatch.setattr(app.grid_viterbi, "viterbi",
                         lambda *a, **k: orig_v(*a, **{**k, "checkpoint": 1000}))
     part = grid.estimate(rec, axis="y", params=params)
     monkeypatch.setattr(app.grid_smoother, "smooth",
                         lambda *a, **k: orig_s(*a, **{**k, "checkpoint": None}))
-    monkeypatch.setattr(app.grid_smoother, "viterbi",
+    monkeypatch.setattr(app.grid_viterbi, "viterbi",
                         lambda *a, **k: orig_v(*a, **{**k, "checkpoint": None}))
     whole = grid.estimate(rec, axis="y", params=params)
     for f in ("omega", "omega_lo", "omega_hi", "omega_std", "speed"):
@@ -104,4 +105,4 @@ def test_bad_checkpoint():
     with pytest.raises(ValueError, match="checkpoint"):
         gs.smooth(cfg, gll, checkpoint=0)
     with pytest.raises(ValueError, match="checkpoint"):
-        gs.viterbi(cfg, gll, checkpoint=0)
+        gv.viterbi(cfg, gll, checkpoint=0)

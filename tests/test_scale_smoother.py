@@ -8,6 +8,7 @@ import pytest
 from vibrospeed.estimators import rbpmf
 from vibrospeed.estimators.grid import smoother as gs
 from vibrospeed.estimators.grid import summary
+from vibrospeed.estimators.grid import viterbi as gv
 from vibrospeed.models.harmonic import HarmonicModel
 
 FIELDS = ("omega", "omega_std", "omega_map", "omega_lo", "omega_hi", "p_null", "p_half",
@@ -87,7 +88,7 @@ def test_predict_equals_the_plain_loop(has_null):
 
 def _viterbi_loop(gll, lw, kb, B, u, eps, p_off, p_on, has_null):
     """The Viterbi path by a plain loop over targets and sources (first maximum wins)."""
-    lt, lju, lon, loff, lstay0 = gs._viterbi_tables(kb, B, u, eps, p_off, p_on, has_null)
+    lt, lju, lon, loff, lstay0 = gv._viterbi_tables(kb, B, u, eps, p_off, p_on, has_null)
     n, N1 = gll.shape
     N = N1 - 1
     delta = np.array([lw[j] + gll[0, j] if (j < N or has_null) else -np.inf
@@ -128,7 +129,7 @@ def test_viterbi_equals_the_plain_loop(null):
     cfg, gll = _emissions(n=300, null=null)
     lw, kb, B, grid, edges, u, eps, p_off, p_on, q = gs._setup(cfg)
     ref = _viterbi_loop(gll.astype(np.float64), lw, kb, B, u, eps, p_off, p_on, cfg.has_null)
-    np.testing.assert_array_equal(gs.viterbi(cfg, gll).state, ref)
+    np.testing.assert_array_equal(gv.viterbi(cfg, gll).state, ref)
 
 
 @pytest.mark.parametrize("keep", [0, 1, 250, 299, 300, 450, 899, 900, None])
@@ -161,8 +162,8 @@ def test_window_sums_over_index_ranges_equal_the_scan():
 @pytest.mark.parametrize("keep", [0, 1, 250, 299, 300, 450, 899, 900, None])
 def test_viterbi_kept_tail_equals_whole_log(keep):
     cfg, gll = _emissions()
-    whole = gs.viterbi(cfg, gll, checkpoint=None)
-    part = gs.viterbi(cfg, gll, checkpoint=150, keep=keep)
+    whole = gv.viterbi(cfg, gll, checkpoint=None)
+    part = gv.viterbi(cfg, gll, checkpoint=150, keep=keep)
     np.testing.assert_array_equal(part.state, whole.state)
     np.testing.assert_array_equal(part.omega, whole.omega)
     assert part.log_joint == whole.log_joint

@@ -11,7 +11,7 @@ of ``--repeat`` runs (``time.process_time``):
 * the comb evidence (``grid.frames.evidence``, mid-frame);
 * the filter (``grid.filter.run`` with the log-emissions kept);
 * the forward-backward smoother (``grid.smoother.smooth``) and the Viterbi path
-  (``grid.smoother.viterbi``);
+  (``grid.viterbi.viterbi``);
 * the Track (``grid.app.track`` minus its filter, smoother and Viterbi: columns, notes);
 * the standstill detector (``grid.method.with_standstill``).
 
@@ -50,6 +50,7 @@ def measure(rec, repeat: int) -> dict[str, float]:
     import vibrospeed.estimators.grid.filter as filt
     import vibrospeed.estimators.grid.method as gm
     import vibrospeed.estimators.grid.smoother as sm
+    import vibrospeed.estimators.grid.viterbi as gv
     from vibrospeed.signal import prefilter as pf
     from vibrospeed.signal import whiten
 
@@ -71,7 +72,7 @@ def measure(rec, repeat: int) -> dict[str, float]:
         "comb evidence": lambda: gm.evidence(config, Y, centre=True),
         "filter": lambda: filt.run(tr, Y, return_grid_loglik=True, extra=(idx, vals)),
         "smoother": lambda: sm.smooth(tr, gll),
-        "Viterbi": lambda: sm.viterbi(tr, gll),
+        "Viterbi": lambda: gv.viterbi(tr, gll),
         "track (filter, smoother, Viterbi and Track)": lambda: app.track(
             rec, tr, Y, rms, list(notes), axis="y", wheel_radius=None, method="grid",
             extra=(idx, vals)),

@@ -1,10 +1,9 @@
-"""Old import path of :mod:`vibrospeed.estimators.grid.smoother`."""
+"""Old import path of :mod:`vibrospeed.estimators.grid.smoother` (and its Viterbi path)."""
 
 from vibrospeed.estimators.grid.smoother import (  # noqa: F401
-    Path,
     Smoothed,
     filtered,
     fixed_lag,
     smooth,
-    viterbi,
 )
+from vibrospeed.estimators.grid.viterbi import Path, viterbi  # noqa: F401

@@ -157,7 +157,7 @@ def _forward_shifted(gll, shift, lw_init, kf, B, u, eps, p_off, p_on, has_null, 
 def filtered(config: Config, fw: Forward) -> np.ndarray:
     """(n, N+1) filtered probabilities recomputed from the emissions and the shifts (the
     aided filter's weights, to float32 rounding)."""
-    lw, fwd, _, _ = gsm._chain(config.tracker)
+    lw, fwd, _ = gsm._chain(config.tracker)
     gll = gsm._emissions(fw.filt.grid_loglik, config.tracker.n_grid)
     return _forward_shifted(gll, np.ascontiguousarray(fw.shift, np.float64), lw, *fwd)
 
@@ -180,7 +180,7 @@ def smooth(config: Config, fw: Forward, *, return_posterior: bool | np.ndarray =
     for alpha: ``keep`` rows and one segment instead of (n, N+1) float32; time: the HMM
     recursion once over the kept samples, twice over the rest."""
     _check(config)
-    lw, fwd, common, _ = gsm._chain(config.tracker)
+    lw, fwd, common = gsm._chain(config.tracker)
     N = common[2].size
     gll = gsm._emissions(fw.filt.grid_loglik, N)
     n, N1 = gll.shape

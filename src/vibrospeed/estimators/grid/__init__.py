@@ -11,12 +11,17 @@ One concern per module, each importing only the ones above it in this list:
                    near MAP/2 ...), one named row layout shared by the filter and the smoother
 ``core``           the compiled filter iteration and loop (numba)
 ``filter``         the causal tracker: ``State``, ``init``, ``step``, ``run``
-``smoother``       forward-backward and fixed-lag smoothing, Viterbi path
+``smoother``       forward-backward and fixed-lag smoothing (checkpointed)
+``viterbi``        the MAP path of the smoother's chain (checkpointed)
 ``fit``            noise parameters by marginal likelihood
 ``app``            a recording in, a Track out: pre-filter, scaling, fit, filter or smoother
+``background``     a spectrum's running-median background and its bias on noise
 ``comb``           the harmonic-comb evidence of a longer window's whitened spectrum
+``frames``         where the comb's frames lie: the whole-log and the streaming walkers
 ``method``         the grid method (tracker + comb evidence + standstill): its ``Config``,
                    ``State``, ``init``, ``step``, ``run``, ``estimate``
+``blocks``         a long log in blocks of bounded memory (the same numbers as one pass)
+``stream``         blocks streamed from a file as it is read
 =================  =========================================================================
 
 This package's namespace is the grid method (:mod:`~vibrospeed.estimators.grid.method`);

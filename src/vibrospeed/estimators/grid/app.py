@@ -7,6 +7,7 @@ import numpy as np
 
 import vibrospeed.estimators.grid.fit as _fit
 import vibrospeed.estimators.grid.smoother as grid_smoother
+import vibrospeed.estimators.grid.viterbi as grid_viterbi
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import scaling as _scaling
@@ -122,7 +123,7 @@ def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, 
         res = run(config, y, return_grid_loglik=True, extra=extra)
         if config.smooth == "fb":
             sm = grid_smoother.smooth(config, res.grid_loglik, return_posterior=return_posterior)
-            vit = grid_smoother.viterbi(config, res.grid_loglik)
+            vit = grid_viterbi.viterbi(config, res.grid_loglik)
             omap = vit.omega
             notes.append("forward-backward smoother on the grid; omega_map = Viterbi path")
         else:

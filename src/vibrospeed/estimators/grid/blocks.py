@@ -45,6 +45,7 @@ import vibrospeed.estimators.grid.comb as _comb
 import vibrospeed.estimators.grid.frames as _frames
 import vibrospeed.estimators.grid.method as _method
 import vibrospeed.estimators.grid.smoother as _sm
+import vibrospeed.estimators.grid.viterbi as _vit
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.grid.filter import Result, concat, init, run
 from vibrospeed.estimators.grid.kernel import check_grid_spacing
@@ -233,7 +234,8 @@ class Blocks:
     def __iter__(self) -> Iterator[Track]:
         cfg = self.config.tracker
         n, nb, la = self.y.size, self.nb, self.la
-        lw, fwd, cmn, tabs = _sm._chain(cfg)
+        lw, fwd, cmn = _sm._chain(cfg)
+        tabs = _vit._tables(cfg)[2]
         grid = cmn[2]
         N1 = grid.size + 1
         lw_f = lw.copy()  # forward recursion: log predicted weights before the block
@@ -273,16 +275,16 @@ class Blocks:
                                   outs, posts, np.zeros(0, np.int64))
                 sm = _sm._result(outs[off:off + b - a], None)
                 back = np.empty((m - off, N1), dtype=np.int32)
-                _sm._viterbi_range(gll, off, off + b - a, lw, delta, nd, back, *tabs)
+                _vit._viterbi_range(gll, off, off + b - a, lw, delta, nd, back, *tabs)
                 carry = delta.copy()
-                _sm._viterbi_range(gll, off + b - a, m, lw, delta, nd, back[b - a:], *tabs)
+                _vit._viterbi_range(gll, off + b - a, m, lw, delta, nd, back[b - a:], *tabs)
                 path = np.empty(m, dtype=np.int64)
                 k = 0
                 for j in range(N1):
                     if delta[j] > delta[k]:
                         k = j
                 path[m - 1] = k
-                _sm._trace(back, off, m, path)
+                _vit._trace(back, off, m, path)
                 path = path[off:off + b - a]
                 omap = np.where(path < grid.size, grid[np.minimum(path, grid.size - 1)], np.nan)
                 delta[:] = carry

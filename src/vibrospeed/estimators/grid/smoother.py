@@ -1,5 +1,6 @@
 """Offline and fixed-lag smoothing on the RBPMF grid: forward-backward
-marginals, Viterbi MAP path and credible bands of omega.
+marginals and credible bands of omega (the Viterbi MAP path of the same chain:
+:mod:`vibrospeed.estimators.grid.viterbi`).
 
 Model actually smoothed
 -----------------------
@@ -32,11 +33,9 @@ stored as float32: memory 4 (N + 1) bytes per sample.
 
 The transition ``T`` is the filter's: banded random walk ``K`` with probability
 ``1 - eps - p_off``, a jump to anywhere (weights ``u_j`` proportional to the cell widths) with
-``eps``, "line -> none" ``p_off``, "none -> line" ``p_on`` (rbpmf.Config.rates). The Viterbi path
-maximises the same chain's joint probability (log domain, O(N B) per step since outside the
-band only the jump term remains).
+``eps``, "line -> none" ``p_off``, "none -> line" ``p_on`` (rbpmf.Config.rates).
 
-Computation: every band sum (the transition forward and backward, the Viterbi maximum) runs
+Computation: every band sum (the transition forward and backward) runs
 offset by offset over the whole grid (:func:`band_tables`: the kernel by offset, the grid index
 innermost, the vector padded with B zeros or -inf on each side), so that the loops over grid
 points compile to SIMD while each point's terms are taken in the order of a per-point loop:
@@ -84,15 +83,6 @@ class Smoothed(NamedTuple):
     omega_mode_std: np.ndarray | None = None  # spread within the basin about omega_mode
 
 
-class Path(NamedTuple):
-    """Viterbi MAP path: ``state`` (n,) grid index (N for "no line"), ``omega`` (n,) rad/s
-    (NaN in "no line"), ``log_joint`` of the path (emissions and transitions)."""
-
-    state: np.ndarray
-    omega: np.ndarray
-    log_joint: float
-
-
 def _setup(config: Config):
     k = config.kern
     st = init(config)
@@ -129,9 +119,9 @@ def band_tables(kb: np.ndarray, B: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _chain(config: Config) -> tuple:
-    """``(lw, fwd, common, viterbi)``: the prior log weights (N+1) and the argument tuples of
-    :func:`_forward_range`, :func:`_smooth_range` and :func:`_viterbi_range` after their
-    per-run arrays, built once per Config (kept with it)."""
+    """``(lw, fwd, common)``: the prior log weights (N+1) and the argument tuples of
+    :func:`_forward_range` and :func:`_smooth_range` after their per-run arrays, built once per
+    Config (kept with it)."""
     got = config.__dict__.get("_smoother_chain")
     if got is None:
         lw, kb, B, grid, edges, u, eps, p_off, p_on, q = _setup(config)
@@ -140,8 +130,7 @@ def _chain(config: Config) -> tuple:
         fwd = (kf, B, u, eps, p_off, p_on, has_null, float(config.log_floor))
         common = (kr, B, grid, edges, u, eps, p_off, p_on, has_null, q, 1.0 - q,
                   float(config.amb_rel), float(config.amb_abs))
-        vit = (B, has_null, *_viterbi_tables(kb, B, u, eps, p_off, p_on, has_null))
-        got = config.__dict__["_smoother_chain"] = (lw, fwd, common, vit)
+        got = config.__dict__["_smoother_chain"] = (lw, fwd, common)
     return got
 
 
@@ -418,7 +407,7 @@ def _emissions(gll: np.ndarray, N: int) -> np.ndarray:
 def _prep(config, gll, return_posterior):
     """Chain tables, emissions, output rows, the posterior rows and their slots
     (:func:`vibrospeed.estimators.grid.filter.posterior_slots`)."""
-    lw, fwd, common, _ = _chain(config)
+    lw, fwd, common = _chain(config)
     N = common[2].size
     gll = _emissions(gll, N)
     n = gll.shape[0]
@@ -431,7 +420,7 @@ def _prep(config, gll, return_posterior):
 
 def filtered(config: Config, grid_loglik: np.ndarray) -> np.ndarray:
     """(n, N+1) filtered probabilities recomputed from the emissions (the RBPMF's weights)."""
-    lw, fwd, common, _ = _chain(config)
+    lw, fwd, common = _chain(config)
     return _forward(_emissions(grid_loglik, common[2].size), lw, *fwd)
 
 
@@ -439,9 +428,10 @@ def filtered(config: Config, grid_loglik: np.ndarray) -> np.ndarray:
 CHECKPOINT = 4096
 #: Bytes of filtered probabilities (float32) that :func:`smooth`'s first forward pass keeps
 #: for the last segments, so that the backward pass does not compute those again, and of
-#: back pointers (int32) that :func:`viterbi`'s keeps for its traceback: 64 MiB each (one at
-#: a time), about 83 000 samples at N = 200 (the whole of a 10 min log at 100 Hz; a block of
-#: the streaming path keeps its 600 s the same way).
+#: back pointers (int32) that the Viterbi path (:mod:`~vibrospeed.estimators.grid.viterbi`)
+#: keeps for its traceback: 64 MiB each (one at a time), about 83 000 samples at N = 200 (the
+#: whole of a 10 min log at 100 Hz; a block of the streaming path keeps its 600 s the same
+#: way).
 KEEP_BYTES = 64 * 2**20
 
 
@@ -521,163 +511,3 @@ def fixed_lag(config: Config, grid_loglik: np.ndarray, *, lag: float = 2.0,
         t_end = min(s0 + 2 * L, n) - 1
         _smooth_range(alpha, s0, gll, t_end, s0, s1, np.ones(N1), *c, outs, posts, slot)
     return _result(outs, posts if slot.size else None)
-
-
-@njit(cache=True)
-def _viterbi_tables(kb, B, u, eps, p_off, p_on, has_null):
-    """Log transition terms: ``lt`` (W, N), ``lt[d, j]`` for the target j from the source
-    ``j + d - B`` in the band (-inf where it is off the grid), jump-in ``lju``, "none -> line"
-    ``lon``, ``loff``, ``lstay0``."""
-    N = u.size
-    rw = 1.0 - eps - p_off
-    W = kb.shape[1]
-    lt = np.full((W, N), -np.inf)
-    for j in range(N):
-        for d in range(W):
-            val = rw * kb[j, d] + eps * u[j]
-            i = j + d - B
-            if 0 <= i < N and val > 0.0:
-                lt[d, j] = np.log(val)
-    lju = np.full(N, -np.inf)
-    lon = np.full(N, -np.inf)
-    for j in range(N):
-        if eps > 0.0:
-            lju[j] = np.log(eps * u[j])
-        if has_null:
-            lon[j] = np.log(p_on * u[j])
-    loff = np.log(p_off) if has_null else -np.inf
-    lstay0 = np.log(1.0 - p_on) if has_null else -np.inf
-    return lt, lju, lon, loff, lstay0
-
-
-@njit(cache=True)
-def _viterbi_range(gll, t0, t1, lw_init, delta, nd, back, B, has_null, lt, lju, lon, loff,
-                   lstay0):
-    """The Viterbi recursion for t in [t0, t1): ``delta`` (N+1) holds delta_{t0-1} on entry
-    (ignored when t0 = 0: the start from ``lw_init``) and delta_{t1-1} on exit; the back
-    pointers of t go to ``back[t - t0]``.
-
-    Per target j the best source is the first maximum over the band's sources in increasing
-    order, then the jump from the best point, then "no line"; the band is scanned offset by
-    offset over all j at once (scores padded with B -inf on each side), the same comparisons
-    in the same order per j."""
-    N1 = gll.shape[1]
-    N = N1 - 1
-    W = lt.shape[0]
-    dp = np.full(N + 2 * B, -np.inf)
-    bv = np.empty(N)
-    bi = np.empty(N, dtype=np.int32)
-    start = t0
-    if t0 == 0:
-        for j in range(N1):
-            delta[j] = lw_init[j] + gll[0, j] if (j < N or has_null) else -np.inf
-            back[0, j] = j
-        start = 1
-    for t in range(start, t1):
-        best = 0
-        for i in range(N):
-            if delta[i] > delta[best]:
-                best = i
-        for i in range(N):
-            dp[B + i] = delta[i]
-            bv[i] = -np.inf
-            bi[i] = i
-        for d in range(W):  # source i = j + d - B
-            for j in range(N):
-                val = dp[j + d] + lt[d, j]
-                if val > bv[j]:
-                    bv[j] = val
-                    bi[j] = j + d - B
-        db = delta[best]
-        dn = delta[N]
-        for j in range(N):
-            val = db + lju[j]
-            if val > bv[j]:
-                bv[j] = val
-                bi[j] = best
-        if has_null:
-            for j in range(N):
-                val = dn + lon[j]
-                if val > bv[j]:
-                    bv[j] = val
-                    bi[j] = N
-        for j in range(N):
-            nd[j] = bv[j] + gll[t, j]
-            back[t - t0, j] = bi[j]
-        if has_null:
-            a = dn + lstay0
-            b = db + loff
-            if a >= b:
-                nd[N] = a + gll[t, N]
-                back[t - t0, N] = N
-            else:
-                nd[N] = b + gll[t, N]
-                back[t - t0, N] = best
-        else:
-            nd[N] = -np.inf
-            back[t - t0, N] = N
-        for j in range(N1):
-            delta[j] = nd[j]
-
-
-@njit(cache=True)
-def _trace(back, t0, t1, path):
-    """path[t - 1] = back[t - t0, path[t]] for t = t1 - 1 down to max(t0, 1)."""
-    for t in range(t1 - 1, max(t0, 1) - 1, -1):
-        path[t - 1] = back[t - t0, path[t]]
-
-
-def viterbi(config: Config, grid_loglik: np.ndarray, *,
-            checkpoint: int | None = CHECKPOINT, keep: int | None = None) -> Path:
-    """Most probable state sequence of the grid chain (Viterbi, log domain, O(n N B)).
-
-    Checkpointed like :func:`smooth`: the recursion's state (N+1 log scores) is kept every
-    ``checkpoint`` samples, and the back pointers of the last segments that fit in ``keep``
-    samples (default :data:`KEEP_BYTES` of int32); the traceback, from the last segment to
-    the first, recomputes the other segments' back pointers from their checkpoints (bitwise
-    the whole-log result, ``checkpoint=None``): back pointers for ``keep`` samples and one
-    segment instead of (n, N+1) int32."""
-    lw, _, common, tabs = _chain(config)
-    grid = common[2]
-    gll = _emissions(grid_loglik, grid.size)
-    n, N1 = gll.shape
-    K = n if checkpoint is None else int(checkpoint)
-    if K < 1:
-        raise ValueError(f"checkpoint must be at least 1 sample, got {checkpoint}")
-    K = min(K, n)
-    if checkpoint is None:
-        R = n
-    else:
-        R = KEEP_BYTES // (4 * N1) if keep is None else max(0, int(keep))
-    starts = np.arange(0, n, K)
-    s_keep = starts.size  # the segments from s_keep on keep their back pointers
-    while s_keep > 0 and n - starts[s_keep - 1] <= R:
-        s_keep -= 1
-    t_keep = int(starts[s_keep]) if s_keep < starts.size else n
-    states = np.empty((s_keep, N1))
-    delta, nd = np.empty(N1), np.empty(N1)
-    back = np.empty((K if s_keep else 0, N1), dtype=np.int32)
-    tail = np.empty((n - t_keep, N1), dtype=np.int32)
-    for s in range(s_keep):  # forward: delta before each segment
-        t0 = int(starts[s])
-        states[s] = delta
-        _viterbi_range(gll, t0, min(t0 + K, n), lw, delta, nd, back, *tabs)
-    if t_keep < n:
-        _viterbi_range(gll, t_keep, n, lw, delta, nd, tail, *tabs)
-    path = np.empty(n, dtype=np.int64)
-    k = 0
-    for j in range(N1):
-        if delta[j] > delta[k]:
-            k = j
-    lj = float(delta[k])
-    path[n - 1] = k
-    if t_keep < n:
-        _trace(tail, t_keep, n, path)
-    for s in range(s_keep - 1, -1, -1):  # traceback, segment by segment
-        t0 = int(starts[s])
-        t1 = min(t0 + K, n)
-        delta[:] = states[s]
-        _viterbi_range(gll, t0, t1, lw, delta, nd, back, *tabs)
-        _trace(back, t0, t1, path)
-    om = np.where(path < grid.size, grid[np.minimum(path, grid.size - 1)], np.nan)
-    return Path(path, om, lj)
