@@ -60,13 +60,16 @@ def _post_product(q, grid, m, s, width):
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, soft, post,
                grid, out, xp, Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
-    t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run, om_line, k_line, t_last, om_last,
-    k_last]``; ``post`` (N,) the tracker's grid posterior of the signal part on ``grid`` (N,)
-    (empty: none; read with ``vib_measure="posterior"``);
+    t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run, t_last, om_last, k_last]`` (the
+    last wheel-frequency update's time, omega and k; it was at the previous fusion sample if
+    ``t_last`` is that sample's time: a sample with ``dt = 0`` uses no line); ``post`` (N,)
+    the tracker's grid posterior of the signal part on ``grid`` (N,) (empty: none; read with
+    ``vib_measure="posterior"``);
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
     prediction (for the smoother). Returns dt."""
     n = x.size
-    dt = 0.0 if math.isnan(sc[0]) else t - sc[0]
+    t_prev = sc[0]
+    dt = 0.0 if math.isnan(t_prev) else t - t_prev
     sc[0] = t
     if dt > 0.0:
         if dt != sc[4]:
@@ -156,8 +159,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         # an unclaimed line is a hypothesis only where it continues the last line used (at
         # most vib_soft_hold s before the previous fusion sample, within half an octave of
         # its omega), and only at that line's octave
-        soft_cont = (soft and p[35] > 0.0 and not math.isnan(sc[16])
-                     and t - sc[15] <= dt + p[34] and abs(math.log2(om / sc[16])) <= 0.5)
+        soft_cont = (soft and p[35] > 0.0 and not math.isnan(sc[14])
+                     and t - sc[13] <= dt + p[34] and abs(math.log2(om / sc[14])) <= 0.5)
         # the tracker's posterior as the measurement (vib_measure="posterior", r known): per
         # octave the product of its line-conditional posterior with the prediction's Gaussian
         # on the line, N(v / (r k), S_k), read as the likelihood that product implies
@@ -175,7 +178,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         # like a claimed one, so it need not continue the last line used)
         for j in range(3 if ready and not hard and (soft_cont or not soft or pm) else 0):
             k = 1.0 if j == 0 else (0.5 if j == 1 else 2.0)
-            if soft and not pm and k != sc[17]:
+            if soft and not pm and k != sc[15]:
                 continue
             if (x[IV] + sv3) < p[21] * k * om or (x[IV] - sv3) > p[22] * k * om:
                 continue  # no physical radius explains this line at this speed
@@ -217,8 +220,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
         # decided when the line was first taken, and a claimed line that moves by less than
         # half an octave from one sample to the next has not changed harmonic (with
         # vib_use=all the omegas offered are not claims: no continuation)
-        cont = (p[33] > 0.5 and not math.isnan(kk) and kk == sc[14]
-                and not math.isnan(sc[13]) and abs(math.log2(zu / sc[13])) <= 0.5) or (
+        cont = (p[33] > 0.5 and not math.isnan(kk) and kk == sc[15] and sc[13] == t_prev
+                and abs(math.log2(zu / sc[14])) <= 0.5) or (
                     soft_cont and p[33] > 0.5)
         decisive = not math.isnan(kk) and (fresh or cont or 3.0 * math.sqrt(
             P[IV, IV] + (r_hat * kk) ** 2 * vu) <= p[28] * r_hat * kk * zu)
@@ -277,11 +280,9 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                     # an unclaimed line widens the band by its gap but is not taken: a
                     # claimed line at that gap then lies inside the band and re-locks
         if best <= glim:
-            sc[13] = zu
-            sc[14] = kk
-            sc[15] = t
-            sc[16] = zu
-            sc[17] = kk
+            sc[13] = t
+            sc[14] = zu
+            sc[15] = kk
             h[IV] = 1.0
             h[IR] = -kk * zu
             # away from GPS the radius and the offset are consider states: a line there
@@ -306,8 +307,6 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 sc[5] = 0.0
         else:
             kk = math.nan
-    if dt > 0.0 and math.isnan(kk):
-        sc[13] = math.nan  # no line used at this sample: the next one is not a continuation
     # 4. standstill from all evidence
     stopped = False
     if not still:

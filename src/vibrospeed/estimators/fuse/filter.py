@@ -31,10 +31,9 @@ class State(NamedTuple):
     t_acq, z_acq : start and mean log ratio
     ``ln(v / omega)`` of the current run of consistent lines while the radius is not known
     yet (NaN: none; module notes, 3).
-    om_line, k_line : the tracker's omega and its octave k of the wheel-frequency update at
-    the last fusion sample (NaN: none there; module notes, 3).
     t_last, om_last, k_last : time, omega and k of the last wheel-frequency update, however
-    long ago (NaN: none yet; an unclaimed line continues it, module notes, 3).
+    long ago (NaN: none yet; a claimed line continues it if it was at the previous fusion
+    sample, ``t_last == t``, an unclaimed one within ``vib_soft_hold``; module notes, 3).
     """
 
     x: np.ndarray
@@ -51,8 +50,6 @@ class State(NamedTuple):
     d_run: float = math.nan
     u_run: float = math.nan
     d0_run: float = math.nan
-    om_line: float = math.nan
-    k_line: float = math.nan
     t_last: float = math.nan
     om_last: float = math.nan
     k_last: float = math.nan
@@ -152,16 +149,14 @@ def _unpack(state: State, n: int):
     P = np.array(state.P, dtype=np.float64)
     sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0, state.octave,
                    state.t_run, state.t_still, state.t_acq, state.z_acq, state.d_run,
-                   state.u_run, state.d0_run, state.om_line, state.k_line, state.t_last,
-                   state.om_last, state.k_last])
+                   state.u_run, state.d0_run, state.t_last, state.om_last, state.k_last])
     return x, P, sc
 
 
 def _pack(x, P, sc) -> State:
     return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]),
                  float(sc[6]), float(sc[7]), float(sc[8]), float(sc[9]), float(sc[10]),
-                 float(sc[11]), float(sc[12]), float(sc[13]), float(sc[14]), float(sc[15]),
-                 float(sc[16]), float(sc[17]))
+                 float(sc[11]), float(sc[12]), float(sc[13]), float(sc[14]), float(sc[15]))
 
 
 _SAMPLE = Sample._fields[:-1]  # the scalar fields; ``posterior`` is a row per sample
