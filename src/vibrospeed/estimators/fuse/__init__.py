@@ -152,9 +152,14 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    as a flat posterior does), and is used where ``beta >= vib_post_min`` and the gate is
    decisive (as above, with z and its spread), its variance divided by beta. An unclaimed
    line (``soft``) is read the same way, its line probability in beta, without having to
-   continue the last line used. So a posterior whose mode is another line (a resonance, an
-   engine order) but which holds the wheel's line near the prediction gives the wheel's line,
-   and peaks at omega / 2 and omega are read at the octave the prediction implies.
+   continue the last line used; of rule (a) above only the continuation acts there: an
+   unclaimed line that continues the last line used within ``vib_soft_hold`` s needs no
+   decisive gate (``vib_soft_gate``'s value is not used; ``vib_soft_gate = 0`` switches the
+   continuation off, which moved 3 of the 30 simulated tunnels by at most 0.05 m/s online
+   and the real windows not at all, benchmarks/fuse/RESULTS.md). So a posterior whose mode
+   is another line (a resonance, an engine order) but which holds the wheel's line near the
+   prediction gives the wheel's line, and peaks at omega / 2 and omega are read at the octave
+   the prediction implies.
 4. standstill: where the vibration tracker reports a stop (no wheel line, broadband vibration and
    body motion at their floors: the ``standstill`` input), the last valid GPS fix in the past
    ``gps_hold`` s (if any) is below ``gps_still``, and the speed the accelerometer has

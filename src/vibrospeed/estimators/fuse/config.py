@@ -153,7 +153,10 @@ class Config(GpsFields):
         (item 3). The chain of lines used then carries the speed through the tracker's gaps in
         its claims. ``vib_soft_gate = 0``: no unclaimed line is taken (the re-lock's band
         only). The hold bounds the gap: with 1.5 s a causal tracker's mode stuck through a
-        braking was taken on the simulated tunnels (benchmarks/fuse/RESULTS.md).
+        braking was taken on the simulated tunnels (benchmarks/fuse/RESULTS.md). With
+        ``vib_measure="posterior"`` (online default) an unclaimed line is read like a claimed
+        one and only the continuation acts: it needs no decisive gate (the gate's value is
+        not used; 0 still switches the continuation off).
     vib_spread : the line's spread ``s`` in :func:`estimate` where the tracker claims a line:
         ``"posterior"`` (default; its whole posterior's ``omega_std``: all its modes and its
         "no line" mass) or ``"mode"`` (the grid tracker's ``omega_mode_std``, the spread
