@@ -128,6 +128,7 @@ def info(
 
       vibrospeed info ../shared/datasets/hungary_car_phyphox/rsq_q2_00
     """
+    from vibrospeed.estimators import fuse
     from vibrospeed.io.timebase import describe_timebase
 
     rec = _load(input, fmt, columns, mapping, rate, sort, uniform=False)
@@ -165,6 +166,11 @@ def info(
         uses.append("aided (with a longitudinal axis and the wheel radius)")
     if "gps_speed" in ch:
         uses.append("gps-riss")
+    if fuse.suits(rec):  # the estimator's own test, as `estimate` uses to choose its method
+        uses.append("fuse (vibration + acceleration + GPS speed; estimate's default for such "
+                    "a log)")
+    elif "ax" in ch:
+        uses.append("fuse (with --wheel-radius or --radius-from: no GPS speed fix)")
     if {"gz", "ax", "ay"} <= ch and all(f"wheel_omega_{w}" in ch for w in ("fl", "fr", "rl", "rr")):
         uses.append("algebraic")
     out.print("can feed: " + ("; ".join(uses) if uses else "no estimator (no known channel)"),
