@@ -25,6 +25,7 @@ from vibrospeed.cli.options import (
     RateOpt,
     SortOpt,
     TopicOpt,
+    at_least,
 )
 from vibrospeed.errors import ParameterError
 
@@ -86,7 +87,8 @@ def estimate(
         "--radius-from", help="fuse: wheel radius prior from an earlier fuse estimate's .json "
         "sidecar of the same vehicle (m/s from vibration without GPS)")] = None,
     init_omega: Annotated[float | None, typer.Option(help="initial omega guess in rad/s (EKF "
-                          "start; rbpmf/grid: centre of the initial prior)")] = None,
+                          "start; rbpmf/grid: centre of the initial prior)",
+                          callback=at_least("initial omega", "rad/s", strict=False))] = None,
     preset: PresetOpt = None,
     param: ParamOpt = None,
     plot: Annotated[Path | None, typer.Option(help="also write a spectrogram plot (PNG; on a "
@@ -96,7 +98,8 @@ def estimate(
                       "future; grid smooths by default)")]
     = False,
     lag: Annotated[float | None, typer.Option(help="fixed-lag smoothing with this delay in s "
-                   "(rbpmf, grid; for devices that can wait)")] = None,
+                   "(rbpmf, grid; for devices that can wait)",
+                   callback=at_least("lag", "s", strict=False))] = None,
     fit_params: Annotated[bool, typer.Option("--fit-params", help="fit q_omega, q_amp and r to "
                           "this recording by marginal likelihood first (rbpmf, grid)")] = False,
     fmt: FormatOpt = "auto",
@@ -223,17 +226,19 @@ def batch(
     method: MethodOpt = "grid",
     axis: AxisOpt = None,
     wheel_radius: RadiusOpt = None,
-    init_omega: Annotated[float | None, typer.Option(help="initial omega guess in rad/s")]
-    = None,
+    init_omega: Annotated[float | None, typer.Option(help="initial omega guess in rad/s",
+                          callback=at_least("initial omega", "rad/s", strict=False))] = None,
     preset: PresetOpt = None,
     param: ParamOpt = None,
     smooth: Annotated[bool, typer.Option("--smooth", help="as for estimate (rbpmf, grid)")]
     = False,
-    lag: Annotated[float | None, typer.Option(help="as for estimate (rbpmf, grid)")] = None,
+    lag: Annotated[float | None, typer.Option(help="as for estimate (rbpmf, grid)",
+                   callback=at_least("lag", "s", strict=False))] = None,
     fit_params: Annotated[bool, typer.Option("--fit-params", help="as for estimate (rbpmf, "
                           "grid)")] = False,
     jobs: Annotated[int | None, typer.Option("--jobs", "-j", help="local worker processes "
-                    "(default min(4, CPU count); 1 runs in this process)")] = None,
+                    "(default min(4, CPU count); 1 runs in this process)",
+                    callback=at_least("worker count", lo=1, strict=False))] = None,
     scheduler: Annotated[str | None, typer.Option(help="run on a Dask cluster: its scheduler "
                          "address, e.g. tcp://10.0.0.5:8786 (workers must see the same files)")]
     = None,
@@ -276,8 +281,6 @@ def batch(
                               lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
                               mapping=str(mapping) if mapping is not None else None, rate=rate,
                               sort=sort, topic=topic)
-    if jobs is not None and jobs < 1:
-        raise ParameterError(f"--jobs must be at least 1, got {jobs}")
     df = vb.run(inputs, output, options=opts, scheduler=scheduler, jobs=jobs, report=report,
                 force=force, progress=True)
     for _, r in df[df["status"] == "error"].iterrows():  # one line each, never wrapped

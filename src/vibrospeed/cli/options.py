@@ -10,10 +10,36 @@ means something different in one command (``plot --axis`` is the spectrogram's c
 
 from __future__ import annotations
 
+import math
+import sys
 from pathlib import Path
 from typing import Annotated
 
 import typer
+
+
+def at_least(what: str, unit: str = "", lo: float = 0.0, *, strict: bool = True):
+    """A Typer option callback that refuses, while the command line is parsed (before any work),
+    a value that is not finite or not ``> lo`` (``>= lo`` where not ``strict``): one line on
+    stderr naming the flag, what it is and the value, exit status 2. None (not given) passes.
+    ``at_least("wheel radius", "m")`` turns ``--wheel-radius -1`` (or 0, nan, inf) into
+    ``vibrospeed: error: --wheel-radius: wheel radius must be > 0 m, got -1``."""
+    rel = ">" if strict else ">="
+    bound = f"{lo:g}" + (f" {unit}" if unit else "")
+
+    def check(param: typer.CallbackParam, value):
+        if value is None:
+            return value
+        v = float(value)
+        if not (math.isfinite(v) and (v > lo if strict else v >= lo)):
+            flag = max(param.opts, key=len) if param.opts else param.name
+            print(f"vibrospeed: error: {flag}: {what} must be {rel} {bound}, got {value:g}",
+                  file=sys.stderr)
+            raise typer.Exit(2)
+        return value
+
+    return check
+
 
 # ---- the recording ----------------------------------------------------------------------------
 InputArg = Annotated[Path, typer.Argument(help="recording: file, folder or zip")]
@@ -30,7 +56,7 @@ ColumnsOpt = Annotated[str | None, typer.Option(help="generic CSV column mapping
 MappingOpt = Annotated[Path | None, typer.Option("--mapping", help="TOML file with the column "
                        "mapping, units and scales")]
 RateOpt = Annotated[float | None, typer.Option(help="sample rate in Hz for files without a time "
-                    "column")]
+                    "column", callback=at_least("sample rate", "Hz"))]
 SortOpt = Annotated[bool, typer.Option("--sort", help="sort by time and drop duplicate time "
                     "stamps instead of refusing time that goes backwards")]
 
@@ -39,7 +65,9 @@ MethodOpt = Annotated[str, typer.Option("--method", "-m", help="estimator (see `
                       "methods`; default grid)")]
 AxisOpt = Annotated[str | None, typer.Option(help="vibration axis (x, y, z or a channel name; "
                     "default y); for gps-riss the longitudinal axis (default x)")]
-RadiusOpt = Annotated[float | None, typer.Option(help="wheel radius in m (gives speed)")]
+RadiusOpt = Annotated[float | None, typer.Option(help="wheel radius in m (gives speed = radius * "
+                      "omega in m/s), e.g. 0.31 for a car",
+                      callback=at_least("wheel radius", "m"))]
 
 
 def _preset_help() -> str:

@@ -14,7 +14,15 @@ from rich.table import Table
 from rich.text import Text
 
 from vibrospeed.cli.base import _friendly, _load, err, out
-from vibrospeed.cli.options import ColumnsOpt, FormatOpt, InputArg, MappingOpt, RateOpt, SortOpt
+from vibrospeed.cli.options import (
+    ColumnsOpt,
+    FormatOpt,
+    InputArg,
+    MappingOpt,
+    RateOpt,
+    SortOpt,
+    at_least,
+)
 from vibrospeed.errors import ParameterError
 
 
@@ -23,10 +31,13 @@ def simulate(
     output: Annotated[Path | None, typer.Option("-o", "--output",
                                                 help="output file (.csv or .parquet)")] = None,
     scenario: Annotated[str, typer.Option(help="scenario name (see --list)")] = "cart",
-    seed: Annotated[int, typer.Option(help="random seed (same seed, same drive)")] = 0,
-    duration: Annotated[float | None, typer.Option(help="length in s (scenario default)")] = None,
+    seed: Annotated[int, typer.Option(help="random seed, >= 0 (same seed, same drive)",
+                                      callback=at_least("seed", strict=False))] = 0,
+    duration: Annotated[float | None, typer.Option(help="length in s (scenario default)",
+                                                   callback=at_least("duration", "s"))] = None,
     fs: Annotated[float | None, typer.Option(help="accelerometer sample rate in Hz (scenario "
-                  "default: 100, GPS scenarios 400)")] = None,
+                  "default: 100, GPS scenarios 400)", callback=at_least("sample rate", "Hz"))]
+    = None,
     set_: Annotated[list[str] | None, typer.Option("--set", help="override a scenario knob, "
                     "NAME=VALUE (repeatable; dotted for nested knobs, lists by comma: "
                     "--set vibration.harmonic_amps=0.1,0.05)")] = None,
@@ -74,14 +85,20 @@ def truth(
                      "a recording with a wss_ticks event stream (--from-recording)")],
     output: Annotated[Path, typer.Option("-o", "--output", help="truth recording to write "
                       "(t, omega_true, speed_true)")],
-    cogs: Annotated[int, typer.Option(help="cogs per revolution of the sensor wheel")] = 12,
-    r_sensor: Annotated[float, typer.Option(help="radius of the cog wheel in m")] = 0.0625,
-    r_wheel: Annotated[float, typer.Option(help="radius of the vehicle wheel in m")] = 0.08,
-    scale: Annotated[float, typer.Option(help="multiply tick values (1e-3 for ms)")] = 1.0,
+    cogs: Annotated[int, typer.Option(help="cogs per revolution of the sensor wheel",
+                                      callback=at_least("cogs", lo=1, strict=False))] = 12,
+    r_sensor: Annotated[float, typer.Option(help="radius of the cog wheel in m",
+                                            callback=at_least("cog wheel radius", "m"))]
+    = 0.0625,
+    r_wheel: Annotated[float, typer.Option(help="radius of the vehicle wheel in m",
+                                           callback=at_least("wheel radius", "m"))] = 0.08,
+    scale: Annotated[float, typer.Option(help="multiply tick values (1e-3 for ms)",
+                                         callback=at_least("tick scale"))] = 1.0,
     spike_rel: Annotated[float, typer.Option(help="relative size of a single-sample spike "
-                         "replaced by its neighbours' mean (0 = off)")] = 0.3,
-    max_gap: Annotated[float, typer.Option(help="a longer tick interval (s) means standstill")]
-    = 0.5,
+                         "replaced by its neighbours' mean (0 = off)",
+                         callback=at_least("spike size", strict=False))] = 0.3,
+    max_gap: Annotated[float, typer.Option(help="a longer tick interval (s) means standstill",
+                                           callback=at_least("gap", "s"))] = 0.5,
     from_recording: Annotated[bool, typer.Option("--from-recording", help="read the ticks from "
                               "the wss_ticks events of a recording")] = False,
 ) -> None:

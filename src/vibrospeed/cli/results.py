@@ -26,6 +26,7 @@ from vibrospeed.cli.options import (
     RadiusOpt,
     RateOpt,
     SortOpt,
+    at_least,
 )
 
 
@@ -100,8 +101,11 @@ def evaluate(
     truth: Annotated[Path, typer.Option(help="recording with omega_true or speed_true")],
     truth_format: Annotated[str, typer.Option(help="format of the truth file")] = "auto",
     min_omega: Annotated[float, typer.Option(help="truth below this (rad/s) = standing, "
-                         "excluded")] = 1.0,
-    warmup: Annotated[float, typer.Option(help="seconds at the start excluded")] = 0.0,
+                         "excluded", callback=at_least("min omega", "rad/s", strict=False))]
+    = 1.0,
+    warmup: Annotated[float, typer.Option(help="seconds at the start excluded",
+                                          callback=at_least("warm-up", "s", strict=False))]
+    = 0.0,
     json_out: Annotated[Path | None, typer.Option("--json", help="also write metrics as JSON")]
     = None,
 ) -> None:
@@ -160,8 +164,11 @@ def plot(
     truth: Annotated[Path | None, typer.Option(help="truth recording (default: the input's "
                      "omega_true if any)")] = None,
     axis: Annotated[str, typer.Option(help="channel or axis for the spectrogram")] = "y",
-    harmonics: Annotated[int, typer.Option(help="harmonics of the estimate to draw")] = 3,
-    window: Annotated[float, typer.Option(help="STFT window in s")] = 3.0,
+    harmonics: Annotated[int, typer.Option(help="harmonics of the estimate to draw (1 = the "
+                         "wheel line alone)", callback=at_least("harmonics", lo=1,
+                                                               strict=False))] = 3,
+    window: Annotated[float, typer.Option(help="STFT window in s (e.g. 3; longer: finer "
+                      "frequency, coarser time)", callback=at_least("window", "s"))] = 3.0,
     fmt: FormatOpt = "auto",
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
