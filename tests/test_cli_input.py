@@ -1,6 +1,7 @@
 """Bad input on the ``vibrospeed`` command line: one line on stderr naming what is wrong, exit
 status 2, no traceback and nothing written; and what ``info`` and ``--help`` tell the user."""
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -91,3 +92,48 @@ def test_out_of_range_numbers_are_refused_while_parsing(logs, tmp_path, args, me
     line = _err(_run(*[a.format(cart=logs["cart"], out=out) for a in args]))
     assert line.startswith("vibrospeed: error: ") and message in line
     assert list(tmp_path.iterdir()) == []
+
+
+def _mapped_csv(path):
+    t = np.arange(400) / 100.0
+    acc = np.sin(2 * np.pi * 5 * t)
+    lines = ["time,acc_y,a:b"] + [f"{a:.6f},{b:.6f},{b:.6f}" for a, b in zip(t, acc, strict=True)]
+    path.write_text("\n".join(lines) + "\n")
+    return t, acc
+
+
+def test_an_unknown_unit_in_columns_is_named_with_the_known_units(tmp_path):
+    from vibrospeed.io.mapped import UNITS
+
+    m = tmp_path / "m.csv"
+    _mapped_csv(m)
+    line = _err(_run("estimate", m, "--columns", "t=time:fortnights,ay=acc_y",
+                     "-o", tmp_path / "o.csv"))
+    assert "unknown unit 'fortnights'" in line and "m.csv" in line and "t=time:fortnights" in line
+    assert "not found" not in line
+    known = line[line.index("(known: ") + 8:line.index(")", line.index("(known: "))]
+    assert known.split(", ") == list(UNITS)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
+
+
+def test_columns_take_unit_and_scale_in_either_order_and_colons_in_names(tmp_path):
+    m = tmp_path / "m.csv"
+    t, acc = _mapped_csv(m)
+    g = 9.80665
+    for spec in ("t=time:ms,ay=acc_y*2:g,az=a:b", "t=time:ms,ay=acc_y:g*2,az=a:b"):
+        rec = io.read(m, columns=spec)
+        np.testing.assert_allclose(rec.t, np.round(t, 6) * 1e-3)
+        np.testing.assert_allclose(rec.channel("ay"), np.round(acc, 6) * 2 * g)
+        np.testing.assert_allclose(rec.channel("az"), np.round(acc, 6))  # column 'a:b'
+
+
+def test_columns_help_shows_the_syntax_and_every_unit():
+    from vibrospeed.io.mapped import UNITS
+
+    for command in ("estimate", "info", "batch", "plot", "report"):
+        res = _run(command, "--help")
+        assert res.exit_code == 0, res.output
+        text = " ".join(res.stdout.split())
+        assert "NAME=COLUMN[*SCALE][:UNIT]" in text
+        assert "'t=time:ms,ay=acc_y:g,gz=yaw*0.01:deg/s'" in text
+        assert "Units: " + ", ".join(UNITS) + "." in text

@@ -51,8 +51,20 @@ FormatOpt = Annotated[str, typer.Option("--format", "-f", help="input format: au
                       "docs/formats.md")]
 TopicOpt = Annotated[str | None, typer.Option("--topic", help="ROS bags: the IMU topic to read "
                      "(default: the busiest sensor_msgs/Imu topic)")]
-ColumnsOpt = Annotated[str | None, typer.Option(help="generic CSV column mapping, e.g. "
-                       "'t=time,ay=acc_y:g' (name=column[:unit])")]
+
+
+def _columns_help() -> str:
+    from vibrospeed.io.mapped import UNITS
+
+    return ("generic CSV column mapping: comma-separated NAME=COLUMN[*SCALE][:UNIT] items; NAME "
+            "is a channel (t in s; ax, ay, az in m/s^2; gx, gy, gz in rad/s; gps_speed in m/s; "
+            "...), COLUMN the file's header name, SCALE multiplies the raw value, UNIT converts "
+            "it to SI (scale first, then unit), e.g. --columns "
+            "'t=time:ms,ay=acc_y:g,gz=yaw*0.01:deg/s'; without a time column give --rate. "
+            f"Units: {', '.join(UNITS)}. Offsets: a --mapping TOML file (docs/formats.md)")
+
+
+ColumnsOpt = Annotated[str | None, typer.Option(help=_columns_help())]
 MappingOpt = Annotated[Path | None, typer.Option("--mapping", help="TOML file with the column "
                        "mapping, units and scales")]
 RateOpt = Annotated[float | None, typer.Option(help="sample rate in Hz for files without a time "

@@ -6,7 +6,7 @@ A mapping names, for each wanted channel, the file's column and how to bring it 
 
 On the command line (:func:`parse_mapping`)::
 
-    t=time:ms,ay=acc_y:g,gz=yaw*0.01:deg/s      # NAME=COLUMN[*SCALE][:UNIT]
+    t=time:ms,ay=acc_y:g,gz=yaw*0.01:deg/s      # NAME=COLUMN[*SCALE][:UNIT], comma-separated
 
 or in a small TOML file (:func:`load_mapping`)::
 
@@ -95,7 +95,9 @@ def _finite(x: Any, what: str, where: str) -> float:
 
 
 def parse_mapping(text: str) -> dict[str, ColumnSpec]:
-    """Parse ``"t=time,ay=acc_y"``-style mappings: ``NAME=COLUMN[*SCALE][:UNIT]`` items.
+    """Parse ``"t=time,ay=acc_y"``-style mappings: ``NAME=COLUMN[*SCALE][:UNIT]`` items (the
+    unit and the scale in either order). A ``:SUFFIX`` that is no unit stays part of the column
+    name; the reader refuses it as an unknown unit where the header has no such column.
 
     >>> parse_mapping("t=time:ms,ay=acc_y:g")["ay"]
     ColumnSpec(column='acc_y', scale=1.0, offset=0.0, unit='g')
@@ -123,10 +125,31 @@ def parse_mapping(text: str) -> dict[str, ColumnSpec]:
                 col = head.strip()
             except ParameterError:
                 pass  # a '*' that belongs to the column name
+        head, colon, tail = col.rpartition(":")
+        if unit is None and colon and tail.strip() in UNITS:  # COLUMN:UNIT*SCALE
+            col, unit = head.strip(), tail.strip()
         out[name] = ColumnSpec(col, scale, 0.0, unit)
     if not out:
         raise ParameterError("column mapping is empty")
     return out
+
+
+def _check_suffixes(spec: dict[str, ColumnSpec], header: list[str], source: str) -> None:
+    """Refuse a ``--columns`` item whose ``:SUFFIX`` is no known unit. :func:`parse_mapping`
+    keeps such a suffix in the column name (a header may hold ``a:b``); where the header has no
+    such column, the suffix was meant as a unit: say that it is unknown and list the units,
+    rather than "column not found"."""
+    have = set(header)
+    for name, s in spec.items():
+        head, colon, tail = s.column.rpartition(":")
+        if not colon or s.column in have or not head.strip() or not tail.strip() \
+                or tail.strip() in UNITS:
+            continue
+        missing = "" if head.strip() in have else f"; and the header has no column '{head}'"
+        raise ParameterError(
+            f"{source}: column mapping '{name}={s.column}': unknown unit '{tail.strip()}' "
+            f"(known: {', '.join(UNITS)}){missing}"
+        )
 
 
 def load_mapping(path: str | os.PathLike[str]) -> tuple[dict[str, ColumnSpec], dict[str, Any]]:
@@ -218,6 +241,7 @@ def read_mapped(
         tab = CsvTable(
             fh, str(p), delimiter=opts.get("delimiter"), decimal=opts.get("decimal", ".")
         )
+        _check_suffixes(spec, tab.header, str(p))
         srcs = list(dict.fromkeys(s.column for s in spec.values()))
         raw, lines = tab.read(srcs)
     notes = list(tab.notes)
