@@ -137,3 +137,53 @@ def test_columns_help_shows_the_syntax_and_every_unit():
         assert "NAME=COLUMN[*SCALE][:UNIT]" in text
         assert "'t=time:ms,ay=acc_y:g,gz=yaw*0.01:deg/s'" in text
         assert "Units: " + ", ".join(UNITS) + "." in text
+
+
+def _no_work(monkeypatch):
+    """Make the work itself fail loudly: an output check must refuse before it starts."""
+    import vibrospeed.batch as vb
+    from vibrospeed import sim
+
+    def work(*args, **kwargs):
+        raise AssertionError("the work started")
+
+    for mod, name in ((vb, "estimate_recording"), (vb, "load_recording"), (vb, "run"),
+                      (sim, "simulate")):
+        monkeypatch.setattr(mod, name, work)
+
+
+def test_an_output_in_a_missing_folder_is_refused_before_the_work(logs, tmp_path, monkeypatch):
+    _no_work(monkeypatch)
+    gone = tmp_path / "nonexistent" / "dir"
+    out = gone / "o.csv"
+    expect = f"vibrospeed: error: -o {out}: folder {gone} does not exist"
+    assert _err(_run("estimate", logs["cart"], "-m", "ekf", "-o", out)) == expect
+    assert _err(_run("simulate", "--scenario", "cart", "-o", out)) == expect
+    assert _err(_run("plot", logs["cart"], "-o", gone / "p.png")).endswith(
+        f"folder {gone} does not exist")
+    line = _err(_run("estimate", logs["cart"], "-m", "ekf", "-o", tmp_path / "o.csv", "--plot",
+                     gone / "p.png"))
+    assert line == f"vibrospeed: error: --plot {gone / 'p.png'}: folder {gone} does not exist"
+    line = _err(_run("estimate", logs["cart"], "-m", "ekf", "-o", tmp_path))
+    assert line == f"vibrospeed: error: -o {tmp_path}: is a folder; give a file name"
+    line = _err(_run("batch", logs["cart"], "-o", logs["cart"]))
+    assert line == f"vibrospeed: error: -o {logs['cart']}: is a file, not a folder"
+    assert list(tmp_path.iterdir()) == []  # no temporary file, no probe left behind
+
+
+@pytest.mark.skipif(not __import__("os").path.isdir("/proc/self"), reason="needs Linux /proc")
+def test_an_output_folder_that_cannot_be_written_is_refused_before_the_work(logs, monkeypatch):
+    _no_work(monkeypatch)  # /proc takes no new files, not even from root
+    line = _err(_run("batch", logs["cart"], "-o", "/proc/forbidden"))
+    assert line.startswith("vibrospeed: error: -o /proc/forbidden: folder /proc is not writable")
+    line = _err(_run("simulate", "-o", "/proc/o.csv"))
+    assert line.startswith("vibrospeed: error: -o /proc/o.csv: folder /proc is not writable")
+
+
+def test_a_writable_output_folder_is_created_by_batch(logs, tmp_path):
+    out = tmp_path / "new" / "deeper"
+    res = _run("batch", logs["cart"], "-m", "ekf", "-j", 1, "-p", "omega_min=2", "-p",
+               "omega_max=30", "-o", out)
+    assert res.exit_code == 0, res.output
+    assert (out / "summary.csv").is_file()
+    assert not [p for p in tmp_path.rglob(".vibrospeed-probe-*")]

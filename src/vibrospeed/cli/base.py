@@ -89,6 +89,42 @@ def _friendly(fn):
     return wrapper
 
 
+def _check_output(path: Path | None, flag: str = "-o", *, folder: bool = False) -> None:
+    """Refuse, before any work, an output that cannot be written: a file output whose folder
+    is missing, is no folder or is not writable, or that is itself a folder; a ``folder``
+    output (``batch -o``, created with its parents) that is a file or whose nearest existing
+    folder is not writable. Writability is tried (a temporary file made and removed there), not
+    guessed from permission bits, which say yes to root on read-only or virtual file systems.
+    The error names the user's path and its folder, as a :class:`ParameterError` (one line,
+    exit status 2)."""
+    import tempfile
+
+    if path is None:
+        return
+    if folder:
+        if path.exists() and not path.is_dir():
+            raise ParameterError(f"{flag} {path}: is a file, not a folder")
+        where = path
+        while not where.exists() and where != where.parent:
+            where = where.parent
+        if not where.is_dir():
+            raise ParameterError(f"{flag} {path}: {where} is not a folder")
+    else:
+        if path.is_dir():
+            raise ParameterError(f"{flag} {path}: is a folder; give a file name")
+        where = path.parent
+        if not where.exists():
+            raise ParameterError(f"{flag} {path}: folder {where} does not exist")
+        if not where.is_dir():
+            raise ParameterError(f"{flag} {path}: {where} is not a folder")
+    try:
+        with tempfile.NamedTemporaryFile(dir=where, prefix=".vibrospeed-probe-"):
+            pass
+    except OSError as exc:
+        raise ParameterError(f"{flag} {path}: folder {where} is not writable "
+                             f"({exc.strerror or exc})") from None
+
+
 def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate: float | None,
           sort: bool, uniform: bool = True):
     from vibrospeed.batch import load_recording

@@ -11,7 +11,7 @@ from typing import Annotated
 
 import typer
 
-from vibrospeed.cli.base import _friendly, _params, _unknown_hint, err
+from vibrospeed.cli.base import _check_output, _friendly, _params, _unknown_hint, err
 from vibrospeed.cli.options import (
     AxisOpt,
     ColumnsOpt,
@@ -160,6 +160,8 @@ def estimate(
     """
     from vibrospeed.batch import EstimateOptions, estimate_recording, vibration_channel
 
+    _check_output(output)
+    _check_output(plot, "--plot")
     rec = None  # the recording, where choosing the method read it
     streamed = None  # (rows, notes) / False where choosing the method counted the rows
     if method is None:
@@ -276,6 +278,7 @@ def batch(
     """
     from vibrospeed import batch as vb
 
+    _check_output(output, folder=True)
     opts = vb.EstimateOptions(method=method, params=_params(method, preset, param), axis=axis,
                               wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
                               lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,

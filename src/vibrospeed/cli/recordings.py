@@ -13,7 +13,7 @@ import typer
 from rich.table import Table
 from rich.text import Text
 
-from vibrospeed.cli.base import _friendly, _load, err, out
+from vibrospeed.cli.base import _check_output, _friendly, _load, err, out
 from vibrospeed.cli.options import (
     ColumnsOpt,
     FormatOpt,
@@ -72,6 +72,7 @@ def simulate(
         return
     if output is None:
         raise ParameterError("simulate: missing -o / --output (the file to write)")
+    _check_output(output)
     kw = {} if fs is None else {"fs": fs}
     rec = sim.simulate(scenario, seed=seed, duration=duration, **kw, **parse_params(set_))
     io.write(rec, output)
@@ -116,6 +117,7 @@ def truth(
     from vibrospeed import io
     from vibrospeed.eval import truth as tr
 
+    _check_output(output)
     kw = dict(n_cogs=cogs, r_sensor=r_sensor, r_wheel=r_wheel, spike_rel=spike_rel,
               max_gap=max_gap)
     if from_recording:

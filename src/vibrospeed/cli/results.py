@@ -13,7 +13,7 @@ import typer
 from rich.table import Table
 from rich.text import Text
 
-from vibrospeed.cli.base import _friendly, _load, _params, err, out
+from vibrospeed.cli.base import _check_output, _friendly, _load, _params, err, out
 from vibrospeed.cli.options import (
     AxisOpt,
     ColumnsOpt,
@@ -67,6 +67,7 @@ def report(
     from vibrospeed import io
     from vibrospeed.eval.report import write_report
 
+    _check_output(output)
     ref = io.read(truth) if truth else None
     if estimate_csv is not None:
         rec = _load(input, fmt, columns, mapping, rate, sort)
@@ -120,6 +121,7 @@ def evaluate(
     from vibrospeed.eval.metrics import evaluate as ev
     from vibrospeed.io.atomic import atomic_write_text
 
+    _check_output(json_out, "--json")
     track = io.read_track(estimate_csv)
     ref = io.read(truth, truth_format)
     m = ev(track, ref, min_omega=min_omega, warmup=warmup)
@@ -185,6 +187,7 @@ def plot(
     from vibrospeed.estimators.common import axis_channel
     from vibrospeed.eval.plot import plot_track
 
+    _check_output(output)
     rec = _load(input, fmt, columns, mapping, rate, sort)
     track = io.read_track(estimate_csv) if estimate_csv else None
     ref = io.read(truth) if truth else None
