@@ -187,3 +187,25 @@ def test_a_writable_output_folder_is_created_by_batch(logs, tmp_path):
     assert res.exit_code == 0, res.output
     assert (out / "summary.csv").is_file()
     assert not [p for p in tmp_path.rglob(".vibrospeed-probe-*")]
+
+
+def test_the_typical_session_of_the_top_level_help_runs_and_tracks_the_cart(tmp_path, monkeypatch):
+    import shlex
+
+    from vibrospeed.cli.base import app as base_app
+    from vibrospeed.eval.metrics import evaluate
+
+    text = base_app.info.help
+    session = text[text.index("Typical session"):text.index("A phone log")]
+    commands = [shlex.split(ln.strip())[1:] for ln in session.splitlines()
+                if ln.strip().startswith("vibrospeed ")]
+    assert [c[0] for c in commands] == ["simulate", "estimate", "evaluate"]
+    assert "--method" not in commands[1] and "omega_max=30" in commands[1]  # the cart's range
+    monkeypatch.chdir(tmp_path)
+    for args in commands:
+        res = _run(*args)
+        assert res.exit_code == 0, (args, res.output)
+    m = evaluate(io.read_track("est.csv"), io.read("cart.csv"))
+    truth = io.read("cart.csv").channel("omega_true")
+    assert 2 < np.median(truth[truth > 1]) < 30  # the cart's wheels sit in the range given
+    assert m.ok_share > 0.8 and m.rmse < 2.0  # rad/s: the default method on the cart's line

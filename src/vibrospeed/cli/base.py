@@ -24,13 +24,18 @@ app = typer.Typer(
     help=(
         "Estimate vehicle speed from a chassis accelerometer (wheel harmonics), longitudinal "
         "acceleration, GPS, yaw rate and wheel speeds.\n\n"
-        "Typical session:\n\n"
-        "  vibrospeed simulate --scenario cart -o drive.csv\n\n"
-        "  vibrospeed estimate drive.csv --method ekf -o est.csv --plot est.png\n\n"
-        "  vibrospeed evaluate est.csv --truth drive.csv\n\n"
+        "Typical session (a slow cart: wheel omega 2-30 rad/s, the default grid method "
+        "searches 10-120 rad/s, a car's wheels):\n\n"
+        "  vibrospeed simulate --scenario cart -o cart.csv\n\n"
+        "  vibrospeed estimate cart.csv -p omega_min=2 -p omega_max=30 -o est.csv "
+        "--plot est.png\n\n"
+        "  vibrospeed evaluate est.csv --truth cart.csv\n\n"
+        "A phone log (non-uniform, gaps and NaN are fine; fuse where it has GPS speed):\n\n"
+        "  vibrospeed info phone_drive/\n\n"
         "  vibrospeed estimate phone_drive/ --format phyphox --axis y --wheel-radius 0.31 "
         "-o est.csv\n\n"
-        "Units are SI: omega in rad/s, speed in m/s, time in s."
+        "Units are SI: omega in rad/s, speed = wheel radius * omega in m/s, time in s, "
+        "accelerations in m/s^2."
     ),
     no_args_is_help=True,
     add_completion=False,
