@@ -114,6 +114,12 @@ def test_an_unknown_unit_in_columns_is_named_with_the_known_units(tmp_path):
     known = line[line.index("(known: ") + 8:line.index(")", line.index("(known: "))]
     assert known.split(", ") == list(UNITS)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
+    from vibrospeed.errors import ParameterError
+    from vibrospeed.io.chunks import ChunkedRecording
+
+    with pytest.raises(ParameterError) as exc:  # the streamed reader says the same
+        list(ChunkedRecording(m, columns="t=time:fortnights,ay=acc_y"))
+    assert str(exc.value) in line
 
 
 def test_columns_take_unit_and_scale_in_either_order_and_colons_in_names(tmp_path):
@@ -209,3 +215,66 @@ def test_the_typical_session_of_the_top_level_help_runs_and_tracks_the_cart(tmp_
     truth = io.read("cart.csv").channel("omega_true")
     assert 2 < np.median(truth[truth > 1]) < 30  # the cart's wheels sit in the range given
     assert m.ok_share > 0.8 and m.rmse < 2.0  # rad/s: the default method on the cart's line
+
+
+def _with_bad_cells(src, dst, cells):
+    """``src`` with ``cells`` (row -> text) written into its ay column."""
+    lines = src.read_text().splitlines()
+    col = lines[0].split(",").index("ay")
+    for row, text in cells.items():
+        parts = lines[row].split(",")
+        parts[col] = text
+        lines[row] = ",".join(parts)
+    dst.write_text("\n".join(lines) + "\n")
+
+
+def test_infinite_values_are_counted_apart_from_nan(logs, tmp_path):
+    from vibrospeed.io.chunks import ChunkedRecording
+
+    bad = tmp_path / "bad.csv"
+    cells = {100: "inf", 200: "-inf", 300: "inf", 400: "nan", 500: ""}
+    _with_bad_cells(logs["cart"], bad, cells)
+    n = len(bad.read_text().splitlines()) - 1
+    n_inf = sum(v.strip("+-") == "inf" for v in cells.values())  # 3
+    expect = f"channel 'ay': {len(cells) - n_inf} empty or NaN cell(s) and {n_inf} infinite " \
+             f"value(s) (inf or -inf) of {n}"
+    assert expect in io.read(bad).notes
+    chunked = ChunkedRecording(bad, chunk_rows=128)
+    list(chunked)  # one pass completes the notes
+    assert expect in chunked.notes  # the streamed reader says the same
+    res = _run("info", bad)
+    assert res.exit_code == 0 and expect in " ".join(res.stdout.split())
+    allinf = tmp_path / "allinf.csv"
+    allinf.write_text("t,ay\n0,inf\n0.01,nan\n0.02,-inf\n")
+    line = _err(_run("info", allinf))
+    assert line.endswith("allinf.csv, column 'ay': channel has no finite value (all empty, NaN "
+                         "or infinite)")
+
+
+def test_a_damaged_zip_is_named_as_one(logs, tmp_path):
+    import zipfile
+
+    good = tmp_path / "export.zip"
+    with zipfile.ZipFile(good, "w") as zf:
+        zf.write(logs["cart"], "run/Accelerometer.csv")
+    broken = tmp_path / "broken.zip"
+    broken.write_bytes(good.read_bytes()[:40])  # the signature survives, the directory not
+    line = _err(_run("info", broken))
+    assert "broken.zip: not a valid zip file" in line and "unknown format" not in line
+    named = tmp_path / "named.zip"  # a CSV with a .zip name is still read as the CSV it is
+    named.write_bytes(logs["cart"].read_bytes())
+    assert _run("info", named).exit_code == 0
+
+
+def test_a_mapping_offset_is_printed_with_its_own_sign(tmp_path):
+    m = tmp_path / "m.csv"
+    m.write_text("time,acc_y,yaw,pitch\n0,1,2,3\n0.01,2,3,4\n0.02,3,4,5\n")
+    toml = tmp_path / "m.toml"
+    toml.write_text('[columns]\nt = "time"\nay = "acc_y"\n'
+                    'gz = { column = "yaw", unit = "deg/s", offset = -0.3 }\n'
+                    'gy = { column = "pitch", unit = "deg/s", offset = 0.25 }\n')
+    rec = io.read(m, mapping_file=toml)
+    note = next(n for n in rec.notes if n.startswith("columns mapped:"))
+    assert "gz<-yaw-0.3 [deg/s]" in note and "gy<-pitch+0.25 [deg/s]" in note
+    assert "+-" not in note
+    np.testing.assert_allclose(rec.channel("gz"), (np.array([2, 3, 4]) - 0.3) * np.pi / 180)

@@ -237,6 +237,13 @@ def _detect_format(p: Path, *, mapping: bool, inside: bool) -> str:
         return "parquet"
     if zipfile.is_zipfile(p):
         raise ReaderError(p, "unknown format: a zip file without Accelerometer.csv")
+    if magic[:2] == b"PK":  # a zip's signature, yet no zip zipfile can read
+        try:
+            zipfile.ZipFile(p).close()
+        except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, ValueError, EOFError) as exc:
+            raise ReaderError(p, f"not a valid zip file ({exc}): truncated or damaged? "
+                                 "(a phyphox or Sensor Logger export zips a folder of CSV "
+                                 "files)") from None
     first = _first_line(p)
     if not first:
         raise ReaderError(p, "empty file (no header row)")

@@ -262,13 +262,32 @@ class CsvTable:
 
 
 def nan_notes(columns: dict[str, np.ndarray], source: str) -> list[str]:
-    """Notes on empty / NaN cells; :class:`ReaderError` for a column with no number at all."""
+    """Notes on empty / NaN cells and, counted apart, infinite ones (``inf``, ``-inf`` in the
+    file: no measurement either, but not an empty cell); :class:`ReaderError` for a column
+    with no finite number at all."""
+    counts = {name: nonfinite_counts(x) for name, x in columns.items()}
+    return count_notes(counts, {name: x.size for name, x in columns.items()}, source)
+
+
+def nonfinite_counts(x: np.ndarray) -> tuple[int, int]:
+    """``(NaN count, infinite count)`` of ``x``."""
+    return int(np.count_nonzero(np.isnan(x))), int(np.count_nonzero(np.isinf(x)))
+
+
+def count_notes(counts: dict[str, tuple[int, int]], sizes: dict[str, int],
+                source: str) -> list[str]:
+    """:func:`nan_notes` from the counts (:func:`nonfinite_counts`, summed over the chunks of a
+    streamed file) and each channel's number of samples."""
     notes = []
-    for name, x in columns.items():
-        nbad = int(np.count_nonzero(np.isnan(x)))
-        if x.size and nbad == x.size:
-            raise ReaderError(source, "channel has no numeric value (all empty or NaN)",
-                              column=name)
-        if nbad:
-            notes.append(f"channel '{name}': {nbad} empty or NaN cell(s) of {x.size}")
+    for name, (nnan, ninf) in counts.items():
+        n = sizes[name]
+        if n and nnan + ninf == n:
+            what = ("channel has no finite value (all empty, NaN or infinite)" if ninf
+                    else "channel has no numeric value (all empty or NaN)")
+            raise ReaderError(source, what, column=name)
+        said = [f"{nnan} empty or NaN cell(s)"] if nnan else []
+        if ninf:
+            said.append(f"{ninf} infinite value(s) (inf or -inf)")
+        if said:
+            notes.append(f"channel '{name}': {' and '.join(said)} of {n}")
     return notes

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from vibrospeed.errors import ParameterError, ReaderError
-from vibrospeed.io._csv import CHUNK_ROWS, CsvTable, open_text
+from vibrospeed.io._csv import CHUNK_ROWS, CsvTable, count_notes, nonfinite_counts, open_text
 from vibrospeed.io.timebase import check_increasing
 from vibrospeed.types import Recording
 
@@ -165,7 +165,14 @@ class ChunkedRecording:
         messages, in the same order), the header read and every mapped column found."""
         import math
 
-        from vibrospeed.io.mapped import UNITS, _check_unit, load_mapping, parse_mapping
+        from vibrospeed.io.mapped import (
+            UNITS,
+            _check_suffixes,
+            _check_unit,
+            load_mapping,
+            mapping_text,
+            parse_mapping,
+        )
         from vibrospeed.types import CHANNEL_UNITS
 
         spec: dict[str, Any] = {}
@@ -195,17 +202,14 @@ class ChunkedRecording:
         with open_text(p) as fh:
             tab = CsvTable(fh, str(p), delimiter=opts.get("delimiter"),
                            decimal=opts.get("decimal", "."))
+            _check_suffixes(spec, tab.header, str(p))
             for c in self._srcs:
                 tab.index(c)  # a missing column: the whole-file reader's error, before any row
         self.channels = [k for k in spec if k != "t"]
         self.units = {k: UNITS[sp.unit][1] if sp.unit else CHANNEL_UNITS.get(k, "")
                       for k, sp in spec.items() if k != "t"}
         self.meta = {"mapping": {k: sp._asdict() for k, sp in spec.items()}, "rate": rate}
-        text = ", ".join(
-            f"{k}<-{sp.column}" + (f"*{sp.scale:g}" if sp.scale != 1 else "")
-            + (f"+{sp.offset:g}" if sp.offset else "") + (f" [{sp.unit}]" if sp.unit else "")
-            for k, sp in spec.items())
-        self._tail_notes = [f"columns mapped: {text}"]
+        self._tail_notes = [f"columns mapped: {mapping_text(spec)}"]
         if "t" not in spec:
             self._tail_notes.append(f"no time column: t = i / {rate:g} Hz")
 
@@ -276,7 +280,7 @@ class ChunkedRecording:
 
     def __iter__(self) -> Iterator[Chunk]:
         src = str(Path(self.path))
-        nan_count: dict[str, int] = {}
+        nan_count: dict[str, tuple[int, int]] = {}  # (NaN, infinite) per channel
         last: tuple[float, int] | None = None  # (time, line) of the previous chunk's last row
         n = 0
         reader_notes: list[str] = []
@@ -294,18 +298,14 @@ class ChunkedRecording:
             if t.size:
                 last = (float(t[-1]), int(lines[-1]))
             for k, x in counted.items():
-                nan_count[k] = nan_count.get(k, 0) + int(np.count_nonzero(np.isnan(x)))
+                a, b = nonfinite_counts(x)
+                na, nb = nan_count.get(k, (0, 0))
+                nan_count[k] = (na + a, nb + b)
             reader_notes = rnotes
             if late is None:
                 yield Chunk(t, cols, lines, n)
             n += t.size
-        notes = []
-        for k, nbad in nan_count.items():
-            if n and nbad == n:
-                raise ReaderError(src, "channel has no numeric value (all empty or NaN)",
-                                  column=k)
-            if nbad:
-                notes.append(f"channel '{k}': {nbad} empty or NaN cell(s) of {n}")
+        notes = count_notes(nan_count, dict.fromkeys(nan_count, n), src)
         if late is not None:
             raise late
         self.n = n

@@ -134,6 +134,16 @@ def parse_mapping(text: str) -> dict[str, ColumnSpec]:
     return out
 
 
+def mapping_text(spec: dict[str, ColumnSpec]) -> str:
+    """The mapping as the reader's note shows it: ``gz<-yaw*0.01-0.3 [deg/s]`` is
+    ``(yaw * 0.01 - 0.3)`` in deg/s (the offset with its own sign)."""
+    return ", ".join(
+        f"{k}<-{s.column}" + (f"*{s.scale:g}" if s.scale != 1 else "")
+        + (f"{s.offset:+g}" if s.offset else "") + (f" [{s.unit}]" if s.unit else "")
+        for k, s in spec.items()
+    )
+
+
 def _check_suffixes(spec: dict[str, ColumnSpec], header: list[str], source: str) -> None:
     """Refuse a ``--columns`` item whose ``:SUFFIX`` is no known unit. :func:`parse_mapping`
     keeps such a suffix in the column name (a header may hold ``a:b``); where the header has no
@@ -255,12 +265,7 @@ def read_mapped(
             x = (x * s.scale + s.offset) * s.factor()
         chans[name] = x
         units[name] = UNITS[s.unit][1] if s.unit else CHANNEL_UNITS.get(name, "")
-    mapping_text = ", ".join(
-        f"{k}<-{s.column}" + (f"*{s.scale:g}" if s.scale != 1 else "")
-        + (f"+{s.offset:g}" if s.offset else "") + (f" [{s.unit}]" if s.unit else "")
-        for k, s in spec.items()
-    )
-    notes.append(f"columns mapped: {mapping_text}")
+    notes.append(f"columns mapped: {mapping_text(spec)}")
     if "t" in chans:
         t = chans.pop("t")
         units.pop("t", None)
