@@ -99,7 +99,7 @@ def estimate(
     = False,
     lag: Annotated[float | None, typer.Option(help="fixed-lag smoothing with this delay in s "
                    "(rbpmf, grid; for devices that can wait)",
-                   callback=at_least("lag", "s", strict=False))] = None,
+                   callback=at_least("lag", "s"))] = None,
     fit_params: Annotated[bool, typer.Option("--fit-params", help="fit q_omega, q_amp and r to "
                           "this recording by marginal likelihood first (rbpmf, grid)")] = False,
     fmt: FormatOpt = "auto",
@@ -235,7 +235,7 @@ def batch(
     smooth: Annotated[bool, typer.Option("--smooth", help="as for estimate (rbpmf, grid)")]
     = False,
     lag: Annotated[float | None, typer.Option(help="as for estimate (rbpmf, grid)",
-                   callback=at_least("lag", "s", strict=False))] = None,
+                   callback=at_least("lag", "s"))] = None,
     fit_params: Annotated[bool, typer.Option("--fit-params", help="as for estimate (rbpmf, "
                           "grid)")] = False,
     jobs: Annotated[int | None, typer.Option("--jobs", "-j", help="local worker processes "
