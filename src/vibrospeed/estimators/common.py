@@ -90,9 +90,12 @@ def prepare_axis(
             raise ParameterError(f"{exc} (or set a lower range, e.g. -p omega_max=...)") from None
     x = recording.channel(name)
     notes = []
-    n_nan = int(np.count_nonzero(~np.isfinite(x)))
-    if n_nan:
-        notes.append(f"{n_nan} NaN samples on '{name}': prediction only there")
+    n_bad = int(np.count_nonzero(~np.isfinite(x)))
+    if n_bad:
+        n_inf = int(np.count_nonzero(np.isinf(x)))
+        what = " and ".join(f"{k} {kind}" for k, kind in ((n_bad - n_inf, "NaN"),
+                                                          (n_inf, "infinite")) if k)
+        notes.append(f"{what} samples on '{name}': prediction only there")
     sos = pf.design(prefilter, fs, M=M, omega_range=omega_range)
     y = pf.apply(sos, x, level=start_level(x, dt))
     if prefilter in pf.ADAPTIVE:
