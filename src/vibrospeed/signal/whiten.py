@@ -10,8 +10,15 @@ background out, whatever its shape:
 * every ``BLOCK_S`` s, the background spectrum of the last ``WINDOW_S`` s is estimated line-
   robustly: per frequency the *median* over the ``SEGMENT_S`` s Hann segments (Welch with a
   median average), so a line that sweeps across a frequency while the vehicle speeds up or
-  brakes does not enter it, then a running *median* over ``SMOOTH_HZ`` Hz, so a steady narrow
-  line (wheel harmonics, engine orders) does not enter it either;
+  brakes does not enter it, then a running *median* over ``SMOOTH_HZ`` Hz, at most
+  ``PEAK_MAX`` times the running median over ``PEAK_HZ`` Hz. A steady line (a cruise) is in
+  every segment, and a 2 s Hann segment spreads it over a main lobe 2 Hz wide, wider than the
+  1 Hz median: without the cap the background would hold the line ~20 dB up and the FIR would
+  notch it out. The 3 Hz median (a main lobe and a half) leaves the line out, and the cap lets
+  the whitener take at most ``PEAK_MAX`` (6 dB) off any narrow peak: wheel lines, engine
+  orders and narrow body resonances all look alike to it (narrow peaks that hold for
+  seconds), and telling them apart is the comb's work (its harmonic structure); the broad
+  colour of the background (body motion, road noise) is whitened as before;
 * its autocorrelation (inverse FFT) gives, by Levinson-Durbin, the order-``ORDER`` linear
   predictor ``a``; the block is filtered by the prediction-error FIR
   ``e[n] = sum_k a[k] x[n - k]``, ``a[0] = 1`` (Yule-Walker: ``e`` is white where ``x`` was
@@ -69,6 +76,8 @@ WINDOW_S = 9.0
 BLOCK_S = 1.0
 SEGMENT_S = 2.0
 SMOOTH_HZ = 1.0
+PEAK_HZ = 3.0
+PEAK_MAX = 4.0
 
 
 class WhitenState(NamedTuple):
@@ -202,16 +211,36 @@ def _segments(z, starts, seg, win, out):
 
 
 @njit(cache=True)
-def _backgrounds(X, rows, nseg, bias, dbl_hi, k, S):
+def _running_median(P, k, win, out):
+    """``out`` = the running median of ``k`` bins of ``P`` (``k`` odd, ends repeated:
+    ``scipy.ndimage.median_filter(P, k, mode="nearest")``)."""
+    nf = P.size
+    h = k // 2
+    for f in range(nf):
+        for q in range(k):
+            j = min(max(f + q - h, 0), nf - 1)
+            v = P[j]
+            i = q
+            while i > 0 and win[i - 1] > v:
+                win[i] = win[i - 1]
+                i -= 1
+            win[i] = v
+        out[f] = win[h]
+
+
+@njit(cache=True)
+def _backgrounds(X, rows, nseg, bias, dbl_hi, k, kw, peak_max, S):
     """Per block b, the line-robust background ``S[b]``: the one-sided periodograms of the
     segment spectra ``X[rows[b, :nseg[b]]]`` (``|X|^2``, doubled for bins 1 <= f < dbl_hi),
     their median over the segments divided by ``bias[nseg]`` (one segment: itself, as welch),
-    then the running median of ``k`` bins (``k`` odd, ends repeated: ``mode="nearest"``)."""
+    then the running median of ``k`` bins, at most ``peak_max`` times the running median of
+    ``kw`` bins (``k``, ``kw`` odd)."""
     nf = X.shape[1]
     P = np.empty(nf)
     vals = np.empty(max(rows.shape[1], 1))
-    win = np.empty(k)
-    h = k // 2
+    win = np.empty(max(k, kw))
+    narrow = np.empty(nf)
+    wide = np.empty(nf)
     for b in range(rows.shape[0]):
         n = nseg[b]
         if n == 0:
@@ -233,16 +262,10 @@ def _backgrounds(X, rows, nseg, bias, dbl_hi, k, S):
                 P[f] = vals[n // 2] / bias[n]
             else:
                 P[f] = (vals[n // 2 - 1] + vals[n // 2]) / 2.0 / bias[n]
+        _running_median(P, k, win, narrow)
+        _running_median(P, kw, win, wide)
         for f in range(nf):
-            for q in range(k):
-                j = min(max(f + q - h, 0), nf - 1)
-                v = P[j]
-                i = q
-                while i > 0 and win[i - 1] > v:
-                    win[i] = win[i - 1]
-                    i -= 1
-                win[i] = v
-            S[b, f] = win[h]
+            S[b, f] = min(narrow[f], peak_max * wide[f])
 
 
 @njit(cache=True)
@@ -374,7 +397,15 @@ class _Plan(NamedTuple):
     win: np.ndarray
     dbl_hi: int
     k: int
+    kw: int
     bias: np.ndarray
+
+
+def _widths(df: float) -> tuple[int, int]:
+    """The running medians' widths in bins of ``df`` Hz (odd, at least 3): ``SMOOTH_HZ`` and
+    ``PEAK_HZ``."""
+    return (2 * max(1, int(round(0.5 * SMOOTH_HZ / df))) + 1,
+            2 * max(1, int(round(0.5 * PEAK_HZ / df))) + 1)
 
 
 @functools.lru_cache(maxsize=16)
@@ -385,8 +416,8 @@ def _plan(fs: float) -> _Plan:
     # frequencies (scipy.signal's numbers, from vibrospeed.signal.dsp)
     win = np.ascontiguousarray(dsp.psd_window(dsp.hann(seg), fs), dtype=np.float64)
     f = np.fft.rfftfreq(seg, 1 / fs)
-    k = 2 * max(1, int(round(0.5 * SMOOTH_HZ / (f[1] - f[0])))) + 1
-    return _Plan(seg, hop, win, seg // 2 if seg % 2 == 0 else seg // 2 + 1, k,
+    k, kw = _widths(f[1] - f[0])
+    return _Plan(seg, hop, win, seg // 2 if seg % 2 == 0 else seg // 2 + 1, k, kw,
                  _bias(max(W, seg) // hop + 2))
 
 
@@ -429,7 +460,8 @@ def _predictors(z: np.ndarray, w0: np.ndarray, w1: np.ndarray,
     X = np.fft.rfft(segs, n=pl.seg, axis=-1)
     S = np.empty((use.size, X.shape[1]))
     bias = pl.bias if mx < pl.bias.size else _bias(mx)
-    _backgrounds(X, rows, nseg[use].astype(np.int64), bias, pl.dbl_hi, pl.k, S)
+    _backgrounds(X, rows, nseg[use].astype(np.int64), bias, pl.dbl_hi, pl.k, pl.kw,
+                 float(PEAK_MAX), S)
     R = np.ascontiguousarray(np.fft.irfft(S)[:, : ORDER + 1])
     Au = A[use]
     Gu = np.ones(use.size)
@@ -459,8 +491,9 @@ def predictor_reference(hist: np.ndarray, fs: float) -> tuple[np.ndarray, float]
     if hist.size < seg:
         return ident, 1.0
     f, P = sps.welch(hist, fs=fs, nperseg=seg, average="median")
-    k = 2 * max(1, int(round(0.5 * SMOOTH_HZ / (f[1] - f[0])))) + 1
-    S = median_filter(P, size=k, mode="nearest")
+    k, kw = _widths(f[1] - f[0])
+    S = np.minimum(median_filter(P, size=k, mode="nearest"),
+                   PEAK_MAX * median_filter(P, size=kw, mode="nearest"))
     r = np.fft.irfft(S)[: ORDER + 1]
     if not r[0] > 0:
         return ident, 1.0
