@@ -389,7 +389,7 @@ def _finish(R, z, w0, w1, order, A, G):
 
 class _Plan(NamedTuple):
     """Welch's constants at one sample rate: segment length and hop, the window it applies
-    (Hann, scaled to a density), the bins it doubles, the running median's width and the
+    (Hann, scaled to a density), the bins it doubles, the running medians' widths and the
     median's bias per segment count."""
 
     seg: int
