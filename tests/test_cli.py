@@ -8,14 +8,9 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from cli_runner import one_line_error as _err
+from cli_runner import run as _run
 from vibrospeed import io
-from vibrospeed.cli.app import app
-
-runner = CliRunner()
-
-
-def _run(*args):
-    return runner.invoke(app, [str(a) for a in args])
 
 
 @pytest.fixture(scope="module")
@@ -62,12 +57,6 @@ def test_params_reach_the_estimator(drive, tmp_path):
     assert side["params"]["M"] == 3 and side["params"]["q_omega"] == 2.0
 
 
-def _err(res):
-    assert res.exit_code == 2, res.output
-    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
-    assert len(lines) == 1, res.stderr
-    assert "Traceback" not in res.output
-    return lines[0]
 
 
 def test_errors_are_one_line(tmp_path, drive):
@@ -190,7 +179,6 @@ def test_a_log_with_one_accelerometer_axis_uses_it(tmp_path):
 
 
 def test_simulate_list_needs_no_output_and_a_missing_output_is_a_clear_error():
-    from typer.testing import CliRunner
 
     from vibrospeed.cli.app import app
 

@@ -3,26 +3,11 @@ status 2, no traceback and nothing written; and what ``info`` and ``--help`` tel
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
 
+from cli_runner import one_line_error as _err
+from cli_runner import run as _run
 from vibrospeed import io
-from vibrospeed.cli.app import app
 from vibrospeed.estimators import fuse
-
-runner = CliRunner()
-
-
-def _run(*args):
-    return runner.invoke(app, [str(a) for a in args])
-
-
-def _err(res):
-    """The one stderr line of a refused command (exit status 2, no traceback)."""
-    assert res.exit_code == 2, res.output
-    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
-    assert len(lines) == 1, res.stderr
-    assert "Traceback" not in res.output
-    return lines[0]
 
 
 @pytest.fixture(scope="module")
