@@ -202,12 +202,7 @@ def smooth(config: Config, fw: Forward, *, return_posterior: bool | np.ndarray =
     if K < 1:
         raise ParameterError(f"checkpoint must be at least 1 sample, got {checkpoint}")
     R = gsm.KEEP_BYTES // (4 * N1) if keep is None else max(0, int(keep))
-    starts = np.arange(0, n, K)
-    # the segments from s_keep on fit in R rows: their alpha is kept from the first pass
-    s_keep = starts.size
-    while s_keep > 0 and n - starts[s_keep - 1] <= R:
-        s_keep -= 1
-    t_keep = int(starts[s_keep]) if s_keep < starts.size else n
+    starts, s_keep, t_keep = gsm._segments(n, K, R)  # alpha of the last segments kept
     states = np.empty((s_keep, N1))
     a, pr = np.empty(N1), np.empty(N1)
     none = np.empty((0, N1), dtype=np.float32)

@@ -435,6 +435,17 @@ CHECKPOINT = 4096
 KEEP_BYTES = 64 * 2**20
 
 
+def _segments(n: int, K: int, R: int) -> tuple[np.ndarray, int, int]:
+    """A checkpointed pass over ``n`` samples: ``(starts, s_keep, t_keep)``, the segments'
+    first samples every ``K``; the segments from ``s_keep`` on (samples ``t_keep..n``) fit in
+    ``R`` rows, so the first pass keeps their rows and the second does not recompute them."""
+    starts = np.arange(0, n, K)
+    s_keep = starts.size
+    while s_keep > 0 and n - starts[s_keep - 1] <= R:
+        s_keep -= 1
+    return starts, s_keep, int(starts[s_keep]) if s_keep < starts.size else n
+
+
 def smooth(config: Config, grid_loglik: np.ndarray, *,
            return_posterior: bool | np.ndarray = False, checkpoint: int | None = CHECKPOINT,
            keep: int | None = None) -> Smoothed:
@@ -464,12 +475,7 @@ def smooth(config: Config, grid_loglik: np.ndarray, *,
     if K < 1:
         raise ValueError(f"checkpoint must be at least 1 sample, got {checkpoint}")
     R = KEEP_BYTES // (4 * N1) if keep is None else max(0, int(keep))
-    starts = np.arange(0, n, K)
-    # the segments from s_keep on fit in R rows: their alpha is kept from the first pass
-    s_keep = starts.size
-    while s_keep > 0 and n - starts[s_keep - 1] <= R:
-        s_keep -= 1
-    t_keep = int(starts[s_keep]) if s_keep < starts.size else n
+    starts, s_keep, t_keep = _segments(n, K, R)  # alpha of the last segments kept
     tail = np.empty((n - t_keep, N1), dtype=np.float32)
     states = np.empty((s_keep, N1))
     a, pr = np.empty(N1), np.empty(N1)

@@ -23,7 +23,13 @@ import numpy as np
 from numba import njit
 
 from vibrospeed.estimators.grid.config import Config
-from vibrospeed.estimators.grid.smoother import CHECKPOINT, KEEP_BYTES, _emissions, _setup
+from vibrospeed.estimators.grid.smoother import (
+    CHECKPOINT,
+    KEEP_BYTES,
+    _emissions,
+    _segments,
+    _setup,
+)
 
 
 class Path(NamedTuple):
@@ -174,11 +180,7 @@ def viterbi(config: Config, grid_loglik: np.ndarray, *,
         R = n
     else:
         R = KEEP_BYTES // (4 * N1) if keep is None else max(0, int(keep))
-    starts = np.arange(0, n, K)
-    s_keep = starts.size  # the segments from s_keep on keep their back pointers
-    while s_keep > 0 and n - starts[s_keep - 1] <= R:
-        s_keep -= 1
-    t_keep = int(starts[s_keep]) if s_keep < starts.size else n
+    starts, s_keep, t_keep = _segments(n, K, R)  # back pointers of the last segments kept
     states = np.empty((s_keep, N1))
     delta, nd = np.empty(N1), np.empty(N1)
     back = np.empty((K if s_keep else 0, N1), dtype=np.int32)
