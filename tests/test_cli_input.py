@@ -3,6 +3,8 @@ status 2, no traceback and nothing written; and what ``info`` and ``--help`` tel
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from cli_runner import one_line_error as _err
 from cli_runner import run as _run
@@ -264,3 +266,183 @@ def test_a_mapping_offset_is_printed_with_its_own_sign(tmp_path):
     assert "gz<-yaw-0.3 [deg/s]" in note and "gy<-pitch+0.25 [deg/s]" in note
     assert "+-" not in note
     np.testing.assert_allclose(rec.channel("gz"), (np.array([2, 3, 4]) - 0.3) * np.pi / 180)
+
+
+# ---- values that are not numbers: one line, exit status 2, while parsing ----------------------
+#: every option of the command line that takes one number (the test below checks that the
+#: commands have no other): command, flag, float or int
+NUMBER_OPTIONS = [
+    ("simulate", "--seed", int), ("simulate", "--duration", float), ("simulate", "--fs", float),
+    ("estimate", "--wheel-radius", float), ("estimate", "--init-omega", float),
+    ("estimate", "--lag", float), ("estimate", "--rate", float),
+    ("batch", "--wheel-radius", float), ("batch", "--init-omega", float),
+    ("batch", "--lag", float), ("batch", "--jobs", int), ("batch", "--rate", float),
+    ("report", "--wheel-radius", float), ("report", "--rate", float),
+    ("evaluate", "--min-omega", float), ("evaluate", "--warmup", float),
+    ("plot", "--harmonics", int), ("plot", "--window", float), ("plot", "--rate", float),
+    ("truth", "--cogs", int), ("truth", "--r-sensor", float), ("truth", "--r-wheel", float),
+    ("truth", "--scale", float), ("truth", "--spike-rel", float), ("truth", "--max-gap", float),
+    ("info", "--rate", float),
+]
+
+
+def _command_args(command, cart, out):
+    """``command`` with its required arguments, every output under folder ``out``."""
+    return {
+        "simulate": ["simulate", "-o", out / "s.csv"],
+        "estimate": ["estimate", cart, "-o", out / "e.csv"],
+        "batch": ["batch", cart, "-o", out / "b"],
+        "report": ["report", cart, "-o", out / "r.html"],
+        "evaluate": ["evaluate", cart, "--truth", cart, "--json", out / "m.json"],
+        "plot": ["plot", cart, "-o", out / "p.png"],
+        "truth": ["truth", cart, "-o", out / "t.csv"],
+        "info": ["info", cart],
+    }[command]
+
+
+def test_the_table_holds_every_number_option_of_every_command():
+    import typer
+
+    from vibrospeed.cli.app import app
+
+    group = typer.main.get_command(app)
+    found = set()
+    for name, command in group.commands.items():
+        for p in command.params:
+            typ = getattr(p.type_descriptor, "annotation", None)
+            if typ in (float, int):
+                found.add((name, max(p.opts, key=len), typ))
+    assert found == set(NUMBER_OPTIONS)
+
+
+def _not_a_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return True
+    return False
+
+
+@pytest.mark.parametrize(("command", "flag", "kind"), NUMBER_OPTIONS)
+@pytest.mark.parametrize("value", ["abc", "1,5", ""])
+def test_an_option_given_text_that_is_no_number_is_one_line(logs, tmp_path, command, flag,
+                                                            kind, value):
+    res = _run(*_command_args(command, logs["cart"], tmp_path), f"{flag}={value}")
+    what = "a number" if kind is float else "an integer"
+    if kind is float and value == "1,5":  # a decimal comma
+        what += " (write the decimal point as '.')"
+    assert _err(res) == f"vibrospeed: error: {flag}: {value!r} is not {what}"
+    assert "Usage:" not in res.output
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(("command", "flag"), [("plot", "--harmonics"), ("truth", "--cogs"),
+                                               ("batch", "--jobs"), ("simulate", "--seed")])
+def test_an_integer_option_given_a_fraction_is_one_line(logs, tmp_path, command, flag):
+    res = _run(*_command_args(command, logs["cart"], tmp_path), flag, "2.5")
+    assert _err(res) == f"vibrospeed: error: {flag}: '2.5' is not an integer"
+    assert list(tmp_path.iterdir()) == []
+
+
+_TEXT = st.text(st.characters(exclude_categories=("Cs",)), max_size=16).filter(_not_a_number)
+
+
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(text=_TEXT)
+def test_any_text_that_is_no_number_gives_the_one_line(logs, tmp_path, text):
+    for command, flag, kind in (("estimate", "--wheel-radius", float),
+                                ("batch", "--jobs", int), ("evaluate", "--warmup", float)):
+        res = _run(*_command_args(command, logs["cart"], tmp_path), f"{flag}={text}")
+        what = "a number" if kind is float else "an integer"
+        if kind is float and text.count(",") == 1 and not _not_a_number(text.replace(",", ".")):
+            what += " (write the decimal point as '.')"
+        # the text as Python writes it: a newline or a control character stays on the line
+        assert _err(res) == f"vibrospeed: error: {flag}: {text!r} is not {what}"
+        assert list(tmp_path.iterdir()) == []
+
+
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(text=st.text(st.characters(min_codepoint=33, max_codepoint=126, exclude_characters=","),
+                    min_size=1, max_size=12).filter(_not_a_number))
+def test_a_number_parameter_given_text_is_refused_before_the_recording_is_read(
+        logs, tmp_path, monkeypatch, text):
+    _no_work(monkeypatch)
+    res = _run("estimate", logs["cart"], "-m", "grid", "-p", f"omega_max={text}",
+               "-o", tmp_path / "e.csv")
+    if text.lower() in ("none", "null"):  # omega_max may be None in some Configs only
+        return
+    assert _err(res) == (f"vibrospeed: error: parameter 'omega_max': cannot read '{text}' as "
+                         "float (a number)")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(("method", "name"), [
+    ("ekf", "q_omega"), ("rbpmf", "omega_min"), ("grid", "omega_max"), ("rbpf", "q_omega"),
+    ("shs", "omega_max"), ("aided", "q_omega"), ("gps-riss", "r_gps"), ("fuse", "min_sats"),
+    ("algebraic", "window"),
+])
+def test_every_method_refuses_a_number_parameter_given_text(logs, tmp_path, monkeypatch,
+                                                            method, name):
+    _no_work(monkeypatch)  # refused from the parameters alone, before the recording is read
+    line = _err(_run("estimate", logs["cart"], "-m", method, "-p", f"{name}=abc",
+                     "-o", tmp_path / "e.csv"))
+    assert line == f"vibrospeed: error: parameter '{name}': cannot read 'abc' as float (a number)"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_fuse_checks_the_names_it_hands_to_its_grid_tracker(logs, tmp_path, monkeypatch):
+    _no_work(monkeypatch)
+    line = _err(_run("estimate", logs["car"], "-m", "fuse", "-p", "omega_max=fast",
+                     "-o", tmp_path / "e.csv"))
+    assert line.endswith("parameter 'omega_max': cannot read 'fast' as float (a number)")
+
+
+def test_every_preset_and_documented_example_passes_the_number_check():
+    from vibrospeed import estimators, presets
+    from vibrospeed.cli.base import _check_numbers
+
+    for method in estimators.METHODS:
+        for name in presets.presets(method):
+            _check_numbers(method, presets.preset_params(method, name))
+        _check_numbers(method, {k: p.example for k, p in presets.PARAMETERS.get(method,
+                                                                                 {}).items()})
+
+
+def test_simulate_refuses_its_own_arguments_given_by_set(tmp_path):
+    for args, line in (([], "--set seed=3: give it as --seed"),
+                       ([], "--set duration=abc: give it as --duration"),
+                       (["--fs", "50"], "--set fs=100: give it as --fs")):
+        knob = line.split()[1].rstrip(":")
+        res = _run("simulate", *args, "--set", knob, "-o", tmp_path / "s.csv")
+        assert _err(res) == f"vibrospeed: error: {line}"
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(("args", "line"), [
+    (["estimate", "{cart}", "--bogus", "-o", "{out}"],
+     "no such option: --bogus (Possible options: --columns); see 'vibrospeed estimate --help'"),
+    (["estimate"], "missing argument 'input'; see 'vibrospeed estimate --help'"),
+    (["estimate", "{cart}"], "missing option '-o' / '--output'; "
+     "see 'vibrospeed estimate --help'"),
+    (["estimate", "{cart}", "-o", "{out}", "--wheel-radius"],
+     "option '--wheel-radius' requires an argument; see 'vibrospeed estimate --help'"),
+    (["--bogus"], "no such option: --bogus; see 'vibrospeed --help'"),
+    (["bogus"], "no such command 'bogus'; see 'vibrospeed --help'"),
+])
+def test_other_command_line_mistakes_are_one_line_too(logs, tmp_path, args, line):
+    res = _run(*[a.format(cart=logs["cart"], out=tmp_path / "e.csv") for a in args])
+    assert _err(res) == f"vibrospeed: error: {line}"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_help_is_still_the_help():
+    res = _run()  # no arguments: the top-level help, as before (Click writes it to stderr)
+    assert res.output.startswith("Usage: vibrospeed [OPTIONS] COMMAND [ARGS]...")
+    assert "vibrospeed: error" not in res.output
+    for command in ("simulate", "estimate", "batch", "report", "evaluate", "plot", "truth",
+                    "info", "methods"):
+        res = _run(command, "--help")
+        assert res.exit_code == 0 and res.stderr == ""
+        assert res.stdout.startswith(f"Usage: vibrospeed {command} [OPTIONS]")

@@ -39,6 +39,13 @@ class EstimateOptions:
     sort: bool = False
     topic: str | None = None
 
+    def __post_init__(self) -> None:
+        # a radius that is not a finite number > 0 m is refused here, before anything is read
+        # or written (the estimate CSV would be written and its JSON sidecar fail on nan/inf)
+        from vibrospeed.io.track import check_wheel_radius
+
+        check_wheel_radius(self.wheel_radius)
+
     def estimator_params(self) -> dict[str, Any]:
         """``params`` with the shortcuts folded in (as the CLI always did)."""
         params = dict(self.params)

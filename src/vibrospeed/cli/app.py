@@ -5,12 +5,12 @@ module per group (:mod:`~vibrospeed.cli.recordings`, :mod:`~vibrospeed.cli.estim
 
 from __future__ import annotations
 
-from vibrospeed.cli.base import app
+from vibrospeed.cli.base import OneLineCommand, app
 from vibrospeed.cli.estimate import batch, estimate, methods
 from vibrospeed.cli.recordings import info, simulate, truth
 from vibrospeed.cli.results import evaluate, plot, report
 
 for _command in (simulate, estimate, batch, report, evaluate, plot, truth, info, methods):
-    app.command()(_command)
+    app.command(cls=OneLineCommand)(_command)
 
 __all__ = ["app"]

@@ -12,14 +12,102 @@ import functools
 import os
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
+from typer.core import TyperCommand, TyperGroup
 
 from vibrospeed.errors import ParameterError, VibrospeedError
 
+try:  # typer >= 0.2x carries its own copy of click
+    from typer._click.exceptions import BadParameter, MissingParameter, UsageError
+except ImportError:  # pragma: no cover - older typer on click
+    from click.exceptions import BadParameter, MissingParameter, UsageError
+
+
+def _number_type(param) -> type | None:
+    """float or int where ``param`` takes one number (``float | None`` included), else None:
+    the annotation (typer >= 0.2x) or click's parameter type (older typer)."""
+    annotation = getattr(getattr(param, "type_descriptor", None), "annotation", None)
+    if annotation is None:
+        name = getattr(getattr(param, "type", None), "name", None)
+        return {"float": float, "integer": int}.get(name)
+    return annotation if annotation in (float, int) else None
+
+
+def _usage_line(command, ctx, argv: list[str], exc: Exception) -> str:
+    """Click's usage error ``exc`` (raised while ``command`` parsed ``argv``) as one line: a
+    number option given text names the option and the text (``--wheel-radius: 'abc' is not a
+    number``, ``--jobs: 'two' is not an integer``; the text as Python writes it, so a newline
+    in it stays on the line); any other (an unknown option, a missing argument) is Click's
+    message and where ``--help`` is."""
+    param = getattr(exc, "param", None)
+    kind = _number_type(param) if isinstance(exc, BadParameter) else None
+    if kind is not None:
+        raw = None
+        try:  # the text as given: the command's own option parser run again on its arguments
+            raw = command.make_parser(ctx).parse_args(args=list(argv))[0].get(param.name)
+        except (UsageError, AttributeError, TypeError):
+            pass
+        flag = max(param.opts, key=len) if param.opts else param.name
+        if isinstance(raw, str):
+            line = f"{flag}: {raw!r} is not {'a number' if kind is float else 'an integer'}"
+            if kind is float and raw.count(",") == 1:  # a decimal comma (0,31): say so
+                try:
+                    float(raw.replace(",", "."))
+                    line += " (write the decimal point as '.')"
+                except ValueError:
+                    pass
+            return line
+    text = " ".join(exc.format_message().split()).rstrip(".")
+    if isinstance(exc, BadParameter) and not isinstance(exc, MissingParameter) \
+            and getattr(param, "opts", None):
+        text = f"{max(param.opts, key=len)}: {text}"
+    return f"{text[:1].lower()}{text[1:]}; see '{ctx.command_path} --help'"
+
+
+def _refuse(command, ctx, argv: list[str], exc: Exception):
+    """Print ``exc`` as :func:`_usage_line` and exit with status 2 (no usage block)."""
+    print(f"vibrospeed: error: {_usage_line(command, ctx, argv, exc)}", file=sys.stderr)
+    raise typer.Exit(2) from None
+
+
+class _OneLine:
+    """Click's usage errors while a command line is parsed as one line and exit status 2
+    (:func:`_usage_line`); no arguments at all still print the help."""
+
+    def parse_args(self, ctx, args: list[str]) -> list[str]:
+        argv = list(args)  # the parser consumes its list
+        try:
+            return super().parse_args(ctx, args)
+        except UsageError as exc:
+            if type(exc).__name__ == "NoArgsIsHelpError":  # no arguments: the help, as asked
+                raise
+            _refuse(self, ctx, argv, exc)
+
+
+class OneLineCommand(_OneLine, TyperCommand):
+    """A ``vibrospeed`` command whose command-line errors are one line on stderr and exit
+    status 2, as the library's (:func:`_friendly`): a value that is not a number
+    (``vibrospeed: error: --wheel-radius: 'abc' is not a number``), an unknown option, a missing
+    argument; Click would print its usage block. ``--help`` is Typer's."""
+
+
+class OneLineGroup(_OneLine, TyperGroup):
+    """The ``vibrospeed`` group: an unknown option before the command or an unknown command is
+    one line and exit status 2 (:class:`OneLineCommand` does the commands' own options);
+    ``vibrospeed`` alone prints the help."""
+
+    def resolve_command(self, ctx, args: list[str]) -> Any:
+        try:
+            return super().resolve_command(ctx, args)
+        except UsageError as exc:
+            _refuse(self, ctx, list(args), exc)
+
+
 app = typer.Typer(
+    cls=OneLineGroup,
     name="vibrospeed",
     help=(
         "Estimate vehicle speed from a chassis accelerometer (wheel harmonics), longitudinal "
@@ -138,11 +226,80 @@ def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate:
 
 
 def _params(method: str, preset: str | None, param: list[str] | None) -> dict[str, str]:
-    """The estimator parameters: the preset's, then the -p flags over them."""
+    """The estimator parameters: the preset's, then the -p flags over them; a number parameter
+    given text that is not one is refused here, before any work (:func:`_check_numbers`)."""
     from vibrospeed import presets
     from vibrospeed.config import parse_params
 
-    return presets.apply(method, preset, parse_params(param))
+    params = presets.apply(method, preset, parse_params(param))
+    _check_numbers(method, params)
+    return params
+
+
+def _number_fields(cls) -> dict[str, list]:
+    """The names ``-p`` reaches through Config dataclass ``cls`` (as
+    :func:`vibrospeed.config.flat_names`) whose field holds numbers: ``float``, ``int``, either
+    or None, or a tuple / list of them; each name with its field types (nested Configs may share
+    a name)."""
+    import dataclasses
+    import types
+    import typing
+
+    from vibrospeed.config import field_types
+
+    def numeric(typ) -> bool:
+        origin, args = typing.get_origin(typ), typing.get_args(typ)
+        if origin in (typing.Union, types.UnionType):
+            rest = [a for a in args if a is not type(None)]
+            return bool(rest) and all(numeric(a) for a in rest)
+        if origin in (tuple, list):
+            items = [a for a in args if a is not Ellipsis]
+            return bool(items) and all(a in (float, int) for a in items)
+        return typ in (float, int)
+
+    out: dict[str, list] = {}
+    for name, typ in field_types(cls).items():
+        sub = typ if dataclasses.is_dataclass(typ) else next(
+            (a for a in typing.get_args(typ) if dataclasses.is_dataclass(a)), None)
+        if sub is not None:
+            for k, v in _number_fields(sub).items():
+                out.setdefault(k, []).extend(v)
+        elif numeric(typ):
+            out.setdefault(name, []).append(typ)
+    return out
+
+
+def _check_numbers(method: str, params: dict[str, Any]) -> None:
+    """Refuse a ``-p`` value that the method's Config reads as numbers but that is not
+    (``-p omega_max=abc``): the Config's own one-line :class:`ParameterError`
+    (``parameter 'omega_max': cannot read 'abc' as float (a number)``), raised before the
+    recording is read, for every method alike (some estimators read a number parameter
+    before their Config does). Names the Config does not know (fuse: nor its grid tracker's)
+    are left to the estimator."""
+    import dataclasses
+
+    from vibrospeed import estimators
+    from vibrospeed.config import parse_value
+
+    fields: dict[str, list] = {}
+    # fuse hands the names its Config lacks to its grid tracker (fuse.estimate's docstring)
+    for name in {"fuse": ("fuse", "grid")}.get(method, (method,)):
+        cfg = getattr(estimators.get(name), "Config", None) \
+            if name in estimators.METHODS else None
+        if dataclasses.is_dataclass(cfg):
+            own = _number_fields(cfg)
+            fields.update({k: v for k, v in own.items() if k not in fields})
+    for name, text in params.items():
+        if not isinstance(text, str) or name not in fields:
+            continue
+        errors = []
+        for typ in fields[name]:
+            try:
+                parse_value(text, typ, name)
+            except ParameterError as exc:
+                errors.append(exc)
+        if len(errors) == len(fields[name]):
+            raise errors[0]
 
 
 def _unknown_hint(method: str, exc: ParameterError) -> ParameterError:

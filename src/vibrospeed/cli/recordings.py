@@ -74,7 +74,11 @@ def simulate(
         raise ParameterError("simulate: missing -o / --output (the file to write)")
     _check_output(output)
     kw = {} if fs is None else {"fs": fs}
-    rec = sim.simulate(scenario, seed=seed, duration=duration, **kw, **parse_params(set_))
+    knobs = parse_params(set_)
+    for name in ("seed", "duration", *kw):  # simulate's own arguments: one way to give each
+        if name in knobs:
+            raise ParameterError(f"--set {name}={knobs[name]}: give it as --{name}")
+    rec = sim.simulate(scenario, seed=seed, duration=duration, **kw, **knobs)
     io.write(rec, output)
     err.print(f"wrote {output}: {len(rec)} samples, {rec.duration:.1f} s at {rec.fs:.4g} Hz, "
               f"channels {', '.join(rec.channels)}", markup=False, soft_wrap=True)

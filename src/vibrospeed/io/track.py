@@ -7,26 +7,29 @@
 (s, rad/s, m/s; an empty cell is NaN, e.g. ``speed`` when the wheel radius is unknown).
 ``est.csv.json`` holds ``method``, ``params``, ``level``, ``wheel_radius``, the vibrospeed
 ``version``, the ``input`` file with its ``input_sha256``, ``notes`` and any extra ``meta``.
-Both files are written atomically; :func:`read_track` reads them back exactly.
+Both files are written atomically, the sidecar's text made first (a wheel radius that is not a
+finite number > 0 m, or any value JSON cannot hold, stops the writer before the CSV exists);
+:func:`read_track` reads them back exactly.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from vibrospeed.errors import InputError, ReaderError
+from vibrospeed.errors import InputError, ParameterError, ReaderError
 from vibrospeed.io._common import jsonable, sha256_path
 from vibrospeed.io._csv import CsvTable, open_text
 from vibrospeed.io.atomic import atomic_write_text
 from vibrospeed.io.canonical import _write_columns
 from vibrospeed.types import Track
 
-__all__ = ["TRACK_COLUMNS", "read_track", "write_track"]
+__all__ = ["TRACK_COLUMNS", "check_wheel_radius", "read_track", "write_track"]
 
 TRACK_COLUMNS = (
     "t", "omega", "omega_lo", "omega_hi", "speed",
@@ -38,6 +41,24 @@ def _version() -> str:
     from vibrospeed import __version__
 
     return __version__
+
+
+def check_wheel_radius(value: Any, name: str = "wheel_radius") -> float | None:
+    """``value`` as a wheel radius in m: None (not known) passes; a finite number > 0 is
+    returned as float; anything else (nan, inf, 0, a negative number, text that is not a
+    number) is a :class:`ParameterError` naming ``name`` and the value. ``speed = r * omega``
+    needs ``r > 0``, and the sidecar's JSON cannot hold nan or inf; the estimate entry points
+    (:class:`vibrospeed.batch.EstimateOptions`, the streamed grid estimate) call this before
+    they read or write anything, :func:`write_track` before it writes."""
+    if value is None:
+        return None
+    try:
+        r = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number in m, got {value!r}") from None
+    if not (math.isfinite(r) and r > 0):
+        raise ParameterError(f"{name} must be a finite number > 0 m, got {r:g}")
+    return r
 
 
 def write_track(
@@ -55,8 +76,13 @@ def write_track(
     input_path : the recording the track was estimated from; its path and SHA-256 checksum (of
         the file, or of all files of a folder) go into the sidecar. ``meta["input"]`` is used
         when this is not given.
+
+    Raises :class:`ParameterError` before anything is written where ``track.wheel_radius`` is
+    not None or a finite number > 0 m (:func:`check_wheel_radius`) or the sidecar cannot be
+    made.
     """
     p = Path(path)
+    check_wheel_radius(track.wheel_radius, f"{p}: wheel_radius")
     extras = list(track.extras)
     clash = [k for k in extras if k in TRACK_COLUMNS]
     if clash:
@@ -86,8 +112,12 @@ def write_track(
         "notes": list(track.notes),
         "meta": jsonable(meta),
     }
+    try:  # the sidecar's text first: a value JSON cannot hold stops before the CSV is written
+        text = json.dumps(side, indent=1, allow_nan=False) + "\n"
+    except ValueError as exc:
+        raise ParameterError(f"{p}.json: cannot write the sidecar: {exc}") from None
     _write_columns(p, [*TRACK_COLUMNS, *extras], cols)
-    atomic_write_text(Path(f"{p}.json"), json.dumps(side, indent=1, allow_nan=False) + "\n")
+    atomic_write_text(Path(f"{p}.json"), text)
 
 
 def read_track(path: str | os.PathLike[str]) -> Track:

@@ -188,9 +188,10 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     from vibrospeed.io._common import jsonable, sha256_path
     from vibrospeed.io.atomic import atomic_path, atomic_write_text
     from vibrospeed.io.canonical import _fmt
-    from vibrospeed.io.track import TRACK_COLUMNS
+    from vibrospeed.io.track import TRACK_COLUMNS, check_wheel_radius
     from vibrospeed.signal.quality import flags_at, recording_quality
 
+    check_wheel_radius(wheel_radius)  # before anything is read or written
     rec = read_accelerometer(input_path, fmt, axis=axis, chunk_rows=chunk_rows, rows=rows,
                              columns=columns, mapping=mapping, rate=rate)
     axis, axis_note = only_axis(rec, axis)

@@ -1,0 +1,91 @@
+"""Bad input through the Python API: a wheel radius that is not a finite number > 0 m is a
+one-line :class:`~vibrospeed.errors.ParameterError` naming the value, raised before anything is
+read or written (the estimate CSV used to be written and its JSON sidecar then fail on nan)."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from vibrospeed import io, sim
+from vibrospeed.batch import EstimateOptions, estimate_recording
+from vibrospeed.errors import ParameterError
+from vibrospeed.estimators import METHODS
+from vibrospeed.estimators.grid import stream
+from vibrospeed.io.track import check_wheel_radius
+from vibrospeed.types import Track
+
+BAD = [math.nan, math.inf, -math.inf, 0.0, -1.0]
+
+
+@pytest.fixture(scope="module")
+def cart(tmp_path_factory):
+    path = tmp_path_factory.mktemp("api_input") / "cart.csv"
+    io.write(sim.simulate("cart", seed=1, duration=10), path)
+    return path
+
+
+def _message(value) -> str:
+    return f"wheel_radius must be a finite number > 0 m, got {value:g}"
+
+
+@pytest.mark.parametrize("value", BAD)
+@pytest.mark.parametrize("method", list(METHODS))
+def test_every_method_refuses_the_radius_before_reading_or_writing(tmp_path, method, value):
+    missing = tmp_path / "not_there.csv"  # never read: the radius is refused first
+    with pytest.raises(ParameterError) as exc:
+        estimate_recording(missing, tmp_path / "est.csv",
+                           EstimateOptions(method=method, wheel_radius=value))
+    assert str(exc.value) == _message(value)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("value", BAD)
+def test_the_streamed_grid_estimate_refuses_the_radius_before_writing(cart, tmp_path, value):
+    with pytest.raises(ParameterError) as exc:
+        stream.estimate_file(cart, tmp_path / "est.csv", params={}, wheel_radius=value)
+    assert str(exc.value) == _message(value)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("value", BAD)
+def test_write_track_refuses_a_track_with_such_a_radius_and_writes_nothing(tmp_path, value):
+    t = np.arange(5) * 0.01
+    track = Track.from_omega(t, np.full(5, 10.0), np.ones(5), wheel_radius=value, method="ekf")
+    out = tmp_path / "est.csv"
+    with pytest.raises(ParameterError) as exc:
+        io.write_track(track, out)
+    assert str(exc.value) == f"{out}: {_message(value)}"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_write_track_makes_the_sidecar_before_the_csv(tmp_path):
+    t = np.arange(5) * 0.01
+    track = Track.from_omega(t, np.full(5, 10.0), np.ones(5), wheel_radius=0.3)
+    track.level = math.nan  # params and meta are made JSON-safe; the level is not
+    out = tmp_path / "est.csv"
+    with pytest.raises(ParameterError, match="est.csv.json: cannot write the sidecar"):
+        io.write_track(track, out)
+    assert list(tmp_path.iterdir()) == []  # no CSV without its sidecar
+
+
+def test_a_radius_that_is_not_a_number_is_named_as_given():
+    with pytest.raises(ParameterError) as exc:
+        EstimateOptions(wheel_radius="abc")
+    assert str(exc.value) == "wheel_radius must be a number in m, got 'abc'"
+
+
+def test_good_radii_pass_and_reach_the_estimate(cart, tmp_path):
+    assert check_wheel_radius(None) is None
+    for value, expect in ((0.31, 0.31), (np.float32(0.5), 0.5), ("0.08", 0.08), (2, 2.0)):
+        assert check_wheel_radius(value) == expect
+    assert check_wheel_radius(5e-324) == 5e-324  # the smallest float > 0: a radius all the same
+    out = tmp_path / "est.csv"
+    est = estimate_recording(cart, out, EstimateOptions(method="ekf", wheel_radius=0.2,
+                                                        params={"omega_max": "30"}))
+    side = json.loads((tmp_path / "est.csv.json").read_text())
+    assert side["wheel_radius"] == 0.2
+    track = io.read_track(out)
+    np.testing.assert_allclose(track.speed, 0.2 * track.omega)
+    np.testing.assert_allclose(track.omega, est.track.omega, rtol=1e-9)
