@@ -2,6 +2,7 @@
 one-line :class:`~vibrospeed.errors.ParameterError` naming the value, raised before anything is
 read or written (the estimate CSV used to be written and its JSON sidecar then fail on nan)."""
 
+import importlib
 import json
 import math
 
@@ -89,3 +90,13 @@ def test_good_radii_pass_and_reach_the_estimate(cart, tmp_path):
     track = io.read_track(out)
     np.testing.assert_allclose(track.speed, 0.2 * track.omega)
     np.testing.assert_allclose(track.omega, est.track.omega, rtol=1e-9)
+
+
+@pytest.mark.parametrize("method", ["grid", "aided", "fuse"])
+def test_text_parameter_that_is_not_a_number_is_a_parameter_error(method):
+    """``params={"omega_max": "abc"}`` names the parameter (it used to be a bare ValueError
+    from the default walk's ``float(omega_max)``); text that is a number is read as one."""
+    rec = sim.simulate("cart", seed=1, duration=5)
+    with pytest.raises(ParameterError, match="omega_max.*'abc'"):
+        importlib.import_module(METHODS[method][0]).estimate(
+            rec, wheel_radius=0.1, params={"omega_max": "abc"})

@@ -12,6 +12,7 @@ import dataclasses
 
 import numpy as np
 
+from vibrospeed.config import parse_value
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
@@ -140,7 +141,8 @@ def estimate(
     if kind == "grid":
         params = {**GRID_TRACKER, **params}
         # the grid product's walk for this range (grid.method.q_omega_for)
-        params.setdefault("q_omega", q_omega_for(float(params.get("omega_max", 120.0))))
+        params.setdefault("q_omega", q_omega_for(parse_value(params.get("omega_max", 120.0), float,
+                                                              "omega_max")))
     inp = {k: params.pop(k) for k in INPUT_PARAMS if k in params}
     comb_kw = {k: params.pop(k) for k in COMB_PARAMS if k in params}
     if comb_kw and kind != "grid":

@@ -22,7 +22,7 @@ import numpy as np
 import vibrospeed.estimators.grid.app as _app
 import vibrospeed.estimators.grid.config as _cfg
 import vibrospeed.estimators.grid.filter as _filt
-from vibrospeed.config import config_from_params
+from vibrospeed.config import config_from_params, parse_value
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.grid.comb import frame_evidence  # noqa: F401 (API)
 from vibrospeed.estimators.grid.frames import evidence, frame_ends_at, step_evidence
@@ -390,7 +390,8 @@ def _prepare(recording: Recording, axis: str, params: dict | None):
     model_names = {f.name for f in dataclasses.fields(HarmonicModel)}
     params = {**{k: v for k, v in GRID_DEFAULTS.items() if k not in model_names}, **params}
     if "q_omega" not in params:
-        params["q_omega"] = q_omega_for(float(params.get("omega_max", _cfg.Config.omega_max)))
+        params["q_omega"] = q_omega_for(parse_value(params.get("omega_max", _cfg.Config.omega_max),
+                                                     float, "omega_max"))
     params.setdefault("claim_level", CLAIM_LEVEL.get(str(params["smooth"]), CLAIM_LEVEL["fb"]))
     config_t, y, rms, notes = _app.prepare(recording, axis, _cfg.Config, params, _grid_model)
     config = config_from_params(Config, comb_kw, tracker=config_t)
