@@ -10,6 +10,7 @@ overhead; every number must be the one of ``predictor_reference`` (``scipy.signa
 import numpy as np
 import pytest
 
+from vibrospeed.signal import _whiten_kernels as kern
 from vibrospeed.signal import whiten as wh
 
 
@@ -93,7 +94,7 @@ def test_pairwise_sum_is_numpys():
     rng = np.random.default_rng(9)
     for n in [0, 1, 7, 8, 9, 127, 128, 129, 200, 257, 888, 1000, 4099]:
         x = rng.normal(size=n + 3) * 10 ** rng.uniform(-3, 3, n + 3)
-        assert wh._pairwise(x, 3, n) == np.sum(x[3:])
+        assert kern._pairwise(x, 3, n) == np.sum(x[3:])
 
 
 @pytest.mark.parametrize("fs", [1.0, 6.0, 7.0])
