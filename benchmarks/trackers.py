@@ -39,6 +39,7 @@ import numpy as np
 
 from vibrospeed import sim
 from vibrospeed.estimators import get
+from vibrospeed.presets import PRESETS
 from vibrospeed.signal import prefilter as pf
 from vibrospeed.types import Recording
 
@@ -151,8 +152,11 @@ def _selected(methods, only: str | None):
 
 #: the causal grid settings for a lock from an unknown start (benchmarks/trackers/RESULTS.md,
 #: follow-up 5)
+#: the lock recipe as it was measured in follow-up 5 (benchmarks/trackers/RESULTS.md)
 LOCK_RECIPE = {"smooth": "none", "q_omega": 4.0, "comb_axes": "xyz", "amb_rel": 0.02,
                "amb_abs": 1.0, "mode_hold": 4.0}
+#: what ``--preset lock`` gives today (the recipe and the strict comb; vibrospeed.presets)
+LOCK_PRESET = dict(PRESETS["grid"]["lock"].params)
 
 
 def transient_methods(rbpf_seeds: int, particles: int):
@@ -173,6 +177,7 @@ def transient_methods(rbpf_seeds: int, particles: int):
         # window and its hysteresis
         ("grid (filter, lock recipe: q_omega 4, comb_axes xyz, mode 2 % / 1 rad/s, hold 4)",
          "grid", LOCK_RECIPE, None),
+        ("grid (--preset lock: the lock recipe and the strict comb)", "grid", LOCK_PRESET, None),
         # two-component omega walk (rbpmf.Config.q_omega_fast / p_fast; issue 3 follow-up)
         *[(f"RBPMF (walk mix q {qs:g} / {qf:g}, p_fast {pf_:g}, thesis-hp)", "rbpmf",
            {"prefilter": "thesis-hp", **_mix(qs, qf, pf_)}, None) for qs, qf, pf_ in WALK_MIX],
