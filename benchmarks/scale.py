@@ -472,6 +472,16 @@ def part_online(ref: str | None) -> list[str]:
         src = subprocess.run(["git", "show", f"{ref}:src/vibrospeed/signal/whiten.py"],
                              capture_output=True, text=True, cwd=ROOT, check=True).stdout
         d = Path(tempfile.mkdtemp())
+        # since 044fd30 the compiled kernels live beside the whitener: take REF's too, so the
+        # row is the whitener at REF and not REF's model level on this tree's kernels
+        kernels = subprocess.run(
+            ["git", "show", f"{ref}:src/vibrospeed/signal/_whiten_kernels.py"],
+            capture_output=True, text=True, cwd=ROOT)
+        if kernels.returncode == 0:
+            (d / "_whiten_kernels_ref.py").write_text(kernels.stdout)
+            src = src.replace("from vibrospeed.signal._whiten_kernels import",
+                              "from _whiten_kernels_ref import")
+            sys.path.insert(0, str(d))
         (d / "whiten_ref.py").write_text(src)
         spec = importlib.util.spec_from_file_location("whiten_ref", d / "whiten_ref.py")
         old = importlib.util.module_from_spec(spec)
