@@ -100,3 +100,23 @@ def test_text_parameter_that_is_not_a_number_is_a_parameter_error(method):
     with pytest.raises(ParameterError, match="omega_max.*'abc'"):
         importlib.import_module(METHODS[method][0]).estimate(
             rec, wheel_radius=0.1, params={"omega_max": "abc"})
+
+
+@pytest.mark.parametrize("method", ["grid", "rbpmf", "ekf", "shs"])
+@pytest.mark.parametrize("value", [math.nan, math.inf, -1.0])
+def test_an_estimator_refuses_a_radius_it_cannot_convert_with(method, value):
+    """The estimators' own ``estimate(wheel_radius=...)`` (not only the batch entry point): a
+    Track is never built with NaN speeds from a bad radius; None and 0 mean "not known"."""
+    rec = sim.simulate("cart", seed=1, duration=5)
+    est = importlib.import_module(METHODS[method][0]).estimate
+    with pytest.raises(ParameterError, match="wheel_radius must be a finite number > 0 m"):
+        est(rec, wheel_radius=value)
+
+
+def test_a_known_radius_converts_and_zero_means_unknown():
+    t = np.arange(5) * 0.1
+    tr = Track.from_omega(t, np.full(5, 10.0), np.ones(5), wheel_radius=0.3)
+    assert np.allclose(tr.speed, 3.0) and np.allclose(tr.speed_std, 0.3)
+    assert np.isnan(Track.from_omega(t, np.full(5, 10.0), wheel_radius=0).speed).all()
+    back = Track.from_speed(t, np.full(5, 3.0), wheel_radius=0.3)
+    assert np.allclose(back.omega, 10.0)

@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from vibrospeed.errors import InputError
+from vibrospeed.errors import InputError, ParameterError
 
 #: Canonical channels and their SI units. ``t`` (s) is the time line itself, not a channel.
 CHANNEL_UNITS: dict[str, str] = {
@@ -171,6 +171,17 @@ class Recording:
         )
 
 
+def _radius(wheel_radius) -> float:
+    """m, the radius a Track converts with: NaN where it is not known (None or 0); nan, inf or
+    a negative radius is a :class:`ParameterError` (``speed = r omega`` needs ``r > 0``)."""
+    if not wheel_radius:
+        return np.nan
+    r = float(wheel_radius)
+    if not (math.isfinite(r) and r > 0):
+        raise ParameterError(f"wheel_radius must be a finite number > 0 m, got {r:g}")
+    return r
+
+
 def _with_band(x, std, lo, hi, level: float):
     """Arrays ``(x, std, lo, hi)``; a missing band is ``x -+ z std`` for the level's quantile."""
     x = np.asarray(x, float)
@@ -221,7 +232,7 @@ class Track:
         """Build from an omega estimate (rad/s); the band defaults to ``mean +- z std`` (Gaussian
         quantile for ``level``); speed = r omega where the radius is known."""
         x, std, lo, hi = _with_band(omega, omega_std, lo, hi, level)
-        r = wheel_radius if wheel_radius else np.nan
+        r = _radius(wheel_radius)
         return cls(np.asarray(t, float), x, std, lo, hi, r * x, r * std, r * lo, r * hi,
                    level=level, wheel_radius=wheel_radius, **kw)
 
@@ -230,7 +241,7 @@ class Track:
                    wheel_radius: float | None = None, **kw) -> Track:
         """Build from a speed estimate (m/s); omega = speed / r where the radius is known."""
         v, std, lo, hi = _with_band(speed, speed_std, lo, hi, level)
-        r = wheel_radius if wheel_radius else np.nan
+        r = _radius(wheel_radius)
         return cls(np.asarray(t, float), v / r, std / r, lo / r, hi / r, v, std, lo, hi,
                    level=level, wheel_radius=wheel_radius, **kw)
 
