@@ -234,7 +234,7 @@ class Track:
         x, std, lo, hi = _with_band(omega, omega_std, lo, hi, level)
         r = _radius(wheel_radius)
         return cls(np.asarray(t, float), x, std, lo, hi, r * x, r * std, r * lo, r * hi,
-                   level=level, wheel_radius=wheel_radius, **kw)
+                   level=level, wheel_radius=wheel_radius or None, **kw)
 
     @classmethod
     def from_speed(cls, t, speed, speed_std=None, *, lo=None, hi=None, level: float = 0.98,
@@ -243,7 +243,7 @@ class Track:
         v, std, lo, hi = _with_band(speed, speed_std, lo, hi, level)
         r = _radius(wheel_radius)
         return cls(np.asarray(t, float), v / r, std / r, lo / r, hi / r, v, std, lo, hi,
-                   level=level, wheel_radius=wheel_radius, **kw)
+                   level=level, wheel_radius=wheel_radius or None, **kw)
 
     def __len__(self) -> int:
         return int(self.t.size)
