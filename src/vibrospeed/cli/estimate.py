@@ -210,12 +210,40 @@ def estimate(
     for note in rec.notes + track.notes:
         err.print(f"note: {note}", markup=False)
     err.print(f"wrote {output} ({len(track)} rows, method {method})", markup=False, soft_wrap=True)
+    err.print(summary_line(track), markup=False, soft_wrap=True)
     if plot is not None:
         from vibrospeed.eval.plot import plot_track
 
         plot_track(plot, rec, track, axis=vibration_channel(rec, est.axis),
                    posterior=est.grids.get("posterior"), grid=est.grids.get("grid"))
         err.print(f"wrote {plot}", markup=False, soft_wrap=True)
+
+
+def summary_line(track) -> str:
+    """What the estimate rests on, in one line (:func:`vibrospeed.eval.metrics.track_summary`,
+    the numbers of a batch summary row): the share of samples with a claimed wheel line, the
+    median speed (or omega without a radius) and the distance; where most of the drive has no
+    claimed line, that omega there is the tracker's guess and its band says how little it
+    knows."""
+    from vibrospeed.eval.metrics import track_summary
+
+    s = track_summary(track)
+    parts = []
+    share = s["signal_share"]
+    if share == share:
+        parts.append(f"a wheel line claimed on {100 * share:.1f} % of the samples")
+    if s["median_speed"] == s["median_speed"]:
+        parts.append(f"median speed {s['median_speed']:.2f} m/s")
+        if s["distance_m"] == s["distance_m"]:
+            parts.append(f"distance {s['distance_m']:.0f} m")
+    elif s["median_omega"] == s["median_omega"]:
+        parts.append(f"median omega {s['median_omega']:.1f} rad/s")
+    if s["note"]:
+        parts.append(s["note"])
+    elif share == share and share < 0.5:
+        parts.append("where no line is claimed omega is the tracker's best guess: read its "
+                     "band (omega_lo, omega_hi)")
+    return "summary: " + "; ".join(parts) if parts else "summary: -"
 
 
 @_friendly
