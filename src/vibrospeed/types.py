@@ -171,15 +171,28 @@ class Recording:
         )
 
 
-def _radius(wheel_radius) -> float:
-    """m, the radius a Track converts with: NaN where it is not known (None or 0); nan, inf or
-    a negative radius is a :class:`ParameterError` (``speed = r omega`` needs ``r > 0``)."""
-    if not wheel_radius:
-        return np.nan
-    r = float(wheel_radius)
+def check_wheel_radius(value: Any, name: str = "wheel_radius") -> float | None:
+    """``value`` as a wheel radius in m: None (not known) passes; a finite number > 0 is
+    returned as float; anything else (nan, inf, 0, a negative number, text that is not a
+    number) is a :class:`ParameterError` naming ``name`` and the value. ``speed = r * omega``
+    needs ``r > 0``, and the sidecar's JSON cannot hold nan or inf; the estimate entry points
+    (:class:`vibrospeed.batch.EstimateOptions`, the streamed grid estimate) call this before
+    they read or write anything, :func:`vibrospeed.io.write_track` before it writes."""
+    if value is None:
+        return None
+    try:
+        r = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number in m, got {value!r}") from None
     if not (math.isfinite(r) and r > 0):
-        raise ParameterError(f"wheel_radius must be a finite number > 0 m, got {r:g}")
+        raise ParameterError(f"{name} must be a finite number > 0 m, got {r:g}")
     return r
+
+
+def _radius(wheel_radius) -> float:
+    """m, the radius a Track converts with: NaN where it is not known (None or 0), else
+    :func:`check_wheel_radius` (nan, inf or a negative radius is a ParameterError)."""
+    return check_wheel_radius(wheel_radius) if wheel_radius else np.nan
 
 
 def _with_band(x, std, lo, hi, level: float):

@@ -15,7 +15,6 @@ finite number > 0 m, or any value JSON cannot hold, stops the writer before the 
 from __future__ import annotations
 
 import json
-import math
 import os
 from pathlib import Path
 from typing import Any
@@ -27,7 +26,7 @@ from vibrospeed.io._common import jsonable, sha256_path
 from vibrospeed.io._csv import CsvTable, open_text
 from vibrospeed.io.atomic import atomic_write_text
 from vibrospeed.io.canonical import _write_columns
-from vibrospeed.types import Track
+from vibrospeed.types import Track, check_wheel_radius
 
 __all__ = ["TRACK_COLUMNS", "check_wheel_radius", "read_track", "write_track"]
 
@@ -41,24 +40,6 @@ def _version() -> str:
     from vibrospeed import __version__
 
     return __version__
-
-
-def check_wheel_radius(value: Any, name: str = "wheel_radius") -> float | None:
-    """``value`` as a wheel radius in m: None (not known) passes; a finite number > 0 is
-    returned as float; anything else (nan, inf, 0, a negative number, text that is not a
-    number) is a :class:`ParameterError` naming ``name`` and the value. ``speed = r * omega``
-    needs ``r > 0``, and the sidecar's JSON cannot hold nan or inf; the estimate entry points
-    (:class:`vibrospeed.batch.EstimateOptions`, the streamed grid estimate) call this before
-    they read or write anything, :func:`write_track` before it writes."""
-    if value is None:
-        return None
-    try:
-        r = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number in m, got {value!r}") from None
-    if not (math.isfinite(r) and r > 0):
-        raise ParameterError(f"{name} must be a finite number > 0 m, got {r:g}")
-    return r
 
 
 def write_track(
