@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 
 import numpy as np
 import pytest
@@ -128,7 +129,7 @@ def test_streamed_cli_output_equals_the_in_memory_one(tmp_path, monkeypatch):
     path = tmp_path / "drive.csv"
     io.write(rec, path)
     # -m grid: this drive has GPS speed, where estimate's default is fuse (not streamed)
-    r = _cli("estimate", path, "-m", "grid", "-o", tmp_path / "whole.csv")
+    r = whole = _cli("estimate", path, "-m", "grid", "-o", tmp_path / "whole.csv")
     assert r.exit_code == 0, r.output
     assert "in blocks" not in r.output
     monkeypatch.setattr(stream, "STREAM_ROWS", 1000)
@@ -145,6 +146,12 @@ def test_streamed_cli_output_equals_the_in_memory_one(tmp_path, monkeypatch):
         assert a[k] == b[k], k
     assert [x for x in b["notes"] if not x.startswith("block mode")] == a["notes"]
     assert a["meta"]["axis"] == b["meta"]["axis"] == "y"
+    # both end with the same summary numbers (the streamed medians from float32 copies)
+    lines = [next(ln for ln in res.output.splitlines() if ln.startswith("summary: "))
+             for res in (whole, r)]
+    nums = [np.array([float(x) for x in re.findall(r"[-+]?\d+\.?\d*", ln)]) for ln in lines]
+    assert re.sub(r"[\d.]+", "#", lines[0]) == re.sub(r"[\d.]+", "#", lines[1])
+    assert np.allclose(nums[0], nums[1], rtol=1e-6, atol=0.011)
     # a 20 s look-ahead past each 20 s block: within the block mode's tolerance
     monkeypatch.setattr(blocks, "LOOKAHEAD_S", 20.0)
     r = _cli("estimate", path, "-m", "grid", "-o", tmp_path / "short.csv")

@@ -188,15 +188,20 @@ def estimate(
                                       sort=sort, topic=topic, plot=plot is not None)
             streamed = False if rows is None else (rows, [])
         if rec is None and streamed:  # a long log: in blocks, bounded memory
+            from vibrospeed.eval.metrics import SummaryAccumulator
+
+            summary = SummaryAccumulator()
             st = stream.estimate_file(input, output, params=opts.estimator_params(), axis=axis,
                                       wheel_radius=wheel_radius, fmt=fmt,
                                       meta={"preset": preset}, progress=sys.stderr.isatty(),
                                       rows=streamed[0], notes=streamed[1], columns=columns,
-                                      mapping=mapping, rate=rate, plot=plot)
+                                      mapping=mapping, rate=rate, plot=plot,
+                                      on_block=summary.add)
             for note in st.recording_notes + st.notes:
                 err.print(f"note: {note}", markup=False)  # [ms] is a unit here
             err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)",
                       markup=False, soft_wrap=True)  # a path is text, not markup
+            err.print(summary_line(summary.result()), markup=False, soft_wrap=True)
             if plot is not None:
                 err.print(f"wrote {plot} (decimated spectrogram, no posterior image)",
                           markup=False, soft_wrap=True)
@@ -210,7 +215,9 @@ def estimate(
     for note in rec.notes + track.notes:
         err.print(f"note: {note}", markup=False)
     err.print(f"wrote {output} ({len(track)} rows, method {method})", markup=False, soft_wrap=True)
-    err.print(summary_line(track), markup=False, soft_wrap=True)
+    from vibrospeed.eval.metrics import track_summary
+
+    err.print(summary_line(track_summary(track)), markup=False, soft_wrap=True)
     if plot is not None:
         from vibrospeed.eval.plot import plot_track
 
@@ -219,15 +226,12 @@ def estimate(
         err.print(f"wrote {plot}", markup=False, soft_wrap=True)
 
 
-def summary_line(track) -> str:
-    """What the estimate rests on, in one line (:func:`vibrospeed.eval.metrics.track_summary`,
-    the numbers of a batch summary row): the share of samples with a claimed wheel line, the
-    median speed (or omega without a radius) and the distance; where most of the drive has no
-    claimed line, that omega there is the tracker's guess and its band says how little it
-    knows."""
-    from vibrospeed.eval.metrics import track_summary
-
-    s = track_summary(track)
+def summary_line(s: dict) -> str:
+    """What the estimate rests on, in one line, from its summary numbers ``s``
+    (:func:`vibrospeed.eval.metrics.track_summary`, a batch row's): the share of samples with a
+    claimed wheel line, the median speed (or omega without a radius) and the distance; where
+    most of the drive has no claimed line, that omega there is the tracker's guess and its band
+    says how little it knows."""
     parts = []
     share = s["signal_share"]
     if share == share:

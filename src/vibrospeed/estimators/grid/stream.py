@@ -175,13 +175,15 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
                   block_s: float | None = None, lookahead_s: float | None = None,
                   chunk_rows: int = CHUNK_ROWS, rows: int | None = None,
                   columns: str | None = None, mapping=None, rate: float | None = None,
-                  notes: list[str] | None = None, plot=None) -> Streamed:
+                  notes: list[str] | None = None, plot=None, on_block=None) -> Streamed:
     """Estimate ``input_path`` with the grid tracker block by block and write ``output`` (CSV)
     and ``output.json`` as ``vibrospeed estimate`` does (module docstring). ``rows``: the
     file's row count from :func:`stream_rows` (not counted again); ``columns``, ``mapping``,
     ``rate``: a column mapping; ``notes``: notes put before the estimate's (the sidecar's and
     the returned ones); ``plot``: also a PNG of a decimated spectrogram with the estimate
-    (:class:`StreamPlot`), written after the sidecar."""
+    (:class:`StreamPlot`), written after the sidecar; ``on_block``: called with each block's
+    Track as it is written, in order (the CLI's summary numbers,
+    :class:`vibrospeed.eval.metrics.SummaryAccumulator`)."""
     from vibrospeed import __version__
     from vibrospeed.estimators.common import axis_channel, only_axis
     from vibrospeed.estimators.grid import blocks as _blocks
@@ -231,6 +233,8 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
             for a in range(0, len(track), 20000):
                 w.writerows(zip(*(_fmt(c[a:a + 20000]) for c in cols), strict=True))
             n_out += len(track)
+            if on_block is not None:
+                on_block(track)
             if drawing is not None:
                 drawing.add(track)
     all_notes = [*blk.notes, *q_notes]

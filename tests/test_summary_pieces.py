@@ -1,0 +1,65 @@
+"""The summary numbers of a track given in pieces (a log estimated in blocks) against those of
+the whole track (:func:`vibrospeed.eval.metrics.track_summary`, the batch row's)."""
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vibrospeed.eval.metrics import SummaryAccumulator, track_summary
+from vibrospeed.types import Track
+
+
+def _track(seed: int, n: int, *, claims: bool, radius) -> Track:
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.005, 0.02, n))
+    omega = rng.uniform(5, 80, n)
+    omega[rng.random(n) < 0.1] = np.nan  # gaps, as a NaN-laden log gives
+    tr = Track.from_omega(t, omega, np.ones(n), wheel_radius=radius)
+    sig = (rng.random(n) < 0.3).astype(float) if claims else np.zeros(n)
+    sig[rng.random(n) < 0.05] = np.nan
+    tr.extras["has_signal"] = sig
+    tr.extras["standstill"] = np.zeros(n)
+    return tr
+
+
+def _pieces(tr: Track, cuts: list[int]) -> list[Track]:
+    edges = [0, *sorted(set(cuts)), len(tr)]
+    out = []
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        if b > a:
+            out.append(Track.from_omega(tr.t[a:b], tr.omega[a:b], tr.omega_std[a:b],
+                                        wheel_radius=tr.wheel_radius))
+            out[-1].extras.update({k: np.asarray(v)[a:b] for k, v in tr.extras.items()})
+    return out
+
+
+def _same(a: dict, b: dict) -> None:
+    assert a["note"] == b["note"]
+    for k in ("signal_share", "distance_m", "fitted_radius"):
+        assert (math.isnan(a[k]) and math.isnan(b[k])) or math.isclose(a[k], b[k], rel_tol=1e-12)
+    for k in ("median_speed", "median_omega"):  # float32 copies in the pieces' sum
+        assert (math.isnan(a[k]) and math.isnan(b[k])) or math.isclose(a[k], b[k], rel_tol=1e-6)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(2, 400),
+       cuts=st.lists(st.integers(0, 400), max_size=8), claims=st.booleans(),
+       radius=st.sampled_from([None, 0.3]))
+def test_pieces_give_the_whole_tracks_summary(seed, n, cuts, claims, radius):
+    tr = _track(seed, n, claims=claims, radius=radius)
+    acc = SummaryAccumulator()
+    for piece in _pieces(tr, [c for c in cuts if c < n]):
+        acc.add(piece)
+    _same(acc.result(), track_summary(tr))
+
+
+def test_no_claim_leaves_the_speed_numbers_empty_as_a_whole_track_does():
+    tr = _track(1, 200, claims=False, radius=0.3)
+    acc = SummaryAccumulator()
+    for piece in _pieces(tr, [50, 120]):
+        acc.add(piece)
+    got = acc.result()
+    assert got["note"] and math.isnan(got["median_speed"]) and math.isnan(got["distance_m"])
+    assert got["signal_share"] == 0.0
