@@ -229,13 +229,15 @@ def estimate(
 def summary_line(s: dict) -> str:
     """What the estimate rests on, in one line, from its summary numbers ``s``
     (:func:`vibrospeed.eval.metrics.track_summary`, a batch row's): the share of samples with a
-    claimed wheel line, the median speed (or omega without a radius) and the distance; where
-    most of the drive has no claimed line, that omega there is the tracker's guess and its band
-    says how little it knows."""
+    claimed wheel line, the median speed (or omega without a radius) and the distance, which
+    count every sample: where no line is claimed omega is the tracker's guess, and the line
+    says so."""
     parts = []
     share = s["signal_share"]
     if share == share:
-        parts.append(f"a wheel line claimed on {100 * share:.1f} % of the samples")
+        guess = " (elsewhere omega is the tracker's guess: read its band)" \
+            if share < 1 and not s["note"] else ""
+        parts.append(f"a wheel line claimed on {100 * share:.1f} % of the samples{guess}")
     if s["median_speed"] == s["median_speed"]:
         parts.append(f"median speed {s['median_speed']:.2f} m/s")
         if s["distance_m"] == s["distance_m"]:
@@ -244,9 +246,6 @@ def summary_line(s: dict) -> str:
         parts.append(f"median omega {s['median_omega']:.1f} rad/s")
     if s["note"]:
         parts.append(s["note"])
-    elif share == share and share < 0.5:
-        parts.append("where no line is claimed omega is the tracker's best guess: read its "
-                     "band (omega_lo, omega_hi)")
     return "summary: " + "; ".join(parts) if parts else "summary: -"
 
 
