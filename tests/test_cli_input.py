@@ -380,7 +380,7 @@ def test_a_number_parameter_given_text_is_refused_before_the_recording_is_read(
                "-o", tmp_path / "e.csv")
     if text.lower() in ("none", "null"):  # omega_max may be None in some Configs only
         return
-    assert _err(res) == (f"vibrospeed: error: parameter 'omega_max': cannot read '{text}' as "
+    assert _err(res) == (f"vibrospeed: error: parameter 'omega_max': cannot read {text!r} as "
                          "float (a number)")
     assert list(tmp_path.iterdir()) == []
 

@@ -169,3 +169,12 @@ def test_an_estimator_switch_outside_the_configs_is_read_strictly(method, name):
     rec = sim.simulate("car", seed=1, duration=4.0)
     with pytest.raises(ParameterError, match=f"'{name}'.*'perhaps'"):
         estimators.get(method).estimate(rec, wheel_radius=0.3, params={name: "perhaps"})
+
+
+def test_text_that_cannot_be_read_is_quoted_on_one_line():
+    """The refused text as Python writes it: a newline or a quote in it stays on the one line."""
+    for text in ("4\n5", "it's", "tab\there"):
+        with pytest.raises(ParameterError) as exc:
+            parse_value(text, float, "omega_max")
+        assert "\n" not in str(exc.value)
+        assert str(exc.value) == f"parameter 'omega_max': cannot read {text!r} as float (a number)"

@@ -73,7 +73,7 @@ def type_name(typ: Any) -> str:
 
 def _bad(name: str, text: str, typ: Any, why: str = "") -> ParameterError:
     extra = f" ({why})" if why else ""
-    return ParameterError(f"parameter '{name}': cannot read '{text}' as {type_name(typ)}{extra}")
+    return ParameterError(f"parameter '{name}': cannot read {text!r} as {type_name(typ)}{extra}")
 
 
 def _split_items(text: str, numeric: bool) -> list[str]:
