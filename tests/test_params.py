@@ -111,7 +111,8 @@ def test_values_read_as_the_field_type():
     ({"pair": "1,2,3"}, "parameter 'pair': cannot read '1,2,3' as tuple[float, float] "
                         "(2 comma-separated items, got 3)"),
     ({"rates": "0.1,x"}, "parameter 'rates[1]': cannot read 'x' as float"),
-    ({"maybe": "abc"}, "parameter 'maybe': cannot read 'abc' as float | None"),
+    ({"maybe": "abc"}, "parameter 'maybe': cannot read 'abc' as float | None (a number, or "
+                       "none)"),
     ({"rtaes": "1"}, "unknown parameter 'rtaes' for Knobs (did you mean 'rates'"),
     ({"zzz": "1"}, "unknown parameter 'zzz' for Knobs (valid: a, axes, counts, maybe, n, "),
 ])

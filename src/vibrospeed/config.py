@@ -108,7 +108,11 @@ def parse_value(text: str, typ: Any, name: str = "value") -> Any:
                 return parse_value(text, a, name)
             except ParameterError:
                 continue
-        raise _bad(name, text, typ)
+        why = ""
+        if options and all(a in (float, int) for a in options):  # float | None: say what fits
+            why = ("a number" if float in options else "a whole number") + \
+                (", or none" if type(None) in args else "")
+        raise _bad(name, text, typ, why)
     if origin is typing.Literal:
         for a in args:
             if str(a) == text.strip():
