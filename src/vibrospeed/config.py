@@ -211,19 +211,26 @@ def field_types(cls: type) -> dict[str, Any]:
     return {f.name: hints.get(f.name, Any) for f in dataclasses.fields(cls)}
 
 
-def flat_names(cls: type) -> set[str]:
-    """The names ``-p`` reaches through dataclass ``cls``: its fields, with a field that holds a
-    dataclass (a model, a tracker) replaced by that dataclass' names (estimators split one flat
-    parameter set between nested Configs)."""
-    out: set[str] = set()
+def flat_fields(cls: type) -> dict[str, list[Any]]:
+    """The names ``-p`` reaches through dataclass ``cls``, each with its field types: its
+    fields, with a field that holds a dataclass (a model, a tracker) replaced by that
+    dataclass' fields (estimators split one flat parameter set between nested Configs, which
+    may share a name)."""
+    out: dict[str, list[Any]] = {}
     for name, typ in field_types(cls).items():
         sub = typ if dataclasses.is_dataclass(typ) else next(
             (a for a in typing.get_args(typ) if dataclasses.is_dataclass(a)), None)
         if sub is None:
-            out.add(name)
+            out.setdefault(name, []).append(typ)
         else:
-            out |= flat_names(sub)
+            for k, v in flat_fields(sub).items():
+                out.setdefault(k, []).extend(v)
     return out
+
+
+def flat_names(cls: type) -> set[str]:
+    """The names ``-p`` reaches through dataclass ``cls`` (:func:`flat_fields`)."""
+    return set(flat_fields(cls))
 
 
 def config_from_params(cls: type[C], params: dict[str, Any] | None = None, **defaults: Any) -> C:

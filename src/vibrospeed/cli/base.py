@@ -237,15 +237,13 @@ def _params(method: str, preset: str | None, param: list[str] | None) -> dict[st
 
 
 def _number_fields(cls) -> dict[str, list]:
-    """The names ``-p`` reaches through Config dataclass ``cls`` (as
-    :func:`vibrospeed.config.flat_names`) whose field holds numbers: ``float``, ``int``, either
-    or None, or a tuple / list of them; each name with its field types (nested Configs may share
-    a name)."""
-    import dataclasses
+    """The names ``-p`` reaches through Config dataclass ``cls``
+    (:func:`vibrospeed.config.flat_fields`) whose field holds numbers: ``float``, ``int``,
+    either or None, or a tuple / list of them; each name with those field types."""
     import types
     import typing
 
-    from vibrospeed.config import field_types
+    from vibrospeed.config import flat_fields
 
     def numeric(typ) -> bool:
         origin, args = typing.get_origin(typ), typing.get_args(typ)
@@ -257,16 +255,8 @@ def _number_fields(cls) -> dict[str, list]:
             return bool(items) and all(a in (float, int) for a in items)
         return typ in (float, int)
 
-    out: dict[str, list] = {}
-    for name, typ in field_types(cls).items():
-        sub = typ if dataclasses.is_dataclass(typ) else next(
-            (a for a in typing.get_args(typ) if dataclasses.is_dataclass(a)), None)
-        if sub is not None:
-            for k, v in _number_fields(sub).items():
-                out.setdefault(k, []).extend(v)
-        elif numeric(typ):
-            out.setdefault(name, []).append(typ)
-    return out
+    out = {name: [t for t in typs if numeric(t)] for name, typs in flat_fields(cls).items()}
+    return {name: typs for name, typs in out.items() if typs}
 
 
 def _check_numbers(method: str, params: dict[str, Any]) -> None:
