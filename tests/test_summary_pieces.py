@@ -7,7 +7,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vibrospeed.eval.metrics import SummaryAccumulator, track_summary
+from vibrospeed.eval.metrics import NO_EVIDENCE_NOTE, SummaryAccumulator, track_summary
 from vibrospeed.types import Track
 
 
@@ -52,7 +52,29 @@ def test_pieces_give_the_whole_tracks_summary(seed, n, cuts, claims, radius):
     acc = SummaryAccumulator()
     for piece in _pieces(tr, [c for c in cuts if c < n]):
         acc.add(piece)
-    _same(acc.result(), track_summary(tr))
+    whole = track_summary(tr)
+    _same(acc.result(), whole)
+    _same(whole, _direct(tr))  # track_summary itself against the plain numpy figures
+
+
+def _direct(tr: Track) -> dict:
+    """The summary from its definition, written out with numpy over the whole track."""
+    sig = np.asarray(tr.extras["has_signal"])
+    sig = sig[np.isfinite(sig)]
+    v, t = tr.speed, tr.t
+    ok = np.isfinite(v[:-1]) & np.isfinite(v[1:])
+    out = {"signal_share": float(np.mean(sig > 0.5)) if sig.size else math.nan,
+           "median_speed": float(np.median(v[np.isfinite(v)])) if np.isfinite(v).any()
+           else math.nan,
+           "median_omega": float(np.median(tr.omega[np.isfinite(tr.omega)]))
+           if np.isfinite(tr.omega).any() else math.nan,
+           "distance_m": float(np.sum((0.5 * (v[:-1] + v[1:]) * np.diff(t))[ok]))
+           if ok.any() else math.nan,
+           "fitted_radius": math.nan, "note": ""}
+    if not (np.nan_to_num(np.asarray(tr.extras["has_signal"])) > 0.5).any():
+        out.update(median_speed=math.nan, median_omega=math.nan, distance_m=math.nan,
+                   note=NO_EVIDENCE_NOTE)
+    return out
 
 
 def test_no_claim_leaves_the_speed_numbers_empty_as_a_whole_track_does():

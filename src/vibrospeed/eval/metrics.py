@@ -167,24 +167,6 @@ def time_to_lock(
 
 
 # -- summary numbers of one track (batch summaries, reports) ---------------------------------
-def _finite_median(x) -> float:
-    x = np.asarray(x, dtype=np.float64)
-    x = x[np.isfinite(x)]
-    return float(np.median(x)) if x.size else math.nan
-
-
-def _distance(t, v) -> float:
-    """Trapezoid integral of ``v`` over ``t``, over the intervals where both ends are finite."""
-    t = np.asarray(t, dtype=np.float64)
-    v = np.asarray(v, dtype=np.float64)
-    if t.size < 2:
-        return math.nan
-    ok = np.isfinite(v[:-1]) & np.isfinite(v[1:])
-    if not ok.any():
-        return math.nan
-    return float(np.sum(0.5 * (v[:-1] + v[1:])[ok] * np.diff(t)[ok]))
-
-
 def fitted_radius(track) -> float:
     """A wheel radius in m that the method fitted, if it reports one: ``params['fitted_radius']``
     or the last finite value of a per-sample ``wheel_radius_fit`` column; else NaN."""
@@ -237,25 +219,9 @@ def track_summary(track) -> dict[str, Any]:
     medians and the distance are over all samples and ``note`` is empty; ``signal_share``
     says how much of them rests on a line.
     """
-    sig = track.extras.get("has_signal")
-    share = math.nan
-    if sig is not None:
-        s = np.asarray(sig, dtype=np.float64)
-        s = s[np.isfinite(s)]
-        share = float(np.mean(s > 0.5)) if s.size else math.nan
-    out: dict[str, Any] = {
-        "signal_share": share,
-        "median_speed": _finite_median(track.speed),
-        "median_omega": _finite_median(track.omega),
-        "distance_m": _distance(track.t, track.speed),
-        "fitted_radius": fitted_radius(track),
-        "note": "",
-    }
-    seen = measured(track)
-    if seen is not None and not seen.any():
-        out.update(median_speed=math.nan, median_omega=math.nan, distance_m=math.nan,
-                   note=NO_EVIDENCE_NOTE)
-    return out
+    acc = SummaryAccumulator(np.float64)
+    acc.add(track)
+    return acc.result()
 
 
 class SummaryAccumulator:
@@ -263,10 +229,12 @@ class SummaryAccumulator:
     blocks, :func:`vibrospeed.estimators.grid.stream.estimate_file`): ``add`` each piece in
     order, then ``result()``. The shares and the distance are those of the whole track (the
     interval between two pieces counted as its own trapezoid); the medians are taken over
-    float32 copies of the finite speeds and omegas (4 bytes a sample each: 69 MB for a day of
-    100 Hz), so they agree with the whole track's to float32 precision."""
+    copies of the finite speeds and omegas in ``dtype``: float32 for a long log in blocks (4
+    bytes a sample each, 69 MB for a day of 100 Hz; the medians then agree with the whole
+    track's to float32 precision), float64 for one whole track (:func:`track_summary`)."""
 
-    def __init__(self) -> None:
+    def __init__(self, dtype=np.float32) -> None:
+        self.dtype = dtype
         self.has_signal = False  # whether the pieces carry a has_signal column
         self.n_sig = 0
         self.n_sig_finite = 0
@@ -281,8 +249,6 @@ class SummaryAccumulator:
     def add(self, track) -> None:
         t = np.asarray(track.t, dtype=np.float64)
         v = np.asarray(track.speed, dtype=np.float64)
-        if t.size == 0:
-            return
         sig = track.extras.get("has_signal")
         if sig is not None:
             s = np.asarray(sig, dtype=np.float64)
@@ -294,14 +260,15 @@ class SummaryAccumulator:
         self.seen |= bool(seen is not None and seen.any())
         for keep, x in ((self.speeds, v), (self.omegas, track.omega)):
             x = np.asarray(x, dtype=np.float64)
-            keep.append(x[np.isfinite(x)].astype(np.float32))
+            keep.append(x[np.isfinite(x)].astype(self.dtype))
         tt, vv = (t, v) if self.last is None else (np.r_[self.last[0], t], np.r_[self.last[1], v])
         if tt.size >= 2:
             ok = np.isfinite(vv[:-1]) & np.isfinite(vv[1:])
             if ok.any():
                 self.dist += float(np.sum(0.5 * (vv[:-1] + vv[1:])[ok] * np.diff(tt)[ok]))
                 self.dist_ok = True
-        self.last = (float(t[-1]), float(v[-1]))
+        if t.size:
+            self.last = (float(t[-1]), float(v[-1]))
         r = fitted_radius(track)
         if math.isfinite(r):
             self.radius = r
@@ -309,7 +276,7 @@ class SummaryAccumulator:
     def result(self) -> dict[str, Any]:
         """The dict of :func:`track_summary`."""
         def median(parts):
-            x = np.concatenate(parts) if parts else np.zeros(0, np.float32)
+            x = np.concatenate(parts) if parts else np.zeros(0, self.dtype)
             return float(np.median(x.astype(np.float64))) if x.size else math.nan
 
         share = math.nan
