@@ -1,6 +1,8 @@
 """Bad input through the Python API: a wheel radius that is not a finite number > 0 m is a
 one-line :class:`~vibrospeed.errors.ParameterError` naming the value, raised before anything is
-read or written (the estimate CSV used to be written and its JSON sidecar then fail on nan)."""
+read or written (the estimate CSV used to be written and its JSON sidecar then fail on nan);
+an estimator's ``Config`` refuses values that would make its output NaN or meaningless with a
+one-line ParameterError naming the parameter, while the valid edges still run."""
 
 import importlib
 import json
@@ -122,3 +124,40 @@ def test_a_known_radius_converts_and_zero_means_unknown():
     assert np.isnan(unknown.speed).all() and unknown.wheel_radius is None
     back = Track.from_speed(t, np.full(5, 3.0), wheel_radius=0.3)
     assert np.allclose(back.omega, 10.0)
+
+
+def _refused(make, name):
+    """``make()`` raises a one-line ParameterError that names ``name``."""
+    with pytest.raises(ParameterError) as exc:
+        make()
+    msg = str(exc.value)
+    assert name in msg and "\n" not in msg, msg
+
+
+@pytest.mark.parametrize("kw, name", [
+    ({"omega0": math.nan}, "omega0"), ({"omega0": math.inf}, "omega0"),
+    ({"omega0": -1.0}, "omega0"), ({"amp0": math.nan}, "amp0"), ({"amp0": math.inf}, "amp0"),
+    ({"p0_omega": math.inf}, "p0_omega"), ({"p0_omega": math.nan}, "p0_omega"),
+    ({"omega_min": math.nan}, "omega_min"), ({"omega_min": -1.0}, "omega_min"),
+    ({"omega_min": math.inf}, "omega_min"), ({"omega_max": math.nan}, "omega_max"),
+    ({"omega_min": 50.0, "omega_max": 20.0}, "omega_max"),
+    ({"omega_min": 20.0, "omega_max": 20.0}, "omega_max"),
+])
+def test_ekf_config_refuses_what_would_give_nan_or_a_pinned_omega(kw, name):
+    """These used to pass: NaN omega0 / amp0 or an infinite p0_omega made every output NaN, a
+    NaN or negative omega_min clipped nothing, omega_min >= omega_max pinned omega there."""
+    from vibrospeed.estimators import ekf
+
+    _refused(lambda: ekf.Config(**kw), name)
+    rec = sim.simulate("cart", seed=1, duration=2)
+    _refused(lambda: ekf.estimate(rec, params=kw, wheel_radius=0.1), name)
+
+
+def test_ekf_config_keeps_the_valid_edges():
+    from vibrospeed.estimators import ekf
+
+    y = np.sin(10.0 * np.arange(300) * 0.01)
+    for kw in ({"omega0": 0.0}, {"omega_min": 0.0, "omega_max": math.inf}, {"amp0": -3.0},
+               {"omega_min": 2.0, "omega_max": 2.5}, {"omega_max": None}):
+        res = ekf.run(ekf.Config(**kw), y)
+        assert np.isfinite(res.omega).all() and np.isfinite(res.omega_std).all(), kw

@@ -32,6 +32,7 @@ EKF exactly. The comb check's state (run length, last candidate, acquired flag) 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -74,10 +75,21 @@ class Config:
     acquire: bool = False
 
     def __post_init__(self) -> None:
-        if not self.p0_omega > 0:
-            raise ParameterError(f"p0_omega must be > 0, got {self.p0_omega}")
-        if self.omega0 < 0:
-            raise ParameterError(f"omega0 must be >= 0 rad/s, got {self.omega0}")
+        # NaN or inf in omega0, amp0 or p0_omega makes every output NaN; a NaN bound clips
+        # nothing; omega_min >= omega_max pins omega to omega_min
+        if not (self.p0_omega > 0 and math.isfinite(self.p0_omega)):
+            raise ParameterError(f"p0_omega must be finite and > 0 (rad/s)^2, got "
+                                 f"{self.p0_omega}")
+        if not (self.omega0 >= 0 and math.isfinite(self.omega0)):
+            raise ParameterError(f"omega0 must be finite and >= 0 rad/s, got {self.omega0}")
+        if not math.isfinite(self.amp0):
+            raise ParameterError(f"amp0 must be finite, got {self.amp0}")
+        if not (self.omega_min >= 0 and math.isfinite(self.omega_min)):
+            raise ParameterError(f"omega_min must be finite and >= 0 rad/s, got "
+                                 f"{self.omega_min}")
+        if self.omega_max is not None and not self.omega_max > self.omega_min:
+            raise ParameterError(f"omega_max must be > omega_min = {self.omega_min:g} rad/s "
+                                 f"(or None: the Nyquist limit), got {self.omega_max}")
 
     @property
     def omega_limit(self) -> float:
