@@ -161,3 +161,37 @@ def test_ekf_config_keeps_the_valid_edges():
                {"omega_min": 2.0, "omega_max": 2.5}, {"omega_max": None}):
         res = ekf.run(ekf.Config(**kw), y)
         assert np.isfinite(res.omega).all() and np.isfinite(res.omega_std).all(), kw
+
+
+@pytest.mark.parametrize("kw, name", [
+    ({"n_particles": math.nan}, "n_particles"), ({"n_particles": math.inf}, "n_particles"),
+    ({"n_particles": 50.0}, "n_particles"), ({"omega_max": math.inf}, "omega_max"),
+    ({"omega0": math.nan}, "omega0"), ({"omega0": -5.0}, "omega0"),
+    ({"omega0_std": 0.0}, "omega0_std"), ({"omega0_std": -1.0}, "omega0_std"),
+    ({"omega0_std": math.nan}, "omega0_std"), ({"ess_threshold": math.nan}, "ess_threshold"),
+    ({"seed": -1}, "seed"), ({"seed": 1.5}, "seed"), ({"seed": 1.0}, "seed"),
+    ({"rms_tau": math.nan}, "rms_tau"), ({"rms_tau": -1.0}, "rms_tau"),
+    ({"signal_rms": 0.0}, "signal_rms"), ({"signal_rms": -1.0}, "signal_rms"),
+    ({"signal_rms": math.nan}, "signal_rms"),
+])
+def test_rbpf_config_refuses_bad_values_with_a_parameter_error(kw, name):
+    """These used to pass (a NaN omega0 gave NaN output, omega_max inf drew infinite
+    particles, a negative signal_rms flipped the signal) or fail inside numpy (ValueError,
+    TypeError, OverflowError for a NaN, float or negative count or seed)."""
+    from vibrospeed.estimators import rbpf
+
+    _refused(lambda: rbpf.Config(**{"n_particles": 20, **kw}), name)
+
+
+def test_rbpf_config_keeps_the_valid_edges():
+    from vibrospeed.estimators import rbpf
+
+    y = np.sin(20.0 * np.arange(200) * 0.01)
+    for kw in ({"seed": np.int64(3)}, {"n_particles": np.int64(20)}, {"omega0": 0.0},
+               {"omega_min": 0.0, "omega_max": 0.0}, {"ess_threshold": 2.0}):
+        res = rbpf.run(rbpf.Config(**{"n_particles": 20, **kw}), y)
+        assert np.isfinite(res.omega).all() and np.isfinite(res.omega_std).all(), kw
+    # text parameters are typed by the field: "-p seed=2" is the integer 2
+    from vibrospeed.config import config_from_params
+
+    assert config_from_params(rbpf.Config, {"seed": "2", "n_particles": "20"}).seed == 2

@@ -24,6 +24,7 @@ equals repeated :func:`step`. Pre-filter and scaling are the grid tracker's
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -39,6 +40,11 @@ from vibrospeed.estimators.kalman import predict_one, rotation_blocks, update_on
 from vibrospeed.estimators.scaling import DEFAULT_SIGNAL_RMS, DEFAULT_TAU
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Estimate, Recording, Track
+
+
+def _is_int(v) -> bool:
+    """``v`` is an integer (numpy's draws take no float count or seed, not even 3000.0)."""
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
 
 
 def _paper_model(dt: float = 0.01) -> HarmonicModel:
@@ -75,16 +81,28 @@ class Config:
     nyquist: str = "warn"
 
     def __post_init__(self) -> None:
-        if int(self.n_particles) != self.n_particles or self.n_particles < 1:
+        if not (_is_int(self.n_particles) and self.n_particles >= 1):
             raise ParameterError(f"n_particles must be a positive integer, got {self.n_particles}")
-        if not 0 <= self.omega_min <= self.omega_max:
+        if not 0 <= self.omega_min <= self.omega_max < math.inf:
             raise ParameterError(
-                f"support needs 0 <= omega_min <= omega_max, got [{self.omega_min}, "
+                f"support needs 0 <= omega_min <= omega_max < inf rad/s, got [{self.omega_min}, "
                 f"{self.omega_max}]"
             )
+        # a NaN omega0 made every output NaN; omega0_std <= 0 or NaN was used as given
+        if self.omega0 is not None and not 0 <= self.omega0 < math.inf:
+            raise ParameterError(f"omega0 must be finite and >= 0 rad/s (or None), got "
+                                 f"{self.omega0}")
+        if not 0 < self.omega0_std < math.inf:
+            raise ParameterError(f"omega0_std must be finite and > 0 rad/s, got "
+                                 f"{self.omega0_std}")
         resampling.get_scheme(self.scheme)
-        if self.ess_threshold < 0:
+        if not self.ess_threshold >= 0:
             raise ParameterError(f"ess_threshold must be >= 0, got {self.ess_threshold}")
+        if not (_is_int(self.seed) and self.seed >= 0):
+            raise ParameterError(f"seed must be an integer >= 0, got {self.seed}")
+        for name in ("rms_tau", "signal_rms"):
+            if not 0 < getattr(self, name) < math.inf:
+                raise ParameterError(f"{name} must be finite and > 0, got {getattr(self, name)}")
         if not 0 < self.level < 1:
             raise ParameterError(f"level must be in (0, 1), got {self.level}")
         if self.scaling not in ("rms", "none"):
