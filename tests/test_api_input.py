@@ -195,3 +195,36 @@ def test_rbpf_config_keeps_the_valid_edges():
     from vibrospeed.config import config_from_params
 
     assert config_from_params(rbpf.Config, {"seed": "2", "n_particles": "20"}).seed == 2
+
+
+@pytest.mark.parametrize("kw, name", [
+    ({"batch": math.nan}, "batch"), ({"batch": math.inf}, "batch"), ({"batch": 200.0}, "batch"),
+    ({"n_fft": math.nan}, "n_fft"), ({"n_fft": 4096.5}, "n_fft"),
+    ({"n_harmonics": math.nan}, "n_harmonics"), ({"n_harmonics": 2.5}, "n_harmonics"),
+    ({"points_per_octave": 0}, "points_per_octave"),
+    ({"points_per_octave": -1}, "points_per_octave"),
+    ({"points_per_octave": math.nan}, "points_per_octave"), ({"dt": math.inf}, "dt"),
+])
+def test_shs_config_refuses_counts_that_are_not_integers(kw, name):
+    """These used to pass the Config and fail in run (numpy's ValueError / TypeError) or, for
+    points_per_octave <= 0, search one candidate or none; the estimate's params the same."""
+    from vibrospeed.estimators import shs
+
+    _refused(lambda: shs.Config(**kw), name)
+    if name != "dt":  # estimate takes dt from the data
+        rec = sim.simulate("car", seed=1, duration=3)
+        _refused(lambda: shs.estimate(rec, params=kw), name)
+
+
+def test_shs_config_counts_as_text_and_numpy_integers():
+    from vibrospeed.config import config_from_params
+    from vibrospeed.estimators import shs
+
+    cfg = config_from_params(shs.Config, {"batch": "100", "n_harmonics": "3",
+                                          "points_per_octave": "48"})
+    assert (cfg.batch, cfg.n_harmonics, cfg.points_per_octave) == (100, 3, 48)
+    y = np.sin(30.0 * np.arange(400) * 0.01)
+    ref = shs.run(cfg, y).omega
+    got = shs.run(shs.Config(batch=np.int64(100), n_harmonics=np.int32(3),
+                             points_per_octave=np.int64(48)), y).omega
+    assert np.array_equal(ref, got) and np.all(np.abs(ref - 30.0) < 1.0)

@@ -52,14 +52,17 @@ class Config:
     prefilter: str = "paper-hp"
 
     def __post_init__(self) -> None:
-        if not self.dt > 0:
-            raise ParameterError(f"dt must be > 0, got {self.dt}")
-        if int(self.batch) != self.batch or self.batch < 8:
-            raise ParameterError(f"batch must be an integer >= 8, got {self.batch}")
+        if not 0 < self.dt < np.inf:
+            raise ParameterError(f"dt must be finite and > 0 s, got {self.dt}")
+        # counts are integers: numpy's buffers, FFT length and the harmonic loop take no float,
+        # and a NaN count failed there (points_per_octave <= 0 left one or no candidate)
+        for name, least in (("batch", 8), ("n_fft", 8), ("n_harmonics", 1),
+                            ("points_per_octave", 1)):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= least):
+                raise ParameterError(f"{name} must be an integer >= {least}, got {v}")
         if self.n_fft < self.batch:
             raise ParameterError(f"n_fft ({self.n_fft}) must be >= batch ({self.batch})")
-        if self.n_harmonics < 1:
-            raise ParameterError(f"n_harmonics must be >= 1, got {self.n_harmonics}")
         if not 0 < self.compression <= 1:
             raise ParameterError(f"compression must be in (0, 1], got {self.compression}")
         if not 0 < self.omega_min < self.omega_max:
