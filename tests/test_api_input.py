@@ -228,3 +228,37 @@ def test_shs_config_counts_as_text_and_numpy_integers():
     got = shs.run(shs.Config(batch=np.int64(100), n_harmonics=np.int32(3),
                              points_per_octave=np.int64(48)), y).omega
     assert np.array_equal(ref, got) and np.all(np.abs(ref - 30.0) < 1.0)
+
+
+@pytest.mark.parametrize("kw, name", [
+    ({"r": math.inf}, "r"), ({"L1": math.inf}, "L1"), ({"vy0": math.nan}, "vy0"),
+    ({"vy0": math.inf}, "vy0"), ({"slip_sd": math.inf}, "slip_sd"),
+    ({"acc_bias_sd": math.inf}, "acc_bias_sd"), ({"gyro_bias_sd": math.inf}, "gyro_bias_sd"),
+    ({"slip_window": math.inf}, "slip_window"), ({"window": math.inf}, "window"),
+    ({"window_d": math.inf}, "window_d"), ({"kappa": math.inf}, "kappa"),
+    ({"reset_eps_x": math.nan}, "reset_eps_x"), ({"reset_eps_x": -1.0}, "reset_eps_x"),
+    ({"reset_eps_y": math.nan}, "reset_eps_y"), ({"reset_eps_y": -1.0}, "reset_eps_y"),
+    ({"alpha": math.nan}, "alpha"), ({"beta": math.inf}, "beta"),
+    ({"reset_hold": math.nan}, "reset_hold"), ({"backtrack": math.inf}, "backtrack"),
+    ({"N": math.nan}, "N"), ({"N": math.inf}, "N"), ({"N": 1.0}, "N"),
+])
+def test_algebraic_config_refuses_values_that_give_nan_or_fail_later(kw, name):
+    """These used to pass (inf r or vy0: Vx NaN; NaN vy0: Vy NaN; inf slip_sd: Vx std inf) or
+    fail in int() / numpy (ValueError, OverflowError, TypeError) or name another parameter."""
+    from vibrospeed.estimators import algebraic
+
+    _refused(lambda: algebraic.Config(**kw), name)
+
+
+def test_algebraic_config_keeps_inf_thresholds_and_whole_float_counts():
+    """inf thresholds mean "never" and whole-number floats count as counts, as before."""
+    from vibrospeed.estimators import algebraic
+
+    t = np.arange(300) * 0.01
+    Z = np.stack([np.zeros_like(t), np.zeros_like(t), np.zeros_like(t), np.full_like(t, 40.0)],
+                 axis=1)
+    for kw in ({"eps1": math.inf}, {"eps2": math.inf}, {"slip_tol": math.inf},
+               {"max_int": math.inf}, {"eps_k": math.inf}, {"alpha": 20.0},
+               {"reset_eps_x": 0.0}, {"N": np.int64(2), "window": 0.2, "window_d": 0.3}):
+        res = algebraic.run(algebraic.Config(**kw), Z)
+        assert np.allclose(res.vx[50:], 0.31 * 40.0) and np.isfinite(res.vx_std).all(), kw

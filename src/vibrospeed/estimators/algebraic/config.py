@@ -90,25 +90,35 @@ class Config:
     slip_window: float = 0.5
 
     def __post_init__(self) -> None:
+        # the thresholds eps1, eps2, slip_tol, max_int and the time constants may be inf
+        # ("never"); a length, a window, a standard deviation or vy0 that is inf or NaN made
+        # Vx, Vy or their std inf or NaN, and an inf or NaN count failed in int()
+        finite = ("r", "L1", "dt", "window", "window_d", "kappa", "mu", "slip_window",
+                  "slip_sd", "acc_bias_sd", "gyro_bias_sd", "vy0")
+        for name in finite:
+            if not np.isfinite(getattr(self, name)):
+                raise ParameterError(f"algebraic: {name} must be finite, got "
+                                     f"{getattr(self, name)}")
         for name in ("r", "L1", "dt", "window", "window_d", "eps1", "eps2", "handover_tau",
                      "noise_tau", "max_int", "slip_tol", "slip_window"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"algebraic: {name} must be > 0, got {getattr(self, name)}")
-        for name in ("eps_k", "slip_sd", "acc_bias_sd", "gyro_bias_sd"):
+        for name in ("eps_k", "slip_sd", "acc_bias_sd", "gyro_bias_sd", "reset_eps_x",
+                     "reset_eps_y"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"algebraic: {name} must be >= 0, got {getattr(self, name)}")
         for name in ("alpha", "beta", "reset_hold", "backtrack"):
             v = getattr(self, name)
             if v is None and name == "backtrack":
                 continue
-            if int(v) != v or v < 0:
+            if not (np.isfinite(v) and int(v) == v and v >= 0):
                 raise ParameterError(f"algebraic: {name} must be an integer >= 0, got {v}")
         if self.detect not in ("window", "seed"):
             raise ParameterError(f"algebraic: detect must be 'window' or 'seed', got "
                                  f"{self.detect!r}")
-        if self.N < 1:
+        if not (isinstance(self.N, (int, np.integer)) and self.N >= 1):  # numpy's degree
             raise ParameterError(
-                f"algebraic: N must be >= 1 (derivatives are needed), got {self.N}")
+                f"algebraic: N must be an integer >= 1 (derivatives are needed), got {self.N}")
         self.filters()  # validates the windows against N
 
     @property
