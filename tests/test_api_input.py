@@ -13,7 +13,7 @@ import pytest
 
 from vibrospeed import io, sim
 from vibrospeed.batch import EstimateOptions, estimate_recording
-from vibrospeed.errors import ParameterError
+from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators import METHODS
 from vibrospeed.estimators.grid import stream
 from vibrospeed.io.track import check_wheel_radius
@@ -262,3 +262,44 @@ def test_algebraic_config_keeps_inf_thresholds_and_whole_float_counts():
                {"reset_eps_x": 0.0}, {"N": np.int64(2), "window": 0.2, "window_d": 0.3}):
         res = algebraic.run(algebraic.Config(**kw), Z)
         assert np.allclose(res.vx[50:], 0.31 * 40.0) and np.isfinite(res.vx_std).all(), kw
+
+
+@pytest.mark.parametrize("kw, name", [
+    *[({f: math.inf}, f) for f in ("q_speed", "q_accel", "q_offset", "q_gps", "r_gps",
+                                   "r_gps_slope", "r_gps_sq", "gain", "p0_speed", "p0_accel",
+                                   "p0_offset", "acc_psd", "r_acc_ins", "q_drift")],
+    ({"gps_pade": math.nan}, "gps_pade"), ({"gps_pade": math.inf}, "gps_pade"),
+    ({"gps_pade": 2.5}, "gps_pade"), ({"pitch_poly": (math.nan, 0.28, 0.02)}, "pitch_poly"),
+    ({"e_max": math.nan}, "e_max"),
+])
+def test_gps_riss_config_refuses_infinite_noises_and_a_bad_pade_order(kw, name):
+    """These used to pass: an infinite variance, intensity or gain made the speed and its std
+    NaN; a NaN or inf gps_pade failed in int(), 2.5 was read as 2."""
+    from vibrospeed.estimators import fuse, gps_riss
+
+    _refused(lambda: gps_riss.Config(**kw), name)
+    if name == "gps_pade":  # the receiver fields are fuse's too
+        _refused(lambda: fuse.Config(**kw), name)
+
+
+def test_gps_riss_keeps_e_max_inf_and_refuses_a_time_that_is_not_finite():
+    from vibrospeed.estimators import gps_riss
+
+    n = 200
+    t = np.arange(n) * 0.01
+    gps = np.full(n, np.nan)
+    gps[::10] = 10.0
+    s = gps_riss.Sample(t, np.zeros(n), gps, np.full(n, 9.0))
+    for cfg in (gps_riss.Config(e_max=math.inf), gps_riss.Config(gps_pade=1, gps_delay=0.2)):
+        res = gps_riss.run(cfg, s)
+        assert np.allclose(res.speed, 10.0, atol=0.05) and np.isfinite(res.speed_std).all()
+    bad = t.copy()
+    bad[57] = np.nan
+    with pytest.raises(InputError, match=r"t must be finite times in s, got nan at sample 57"):
+        gps_riss.run(gps_riss.Config(), s._replace(t=bad))  # an IndexError before
+    st = gps_riss.init(gps_riss.Config(), 10.0)
+    st, _ = gps_riss.step(gps_riss.Config(), st, gps_riss.Sample(0.0, 0.0, 10.0, 9.0))
+    with pytest.raises(InputError, match=r"t must be a finite time in s, got nan$"):
+        gps_riss.step(gps_riss.Config(), st, gps_riss.Sample(math.nan, 0.0, math.nan, 9.0))
+    with pytest.raises(InputError, match="time goes backwards"):
+        gps_riss.step(gps_riss.Config(), st, gps_riss.Sample(-1.0, 0.0, math.nan, 9.0))

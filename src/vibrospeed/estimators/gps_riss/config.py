@@ -74,6 +74,8 @@ class GpsFields:
 
     def _check_gps(self, prefix: str = "") -> None:
         """Validates the lag model and the gate (the Configs' ``__post_init__``)."""
+        if self.gps_pade not in (1, 2):  # the lag model reads int(gps_pade): 2.5 was 2
+            raise ParameterError(f"{prefix}gps_pade must be 1 or 2, got {self.gps_pade}")
         _ = self.lag
         if not self.min_sats >= 0:
             raise ParameterError(f"{prefix}min_sats must be >= 0, got {self.min_sats}")
@@ -141,14 +143,22 @@ class Config(GpsFields):
 
     def __post_init__(self) -> None:
         self._check_gps()
+        # variances, intensities and the gain are finite (an inf one made the speed and its
+        # std NaN); e_max may be inf (no clip of E)
         for name in ("r_acc_ins", "r_acc_gps", "r_gps", "r_drift", "p0_offset", "p0_speed",
                      "p0_accel", "gain"):
-            if not getattr(self, name) > 0:
-                raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
+            if not 0 < getattr(self, name) < math.inf:
+                raise ParameterError(f"{name} must be finite and > 0, got "
+                                     f"{getattr(self, name)}")
         for name in ("q_speed", "q_accel", "q_offset", "q_gps", "r_gps_slope", "r_gps_sq",
-                     "e_max", "q_drift", "acc_psd"):
-            if not getattr(self, name) >= 0:
-                raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
+                     "q_drift", "acc_psd"):
+            if not 0 <= getattr(self, name) < math.inf:
+                raise ParameterError(f"{name} must be finite and >= 0, got "
+                                     f"{getattr(self, name)}")
+        if not self.e_max >= 0:
+            raise ParameterError(f"e_max must be >= 0, got {self.e_max}")
+        if not all(math.isfinite(c) for c in self.pitch_poly):
+            raise ParameterError(f"pitch_poly must be finite numbers, got {self.pitch_poly}")
         if self.error_mode not in _ERROR_MODES:
             raise ParameterError(f"error_mode must be one of {', '.join(_ERROR_MODES)}, "
                                  f"got '{self.error_mode}'")

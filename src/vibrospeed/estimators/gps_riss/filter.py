@@ -158,6 +158,8 @@ def step(config: Config, state: State, y: Sample | tuple[float, float, float, fl
     estimate: ``speed``, ``speed_std`` and the other :class:`Output` columns as extras.
     """
     t, a, g, s = (float(v) for v in y)
+    if not math.isfinite(t):  # read as "time goes backwards at t = nan" before
+        raise InputError(f"t must be a finite time in s, got {t}")
     if not math.isnan(state.t) and not t >= state.t:
         raise InputError(f"time goes backwards at t = {t} s (previous {state.t} s)")
     Ac, qc, ha, hg, p, poly = config._arrays()
@@ -189,6 +191,9 @@ def run(config: Config, y: Sample, state: State | None = None) -> Result:
     s = np.full(n, np.nan) if gps_sats is None else np.ascontiguousarray(gps_sats, np.float64)
     if not (ax.shape == g.shape == s.shape == (n,)):
         raise InputError("run: t, ax, gps_speed and gps_sats must have the same length")
+    if not np.all(np.isfinite(t)):  # an IndexError below before
+        bad = int(np.flatnonzero(~np.isfinite(t))[0])
+        raise InputError(f"t must be finite times in s, got {t[bad]} at sample {bad}")
     if n > 1 and not np.all(np.diff(t) >= 0):
         bad = int(np.flatnonzero(np.diff(t) < 0)[0]) + 1
         raise InputError(f"time goes backwards at sample {bad}")
