@@ -147,3 +147,20 @@ def test_online_tracker_equals_its_stages_by_hand_bitwise(mod):
                 and est.p_null == ref.p_null), v
     assert np.array_equal(trk.state[1].grid.cov if mod is grid else trk.state[1].cov,
                           es.grid.cov if mod is grid else es.cov)
+
+
+def test_algebraic_step_takes_exactly_its_four_inputs():
+    """``step`` handed 3 values used to read past them (a speed of 3.5e-321 from whatever lay
+    in memory) and 5 values dropped the last silently; ``run`` already refused such rows."""
+    from vibrospeed.errors import ParameterError
+    from vibrospeed.estimators import algebraic
+
+    cfg = algebraic.Config()
+    st = algebraic.init(cfg)
+    for y in ([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 40.0, 99.0], 40.0, np.zeros((1, 4))):
+        with pytest.raises(ParameterError, match=r"algebraic.step expects 4 inputs"):
+            algebraic.step(cfg, st, y)
+    for y in ([0, 0, 0, 40], (0.0, 0.0, 0.0, 40.0), np.array([0, 0, 0, 40], np.float32)):
+        _, est = algebraic.step(cfg, st, y)
+        assert est.speed == algebraic.run(cfg, np.array([[0.0, 0.0, 0.0, 40.0]])).speed[0]
+        assert abs(est.speed - cfg.r * 40.0) < 1e-9

@@ -45,12 +45,15 @@ def step(config: Config, state: State, y, taps=None) -> tuple[State, Estimate]:
     """One sample ``y = (gz, ax, ay, omega_mean)``; returns the new state and the estimate
     (``speed`` = vx, ``speed_std`` = vx_std, the other :data:`OUTPUTS` as extras). Pass
     ``taps = config.taps()`` to avoid recomputing kernels."""
+    z = np.asarray(y, dtype=np.float64)
+    if z.shape != (4,):  # the compiled core reads 4 values whatever it is given
+        raise ParameterError(f"algebraic.step expects 4 inputs {INPUTS}, got shape {z.shape}")
     b0, b1 = config.taps() if taps is None else taps
     buf = state.buf.copy()
     hist = state.hist.copy()
     s = state.s.copy()
     out = np.empty(len(OUTPUTS))
-    _core(b0, b1, config.scalars(), buf, hist, s, np.asarray(y, dtype=np.float64), out)
+    _core(b0, b1, config.scalars(), buf, hist, s, z, out)
     return State(buf, hist, s), _estimate(out)
 
 
