@@ -59,3 +59,22 @@ def test_missing_pyarrow_is_a_clear_error(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "pyarrow", None)
     with pytest.raises(ReaderError, match="needs the optional package pyarrow"):
         read(p)
+
+
+def test_damaged_pages_give_one_line(tmp_path):
+    """A Parquet file whose footer reads but whose first data page is overwritten: pyarrow's
+    message ends in newlines ("Couldn't deserialize thrift ...\\nDeserializing page header
+    failed.\\n"); the whole-file and the chunked reader both quote it on the error's one line."""
+    from vibrospeed.io.chunks import ChunkedRecording
+
+    p = tmp_path / "damaged.parquet"
+    t = np.arange(2000) / 100
+    write(Recording(t=t, channels={"ay": np.sin(t)}), p)
+    raw = bytearray(p.read_bytes())
+    raw[4:68] = b"\xff" * 64  # after the leading magic: the first column chunk's page header
+    p.write_bytes(bytes(raw))
+    for reader in (read, lambda q: list(ChunkedRecording(q, chunk_rows=500))):
+        with pytest.raises(ReaderError, match="not a readable Parquet file") as info:
+            reader(p)
+        msg = str(info.value)
+        assert "\n" not in msg and "  " not in msg and msg.startswith(f"{p}: ")

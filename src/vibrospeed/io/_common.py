@@ -91,6 +91,12 @@ def sha256_path(path: str | os.PathLike[str]) -> str:
     return h.hexdigest()
 
 
+def exc_text(exc: BaseException) -> str:
+    """``exc``'s message on one line: a library's multi-line text (pyarrow's thrift errors end
+    in newlines) joined by spaces, so the :class:`ReaderError` that quotes it stays one line."""
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
 def export_folders(folder: str | os.PathLike[str], names: Sequence[str]) -> list[Path]:
     """Where an app export in ``folder`` keeps its files, recognised by any of the file ``names``.
 

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from vibrospeed.errors import ParameterError, ReaderError
+from vibrospeed.io._common import exc_text
 from vibrospeed.io._csv import CHUNK_ROWS, CsvTable, count_notes, nonfinite_counts, open_text
 from vibrospeed.io.timebase import check_increasing
 from vibrospeed.types import Recording
@@ -141,7 +142,7 @@ class ChunkedRecording:
         try:
             schema = pq.ParquetFile(p).schema_arrow
         except (pa.ArrowException, OSError) as exc:
-            raise ReaderError(p, f"not a readable Parquet file ({exc})") from None
+            raise ReaderError(p, f"not a readable Parquet file ({exc_text(exc)})") from None
         names = list(schema.names)
         if "t" not in names:
             raise ReaderError(p, f"no 't' column (have: {', '.join(names)})", column="t")
@@ -255,7 +256,7 @@ class ChunkedRecording:
                 row += t.size
                 yield t, cols, lines, [], cols
         except (pa.ArrowException, OSError) as exc:
-            raise ReaderError(p, f"not a readable Parquet file ({exc})") from None
+            raise ReaderError(p, f"not a readable Parquet file ({exc_text(exc)})") from None
         if row == 1:
             raise ReaderError(p, "no data rows")
 

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from vibrospeed.errors import InputError, ReaderError
-from vibrospeed.io._common import finish, jsonable
+from vibrospeed.io._common import exc_text, finish, jsonable
 from vibrospeed.io._csv import check_file, nan_notes
 from vibrospeed.io.atomic import atomic_path
 from vibrospeed.types import Recording
@@ -89,7 +89,7 @@ def read_parquet(path: str | os.PathLike[str], *, sort: bool = False) -> Recordi
                 parts[n].append(col.to_numpy(zero_copy_only=False))
         md = schema.metadata or {}
     except (pa.ArrowException, OSError) as exc:
-        raise ReaderError(p, f"not a readable Parquet file ({exc})") from None
+        raise ReaderError(p, f"not a readable Parquet file ({exc_text(exc)})") from None
     cols = {n: (np.concatenate(v) if v else np.empty(0)) for n, v in parts.items()}
     t = cols.pop("t")
     if t.size == 0:
