@@ -164,3 +164,45 @@ def test_algebraic_step_takes_exactly_its_four_inputs():
         _, est = algebraic.step(cfg, st, y)
         assert est.speed == algebraic.run(cfg, np.array([[0.0, 0.0, 0.0, 40.0]])).speed[0]
         assert abs(est.speed - cfg.r * 40.0) < 1e-9
+
+
+def _in_a_child(code: str) -> str:
+    """Runs ``code`` in a fresh interpreter (a read past an array can abort the process) and
+    returns its last output line."""
+    import subprocess
+    import sys
+
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=300)
+    lines = (res.stdout + res.stderr).strip().splitlines()
+    return lines[-1] if lines else f"exit status {res.returncode}"
+
+
+def test_ekf_refuses_a_state_of_another_model():
+    """An M = 3 state handed to an M = 2 filter (and the reverse) used to run: the compiled
+    step read and wrote past the arrays (heap corruption, "malloc(): mismatching
+    next->prev_size") or returned numbers from whatever lay in memory."""
+    code = (
+        "import numpy as np\n"
+        "from vibrospeed.models.harmonic import HarmonicModel\n"
+        "from vibrospeed.estimators import ekf\n"
+        "c2, c3 = (ekf.Config(HarmonicModel.from_thesis(M=m)) for m in (2, 3))\n"
+        "out = []\n"
+        "for a, b in ((c3, c2), (c2, c3)):\n"
+        "    for call in (lambda: ekf.step(b, ekf.init(a), 0.1),\n"
+        "                 lambda: ekf.run(b, np.full(50, 0.1), state=ekf.init(a))):\n"
+        "        try:\n"
+        "            call()\n"
+        "            out.append('ran')\n"
+        "        except Exception as exc:\n"
+        "            out.append(type(exc).__name__)\n"
+        "print(','.join(out))\n")
+    assert _in_a_child(code) == "ParameterError,ParameterError,ParameterError,ParameterError"
+    from vibrospeed.errors import ParameterError
+    from vibrospeed.estimators import ekf
+
+    cfg = ekf.Config()
+    with pytest.raises(ParameterError, match=r"ekf state: .* do not match the config's M = 3"):
+        ekf.step(cfg, ekf.init(cfg)._replace(comb=np.zeros(2)), 0.1)
+    st = ekf.init(cfg)._replace(comb=None)  # None: the comb check as init makes it
+    assert ekf.step(cfg, st, 0.1)[1].omega == ekf.step(cfg, ekf.init(cfg), 0.1)[1].omega

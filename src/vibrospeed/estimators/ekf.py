@@ -282,6 +282,17 @@ def _comb_state(config: Config, state: State) -> np.ndarray:
     return _comb0(config) if state.comb is None else np.array(state.comb, dtype=np.float64)
 
 
+def _check_state(config: Config, state: State) -> None:
+    """A state of another M would be read past its end by the compiled step (memory errors)."""
+    n = 1 + config.model.n_lin
+    shapes = (np.shape(state.x), np.shape(state.P),
+              (3,) if state.comb is None else np.shape(state.comb))
+    if shapes != ((n,), (n, n), (3,)):
+        raise ParameterError(f"ekf state: x {shapes[0]}, P {shapes[1]}, comb {shapes[2]} do not "
+                             f"match the config's M = {config.model.M} (x ({n},), P ({n}, {n}), "
+                             "comb (3,))")
+
+
 def step(config: Config, state: State, y: float, comb: float = np.nan
          ) -> tuple[State, Estimate]:
     """Process one sample ``y``; returns the prior for the next sample and the posterior now.
@@ -289,6 +300,7 @@ def step(config: Config, state: State, y: float, comb: float = np.nan
     ``comb``: the comb check's candidate at this sample (rad/s; NaN: none), e.g. from
     :func:`vibrospeed.signal.comb.comb_candidates`.
     """
+    _check_state(config, state)
     x = state.x.copy()
     P = state.P.copy()
     cv = _comb_state(config, state)
@@ -317,6 +329,7 @@ def run(config: Config, y: np.ndarray, state: State | None = None,
     """Run over a whole signal (``comb``: the comb candidates per sample, NaN: none; None: no
     comb check); identical to repeated :func:`step`."""
     st = init(config) if state is None else state
+    _check_state(config, st)
     x = st.x.copy()
     P = st.P.copy()
     cv = _comb_state(config, st)
