@@ -217,3 +217,27 @@ def test_batch_rows_and_reports_share_one_rule():
     seen = metrics.measured(_track(has_signal=np.zeros(n), standstill=np.r_[np.zeros(n - 1), 1]))
     assert seen.sum() == 1 and seen[-1]
     assert metrics.measured(_track()) is None
+
+
+def test_error_rows_name_their_recording(tmp_path):
+    """Every error row names its recording, as the summary's ``error`` column promises: a
+    reader's error by the path it read (not named twice), a parameter the method does not know
+    (found per recording, by the estimator) with the file put first, one line each."""
+    from vibrospeed.batch.task import _lost
+
+    src = tmp_path / "in"
+    src.mkdir()
+    io.write(sim.simulate("cart", seed=0, duration=4), src / "drive.csv")
+    (src / "empty.csv").write_text("")
+    df = batch.run([src], tmp_path / "out", method="ekf", params={"no_such_name": "1"}, jobs=1)
+    assert list(df["status"]) == ["error", "error"]
+    for _, r in df.iterrows():
+        assert r["error"].count(r["file"]) == 1 and "\n" not in r["error"], r["error"]
+    drive = df.loc[df["file"].str.endswith("drive.csv"), "error"].iloc[0]
+    assert drive.startswith(f"{src / 'drive.csv'}: unknown parameter 'no_such_name'")
+    empty = df.loc[df["file"].str.endswith("empty.csv"), "error"].iloc[0]
+    assert empty == f"{src / 'empty.csv'}: empty file"
+    job = {"file": "logs/a.csv", "input": "/x/logs/a.csv", "output": "/o/a_ekf.csv",
+           "options": batch.EstimateOptions(method="ekf")}
+    assert _lost(job, "its worker process died")["error"] == \
+        "logs/a.csv: its worker process died"

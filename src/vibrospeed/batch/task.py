@@ -39,6 +39,15 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(text.split())
 
 
+def _naming_file(job: dict[str, Any], text: str) -> str:
+    """``text`` naming the recording: a reader's error names it already (by the absolute path
+    the task reads); an option's (``unknown parameter ...``) or a lost worker's does not, so
+    ``job["file"]`` goes first, as the summary's ``error`` column promises."""
+    if str(job["file"]) in text or str(job.get("input", job["file"])) in text:
+        return text
+    return f"{job['file']}: {text}"
+
+
 def _up_to_date(job: dict[str, Any]) -> dict[str, Any] | None:
     """The output's sidecar when it records the same method, options, version and input."""
     from vibrospeed import __version__
@@ -106,7 +115,7 @@ def _work(job: dict[str, Any]) -> dict[str, Any]:
                          estimate_path=job["output"])
     except Exception as exc:  # noqa: BLE001 - one bad recording never stops the batch
         row["status"] = "error"
-        row["error"] = _one_line(exc)
+        row["error"] = _naming_file(job, _one_line(exc))
         row["report"] = None
     row["wall_s"] = time.perf_counter() - t0
     return row
@@ -115,4 +124,4 @@ def _work(job: dict[str, Any]) -> dict[str, Any]:
 def _lost(job: dict[str, Any], why: str) -> dict[str, Any]:
     return {"file": job["file"], "output": job["output"], "format": None,
             "duration_s": math.nan, "method": job["options"].method, "status": "error",
-            "error": why, "note": "", "wall_s": math.nan, "report": None}
+            "error": _naming_file(job, why), "note": "", "wall_s": math.nan, "report": None}
