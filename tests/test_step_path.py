@@ -206,3 +206,48 @@ def test_ekf_refuses_a_state_of_another_model():
         ekf.step(cfg, ekf.init(cfg)._replace(comb=np.zeros(2)), 0.1)
     st = ekf.init(cfg)._replace(comb=None)  # None: the comb check as init makes it
     assert ekf.step(cfg, st, 0.1)[1].omega == ekf.step(cfg, ekf.init(cfg), 0.1)[1].omega
+
+
+def test_rbpf_refuses_a_state_of_another_particle_count_or_model():
+    """An M = 2 state in an M = 3 filter used to corrupt the heap ("double free or
+    corruption"); a state of 20 particles ran in a filter configured for 30."""
+    code = (
+        "from vibrospeed.models.harmonic import HarmonicModel\n"
+        "from vibrospeed.estimators import rbpf\n"
+        "m2 = rbpf.Config(n_particles=20, model=HarmonicModel.from_thesis(M=2))\n"
+        "m3 = rbpf.Config(n_particles=20)\n"
+        "k30 = rbpf.Config(n_particles=30)\n"
+        "out = []\n"
+        "for cfg, st in ((m3, rbpf.init(m2)), (m2, rbpf.init(m3)), (k30, rbpf.init(m3))):\n"
+        "    for call in (lambda: rbpf.step(cfg, st, 0.1), lambda: rbpf.run(cfg, [0.1] * 5, st)):\n"
+        "        try:\n"
+        "            call()\n"
+        "            out.append('ran')\n"
+        "        except Exception as exc:\n"
+        "            out.append(type(exc).__name__)\n"
+        "print(','.join(out))\n")
+    assert _in_a_child(code) == ",".join(["ParameterError"] * 6)
+
+
+def test_shs_and_algebraic_refuse_a_state_made_for_another_config():
+    """shs: a state of 200-sample batches in a 100-sample config gave a batch of the wrong
+    length or numpy's broadcast error; algebraic: a state for other windows gave NaN (step) or
+    shifted numbers (run)."""
+    from vibrospeed.errors import ParameterError
+    from vibrospeed.estimators import algebraic, shs
+
+    s100, s200 = shs.Config(batch=100), shs.Config(batch=200)
+    part = shs.run(s100, np.zeros(90)).final
+    for cfg, st in ((s100, shs.init(s200)), (s200, shs.init(s100)), (s200, part)):
+        with pytest.raises(ParameterError, match=r"shs state: .* batch = "):
+            shs.step(cfg, st, 0.1)
+        with pytest.raises(ParameterError, match=r"shs state: .* batch = "):
+            shs.run(cfg, np.zeros(150), state=st)
+    assert shs.run(s100, np.zeros(30), state=part).final.count == 20  # its own config: fine
+    a1 = algebraic.Config()
+    for a2 in (algebraic.Config(window=0.3, window_d=0.5),
+               algebraic.Config(detect="seed", alpha=80)):
+        with pytest.raises(ParameterError, match=r"algebraic state: .* do not match"):
+            algebraic.step(a2, algebraic.init(a1), [0.0, 0.0, 0.0, 40.0])
+        with pytest.raises(ParameterError, match=r"algebraic state: .* do not match"):
+            algebraic.run(a2, np.tile([0.0, 0.0, 0.0, 40.0], (20, 1)), state=algebraic.init(a1))

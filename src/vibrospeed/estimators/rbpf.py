@@ -263,9 +263,21 @@ def _one(config: Config, om, lw, mean, cov, y, rng, w, out, blocks):
     return resampled
 
 
+def _check_state(config: Config, state: State) -> None:
+    """A state of another K or M would be read past its end by the compiled steps (heap
+    corruption) or run with another particle count than the config says."""
+    K, n = config.n_particles, config.model.n_lin
+    shapes = tuple(np.shape(a) for a in (state.omega, state.log_w, state.mean, state.cov))
+    if shapes != ((K,), (K,), (K, n), (K, n, n)):
+        raise ParameterError(f"rbpf state: omega, log_w, mean, cov {shapes} do not match the "
+                             f"config's n_particles = {K} and M = {config.model.M} "
+                             f"(({K},), ({K},), ({K}, {n}), ({K}, {n}, {n}))")
+
+
 def step(config: Config, state: State, y: float) -> tuple[State, Estimate]:
     """Process one sample with randomness from (a copy of) the state's generator; returns
     (prior for next, posterior)."""
+    _check_state(config, state)
     om, lw = state.omega.copy(), state.log_w.copy()
     mean, cov = state.mean.copy(), state.cov.copy()
     rng = copy.deepcopy(state.rng)
@@ -280,6 +292,7 @@ def run(config: Config, y: np.ndarray, state: State | None = None) -> Result:
     """Run over a whole signal; identical to repeated :func:`step` from ``state`` (default
     :func:`init`)."""
     st = init(config) if state is None else state
+    _check_state(config, st)
     rng = copy.deepcopy(st.rng)
     om, lw = st.omega.copy(), st.log_w.copy()
     mean, cov = st.mean.copy(), st.cov.copy()

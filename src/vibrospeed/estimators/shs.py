@@ -151,9 +151,18 @@ def batch_estimate(config: Config, x: np.ndarray) -> tuple[float, float]:
     return float(axis[j]), float(H[j])
 
 
+def _check_state(config: Config, state: State) -> None:
+    """A state of another batch length gave batches of the wrong length (or numpy's
+    broadcast error) instead of the config's."""
+    if np.shape(state.buf) != (config.batch,) or not 0 <= state.count < config.batch:
+        raise ParameterError(f"shs state: buffer {np.shape(state.buf)} holding {state.count} "
+                             f"samples does not match the config's batch = {config.batch}")
+
+
 def step(config: Config, state: State, y: float) -> tuple[State, Estimate]:
     """Add one sample. The estimate's omega is the batch estimate (rad/s) when this sample
     completes a batch, else NaN (extras ``score``: the summed spectrum at the peak)."""
+    _check_state(config, state)
     buf = state.buf.copy()
     buf[state.count] = y
     count = state.count + 1
@@ -168,6 +177,7 @@ def run(config: Config, y: np.ndarray, state: State | None = None) -> Result:
     """All complete batches of ``y`` (a trailing partial batch stays in ``final``); the
     estimates equal those :func:`step` returns."""
     st = init(config) if state is None else state
+    _check_state(config, st)
     y = np.asarray(y, dtype=np.float64)
     L = config.batch
     first = min(L - st.count, y.size)

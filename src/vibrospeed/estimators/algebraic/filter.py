@@ -10,7 +10,7 @@ import numpy as np
 
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.algebraic.config import INPUTS, OUTPUTS, Config, State, init
-from vibrospeed.estimators.algebraic.core import _core, _run
+from vibrospeed.estimators.algebraic.core import _NS, _core, _run
 from vibrospeed.types import Estimate
 
 
@@ -41,6 +41,16 @@ def _estimate(out: np.ndarray) -> Estimate:
     return Estimate(speed=vals.pop("vx"), speed_std=vals.pop("vx_std"), extras=vals)
 
 
+def _check_state(config: Config, state: State, n_taps: int) -> None:
+    """A state made for other windows or another backtracking depth gave NaN or shifted
+    numbers: the compiled core indexes its buffers by the config's lengths."""
+    shapes = (np.shape(state.buf), np.shape(state.hist), np.shape(state.s))
+    want = ((4, n_taps), (4, config.n_back + 2), (_NS,))
+    if shapes != want:
+        raise ParameterError(f"algebraic state: buf, hist, s {shapes} do not match the config "
+                             f"(windows and backtracking: {want})")
+
+
 def step(config: Config, state: State, y, taps=None) -> tuple[State, Estimate]:
     """One sample ``y = (gz, ax, ay, omega_mean)``; returns the new state and the estimate
     (``speed`` = vx, ``speed_std`` = vx_std, the other :data:`OUTPUTS` as extras). Pass
@@ -49,6 +59,7 @@ def step(config: Config, state: State, y, taps=None) -> tuple[State, Estimate]:
     if z.shape != (4,):  # the compiled core reads 4 values whatever it is given
         raise ParameterError(f"algebraic.step expects 4 inputs {INPUTS}, got shape {z.shape}")
     b0, b1 = config.taps() if taps is None else taps
+    _check_state(config, state, b0.size)
     buf = state.buf.copy()
     hist = state.hist.copy()
     s = state.s.copy()
@@ -65,6 +76,7 @@ def run(config: Config, y: np.ndarray, state: State | None = None) -> Result:
     if Z.ndim != 2 or Z.shape[1] != 4:
         raise ParameterError(f"algebraic.run expects (n, 4) inputs {INPUTS}, got {Z.shape}")
     b0, b1 = config.taps()
+    _check_state(config, st, b0.size)
     buf = st.buf.copy()
     hist = st.hist.copy()
     s = st.s.copy()
