@@ -241,3 +241,27 @@ def test_error_rows_name_their_recording(tmp_path):
            "options": batch.EstimateOptions(method="ekf")}
     assert _lost(job, "its worker process died")["error"] == \
         "logs/a.csv: its worker process died"
+
+
+@pytest.mark.parametrize(("opts", "said"), [
+    ({"fmt": "phyphx"}, r"^unknown format 'phyphx' \(choose from: auto, .*phyphox"),
+    ({"columns": "t=time,acc_y"}, r"^column mapping 'acc_y': expected NAME=COLUMN"),
+    ({"mapping": "nowhere.toml"}, r"^nowhere.toml: mapping file not found$"),
+])
+def test_reading_option_mistakes_stop_the_batch_before_it_starts(tmp_path, opts, said):
+    """A format, column mapping or mapping file that no recording could satisfy is one error
+    before anything is read or written (it was one error row per recording), from Python and
+    from the command line (exit status 2, no summary)."""
+    from vibrospeed.errors import VibrospeedError
+
+    io.write(sim.simulate("cart", seed=0, duration=2), tmp_path / "drive.csv")
+    out = tmp_path / "out"
+    with pytest.raises(VibrospeedError, match=said):
+        batch.run([tmp_path / "drive.csv"], out, options=batch.EstimateOptions(**opts))
+    assert not out.exists()
+    flag = {"fmt": "--format", "columns": "--columns", "mapping": "--mapping"}
+    (key, value), = opts.items()
+    res = CliRunner().invoke(app, ["batch", str(tmp_path / "drive.csv"), "-o", str(out),
+                                   flag[key], value])
+    assert res.exit_code == 2 and not out.exists(), res.output
+    assert res.stderr.count("\n") == 1 and res.stderr.startswith("vibrospeed: error: ")

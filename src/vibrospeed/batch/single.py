@@ -63,6 +63,21 @@ class EstimateOptions:
                 params["fit"] = "q_omega,q_amp,r"
         return params
 
+    def check_reading(self) -> None:
+        """Refuse reading options that no recording could satisfy, before any is read: a format
+        name that is not one, a ``columns`` mapping that does not parse, a ``mapping`` file that
+        is missing or not a mapping. A batch calls it first, so such a mistake is one error
+        instead of one error row per recording."""
+        from vibrospeed import io
+
+        if self.fmt != "auto" and self.fmt not in io.FORMATS:
+            raise ParameterError(f"unknown format '{self.fmt}' (choose from: auto, "
+                                 f"{', '.join(io.FORMATS)})")
+        if self.columns is not None:
+            io.parse_mapping(self.columns)
+        if self.mapping is not None:
+            io.load_mapping(self.mapping)
+
     def to_json(self) -> dict[str, Any]:
         """Plain JSON form, as stored in a batch output's sidecar (``meta.options``)."""
         from vibrospeed.io._common import jsonable
