@@ -251,3 +251,20 @@ def test_shs_and_algebraic_refuse_a_state_made_for_another_config():
             algebraic.step(a2, algebraic.init(a1), [0.0, 0.0, 0.0, 40.0])
         with pytest.raises(ParameterError, match=r"algebraic state: .* do not match"):
             algebraic.run(a2, np.tile([0.0, 0.0, 0.0, 40.0], (20, 1)), state=algebraic.init(a1))
+
+
+def test_gps_riss_step_takes_unknown_satellites_as_none():
+    """``Sample`` documents ``gps_sats`` None as "unknown" (``run`` takes it); ``step`` raised
+    TypeError: float() argument must be ... not 'NoneType'."""
+    from vibrospeed.estimators import gps_riss
+
+    cfg = gps_riss.Config()
+    n = 60
+    t = np.arange(n) * 0.01
+    gps = np.where(np.arange(n) % 10 == 0, 10.0 + 0.1 * t, np.nan)
+    ax = np.full(n, 0.1)
+    res = gps_riss.run(cfg, gps_riss.Sample(t, ax, gps, None), state=gps_riss.init(cfg, 10.0))
+    st = gps_riss.init(cfg, 10.0)
+    for k in range(n):
+        st, est = gps_riss.step(cfg, st, gps_riss.Sample(t[k], ax[k], gps[k], None))
+        assert est.speed == res.speed[k] and est.speed_std == res.speed_std[k]

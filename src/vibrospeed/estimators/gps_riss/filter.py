@@ -157,7 +157,7 @@ def step(config: Config, state: State, y: Sample | tuple[float, float, float, fl
     ``gps_sats`` NaN means "unknown" (the fix counts as valid). Returns the new state and the
     estimate: ``speed``, ``speed_std`` and the other :class:`Output` columns as extras.
     """
-    t, a, g, s = (float(v) for v in y)
+    t, a, g, s = (math.nan if v is None else float(v) for v in y)  # None: unknown (Sample)
     if not math.isfinite(t):  # read as "time goes backwards at t = nan" before
         raise InputError(f"t must be a finite time in s, got {t}")
     if not math.isnan(state.t) and not t >= state.t:
