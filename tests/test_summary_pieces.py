@@ -21,6 +21,10 @@ def _track(seed: int, n: int, *, claims: bool, radius) -> Track:
     sig[rng.random(n) < 0.05] = np.nan
     tr.extras["has_signal"] = sig
     tr.extras["standstill"] = np.zeros(n)
+    if claims and seed % 2:  # a fuse track says what each sample's speed rests on
+        src = rng.integers(0, 4, n).astype(float)
+        src[rng.random(n) < 0.05] = np.nan
+        tr.extras["source"] = src
     return tr
 
 
@@ -37,7 +41,10 @@ def _pieces(tr: Track, cuts: list[int]) -> list[Track]:
 
 def _same(a: dict, b: dict) -> None:
     assert a["note"] == b["note"]
-    for k in ("signal_share", "distance_m", "fitted_radius"):
+    assert a["source_shares"].keys() == b["source_shares"].keys()
+    for k in a["source_shares"]:
+        assert math.isclose(a["source_shares"][k], b["source_shares"][k], rel_tol=1e-12)
+    for k in ("signal_share", "distance_m", "distance_lo_m", "distance_hi_m", "fitted_radius"):
         assert (math.isnan(a[k]) and math.isnan(b[k])) or math.isclose(a[k], b[k], rel_tol=1e-12)
     for k in ("median_speed", "median_omega"):  # float32 copies in the pieces' sum
         assert (math.isnan(a[k]) and math.isnan(b[k])) or math.isclose(a[k], b[k], rel_tol=1e-6)
@@ -63,7 +70,18 @@ def _direct(tr: Track) -> dict:
     sig = sig[np.isfinite(sig)]
     v, t = tr.speed, tr.t
     ok = np.isfinite(v[:-1]) & np.isfinite(v[1:])
-    out = {"signal_share": float(np.mean(sig > 0.5)) if sig.size else math.nan,
+
+    def integral(x):
+        fin = np.isfinite(x[:-1]) & np.isfinite(x[1:])
+        return float(np.sum((0.5 * (x[:-1] + x[1:]) * np.diff(t))[fin])) if fin.any() \
+            else math.nan
+
+    src = np.asarray(tr.extras.get("source", []), dtype=float)
+    src = src[np.isfinite(src)]
+    out = {"distance_lo_m": integral(tr.speed_lo), "distance_hi_m": integral(tr.speed_hi),
+           "source_shares": {name: float(np.mean(src == k)) for k, name in enumerate(
+               ("accelerometer", "gps", "vibration", "standstill"))} if src.size else {},
+           "signal_share": float(np.mean(sig > 0.5)) if sig.size else math.nan,
            "median_speed": float(np.median(v[np.isfinite(v)])) if np.isfinite(v).any()
            else math.nan,
            "median_omega": float(np.median(tr.omega[np.isfinite(tr.omega)]))
@@ -71,9 +89,12 @@ def _direct(tr: Track) -> dict:
            "distance_m": float(np.sum((0.5 * (v[:-1] + v[1:]) * np.diff(t))[ok]))
            if ok.any() else math.nan,
            "fitted_radius": math.nan, "note": ""}
-    if not (np.nan_to_num(np.asarray(tr.extras["has_signal"])) > 0.5).any():
+    seen = np.nan_to_num(np.asarray(tr.extras["has_signal"])) > 0.5
+    if "source" in tr.extras:  # fuse: anything but the accelerometer alone is a measurement
+        seen |= np.nan_to_num(np.asarray(tr.extras["source"]), nan=0.0) > 0
+    if not seen.any():
         out.update(median_speed=math.nan, median_omega=math.nan, distance_m=math.nan,
-                   note=NO_EVIDENCE_NOTE)
+                   distance_lo_m=math.nan, distance_hi_m=math.nan, note=NO_EVIDENCE_NOTE)
     return out
 
 
@@ -85,3 +106,35 @@ def test_no_claim_leaves_the_speed_numbers_empty_as_a_whole_track_does():
     got = acc.result()
     assert got["note"] and math.isnan(got["median_speed"]) and math.isnan(got["distance_m"])
     assert got["signal_share"] == 0.0
+
+
+def test_source_names_follow_fuses_codes():
+    from vibrospeed.estimators.fuse.config import (
+        SRC_GPS,
+        SRC_INERTIAL,
+        SRC_STANDSTILL,
+        SRC_VIBRATION,
+    )
+    from vibrospeed.eval.metrics import SOURCE_NAMES
+
+    assert [SOURCE_NAMES[k] for k in (SRC_INERTIAL, SRC_GPS, SRC_VIBRATION, SRC_STANDSTILL)] \
+        == ["accelerometer", "gps", "vibration", "standstill"]
+
+
+def test_summary_line_says_what_the_speed_rests_on_and_the_band_distances():
+    from vibrospeed.cli.estimate import summary_line
+
+    base = {"signal_share": 0.25, "median_speed": 12.0, "median_omega": 40.0,
+            "distance_m": 1234.4, "distance_lo_m": 1000.2, "distance_hi_m": 1500.7,
+            "fitted_radius": math.nan, "source_shares": {}, "note": ""}
+    line = summary_line(base)
+    assert line.startswith("summary: a wheel line claimed on 25.0 % of the samples (elsewhere")
+    assert line.endswith("distance 1234 m (1000-1501 m at the edges of the speed band)")
+    fused = {**base, "source_shares": {"accelerometer": 0.0004, "gps": 0.7496,
+                                       "vibration": 0.2, "standstill": 0.05}}
+    line = summary_line(fused)
+    assert line.startswith("summary: speed from GPS on 75.0 %, the wheel line on 20.0 %, the "
+                           "accelerometer alone on < 0.1 %, a standstill on 5.0 % of the samples;")
+    assert "claimed" not in line and "guess" not in line
+    nan_band = {**base, "distance_lo_m": math.nan}
+    assert summary_line(nan_band).endswith("distance 1234 m")

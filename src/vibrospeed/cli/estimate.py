@@ -5,6 +5,7 @@ estimator's presets and parameters)."""
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -226,22 +227,38 @@ def estimate(
         err.print(f"wrote {plot}", markup=False, soft_wrap=True)
 
 
+def _percent(share: float) -> str:
+    """``share`` (0..1) as a percentage with one decimal; a share that is not 0 never reads 0."""
+    return f"{100 * share:.1f} %" if share == 0 or 100 * share >= 0.05 else "< 0.1 %"
+
+
 def summary_line(s: dict) -> str:
     """What the estimate rests on, in one line, from its summary numbers ``s``
     (:func:`vibrospeed.eval.metrics.track_summary`, a batch row's): the share of samples with a
-    claimed wheel line, the median speed (or omega without a radius) and the distance, which
-    count every sample: where no line is claimed omega is the tracker's guess, and the line
-    says so."""
+    claimed wheel line (``fuse``: the shares of the samples by what the speed rests on), the
+    median speed (or omega without a radius) and the distance with
+    the distances at the edges of the speed band, which count every sample: where no line is
+    claimed omega is the tracker's guess, and the line says so."""
     parts = []
     share = s["signal_share"]
-    if share == share:
+    sources = s.get("source_shares") or {}
+    if sources:
+        parts.append("speed from " + ", ".join(
+            f"{what} on {_percent(sources[name])}" for name, what in (
+                ("gps", "GPS"), ("vibration", "the wheel line"),
+                ("accelerometer", "the accelerometer alone"), ("standstill", "a standstill"))
+            if sources[name] > 0) + " of the samples")
+    elif share == share:
         guess = " (elsewhere omega is the tracker's guess: read its band)" \
             if share < 1 and not s["note"] else ""
         parts.append(f"a wheel line claimed on {100 * share:.1f} % of the samples{guess}")
     if s["median_speed"] == s["median_speed"]:
         parts.append(f"median speed {s['median_speed']:.2f} m/s")
         if s["distance_m"] == s["distance_m"]:
-            parts.append(f"distance {s['distance_m']:.0f} m")
+            lo, hi = s.get("distance_lo_m", math.nan), s.get("distance_hi_m", math.nan)
+            band = f" ({lo:.0f}-{hi:.0f} m at the edges of the speed band)" \
+                if lo == lo and hi == hi else ""
+            parts.append(f"distance {s['distance_m']:.0f} m{band}")
     elif s["median_omega"] == s["median_omega"]:
         parts.append(f"median omega {s['median_omega']:.1f} rad/s")
     if s["note"]:

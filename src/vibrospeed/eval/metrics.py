@@ -182,6 +182,9 @@ def fitted_radius(track) -> float:
     return math.nan
 
 
+#: what ``fuse``'s ``source`` column's values 0-3 mean (:mod:`vibrospeed.estimators.fuse`)
+SOURCE_NAMES = ("accelerometer", "gps", "vibration", "standstill")
+
 #: The ``note`` of a track whose speed numbers are left empty (see :func:`track_summary`).
 NO_EVIDENCE_NOTE = ("no wheel line claimed and no standstill or GPS seen: median_speed, "
                     "median_omega and distance_m left empty")
@@ -207,8 +210,15 @@ def measured(track) -> np.ndarray | None:
 
 def track_summary(track) -> dict[str, Any]:
     """The summary numbers of a track, the same for a batch row and a drive report:
-    ``signal_share``, ``median_speed``, ``median_omega``, ``distance_m``, ``fitted_radius``
-    (NaN where they do not apply) and ``note``.
+    ``signal_share``, ``median_speed``, ``median_omega``, ``distance_m``, ``distance_lo_m``,
+    ``distance_hi_m``, ``fitted_radius`` (NaN where they do not apply), ``source_shares``
+    (``fuse``: the share of the samples whose speed rests on each of :data:`SOURCE_NAMES`;
+    empty for other methods) and ``note``.
+    ``distance_lo_m`` / ``distance_hi_m`` integrate the band's edges (``speed_lo``,
+    ``speed_hi``) as ``distance_m`` integrates the speed: the distance if every sample sat at
+    the lower or at the upper edge of its band, an envelope (the errors of neighbouring
+    samples are not independent, so no narrower band follows from the per-sample ones
+    without a model of their correlation).
 
     Where the method says per sample whether it saw anything (``has_signal``) and no sample
     rests on a measurement (:func:`measured`: no claimed line, no detected standstill, no
@@ -238,12 +248,13 @@ class SummaryAccumulator:
         self.has_signal = False  # whether the pieces carry a has_signal column
         self.n_sig = 0
         self.n_sig_finite = 0
+        self.sources = np.zeros(4, np.int64)  # fuse's samples per source (SRC_* order)
         self.seen = False
         self.speeds: list[np.ndarray] = []
         self.omegas: list[np.ndarray] = []
-        self.dist = 0.0
-        self.dist_ok = False
-        self.last: tuple[float, float] | None = None
+        self.dist = np.zeros(3)  # the trapezoids of speed, speed_lo, speed_hi
+        self.dist_ok = np.zeros(3, bool)
+        self.last: tuple[float, np.ndarray] | None = None
         self.radius = math.nan
 
     def add(self, track) -> None:
@@ -256,19 +267,29 @@ class SummaryAccumulator:
             self.has_signal = True
             self.n_sig += int(np.count_nonzero(s > 0.5))
             self.n_sig_finite += int(s.size)
+        src = track.extras.get("source")
+        if src is not None:
+            src = np.asarray(src, dtype=np.float64)
+            src = src[np.isfinite(src)].astype(np.int64)
+            self.sources += np.bincount(src[(src >= 0) & (src < 4)], minlength=4)
         seen = measured(track)
         self.seen |= bool(seen is not None and seen.any())
         for keep, x in ((self.speeds, v), (self.omegas, track.omega)):
             x = np.asarray(x, dtype=np.float64)
             keep.append(x[np.isfinite(x)].astype(self.dtype))
-        tt, vv = (t, v) if self.last is None else (np.r_[self.last[0], t], np.r_[self.last[1], v])
+        V = np.vstack([v, np.asarray(track.speed_lo, dtype=np.float64),
+                       np.asarray(track.speed_hi, dtype=np.float64)])
+        tt, VV = (t, V) if self.last is None else (np.r_[self.last[0], t],
+                                                   np.column_stack([self.last[1], V]))
         if tt.size >= 2:
-            ok = np.isfinite(vv[:-1]) & np.isfinite(vv[1:])
-            if ok.any():
-                self.dist += float(np.sum(0.5 * (vv[:-1] + vv[1:])[ok] * np.diff(tt)[ok]))
-                self.dist_ok = True
+            dt = np.diff(tt)
+            for i, vv in enumerate(VV):
+                ok = np.isfinite(vv[:-1]) & np.isfinite(vv[1:])
+                if ok.any():
+                    self.dist[i] += float(np.sum(0.5 * (vv[:-1] + vv[1:])[ok] * dt[ok]))
+                    self.dist_ok[i] = True
         if t.size:
-            self.last = (float(t[-1]), float(v[-1]))
+            self.last = (float(t[-1]), V[:, -1].copy())
         r = fitted_radius(track)
         if math.isfinite(r):
             self.radius = r
@@ -286,11 +307,15 @@ class SummaryAccumulator:
             "signal_share": share,
             "median_speed": median(self.speeds),
             "median_omega": median(self.omegas),
-            "distance_m": self.dist if self.dist_ok else math.nan,
+            "distance_m": self.dist[0] if self.dist_ok[0] else math.nan,
+            "distance_lo_m": self.dist[1] if self.dist_ok[1] else math.nan,
+            "distance_hi_m": self.dist[2] if self.dist_ok[2] else math.nan,
             "fitted_radius": self.radius,
+            "source_shares": ({name: int(k) / int(self.sources.sum()) for name, k in zip(
+                SOURCE_NAMES, self.sources, strict=True)} if self.sources.sum() else {}),
             "note": "",
         }
         if self.has_signal and not self.seen:
             out.update(median_speed=math.nan, median_omega=math.nan, distance_m=math.nan,
-                       note=NO_EVIDENCE_NOTE)
+                       distance_lo_m=math.nan, distance_hi_m=math.nan, note=NO_EVIDENCE_NOTE)
         return out
