@@ -175,3 +175,37 @@ def test_hungary_folder_is_seven_drives(tmp_path):
     for (_, row), name in zip(df.iterrows(), drives, strict=True):
         t = pd.read_csv(HUNGARY / name / "Accelerometer.csv", usecols=[0]).iloc[:, 0].to_numpy()
         assert row["duration_s"] == pytest.approx(t[-1] - t[0], abs=0.02)
+
+
+def test_one_unpacked_export_beside_other_drives_is_not_the_whole_folder(tmp_path):
+    """A folder holding one unpacked export and, beside it, another drive (its export as a
+    zip, a canonical CSV) is a folder of recordings: every drive is an input (before, the folder
+    was read as the one unpacked export and the others were silently left out). Notes and
+    images beside an unpacked export still leave it one recording."""
+    root = tmp_path / "phone_logs"
+    ay_folder = _phyphox(root / "drive_a", 300, seed=0)
+    zipped = tmp_path / "drive_b"
+    ay_zip = _phyphox(zipped, 450, seed=1)
+    with zipfile.ZipFile(root / "drive_b.zip", "w") as zf:
+        for f in sorted(zipped.iterdir()):
+            zf.write(f, f"drive_b/{f.name}")
+    io.write(sim.simulate("cart", seed=2, duration=3), root / "drive_c.csv")
+    assert not is_phyphox(root)
+    found = batch.expand_inputs([root])
+    assert [(Path(p).name, err) for p, err in found] == [
+        ("drive_a", None), ("drive_b.zip", None), ("drive_c.csv", None)]
+    np.testing.assert_array_equal(io.read(found[0][0])["ay"], ay_folder)
+    np.testing.assert_array_equal(io.read(found[1][0])["ay"], ay_zip)
+    assert len(io.read(found[2][0])) == 300
+    with pytest.raises(ReaderError, match=r"a folder of 1 recordings \(drive_a\), not one"):
+        io.detect_format(root)
+    for name in ("notes.md", "map.png", "drive_a.csv.json"):  # never recordings
+        wrap = tmp_path / f"wrap_{name}"
+        _phyphox(wrap / "Acceleration 2024-05-01", 120)
+        (wrap / name).write_text("x\n")
+        assert is_phyphox(wrap) and batch.expand_inputs([wrap]) == [(str(wrap), None)]
+    sl = tmp_path / "sl"  # Sensor Logger: the same rule
+    _sensorlogger(sl / "2024-01-03_10-00-00", 150)
+    assert is_sensorlogger(sl)
+    (sl / "2024-01-04.zip").write_bytes(b"PK\x05\x06" + b"\0" * 18)  # another drive's zip
+    assert not is_sensorlogger(sl)

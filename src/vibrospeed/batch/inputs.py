@@ -11,9 +11,8 @@ import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
-# files in a folder that are never recordings (outputs, sidecars, notes)
-_NOT_RECORDINGS = {".json", ".png", ".jpg", ".jpeg", ".svg", ".html", ".htm", ".md", ".toml",
-                   ".yaml", ".yml"}
+# files in a folder that are never recordings (outputs, sidecars, notes): the readers' own list
+from vibrospeed.io._common import NOT_RECORDING_SUFFIXES as _NOT_RECORDINGS
 
 
 def _is_recording_dir(p: Path) -> bool:

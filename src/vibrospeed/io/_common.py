@@ -97,21 +97,34 @@ def exc_text(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
+#: Suffixes of files that are never recordings: sidecars, images, pages, notes, settings.
+NOT_RECORDING_SUFFIXES = frozenset({".json", ".png", ".jpg", ".jpeg", ".svg", ".html", ".htm",
+                                    ".md", ".toml", ".yaml", ".yml"})
+
+
 def export_folders(folder: str | os.PathLike[str], names: Sequence[str]) -> list[Path]:
     """Where an app export in ``folder`` keeps its files, recognised by any of the file ``names``.
 
     ``[folder]`` when ``folder`` holds one of them itself; otherwise every subfolder (one level,
     hidden ones and ``__MACOSX`` left out) that does, sorted by name. One entry means ``folder``
     is one export (perhaps unpacked into a folder of its own); several mean a folder of exports,
-    each a recording of its own; none, no export. Never raises (an unreadable folder: none).
+    each a recording of its own; none, no export. A single export subfolder makes ``folder``
+    one export only when nothing beside it may be a recording: a visible file other than a
+    sidecar, image or note (:data:`NOT_RECORDING_SUFFIXES`), e.g. another drive's export as a
+    zip, makes ``folder`` a folder of recordings (none: ``[]``), so that no drive in it is
+    silently left out. Never raises (an unreadable folder: none).
     """
     p = Path(folder)
     try:
         if any((p / n).is_file() for n in names):
             return [p]
-        return [q for q in sorted(p.iterdir())
-                if q.is_dir() and not q.name.startswith(".") and q.name != "__MACOSX"
-                and any((q / n).is_file() for n in names)]
+        entries = [q for q in sorted(p.iterdir())
+                   if not q.name.startswith(".") and q.name != "__MACOSX"]
+        found = [q for q in entries if q.is_dir() and any((q / n).is_file() for n in names)]
+        if len(found) == 1 and any(q.is_file() and q.suffix.lower() not in NOT_RECORDING_SUFFIXES
+                                   for q in entries):
+            return []
+        return found
     except OSError:
         return []
 

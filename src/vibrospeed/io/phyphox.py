@@ -1,8 +1,9 @@
 """phyphox exports (https://phyphox.org): a folder or .zip of per-sensor CSV files.
 
 A folder is one export when it holds ``Accelerometer.csv``, or when exactly one of its subfolders
-does (an export unpacked into a folder of its own). A folder with several such subfolders holds
-several drives: each is one recording (``vibrospeed batch`` reads them one by one), and reading
+does and no file beside it may be a recording (an export unpacked into a folder of its own;
+:func:`vibrospeed.io._common.export_folders`). A folder with several such subfolders, or with one
+beside other drives' files, holds several drives: each is one recording (``vibrospeed batch`` reads them one by one), and reading
 the folder, or a zip holding several exports, as one recording is an error naming them.
 
 Files used (each with its own time base, first column ``Time (s)``):
