@@ -186,3 +186,24 @@ def _read_text(folder, text):
     q = folder / "full.csv"
     q.write_text(text)
     return read(q)
+
+
+def test_decimal_comma_is_refused_with_the_way_to_read_it(tmp_path):
+    """A ';'-separated file with decimal commas (a European spreadsheet's export) is refused,
+    never guessed (``1,234`` could be a thousands separator), and the one-line error says how to
+    read it: a mapping file with ``decimal = ","``, which then reads the same numbers."""
+    p = tmp_path / "x.csv"
+    p.write_text("t;ay\n0,0;1,5\n0,01;-2,25\n")
+    with pytest.raises(ReaderError, match=r"x\.csv, line 2, column 't': '0,0' is not a number "
+                                          r"\(a decimal comma\? .*decimal = \",\"") as exc:
+        read(p)
+    assert "\n" not in str(exc.value)
+    m = tmp_path / "m.toml"
+    m.write_text('decimal = ","\n[columns]\nt = "t"\nay = "ay"\n')
+    r = read(p, mapping_file=m)
+    np.testing.assert_array_equal(r.t, [0.0, 0.01])
+    np.testing.assert_array_equal(r["ay"], [1.5, -2.25])
+    for content in ("t;ay\n0;1\n1;abc\n", 't,ay\n0,1\n1,"2,5"\n'):  # no number, or ',' fields
+        p.write_text(content)
+        with pytest.raises(ReaderError, match="is not a number$"):
+            read(p)

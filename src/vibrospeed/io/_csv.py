@@ -254,11 +254,24 @@ class CsvTable:
                 else:
                     raise ReaderError(
                         self.source,
-                        f"'{_short(c.strip())}' is not a number",
+                        f"'{_short(c.strip())}' is not a number{self._comma_hint(c)}",
                         row=int(lines[k]),
                         column=name,
                     ) from None
         return vals
+
+    def _comma_hint(self, cell: str) -> str:
+        """What to do about ``cell`` when it is a number written with a decimal comma in a file
+        whose fields are not separated by commas (a European spreadsheet's ``;`` export), else
+        nothing: the reader keeps ``.`` unless told, so that ``1,234`` is never guessed."""
+        if self.decimal != "." or self.delimiter == "," or "," not in cell:
+            return ""
+        try:
+            float(cell.strip().replace(",", "."))
+        except ValueError:
+            return ""
+        return (" (a decimal comma? read the file through a --mapping TOML file with "
+                "decimal = \",\", see docs/formats.md)")
 
 
 def nan_notes(columns: dict[str, np.ndarray], source: str) -> list[str]:
