@@ -265,3 +265,33 @@ def test_reading_option_mistakes_stop_the_batch_before_it_starts(tmp_path, opts,
                                    flag[key], value])
     assert res.exit_code == 2 and not out.exists(), res.output
     assert res.stderr.count("\n") == 1 and res.stderr.startswith("vibrospeed: error: ")
+
+
+def test_run_stopped_between_estimate_and_sidecar_is_not_up_to_date(tmp_path, monkeypatch):
+    """A run stopped after an estimate CSV was replaced but before its sidecar was leaves no
+    pair that passes as up to date: the old sidecar is gone before the new CSV lands, so going
+    back to the old options estimates again instead of skipping with the other options' CSV."""
+    import vibrospeed.io.track as track_io
+
+    io.write(sim.simulate("cart", seed=3, duration=4), tmp_path / "drive.csv")
+    out = tmp_path / "out"
+    a = {"omega_min": 2, "omega_max": 30}
+    first = batch.run([tmp_path / "drive.csv"], out, method="grid", params=a, jobs=1)
+    assert list(first["status"]) == ["ok"]
+    csv_a = (out / "drive_grid.csv").read_bytes()
+
+    def stopped(*args, **kwargs):
+        raise KeyboardInterrupt  # Ctrl-C between the CSV and its sidecar
+
+    with monkeypatch.context() as m:
+        m.setattr(track_io, "atomic_write_text", stopped)
+        with pytest.raises(KeyboardInterrupt):
+            batch.run([tmp_path / "drive.csv"], out, method="grid",
+                      params={**a, "omega_max": 20}, jobs=1)
+    assert (out / "drive_grid.csv").read_bytes() != csv_a  # the other options' estimate
+    assert not (out / "drive_grid.csv.json").exists()
+    again = batch.run([tmp_path / "drive.csv"], out, method="grid", params=a, jobs=1)
+    assert list(again["status"]) == ["ok"], again
+    assert (out / "drive_grid.csv").read_bytes() == csv_a
+    cols = ["signal_share", "median_omega", "distance_m", "note"]
+    pd.testing.assert_frame_equal(again[cols], first[cols])

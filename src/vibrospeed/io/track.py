@@ -8,7 +8,9 @@
 ``est.csv.json`` holds ``method``, ``params``, ``level``, ``wheel_radius``, the vibrospeed
 ``version``, the ``input`` file with its ``input_sha256``, ``notes`` and any extra ``meta``.
 Both files are written atomically, the sidecar's text made first (a wheel radius that is not a
-finite number > 0 m, or any value JSON cannot hold, stops the writer before the CSV exists);
+finite number > 0 m, or any value JSON cannot hold, stops the writer before the CSV exists) and
+an older sidecar removed before the CSV is replaced (so a writer stopped in between never
+leaves a new CSV beside an old sidecar that describes another estimate);
 :func:`read_track` reads them back exactly.
 """
 
@@ -97,6 +99,9 @@ def write_track(
         text = json.dumps(side, indent=1, allow_nan=False) + "\n"
     except ValueError as exc:
         raise ParameterError(f"{p}.json: cannot write the sidecar: {exc}") from None
+    # an older sidecar goes before the CSV is replaced: stopped in between, the new CSV stands
+    # without one (a batch estimates it again), never beside the old options' sidecar
+    Path(f"{p}.json").unlink(missing_ok=True)
     _write_columns(p, [*TRACK_COLUMNS, *extras], cols)
     atomic_write_text(Path(f"{p}.json"), text)
 
