@@ -303,3 +303,23 @@ def test_gps_riss_keeps_e_max_inf_and_refuses_a_time_that_is_not_finite():
         gps_riss.step(gps_riss.Config(), st, gps_riss.Sample(math.nan, 0.0, math.nan, 9.0))
     with pytest.raises(InputError, match="time goes backwards"):
         gps_riss.step(gps_riss.Config(), st, gps_riss.Sample(-1.0, 0.0, math.nan, 9.0))
+
+
+@pytest.mark.parametrize("method", ["ekf", "rbpf", "shs"])
+def test_run_refuses_samples_that_are_not_one_dimensional(method):
+    """A column vector (n, 1) or a bare number used to fail inside numba (TypingError), float()
+    (TypeError) or a numpy broadcast (ValueError); float32 arrays and lists run as float64."""
+    from vibrospeed.estimators import ekf, rbpf, shs
+
+    mod, cfg = {"ekf": (ekf, ekf.Config()), "rbpf": (rbpf, rbpf.Config(n_particles=20)),
+                "shs": (shs, shs.Config(batch=100))}[method]
+    y = np.sin(30.0 * np.arange(300) * 0.01)
+    # a bare number is one sample to the EKF (as before); the others failed on it
+    for bad in (y[:, None], y[None, :]) + (() if method == "ekf" else (np.float64(0.5),)):
+        with pytest.raises(InputError, match=rf"{method}.run: y must be one-dimensional"):
+            mod.run(cfg, bad)
+    ref = mod.run(cfg, y).omega
+    for same in (y.tolist(), y.astype(np.float32).astype(np.float64)):
+        assert np.array_equal(mod.run(cfg, same).omega, mod.run(cfg, np.asarray(same)).omega)
+    got = mod.run(cfg, y.astype(np.float32)).omega  # rounded to float32, then float64
+    assert np.allclose(got, ref, atol=1e-3, equal_nan=True)

@@ -40,7 +40,7 @@ import numpy as np
 from numba import njit
 
 from vibrospeed.config import config_from_params, parse_flag
-from vibrospeed.errors import ParameterError
+from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators.kalman import joseph_update
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal.comb import COMB_COUNT, COMB_REL, comb_vote, restart_phasors
@@ -334,6 +334,8 @@ def run(config: Config, y: np.ndarray, state: State | None = None,
     P = st.P.copy()
     cv = _comb_state(config, st)
     ys = np.ascontiguousarray(y, dtype=np.float64)
+    if ys.ndim != 1:  # numba's typing error before
+        raise InputError(f"ekf.run: y must be one-dimensional (n,), got shape {ys.shape}")
     if comb is None:
         combs = np.full(ys.size, np.nan)
     else:

@@ -32,7 +32,7 @@ import numpy as np
 from numba import njit
 
 from vibrospeed.config import flat_dict
-from vibrospeed.errors import ParameterError
+from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators import resampling
 from vibrospeed.estimators.grid.app import prepare
 from vibrospeed.estimators.grid.config import DEFAULT_R
@@ -297,6 +297,8 @@ def run(config: Config, y: np.ndarray, state: State | None = None) -> Result:
     om, lw = st.omega.copy(), st.log_w.copy()
     mean, cov = st.mean.copy(), st.cov.copy()
     y = np.asarray(y, dtype=np.float64)
+    if y.ndim != 1:  # a TypeError from float() per sample before
+        raise InputError(f"rbpf.run: y must be one-dimensional (n,), got shape {y.shape}")
     outs = np.empty((y.size, 6))
     flags = np.zeros(y.size, dtype=bool)
     w = np.empty(om.size)

@@ -25,7 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vibrospeed.errors import ParameterError
+from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.types import Estimate, Recording, Track
 
 
@@ -179,6 +179,8 @@ def run(config: Config, y: np.ndarray, state: State | None = None) -> Result:
     st = init(config) if state is None else state
     _check_state(config, st)
     y = np.asarray(y, dtype=np.float64)
+    if y.ndim != 1:  # numpy's broadcast error before
+        raise InputError(f"shs.run: y must be one-dimensional (n,), got shape {y.shape}")
     L = config.batch
     first = min(L - st.count, y.size)
     buf = st.buf.copy()
