@@ -268,3 +268,16 @@ def test_gps_riss_step_takes_unknown_satellites_as_none():
     for k in range(n):
         st, est = gps_riss.step(cfg, st, gps_riss.Sample(t[k], ax[k], gps[k], None))
         assert est.speed == res.speed[k] and est.speed_std == res.speed_std[k]
+
+
+def test_algebraic_state_shapes_are_the_documented_ones():
+    """The State docstring said ``hist`` (3, backtrack + 2) and ``s`` (41,); init makes
+    (4, n_back + 2) and (42,), the shapes step and run check."""
+    from vibrospeed.estimators import algebraic
+
+    for cfg in (algebraic.Config(), algebraic.Config(detect="seed", alpha=80)):
+        st = algebraic.init(cfg)
+        assert st.buf.shape == (4, cfg.taps()[0].size)
+        assert st.hist.shape == (4, cfg.n_back + 2) and st.s.shape == (42,)
+        doc = algebraic.State.__doc__
+        assert "``hist`` (4, ``n_back`` + 2)" in doc and "``s`` (42,)" in doc

@@ -159,10 +159,11 @@ class Config:
 
 
 class State(NamedTuple):
-    """Ring buffers ``buf`` (4, L) of ``INPUTS``; ``hist`` (3, backtrack + 2) of past ``Vx``,
-    its variance and the integration increments ``Ts (gamma_x + psi_dot Vy)``; ``s`` (41,)
-    packed scalars (``G``, ``V``, hold counters, held inputs, noise statistics, variances;
-    see the ``_*`` indices in :mod:`vibrospeed.estimators.algebraic.core`)."""
+    """Ring buffers ``buf`` (4, L) of ``INPUTS``; ``hist`` (4, ``n_back`` + 2) of past ``Vx``,
+    its variance, the integration increments ``Ts (gamma_x + psi_dot Vy)`` and the wheel speed
+    ``r omega_mean`` (m/s); ``s`` (42,) packed scalars (``G``, ``V``, hold counters, held
+    inputs, noise statistics, variances; see the ``_*`` indices in
+    :mod:`vibrospeed.estimators.algebraic.core`)."""
 
     buf: np.ndarray
     hist: np.ndarray
