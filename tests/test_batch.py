@@ -1,6 +1,7 @@
 """Batch runs: many recordings, resume, bad files as rows, local processes and Dask."""
 
 import json
+import re
 import time
 
 import numpy as np
@@ -295,3 +296,27 @@ def test_run_stopped_between_estimate_and_sidecar_is_not_up_to_date(tmp_path, mo
     assert (out / "drive_grid.csv").read_bytes() == csv_a
     cols = ["signal_share", "median_omega", "distance_m", "note"]
     pd.testing.assert_frame_equal(again[cols], first[cols])
+
+
+def test_skipped_recording_gets_a_new_report_where_its_page_is_older(tmp_path):
+    """A report left by an earlier run with other options (the estimate replaced since, by a
+    run without --report) is written again for a skipped recording; an up-to-date one is
+    kept as it is."""
+    io.write(sim.simulate("cart", seed=4, duration=4), tmp_path / "drive.csv")
+    out = tmp_path / "out"
+    page = out / "drive_grid.html"
+
+    def run(omega_max, report):
+        return batch.run([tmp_path / "drive.csv"], out, method="grid", jobs=1, report=report,
+                         params={"omega_min": 2, "omega_max": omega_max})
+
+    run(30, True)
+    said = r"<code>omega_max</code></th><td><code>{}(\.0)?<"
+    assert re.search(said.format(30), page.read_text())
+    run(20, False)  # the estimate now has omega_max = 20; the page still says 30
+    df = run(20, True)
+    assert list(df["status"]) == ["skipped"]
+    assert re.search(said.format(20), page.read_text())
+    kept = page.stat().st_mtime_ns
+    run(20, True)
+    assert page.stat().st_mtime_ns == kept

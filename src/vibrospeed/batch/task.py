@@ -72,6 +72,16 @@ def _up_to_date(job: dict[str, Any]) -> dict[str, Any] | None:
     return side if same else None
 
 
+def _stale(report: Path, estimate: Path) -> bool:
+    """A skipped recording's report is written again when it is missing or older than its
+    estimate: a run without ``--report`` replaced the estimate and left the old page, which
+    shows the old options' numbers."""
+    try:
+        return report.stat().st_mtime_ns < estimate.stat().st_mtime_ns
+    except OSError:  # no report (or no estimate: then estimating failed and this is not asked)
+        return True
+
+
 def _work(job: dict[str, Any]) -> dict[str, Any]:
     """Estimate (or skip) one recording; never raises: a failure is a row with the error."""
     from vibrospeed import io
@@ -103,7 +113,7 @@ def _work(job: dict[str, Any]) -> dict[str, Any]:
             row["status"] = "ok"
         row.update(drive_summary(track))
         report = job.get("report")
-        if report and (row["status"] == "ok" or not Path(report).is_file()):
+        if report and (row["status"] == "ok" or _stale(Path(report), Path(job["output"]))):
             from vibrospeed.eval.report import write_report
 
             if rec is None:
