@@ -193,3 +193,26 @@ def test_batch_index_and_reports_carry_the_note(tmp_path):
         float(summary.loc[1, "median_speed"]), abs=0.006)
     assert float(cart_page["distance"].split()[0]) == pytest.approx(
         float(summary.loc[1, "distance_m"]), abs=0.06)
+
+
+def test_report_refuses_an_estimate_of_another_drive(drive, tmp_path):
+    """``--estimate`` of another drive (its sidecar's input checksum differs) is one line,
+    exit status 2, no page: the spectrogram of one drive under another's speed would look
+    plausible. The estimate of this drive, or one without a sidecar, still makes the page."""
+    other = tmp_path / "other.csv"
+    io.write(sim.simulate("cart", seed=5, duration=6), other)
+    est = tmp_path / "est.csv"
+    res = runner.invoke(app, ["estimate", str(other), "-m", "ekf", "-o", str(est)])
+    assert res.exit_code == 0, res.output
+    html_out = tmp_path / "r.html"
+    res = runner.invoke(app, ["report", str(drive), "--estimate", str(est), "-o", str(html_out)])
+    assert res.exit_code == 2 and not html_out.exists()
+    assert res.stderr == (f"vibrospeed: error: {est}: estimated from {other}, not from {drive} "
+                          "(the input checksum in its .json sidecar differs): give that "
+                          "recording, or leave out --estimate to estimate this one\n")
+    res = runner.invoke(app, ["report", str(other), "--estimate", str(est), "-o", str(html_out)])
+    assert res.exit_code == 0 and html_out.is_file(), res.output
+    Path(f"{est}.json").unlink()  # no sidecar: nothing to check against
+    res = runner.invoke(app, ["report", str(drive), "--estimate", str(est), "-o",
+                              str(tmp_path / "bare.html")])
+    assert res.exit_code == 0, res.output

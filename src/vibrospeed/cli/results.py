@@ -73,12 +73,15 @@ def report(
         rec = _load(input, fmt, columns, mapping, rate, sort)
         track = io.read_track(estimate_csv)
         side_path = Path(f"{estimate_csv}.json")
-        meta = {}
+        side = {}
         if side_path.is_file():
             try:
-                meta = json.loads(side_path.read_text(encoding="utf-8")).get("meta") or {}
+                side = json.loads(side_path.read_text(encoding="utf-8"))
             except (OSError, ValueError):
-                meta = {}
+                side = {}
+        side = side if isinstance(side, dict) else {}
+        _check_same_input(estimate_csv, side, input)
+        meta = side.get("meta") or {}
         used_axis = axis or meta.get("axis")
         grids: dict = {}
     else:
@@ -94,6 +97,22 @@ def report(
                  posterior=grids.get("posterior"), grid=grids.get("grid"),
                  title=input.name or str(input), input_path=input, estimate_path=estimate_csv)
     err.print(f"wrote {output}", markup=False, soft_wrap=True)  # a path is text, not markup
+
+
+def _check_same_input(estimate_csv: Path, side: dict, recording: Path) -> None:
+    """Refuse to draw an estimate over a recording it was not made from: the estimate's sidecar
+    records its input's SHA-256 (of the file, or of all files of a folder), and a page pairing
+    one drive's spectrogram with another drive's speed would look plausible and be wrong."""
+    from vibrospeed.errors import ParameterError
+    from vibrospeed.io._common import sha256_path
+
+    want = side.get("input_sha256")
+    if not isinstance(want, str) or sha256_path(recording) == want:
+        return
+    made = side.get("input") or "another recording"
+    raise ParameterError(f"{estimate_csv}: estimated from {made}, not from {recording} (the "
+                         "input checksum in its .json sidecar differs): give that recording, "
+                         "or leave out --estimate to estimate this one")
 
 
 @_friendly
