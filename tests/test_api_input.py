@@ -323,3 +323,14 @@ def test_run_refuses_samples_that_are_not_one_dimensional(method):
         assert np.array_equal(mod.run(cfg, same).omega, mod.run(cfg, np.asarray(same)).omega)
     got = mod.run(cfg, y.astype(np.float32)).omega  # rounded to float32, then float64
     assert np.allclose(got, ref, atol=1e-3, equal_nan=True)
+
+
+@pytest.mark.parametrize("offset0", [math.nan, math.inf, -math.inf])
+def test_gps_riss_init_refuses_an_offset_guess_that_is_not_finite(offset0):
+    """It used to be taken: every speed after it was NaN (offset_mode "state") or all but the
+    first ("integrator"). A finite guess still starts the filter there."""
+    from vibrospeed.estimators import gps_riss
+
+    _refused(lambda: gps_riss.init(gps_riss.Config(), 10.0, offset0=offset0), "offset0")
+    st = gps_riss.init(gps_riss.Config(), 10.0, offset0=0.2)
+    assert st.offset == 0.2 and st.speed == 10.0

@@ -109,6 +109,8 @@ def init(config: Config, v0: float = 0.0, *, offset0: float = 0.0) -> State:
     v0 = float(v0)
     if not math.isfinite(v0):
         raise ParameterError(f"initial speed must be finite, got {v0}")
+    if not math.isfinite(float(offset0)):  # every speed was NaN from it
+        raise ParameterError(f"offset0 must be finite (m/s^2), got {offset0}")
     lag = config.lag
     g = receiver_steady_state(lag, 1.0)
     n = 3 + g.size
