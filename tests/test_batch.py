@@ -320,3 +320,24 @@ def test_skipped_recording_gets_a_new_report_where_its_page_is_older(tmp_path):
     kept = page.stat().st_mtime_ns
     run(20, True)
     assert page.stat().st_mtime_ns == kept
+
+
+def test_dotted_drive_names_are_drives_and_their_ticks_are_not(tmp_path):
+    """Only a canonical recording's event streams (``<stem>.<name>.csv`` with the header ``t``
+    alone) are left out of a folder or pattern: ``drive.2024-05-01.csv`` beside ``drive.csv``
+    is a drive of its own (it was silently left out), and ``trip.v2.csv``'s ticks
+    (``trip.v2.wss_ticks.csv``) are its events (they were an error row)."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    car = sim.simulate("car", seed=0, duration=3)
+    assert "wss_ticks" in car.events
+    io.write(sim.simulate("cart", seed=0, duration=2), logs / "drive.csv")
+    io.write(sim.simulate("cart", seed=1, duration=2), logs / "drive.2024-05-01.csv")
+    io.write(car, logs / "trip.v2.csv")
+    assert (logs / "trip.v2.wss_ticks.csv").is_file()
+    want = ["drive.2024-05-01.csv", "drive.csv", "trip.v2.csv"]
+    for items in ([logs], [str(logs / "*.csv")]):
+        found = batch.expand_inputs(items)
+        assert [p.split("/")[-1] for p, err in found if err is None] == want, found
+    ticks = io.read(logs / "trip.v2.csv").events["wss_ticks"]
+    np.testing.assert_array_equal(ticks, car.events["wss_ticks"])

@@ -36,10 +36,11 @@ def _inside(p: Path, folder: Path) -> bool:
 def _not_a_recording(q: Path) -> bool:
     """Hidden and temporary files, sidecars, images, notes, and a canonical CSV's event sidecar
     (``drive.wss_ticks.csv`` beside ``drive.csv``)."""
+    from vibrospeed.io.canonical import is_event_sidecar
+
     if q.name.startswith(".") or ".tmp" in q.name or q.suffix.lower() in _NOT_RECORDINGS:
         return True
-    head, dot, _ = q.stem.partition(".")
-    return bool(dot) and q.with_name(f"{head}{q.suffix}").is_file()
+    return is_event_sidecar(q)
 
 
 def _folder_entries(folder: Path, exclude: Path | None) -> list[Path]:

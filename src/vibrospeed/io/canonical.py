@@ -30,7 +30,7 @@ from vibrospeed.io._csv import CsvTable, nan_notes, open_text
 from vibrospeed.io.atomic import atomic_path, atomic_write_text
 from vibrospeed.types import Recording
 
-__all__ = ["event_path", "is_canonical_header", "read_csv", "write_csv"]
+__all__ = ["event_path", "is_canonical_header", "is_event_sidecar", "read_csv", "write_csv"]
 
 _EVENT_NAME = re.compile(r"^[A-Za-z0-9_\-]+$")
 _ROWS_PER_WRITE = 20000
@@ -40,6 +40,24 @@ def event_path(path: str | os.PathLike[str], name: str) -> Path:
     """Sidecar file of event stream ``name`` for recording ``path`` (``<stem>.<name>.csv``)."""
     p = Path(path)
     return p.with_name(f"{p.stem}.{name}.csv")
+
+
+def is_event_sidecar(path: str | os.PathLike[str]) -> bool:
+    """True for an event stream of a canonical recording, not a recording of its own:
+    ``<stem>.<name>.csv`` (``name`` as :func:`write_csv` allows, no dot) beside ``<stem>.csv``,
+    with the header ``t`` alone (as :func:`read_events` finds them). ``drive.2024-05-01.csv``
+    beside ``drive.csv`` is a drive; ``trip.v2.wss_ticks.csv`` is ``trip.v2.csv``'s ticks."""
+    q = Path(path)
+    head, dot, name = q.stem.rpartition(".")
+    if not dot or q.suffix != ".csv" or not _EVENT_NAME.match(name):
+        return False
+    if not q.with_name(f"{head}.csv").is_file():
+        return False
+    try:
+        with open(q, encoding="utf-8-sig", newline="") as fh:
+            return fh.readline().strip() == "t"
+    except (OSError, UnicodeDecodeError):
+        return False
 
 
 def is_canonical_header(header: list[str]) -> bool:
