@@ -216,3 +216,15 @@ def test_report_refuses_an_estimate_of_another_drive(drive, tmp_path):
     res = runner.invoke(app, ["report", str(drive), "--estimate", str(est), "-o",
                               str(tmp_path / "bare.html")])
     assert res.exit_code == 0, res.output
+
+
+def test_batch_report_names_its_estimate_beside_it(drive, tmp_path):
+    """A batch's page names its estimate relative to itself (both are in the output folder),
+    so the text stays right when the folder is moved as a whole, as the fleets page says."""
+    out = tmp_path / "out"
+    df = batch.run([drive], out, method="ekf", jobs=1, report=True)
+    assert list(df["status"]) == ["ok"]
+    moved = tmp_path / "moved"
+    out.rename(moved)
+    rows = _rows(moved / "cart_ekf.html")
+    assert rows["estimate file"] == "cart_ekf.csv" and (moved / rows["estimate file"]).is_file()

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -122,7 +123,7 @@ def _work(job: dict[str, Any]) -> dict[str, Any]:
             write_report(report, rec, track, axis=vibration_channel(rec, axis),
                          posterior=grids.get("posterior"), grid=grids.get("grid"),
                          title=Path(job["file"]).name, input_path=job["file"],
-                         estimate_path=job["output"])
+                         estimate_path=os.path.relpath(job["output"], Path(report).parent))
     except Exception as exc:  # noqa: BLE001 - one bad recording never stops the batch
         row["status"] = "error"
         row["error"] = _naming_file(job, _one_line(exc))
