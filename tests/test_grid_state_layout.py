@@ -108,3 +108,22 @@ def test_pickle_round_trip_continues_bitwise():
     r1 = gf.run(cfg, y[180:], state=st)
     r2 = gf.run(cfg, y[180:], state=back)
     np.testing.assert_array_equal(_bits(r1.omega), _bits(r2.omega))
+
+
+def test_a_state_of_another_config_is_refused_before_the_compiled_loop():
+    import pytest
+
+    from vibrospeed.errors import ParameterError
+
+    cfg = _cfg()
+    other = grid.config_for(Recording(np.arange(200) / 100.0, {"ay": np.zeros(200)}), axis="y",
+                            params={"n_grid": 30, "smooth": "none"}).tracker
+    y = _signal(20)
+    for st in (gf.init(other), gf.init(cfg)._replace(mode_j=cfg.n_grid + 5),
+               gf.init(cfg)._replace(mode_j=-2)):
+        # run: the compiled loop would index past the arrays (a segfault, or NaN then one)
+        with pytest.raises(ParameterError, match="grid state"):
+            gf.run(cfg, y, st)
+        with pytest.raises(ValueError, match="grid state"):
+            gf.step(cfg, st, 0.1)
+    gf.run(cfg, y, gf.init(cfg)._replace(mode_j=-1))  # -1: no mode window yet, valid

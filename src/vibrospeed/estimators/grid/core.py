@@ -569,9 +569,9 @@ def _step_from(sc, tab, grid, edges, u, lw_in, z_in, mean_in, cov_in, lw0_in, cu
     M = (tab.shape[0] - E) // 2
     n = 2 * M
     if (lw_in.shape[0] != N or lw.shape[0] != N or Z.shape[1] != N or tab.shape[1] != N
-            or L != n + n * (n + 1) // 2):
-        raise ValueError("grid state: log_w, mean, cov do not match the config's grid and "
-                         "model (N, 2M)")
+            or L != n + n * (n + 1) // 2 or cur_in < -1 or cur_in >= N):
+        raise ValueError("grid state: log_w, mean, cov, mode_j do not match the config's "
+                         "grid and model (N, 2M)")
     if z_in.shape[0] > 0:
         if z_in.shape[0] != L or z_in.shape[1] != N:
             raise ValueError("grid state: log_w, mean, cov do not match the config's grid "

@@ -439,6 +439,13 @@ def run(
     cov = np.ascontiguousarray(st.cov, dtype=np.float64).copy()
     ys = np.ascontiguousarray(y, dtype=np.float64)
     N = config.n_grid
+    n = 2 * config.model.M
+    if lw.shape != (N,) or mean.shape != (N, n) or cov.shape != (N, n, n) \
+            or not -1 <= int(st.mode_j) < N:
+        # the compiled loop would read and write past the arrays (memory errors)
+        raise ParameterError(f"grid state: log_w {lw.shape}, mean {mean.shape}, cov "
+                             f"{cov.shape}, mode_j {int(st.mode_j)} do not match the config's "
+                             f"grid and model (N = {N}, 2M = {n})")
     if extra is None:
         ex_idx, ex_val = np.zeros(0, np.int64), np.zeros((0, N + 1))
     else:
