@@ -197,7 +197,8 @@ def test_one_unpacked_export_beside_other_drives_is_not_the_whole_folder(tmp_pat
     np.testing.assert_array_equal(io.read(found[0][0])["ay"], ay_folder)
     np.testing.assert_array_equal(io.read(found[1][0])["ay"], ay_zip)
     assert len(io.read(found[2][0])) == 300
-    with pytest.raises(ReaderError, match=r"a folder of 1 recordings \(drive_a\), not one"):
+    with pytest.raises(ReaderError, match=r"a folder holding the recording drive_a, not one "
+                                          r"itself: give drive_a, or `vibrospeed batch`"):
         io.detect_format(root)
     for name in ("notes.md", "map.png", "drive_a.csv.json"):  # never recordings
         wrap = tmp_path / f"wrap_{name}"

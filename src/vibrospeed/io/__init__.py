@@ -223,6 +223,9 @@ def _detect_format(p: Path, *, mapping: bool, inside: bool) -> str:
             return name
     if p.is_dir():
         inner = _recording_subfolders(p) if inside else []
+        if len(inner) == 1:  # e.g. one export beside other drives' files (export_folders)
+            raise ReaderError(p, f"a folder holding the recording {inner[0].name}, not one "
+                                 f"itself: give {inner[0].name}, or `vibrospeed batch` for all")
         if inner:
             shown = ", ".join(q.name for q in inner[:4]) + (", ..." if len(inner) > 4 else "")
             raise ReaderError(p, f"a folder of {len(inner)} recordings ({shown}), not one: give "
