@@ -15,6 +15,7 @@ The model is symmetric under ``(omega, beta) -> (-omega, -beta)``; estimators ke
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -46,13 +47,14 @@ class HarmonicModel:
     p0_amp: float = 0.1
 
     def __post_init__(self) -> None:
-        if int(self.M) != self.M or self.M < 1:
+        # an infinite period, noise or prior variance makes every filter's output NaN
+        if not (math.isfinite(self.M) and int(self.M) == self.M and self.M >= 1):
             raise ParameterError(f"M must be a positive integer, got {self.M}")
         for name in ("dt", "q_amp", "r", "p0_amp"):
-            if not getattr(self, name) > 0:
-                raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
-        if not self.q_omega >= 0:
-            raise ParameterError(f"q_omega must be >= 0, got {self.q_omega}")
+            if not 0 < getattr(self, name) < math.inf:
+                raise ParameterError(f"{name} must be finite and > 0, got {getattr(self, name)}")
+        if not 0 <= self.q_omega < math.inf:
+            raise ParameterError(f"q_omega must be finite and >= 0, got {self.q_omega}")
 
     # -- constructors ---------------------------------------------------------------------
     @classmethod
