@@ -55,3 +55,23 @@ def test_track_errors(tmp_path):
     (tmp_path / "y.csv").write_text("t,ay\n0,1\n")
     with pytest.raises(ReaderError, match="not a track file"):
         read_track(tmp_path / "y.csv")
+
+
+def test_a_gaussian_band_is_cut_at_zero_below_a_magnitude():
+    from statistics import NormalDist
+
+    from vibrospeed.types import Track
+
+    z = NormalDist().inv_cdf(0.99)
+    v = np.array([0.0, 0.5, 3.0, -0.2, np.nan, 1.0])
+    s = np.array([1.0, 1.0, 1.0, 1.0, 1.0, np.nan])
+    tr = Track.from_speed(np.arange(6.0), v, s, wheel_radius=0.5)
+    # speed and omega are magnitudes: the lower edge never below 0 under an estimate >= 0
+    np.testing.assert_array_equal(tr.speed_lo[:3], [0.0, 0.0, 3.0 - z])
+    assert tr.speed_lo[3] == -0.2 - z  # a negative estimate keeps its plain band
+    assert np.isnan(tr.speed_lo[4]) and np.isnan(tr.speed_lo[5])
+    np.testing.assert_array_equal(tr.speed_hi[:4], v[:4] + z)
+    np.testing.assert_array_equal(tr.omega_lo, tr.speed_lo / 0.5)
+    given = Track.from_omega(np.arange(2.0), [1.0, 2.0], [5.0, 5.0], lo=[-1.0, -2.0],
+                             hi=[3.0, 4.0])
+    np.testing.assert_array_equal(given.omega_lo, [-1.0, -2.0])  # a band given is kept

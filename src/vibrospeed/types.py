@@ -202,7 +202,9 @@ def _with_band(x, std, lo, hi, level: float):
     from statistics import NormalDist  # here: `import vibrospeed` stays light
 
     z = NormalDist().inv_cdf(0.5 + level / 2.0)  # the standard normal quantile
-    lo = x - z * std if lo is None else np.asarray(lo, float)
+    # omega and speed are magnitudes: a Gaussian band is cut at 0 below an estimate >= 0
+    lo = np.where(x >= 0, np.maximum(x - z * std, 0.0), x - z * std) if lo is None \
+        else np.asarray(lo, float)
     hi = x + z * std if hi is None else np.asarray(hi, float)
     return x, std, lo, hi
 
@@ -243,7 +245,8 @@ class Track:
     def from_omega(cls, t, omega, omega_std=None, *, lo=None, hi=None, level: float = 0.98,
                    wheel_radius: float | None = None, **kw) -> Track:
         """Build from an omega estimate (rad/s); the band defaults to ``mean +- z std`` (Gaussian
-        quantile for ``level``); speed = r omega where the radius is known."""
+        quantile for ``level``), its lower edge cut at 0 where the estimate is >= 0 (omega and
+        speed are magnitudes); speed = r omega where the radius is known."""
         x, std, lo, hi = _with_band(omega, omega_std, lo, hi, level)
         r = _radius(wheel_radius)
         return cls(np.asarray(t, float), x, std, lo, hi, r * x, r * std, r * lo, r * hi,
@@ -252,7 +255,8 @@ class Track:
     @classmethod
     def from_speed(cls, t, speed, speed_std=None, *, lo=None, hi=None, level: float = 0.98,
                    wheel_radius: float | None = None, **kw) -> Track:
-        """Build from a speed estimate (m/s); omega = speed / r where the radius is known."""
+        """Build from a speed estimate (m/s), the band as :meth:`from_omega`'s; omega = speed /
+        r where the radius is known."""
         v, std, lo, hi = _with_band(speed, speed_std, lo, hi, level)
         r = _radius(wheel_radius)
         return cls(np.asarray(t, float), v / r, std / r, lo / r, hi / r, v, std, lo, hi,
