@@ -41,3 +41,36 @@ def test_harmonic_model_keeps_the_valid_edges():
         assert np.isfinite(res.omega).all() and np.isfinite(res.omega_std).all(), kw
     # the probe model some estimators build before the recording's period is known
     assert HarmonicModel(dt=1.0).q_omega_step == 4.0
+
+
+@pytest.mark.parametrize("kw", [
+    {"omega0": nan}, {"omega0": inf}, {"omega_max": inf}, {"off_rate": inf}, {"n_grid": nan},
+    {"n_grid": inf}, {"n_grid": 40.0}, {"rms_tau": nan}, {"rms_tau": -1.0}, {"rms_tau": inf},
+    {"signal_rms": nan}, {"signal_rms": -1.0}, {"signal_rms": 0.0},
+])
+def test_grid_config_refuses_what_gave_nan_or_failed_in_int(kw):
+    """A NaN / infinite omega0, an infinite omega_max or off_rate made every rbpmf output
+    NaN; a NaN / infinite n_grid failed in int() (ValueError / OverflowError), a float one in
+    numpy's linspace (TypeError); a NaN or negative rms_tau / signal_rms was taken (NaN or
+    sign-flipped scaled signal)."""
+    from vibrospeed.estimators.grid.config import Config
+
+    (name, value), = kw.items()
+    _refused(lambda: Config(**kw), name, value)
+
+
+def test_grid_config_keeps_the_valid_edges():
+    """A jump rate of inf (every step re-acquires), omega0 at the grid's ends, a numpy count, and
+    text parameters as the CLI passes them."""
+    from vibrospeed.config import config_from_params
+    from vibrospeed.estimators import rbpmf
+    from vibrospeed.estimators.grid.config import Config
+
+    y = np.sin(20.0 * np.arange(300) * 0.01)
+    for kw in ({"omega0": 0.0}, {"omega0": 120.0}, {"n_grid": np.int64(40)},
+               {"jump_rate": inf}, {"off_rate": 1e6}, {"omega_min": 0.0}):
+        res = rbpmf.run(Config(**{"n_grid": 40, **kw}), y)
+        assert np.isfinite(res.omega).all() and np.isfinite(res.omega_std).all(), kw
+    with pytest.raises(ParameterError, match="^omega0 must be finite rad/s"):
+        config_from_params(Config, {"omega0": "nan"})
+    assert config_from_params(Config, {"n_grid": "40"}).n_grid == 40

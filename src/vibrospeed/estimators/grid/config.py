@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -171,11 +172,14 @@ class Config:
     p_fast: float = 0.0
 
     def __post_init__(self) -> None:
-        if int(self.n_grid) != self.n_grid or self.n_grid < 1:
+        # numpy's grid takes no float count (40.0 failed there, NaN / inf in int())
+        n = self.n_grid
+        if not (isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n >= 1):
             raise ParameterError(f"n_grid must be a positive integer, got {self.n_grid}")
-        if not 0 <= self.omega_min <= self.omega_max:
+        if not 0 <= self.omega_min <= self.omega_max < math.inf:
             raise ParameterError(
-                f"grid needs 0 <= omega_min <= omega_max, got [{self.omega_min}, {self.omega_max}]"
+                f"grid needs 0 <= omega_min <= omega_max < inf rad/s, got [{self.omega_min}, "
+                f"{self.omega_max}]"
             )
         if self.n_grid > 1 and not self.omega_min < self.omega_max:
             raise ParameterError("omega_min must be < omega_max when n_grid > 1")
@@ -194,6 +198,14 @@ class Config:
             raise ParameterError(f"level must be in (0, 1), got {self.level}")
         if not self.omega0_std > 0:
             raise ParameterError(f"omega0_std must be > 0, got {self.omega0_std}")
+        # a NaN or infinite omega0 made every output NaN
+        if self.omega0 is not None and not math.isfinite(self.omega0):
+            raise ParameterError(f"omega0 must be finite rad/s (or None), got {self.omega0}")
+        # a NaN signal_rms made every output NaN, a negative one flipped the signal; a bad
+        # rms_tau failed only once a recording was scaled
+        for name in ("rms_tau", "signal_rms"):
+            if not 0 < getattr(self, name) < math.inf:
+                raise ParameterError(f"{name} must be finite and > 0, got {getattr(self, name)}")
         if not 10 <= self.log_floor <= 700:
             raise ParameterError(f"log_floor must be in [10, 700] nats, got {self.log_floor}")
         if self.scaling not in ("rms", "none"):
@@ -203,6 +215,8 @@ class Config:
         for name in ("jump_rate", "off_rate", "on_rate", "amb_rel", "amb_abs"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.off_rate == math.inf:  # every step left the line: all output NaN
+            raise ParameterError(f"off_rate must be finite, got {self.off_rate}")
         if self.off_rate > 0 and not self.on_rate > 0:
             raise ParameterError("on_rate must be > 0 when off_rate > 0")
         if self.p_null0 is not None and not 0 < self.p_null0 < 1:
