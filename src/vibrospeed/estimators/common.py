@@ -14,6 +14,9 @@ from vibrospeed.types import Recording
 
 #: jitter tolerated as "uniform" by the vibration trackers (relative to the median period)
 UNIFORM_RTOL = 0.05
+#: a period longer than this many median periods is a gap (as :func:`vibrospeed.io.timebase.
+#: find_gaps` counts them)
+GAP_FACTOR = 3.0
 
 
 def axis_channel(axis: str) -> str:
@@ -45,13 +48,25 @@ def split_params(model_cls, params: dict) -> tuple[dict, dict]:
 
 
 def check_uniform(recording: Recording) -> float:
-    """Median sample period in s; :class:`InputError` if the time line is not uniform enough."""
+    """Median sample period in s; :class:`InputError` if the time line is not uniform enough
+    (more than 1 % of the periods off the median by > 5 %) or has a gap (a period over
+    ``GAP_FACTOR`` times the median, with the same 5 %): the estimators step sample by sample,
+    so a gap taken as one period would join the two sides as if no time had passed.
+    :func:`vibrospeed.io.resample_uniform` (which the CLI applies itself) puts NaN samples in
+    the gaps, which every estimator bridges by prediction."""
     if len(recording) < 2:
         raise InputError(f"{recording.source or 'recording'}: fewer than 2 samples")
     d = np.diff(recording.t)
     dt = float(np.median(d))
+    gaps = np.flatnonzero(d > GAP_FACTOR * (1.0 + UNIFORM_RTOL) * dt)
+    if gaps.size:
+        i = int(gaps[np.argmax(d[gaps])])
+        raise InputError(
+            f"{recording.source or 'recording'}: time line has {gaps.size} gap(s) longer than "
+            f"{GAP_FACTOR:g} periods, the longest {d[i]:.4g} s after t = {recording.t[i]:.6g} "
+            "s; resample it first (vibrospeed.io.resample_uniform: NaN in the gaps, which the "
+            "estimators bridge; the CLI does this itself)")
     bad = np.abs(d - dt) > UNIFORM_RTOL * dt
-    # gaps (several missing samples) are allowed: they become NaN runs after resampling
     if np.mean(bad) > 0.01:
         raise InputError(
             f"{recording.source or 'recording'}: time line is not uniform "
