@@ -3,6 +3,7 @@
 import json
 import re
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -341,3 +342,69 @@ def test_dotted_drive_names_are_drives_and_their_ticks_are_not(tmp_path):
         assert [p.split("/")[-1] for p, err in found if err is None] == want, found
     ticks = io.read(logs / "trip.v2.csv").events["wss_ticks"]
     np.testing.assert_array_equal(ticks, car.events["wss_ticks"])
+
+
+
+def _alive(pids=None):
+    """Live (not zombie) processes from /proc: pid -> parent pid; only ``pids`` if given."""
+    out = {}
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit() and (pids is None or int(d.name) in pids):
+            try:
+                fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if fields[0] != "Z":
+                out[int(d.name)] = int(fields[1])
+    return out
+
+
+def _descendants(pid):
+    """Live processes below ``pid``."""
+    parent = _alive()
+    found, todo = set(), [pid]
+    while todo:
+        p = todo.pop()
+        kids = [c for c, pp in parent.items() if pp == p]
+        found.update(kids)
+        todo += kids
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="needs Linux /proc")
+def test_sigterm_stops_the_local_workers_too(tmp_path):
+    """``kill`` (SIGTERM: ``timeout``, a job scheduler) of a batch on local processes ends its
+    workers as well, with exit status 143; they used to stay behind, orphaned, waiting for work
+    that never came."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    below: set[int] = set()
+    src = tmp_path / "in"
+    src.mkdir()
+    for i in range(6):
+        io.write(sim.simulate("cart", seed=i, duration=30), src / f"d{i}.csv")
+    code = ("import sys; from vibrospeed import batch; "
+            "batch.run([sys.argv[1]], sys.argv[2], method='grid', jobs=2)")
+    proc = subprocess.Popen([sys.executable, "-c", code, str(src), str(tmp_path / "out")],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        t0 = time.monotonic()
+        while len(_descendants(proc.pid)) < 3 and time.monotonic() - t0 < 60:  # server + 2
+            time.sleep(0.1)
+        below = _descendants(proc.pid)
+        assert len(below) >= 3 and proc.poll() is None, below
+        proc.send_signal(signal.SIGTERM)
+        status = proc.wait(timeout=60)
+        t0 = time.monotonic()
+        while _alive(below) and time.monotonic() - t0 < 10:
+            time.sleep(0.1)
+        assert not _alive(below)
+        assert status == 143  # 128 + SIGTERM, as a shell reports it
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        for pid in _alive(below):  # what this test started, should it be left
+            os.kill(pid, signal.SIGKILL)

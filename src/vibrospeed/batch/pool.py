@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -50,13 +51,44 @@ def _run_local(jobs_list, n_jobs: int, done: Callable[[dict], None]) -> None:
 
     # forkserver: workers start from a clean process, not a fork of one with threads running
     ctx = multiprocessing.get_context("forkserver")
-    with ProcessPoolExecutor(max_workers=min(n_jobs, len(jobs_list)), mp_context=ctx) as pool:
+    with _terminate_raises(), ProcessPoolExecutor(max_workers=min(n_jobs, len(jobs_list)),
+                                                  mp_context=ctx) as pool:
         futs = {pool.submit(_work, job): job for job in jobs_list}
-        for fut in as_completed(futs):
-            try:
-                done(fut.result())
-            except BrokenProcessPool:
-                done(_lost(futs[fut], "its worker process died (out of memory?)"))
+        try:
+            for fut in as_completed(futs):
+                try:
+                    done(fut.result())
+                except BrokenProcessPool:
+                    done(_lost(futs[fut], "its worker process died (out of memory?)"))
+        except BaseException:  # Ctrl-C, SIGTERM: stop the workers too, never leave them behind
+            for fut in futs:
+                fut.cancel()
+            for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                proc.terminate()
+            raise
+
+
+@contextmanager
+def _terminate_raises():
+    """While the pool runs, SIGTERM (``kill``, ``timeout``, a job scheduler) raises
+    ``SystemExit(143)`` in this process instead of ending it at once, so that the pool's
+    workers are stopped with it (they waited, orphaned, for work that never came). Only in the
+    main thread, where Python delivers signals."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def raise_exit(signum, frame):
+        raise SystemExit(128 + signum)
+
+    old = signal.signal(signal.SIGTERM, raise_exit)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
 
 
 def _dask_client(scheduler):
