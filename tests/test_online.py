@@ -105,3 +105,21 @@ def test_online_grid_with_several_comb_axes_equals_its_causal_estimate():
     np.testing.assert_allclose(om, track.omega, rtol=0, atol=1e-9)
     with pytest.raises(ValueError, match="3 sample"):
         trk.update(1.0)
+
+
+def test_ekf_config_for_gives_the_online_tracker_the_batch_filters_numbers():
+    """``ekf.config_for``: the config ``estimate`` runs (without the comb check, which the
+    online tracker does not compute), so the online tracker repeats ``estimate``'s numbers."""
+    from vibrospeed import sim
+    from vibrospeed.estimators.common import start_level
+
+    rec = sim.simulate("cart", seed=3, duration=20)
+    p = {"omega0": 9.0, "comb": False}
+    track = ekf.estimate(rec, axis="y", params=p)
+    cfg = ekf.config_for(rec, params=p)
+    assert cfg.model.dt == pytest.approx(0.01) and not cfg.acquire
+    assert cfg == ekf.config_for(rec, params={"omega0": 9.0})  # online: never the comb check
+    ay = rec.channel("ay")
+    trk = OnlineTracker(ekf, cfg, level=start_level(ay, cfg.model.dt))
+    got = np.array([trk.update(a).omega for a in ay])
+    np.testing.assert_array_equal(got, track.omega)

@@ -357,6 +357,38 @@ def run(config: Config, y: np.ndarray, state: State | None = None,
 UNIT_RMS_MODEL = dict(M=2, q_omega=1.0, q_amp=0.01, r=0.3, p0_amp=1.0)
 
 
+def _settings(params: dict | None, dt: float) -> tuple[Config, str, float, bool]:
+    """``(config, prefilter, normalize_tau, comb)`` that :func:`estimate` runs with ``params``
+    at the sample period ``dt`` (s)."""
+    from vibrospeed.estimators.common import split_params
+
+    model_kw, cfg_kw = split_params(HarmonicModel, dict(params or {}))
+    model_kw.pop("dt", None)
+    pre = str(cfg_kw.pop("prefilter", "thesis-hp"))
+    tau = float(cfg_kw.pop("normalize_tau", 5.0))
+    comb_on = parse_flag(cfg_kw.pop("comb", True), "comb")
+    cfg_kw.setdefault("acquire", comb_on and "omega0" not in cfg_kw)
+    defaults = dict(UNIT_RMS_MODEL) if tau > 0 else HarmonicModel.from_thesis().to_dict()
+    defaults.pop("dt", None)
+    model = config_from_params(HarmonicModel, model_kw, **{**defaults, "dt": dt})
+    cfg_kw.setdefault("omega_min", 2.0)
+    cfg_kw.setdefault("omega_max", 120.0)
+    return config_from_params(Config, cfg_kw, model=model), pre, tau, comb_on
+
+
+def config_for(recording: Recording, *, axis: str = "y", params: dict | None = None) -> Config:
+    """The :class:`Config` that :func:`estimate` runs on ``recording`` with ``params`` (its
+    sample period; the unit-RMS model unless ``normalize_tau=0``), e.g. for
+    :class:`~vibrospeed.estimators.online.OnlineTracker`, whose default pre-filter and
+    normalisation are ``estimate``'s: pass ``prefilter=`` / ``normalize_tau=`` to it too where
+    ``params`` change them. Online there is no comb check (``acquire`` is then off: the filter
+    starts from ``omega0``). ``axis`` is there for the other trackers' signature: the config
+    does not depend on it."""
+    from vibrospeed.estimators.common import check_uniform
+
+    return _settings({**dict(params or {}), "comb": False}, check_uniform(recording))[0]
+
+
 def estimate(
     recording: Recording,
     *,
@@ -394,27 +426,14 @@ def estimate(
         axis_channel,
         prepare_axis,
         run_in_chunks,
-        split_params,
     )
     from vibrospeed.signal.comb import COMB_FRAME_S, COMB_HOP_S, comb_candidates
 
-    params = dict(params or {})
-    model_kw, cfg_kw = split_params(HarmonicModel, params)
-    model_kw.pop("dt", None)
-    pre = str(cfg_kw.pop("prefilter", "thesis-hp"))
-    tau = float(cfg_kw.pop("normalize_tau", 5.0))
-    comb_on = parse_flag(cfg_kw.pop("comb", True), "comb")
-    cfg_kw.setdefault("acquire", comb_on and "omega0" not in cfg_kw)
-    defaults = dict(UNIT_RMS_MODEL) if tau > 0 else HarmonicModel.from_thesis().to_dict()
-    defaults.pop("dt", None)
-    model = config_from_params(HarmonicModel, model_kw, dt=1.0, **defaults)
-    cfg_kw.setdefault("omega_min", 2.0)
-    cfg_kw.setdefault("omega_max", 120.0)
-    config = config_from_params(Config, cfg_kw, model=model)
-    y, dt, notes = prepare_axis(recording, axis, prefilter=pre, M=model.M,
+    config, pre, tau, comb_on = _settings(params, 1.0)  # before the data: dt unknown
+    y, dt, notes = prepare_axis(recording, axis, prefilter=pre, M=config.model.M,
                                 omega_max=config.omega_max, normalize_tau=tau or None)
-    model = config_from_params(HarmonicModel, model_kw, **{**model.to_dict(), "dt": dt})
-    config = config_from_params(Config, cfg_kw, model=model)
+    config = _settings(params, dt)[0]
+    model = config.model
     comb = None
     if comb_on:
         comb, c_rng = comb_candidates(recording.channel(axis_channel(axis)), dt,

@@ -51,9 +51,15 @@ class OnlineTracker:
 
     Examples
     --------
+    >>> from vibrospeed import sim
     >>> from vibrospeed.estimators import ekf
-    >>> trk = OnlineTracker(ekf, ekf.Config())
+    >>> rec = sim.simulate("cart", seed=1, duration=5)
+    >>> trk = OnlineTracker(ekf, ekf.config_for(rec, params={"omega0": 10.5}))
     >>> est = trk.update(0.01)
+
+    (``ekf.config_for`` / ``grid.config_for`` / ``rbpmf.config_for``: the config ``estimate``
+    would run on that recording; a bare ``ekf.Config()`` is the thesis' model at 100 Hz, whose
+    noise values are for the raw signal, not the normalised one the tracker is fed.)
     """
 
     def __init__(
