@@ -74,3 +74,44 @@ def test_grid_config_keeps_the_valid_edges():
     with pytest.raises(ParameterError, match="^omega0 must be finite rad/s"):
         config_from_params(Config, {"omega0": "nan"})
     assert config_from_params(Config, {"n_grid": "40"}).n_grid == 40
+
+
+@pytest.mark.parametrize("kw", [
+    {"amp0": nan}, {"amp0": inf}, {"p0_omega": inf}, {"q_bias": inf}, {"p0_bias": inf},
+    {"q_omega_accel": inf}, {"r_ss": inf}, {"omega0": inf}, {"ss_n": nan}, {"ss_n": inf},
+    {"mode_n": nan}, {"mode_n": inf}, {"comb_count": nan}, {"comb_count": inf},
+    {"ss_window": inf}, {"mode_window": inf}, {"cusum_h": inf}, {"cusum_nu": nan},
+])
+def test_aided_config_refuses_what_gave_nan_or_failed_in_run(kw):
+    """A NaN / infinite amp0, an infinite p0_omega, q_bias, p0_bias or r_ss made the output
+    NaN (q_omega_accel = inf: 42 % of it); a NaN or infinite count failed in int(), an
+    infinite window, cusum_h or a NaN cusum_nu in run (int() of the hold)."""
+    from vibrospeed.estimators import aided
+
+    (name, value), = kw.items()
+    _refused(lambda: aided.Config(**kw), name, value)
+
+
+def test_aided_config_keeps_the_valid_edges():
+    """Thresholds of inf (the window test always passes, never acceleration mode, a CUSUM
+    drift that never alarms), counts as whole floats, zero noise: finite output, and the
+    detectors read as documented."""
+    from vibrospeed.estimators import aided
+
+    rng = np.random.default_rng(0)
+    y = np.sin(20.0 * np.arange(400) * 0.01) + 0.1 * rng.normal(size=400)
+    u = np.where(np.arange(400) % 100 < 50, 1.0, 0.0)
+    for kw in ({"ss_mu": inf}, {"mode_mu": inf}, {"cusum_sigma": inf, "standstill": "cusum"},
+               {"ss_n": 20.0, "mode_n": 20.0, "comb_count": 3.0}, {"q_bias": 0.0},
+               {"q_omega_accel": 0.0}, {"q_omega_accel": None},
+               {"cusum_nu": inf, "standstill": "cusum"}):
+        res = aided.run(aided.Config(**kw), y, u)
+        assert np.isfinite(res.omega).all() and np.isfinite(res.omega_std).all(), kw
+        if kw.get("mode_mu") == inf:
+            assert not res.accelerating.any()
+        if kw.get("cusum_nu") == inf:
+            assert not res.standstill.any()
+    # whole-float counts are the integer ones
+    a = aided.run(aided.Config(ss_n=20.0, mode_n=20.0, comb_count=3.0), y, u)
+    b = aided.run(aided.Config(ss_n=20, mode_n=20, comb_count=3), y, u)
+    np.testing.assert_array_equal(a.omega, b.omega)

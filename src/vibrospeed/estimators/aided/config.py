@@ -6,6 +6,7 @@ at the log's rate, the omega clip) are properties here, so they have one definit
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from vibrospeed.errors import ParameterError
@@ -14,6 +15,11 @@ from vibrospeed.signal import detectors as det
 from vibrospeed.signal.comb import COMB_COUNT, COMB_REL
 
 STANDSTILL_KINDS = {"none": 0, "window": 1, "cusum": 2, "broadband": 3}
+
+
+def _is_count(v) -> bool:
+    """``v`` is a whole number >= 1 (NaN and inf failed in ``int()``)."""
+    return math.isfinite(v) and int(v) == v and v >= 1
 
 
 def _thesis_model() -> HarmonicModel:
@@ -40,19 +46,22 @@ class Config:
     standstill : 'window' (thesis 3.1), 'cusum' (thesis 4.2.3), 'broadband' (the per-sample
         ``still`` input, :func:`standstill_flags`; :func:`estimate`'s default) or 'none'.
     ss_window, ss_mu : window length (s) and threshold (m/s^2) of the window test (thesis: 20
-        samples at 100 Hz = 0.2 s, 0.019); ``ss_n`` (samples) overrides the length when set.
+        samples at 100 Hz = 0.2 s, 0.019; ``ss_mu = inf``: every full window passes the
+        test); ``ss_n`` (samples) overrides the length when set.
         In seconds, so a 400 Hz log looks at the same 0.2 s: 20 samples there (0.05 s) read a
         slow wheel's vibration as flat, i.e. standstill while driving.
     r_ss : variance of the virtual standstill measurement omega = 0 (thesis: 1).
     cusum_sigma : residual level (m/s^2) separating quiet from moving; cusum_nu, cusum_h :
-        drift and threshold of the CUSUM on ``eps = 1 - (e / sigma)^2``; the standstill flag is
-        held for :func:`vibrospeed.signal.detectors.cusum_hold` samples after an alarm.
+        drift (``inf``: no alarm) and threshold of the CUSUM on ``eps = 1 - (e / sigma)^2``;
+        the standstill flag is held for :func:`vibrospeed.signal.detectors.cusum_hold` samples
+        after an alarm.
     cusum_fs : Hz, the sample rate at which ``cusum_h`` holds (the thesis' 100 Hz); a log at fs
         uses the threshold ``cusum_h fs / cusum_fs`` (:attr:`cusum_threshold`) and so the same
         detection delay and hold in seconds (a per-sample threshold at 400 Hz alarms within
         0.05 s of quiet residuals while driving). None: per sample, as written in the thesis.
     mode_window, mode_mu : window length (s) and threshold (m/s^2) of the mode detector
-        (0.2 s = the thesis' 20 samples at 100 Hz, 0.20); ``mode_n`` (samples) overrides.
+        (0.2 s = the thesis' 20 samples at 100 Hz, 0.20; ``mode_mu = inf``: never acceleration
+        mode); ``mode_n`` (samples) overrides.
     boost : apply the boost of eq. 3.15 (``N_mode`` T ubar / r) when acceleration mode starts.
     aid_always : integrate u in vibration mode too (variant, see the package docstring).
     omega_max : upper clip (rad/s); None: 0.98 pi fs / M.
@@ -105,32 +114,43 @@ class Config:
         if self.standstill not in STANDSTILL_KINDS:
             raise ParameterError(f"standstill must be one of {', '.join(STANDSTILL_KINDS)}, "
                                  f"got '{self.standstill}'")
-        for name in ("p0_omega", "p0_bias", "r_ss", "ss_mu", "mode_mu", "cusum_sigma",
-                     "cusum_h"):
+        for name in ("ss_mu", "mode_mu", "cusum_sigma"):  # thresholds: inf is allowed
             if not getattr(self, name) > 0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
+        # an infinite prior or standstill variance made the output NaN; an infinite cusum_h
+        # failed in run (standstill='none' is the detector off)
+        for name in ("p0_omega", "p0_bias", "r_ss", "cusum_h"):
+            if not 0 < getattr(self, name) < math.inf:
+                raise ParameterError(f"{name} must be finite and > 0, got {getattr(self, name)}")
+        if not math.isfinite(self.amp0):
+            raise ParameterError(f"amp0 must be finite, got {self.amp0}")
+        if math.isnan(self.cusum_nu):  # failed in int() of the hold in run
+            raise ParameterError(f"cusum_nu must be a number, got {self.cusum_nu}")
         if not 0 <= self.line_min < 1:
             raise ParameterError(f"line_min must be in [0, 1), got {self.line_min}")
         if not self.line_tau > 0:
             raise ParameterError(f"line_tau must be > 0 s, got {self.line_tau}")
-        if int(self.comb_count) != self.comb_count or self.comb_count < 1:
+        if not _is_count(self.comb_count):
             raise ParameterError(f"comb_count must be a positive integer, got {self.comb_count}")
         if not self.comb_rel > 0:
             raise ParameterError(f"comb_rel must be > 0, got {self.comb_rel}")
         for name in ("q_bias", "omega0"):
-            if not getattr(self, name) >= 0:
-                raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
-        if self.q_omega_accel is not None and not self.q_omega_accel >= 0:
-            raise ParameterError(f"q_omega_accel must be >= 0, got {self.q_omega_accel}")
+            if not 0 <= getattr(self, name) < math.inf:
+                raise ParameterError(f"{name} must be finite and >= 0, got "
+                                     f"{getattr(self, name)}")
+        if self.q_omega_accel is not None and not 0 <= self.q_omega_accel < math.inf:
+            raise ParameterError(f"q_omega_accel must be finite and >= 0 (or None), got "
+                                 f"{self.q_omega_accel}")
         for name in ("ss_n", "mode_n"):
             v = getattr(self, name)
-            if v is not None and (int(v) != v or v < 1):
+            if v is not None and not _is_count(v):
                 raise ParameterError(f"{name} must be a positive integer, got {v}")
         if self.cusum_fs is not None and not self.cusum_fs > 0:
             raise ParameterError(f"cusum_fs must be > 0 Hz (or None), got {self.cusum_fs}")
-        for name in ("ss_window", "mode_window"):
-            if not getattr(self, name) > 0:
-                raise ParameterError(f"{name} must be > 0 s, got {getattr(self, name)}")
+        for name in ("ss_window", "mode_window"):  # inf failed in int() in run
+            if not 0 < getattr(self, name) < math.inf:
+                raise ParameterError(f"{name} must be finite and > 0 s, got "
+                                     f"{getattr(self, name)}")
 
     @property
     def cusum_threshold(self) -> float:
