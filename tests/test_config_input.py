@@ -84,7 +84,7 @@ def test_grid_config_keeps_the_valid_edges():
 ])
 def test_aided_config_refuses_what_gave_nan_or_failed_in_run(kw):
     """A NaN / infinite amp0, an infinite p0_omega, q_bias, p0_bias or r_ss made the output
-    NaN (q_omega_accel = inf: 42 % of it); a NaN or infinite count failed in int(), an
+    NaN (q_omega_accel = inf: most of it); a NaN or infinite count failed in int(), an
     infinite window, cusum_h or a NaN cusum_nu in run (int() of the hold)."""
     from vibrospeed.estimators import aided
 
@@ -115,3 +115,32 @@ def test_aided_config_keeps_the_valid_edges():
     a = aided.run(aided.Config(ss_n=20.0, mode_n=20.0, comb_count=3.0), y, u)
     b = aided.run(aided.Config(ss_n=20, mode_n=20, comb_count=3), y, u)
     np.testing.assert_array_equal(a.omega, b.omega)
+
+
+@pytest.mark.parametrize("kw", [
+    {"ss_n": nan}, {"ss_n": inf}, {"mode_n": nan}, {"ss_window": inf}, {"mode_window": inf},
+    {"aid_hop": inf}, {"q_omega_accel": inf}, {"q_omega_still": inf},
+])
+def test_aided_grid_config_refuses_what_failed_in_int_or_flattened_the_grid(kw):
+    """A NaN / infinite count failed in int() building the config, an infinite window or hop
+    in run; an infinite walk flattened the grid posterior on every such sample (omega was the
+    grid's centre whatever the data)."""
+    from vibrospeed.estimators import aided_grid
+
+    (name, value), = kw.items()
+    _refused(lambda: aided_grid.Config(**kw), name, value)
+
+
+def test_aided_grid_config_keeps_the_valid_edges():
+    from vibrospeed.estimators import aided_grid
+
+    rng = np.random.default_rng(0)
+    y = np.sin(20.0 * np.arange(300) * 0.01) + 0.1 * rng.normal(size=300)
+    u = np.where(np.arange(300) % 100 < 50, 1.0, 0.0)
+    a = aided_grid.run(aided_grid.Config(ss_n=20.0, mode_n=20.0), y, u)
+    b = aided_grid.run(aided_grid.Config(ss_n=20, mode_n=20), y, u)
+    np.testing.assert_array_equal(a.omega, b.omega)
+    for kw in ({"q_omega_accel": None}, {"q_omega_still": 0.0}, {"mode_mu": inf},
+               {"aid_hop": 0.01, "aiding": "continuous"}):
+        res = aided_grid.run(aided_grid.Config(**kw), y, u)
+        assert np.isfinite(res.omega).all(), kw

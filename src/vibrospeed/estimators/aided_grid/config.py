@@ -8,6 +8,7 @@ standstill random walks) are derived here once (:attr:`Config.trackers`)."""
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -102,24 +103,25 @@ class Config:
         for name in ("r_ss", "ss_mu", "mode_mu"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
-        if not self.q_omega_still >= 0:
-            raise ParameterError(f"q_omega_still must be >= 0, got {self.q_omega_still}")
-        if self.q_omega_accel is not None and not self.q_omega_accel >= 0:
-            raise ParameterError(f"q_omega_accel must be >= 0, got {self.q_omega_accel}")
+        if not 0 <= self.q_omega_still < math.inf:
+            raise ParameterError(f"q_omega_still must be finite and >= 0, got "
+                                 f"{self.q_omega_still}")
+        if self.q_omega_accel is not None and not 0 <= self.q_omega_accel < math.inf:
+            raise ParameterError(f"q_omega_accel must be finite and >= 0 (or None), got "
+                                 f"{self.q_omega_accel}")
         if not np.isfinite(self.accel_bias):
             raise ParameterError(f"accel_bias must be finite, got {self.accel_bias}")
         for name in ("ss_n", "mode_n"):
             v = getattr(self, name)
-            if v is not None and (int(v) != v or v < 1):
+            if v is not None and not (math.isfinite(v) and int(v) == v and v >= 1):
                 raise ParameterError(f"{name} must be a positive integer, got {v}")
-        for name in ("ss_window", "mode_window"):
-            if not getattr(self, name) > 0:
-                raise ParameterError(f"{name} must be > 0 s, got {getattr(self, name)}")
+        for name in ("ss_window", "mode_window", "aid_hop"):  # inf failed in int() in run
+            if not 0 < getattr(self, name) < math.inf:
+                raise ParameterError(f"{name} must be finite and > 0 s, got "
+                                     f"{getattr(self, name)}")
         if self.aiding not in AIDING_KINDS:
             raise ParameterError(f"aiding must be one of {', '.join(AIDING_KINDS)}, got "
                                  f"'{self.aiding}'")
-        if not self.aid_hop > 0:
-            raise ParameterError(f"aid_hop must be > 0 s, got {self.aid_hop}")
         if self.comb is not None:
             ct = self.comb.tracker
             if (ct.n_grid != tr.n_grid or not np.array_equal(ct.grid, tr.grid)
