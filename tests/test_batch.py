@@ -408,3 +408,27 @@ def test_sigterm_stops_the_local_workers_too(tmp_path):
             proc.kill()
         for pid in _alive(below):  # what this test started, should it be left
             os.kill(pid, signal.SIGKILL)
+
+
+def test_androsensor_gps_file_is_part_of_its_trip(tmp_path):
+    """An AndroSensor trip's ``gps.<trip>.csv`` is read with its ``accel.<trip>.csv``: a folder
+    or pattern gives the trip once (the GPS file was an "unknown format" error row of its own);
+    a GPS file without its accelerometer file beside it is still an input."""
+    logs = tmp_path / "trips"
+    logs.mkdir()
+    head = ("Time since start in ms ,ACCELEROMETER X (m/s²),ACCELEROMETER Y (m/s²),"
+            "ACCELEROMETER Z (m/s²)\n")
+    gps = ("Time since start in ms ,LOCATION Latitude : ,LOCATION Longitude : ,LOCATION Speed "
+           "( Kmh),LOCATION ORIENTATION (°),Satellites in range,LOCATION Altitude ( m)\n"
+           "204,1,2,36.0,0,9,5\n503,1,2,72.0,0,10,5\n")
+    for trip in ("a", "b"):
+        (logs / f"accel.{trip}.csv").write_text(head + "".join(
+            f"{k * 10},0.1,0.2,9.8\n" for k in range(100)))
+        (logs / f"gps.{trip}.csv").write_text(gps)
+    (logs / "gps.lonely.csv").write_text(gps)
+    want = ["accel.a.csv", "accel.b.csv", "gps.lonely.csv"]
+    for items in ([logs], [str(logs / "*.csv")]):
+        found = batch.expand_inputs(items)
+        assert [p.split("/")[-1] for p, err in found if err is None] == want, found
+    rec = io.read(logs / "accel.a.csv")
+    assert np.nanmax(rec["gps_speed"]) == pytest.approx(20.0)  # its GPS read with it

@@ -34,13 +34,16 @@ def _inside(p: Path, folder: Path) -> bool:
 
 
 def _not_a_recording(q: Path) -> bool:
-    """Hidden and temporary files, sidecars, images, notes, and a canonical CSV's event sidecar
-    (``drive.wss_ticks.csv`` beside ``drive.csv``)."""
+    """Hidden and temporary files, sidecars, images, notes, and a file that another recording
+    beside it reads as a part of it: a canonical CSV's event streams (``drive.wss_ticks.csv``
+    beside ``drive.csv``), an AndroSensor trip's ``gps.<trip>.csv`` (beside its
+    ``accel.<trip>.csv``)."""
+    from vibrospeed.io.androsensor import accel_of
     from vibrospeed.io.canonical import is_event_sidecar
 
     if q.name.startswith(".") or ".tmp" in q.name or q.suffix.lower() in _NOT_RECORDINGS:
         return True
-    return is_event_sidecar(q)
+    return is_event_sidecar(q) or accel_of(q) is not None
 
 
 def _folder_entries(folder: Path, exclude: Path | None) -> list[Path]:

@@ -56,6 +56,17 @@ def detect(path: str | os.PathLike[str]) -> bool:
     return head.startswith(_TIME) and "ACCELEROMETER" in head
 
 
+def accel_of(path: str | os.PathLike[str]) -> Path | None:
+    """The ``accel.<trip>.csv`` that reads ``path`` as its GPS (``gps.<trip>.csv`` beside it,
+    :func:`read_androsensor`), or None: such a file is part of that recording, not one of its
+    own."""
+    p = Path(path)
+    if not p.name.startswith("gps"):
+        return None
+    acc = p.with_name("accel" + p.name[3:])
+    return acc if detect(acc) else None
+
+
 def read_androsensor(path: str | os.PathLike[str], *, sort: bool = False) -> Recording:
     """Read ``accel.<trip>.csv`` and, if present, the matching ``gps.<trip>.csv``."""
     p = Path(path)
