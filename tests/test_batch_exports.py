@@ -200,7 +200,8 @@ def test_one_unpacked_export_beside_other_drives_is_not_the_whole_folder(tmp_pat
     with pytest.raises(ReaderError, match=r"a folder holding the recording drive_a, not one "
                                           r"itself: give drive_a, or `vibrospeed batch`"):
         io.detect_format(root)
-    for name in ("notes.md", "map.png", "drive_a.csv.json"):  # never recordings
+    for name in ("notes.md", "map.png", "drive_a.csv.json",  # never recordings
+                 "Acceleration 2024-05-01.zip"):  # the zip it was unpacked from
         wrap = tmp_path / f"wrap_{name}"
         _phyphox(wrap / "Acceleration 2024-05-01", 120)
         (wrap / name).write_text("x\n")

@@ -110,9 +110,10 @@ def export_folders(folder: str | os.PathLike[str], names: Sequence[str]) -> list
     is one export (perhaps unpacked into a folder of its own); several mean a folder of exports,
     each a recording of its own; none, no export. A single export subfolder makes ``folder``
     one export only when nothing beside it may be a recording: a visible file other than a
-    sidecar, image or note (:data:`NOT_RECORDING_SUFFIXES`), e.g. another drive's export as a
-    zip, makes ``folder`` a folder of recordings (none: ``[]``), so that no drive in it is
-    silently left out. Never raises (an unreadable folder: none).
+    sidecar, image or note (:data:`NOT_RECORDING_SUFFIXES`) or the zip it was unpacked from
+    (``<its name>.zip``), e.g. another drive's export as a zip, makes ``folder`` a folder of
+    recordings (none: ``[]``), so that no drive in it is silently left out. Never raises (an
+    unreadable folder: none).
     """
     p = Path(folder)
     try:
@@ -122,7 +123,7 @@ def export_folders(folder: str | os.PathLike[str], names: Sequence[str]) -> list
                    if not q.name.startswith(".") and q.name != "__MACOSX"]
         found = [q for q in entries if q.is_dir() and any((q / n).is_file() for n in names)]
         if len(found) == 1 and any(q.is_file() and q.suffix.lower() not in NOT_RECORDING_SUFFIXES
-                                   for q in entries):
+                                   and q.name != f"{found[0].name}.zip" for q in entries):
             return []
         return found
     except OSError:
