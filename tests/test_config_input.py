@@ -144,3 +144,31 @@ def test_aided_grid_config_keeps_the_valid_edges():
                {"aid_hop": 0.01, "aiding": "continuous"}):
         res = aided_grid.run(aided_grid.Config(**kw), y, u)
         assert np.isfinite(res.omega).all(), kw
+
+
+FUSE_FINITE = ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "acc_psd", "r_gps",
+               "vib_rel", "vib_corr", "vib_gate", "vib_lag", "r_still", "r_still_acc",
+               "p0_speed", "p0_accel", "p0_offset", "radius0", "radius_std0")
+
+
+@pytest.mark.parametrize("name", FUSE_FINITE)
+def test_fuse_config_refuses_an_infinite_noise_prior_or_gate(name):
+    """Each of these at inf left at most 3 % of the speeds finite (the priors: none)."""
+    from vibrospeed.estimators import fuse
+
+    _refused(lambda: fuse.Config(**{name: inf}), name, inf)
+
+
+def test_fuse_config_keeps_inf_where_it_means_no_limit():
+    """``vib_amax`` (the default), ``e_max`` and the holds take inf as "none"; zero noise is
+    valid: every speed finite on a GPS drive with an outage."""
+    from vibrospeed.estimators import fuse
+
+    t = np.arange(0.0, 20.0, 0.04)
+    v = 10.0 + np.sin(t / 3.0)
+    g = np.where((t > 8.0) & (t < 12.0), nan, v)
+    y = {"t": t, "accel": np.cos(t / 3.0) / 3.0, "gps_speed": g, "gps_sats": np.full(t.size, 9.0)}
+    for kw in ({"vib_amax": inf}, {"e_max": inf}, {"gps_hold": inf, "source_hold": inf},
+               {"q_speed": 0.0, "q_radius": 0.0, "vib_lag": 0.0}):
+        res = fuse.run(fuse.Config(**kw), y)
+        assert np.isfinite(res.speed).all() and np.isfinite(res.speed_std).all(), kw

@@ -237,6 +237,13 @@ class Config(GpsFields):
 
     def __post_init__(self) -> None:
         self._check_gps("fuse: ")
+        # an infinite noise, variance, prior or gate made (nearly) every speed NaN; the other
+        # limits (vib_amax, e_max, the holds) take inf as "none"
+        for name in ("q_speed", "q_accel", "q_offset", "q_gps", "q_radius", "acc_psd", "r_gps",
+                     "vib_rel", "vib_corr", "vib_gate", "vib_lag", "r_still", "r_still_acc",
+                     "p0_speed", "p0_accel", "p0_offset", "radius0", "radius_std0"):
+            if getattr(self, name) == math.inf:
+                raise ParameterError(f"fuse: {name} must be finite, got {getattr(self, name)}")
         for name in ("acc_psd", "r_gps", "vib_rel", "vib_corr", "vib_gate", "r_still",
                      "r_still_acc", "still_gate", "p0_speed", "p0_accel", "p0_offset",
                      "radius0", "radius_std0", "fuse_rate", "octave_tau"):
