@@ -172,3 +172,28 @@ def test_fuse_config_keeps_inf_where_it_means_no_limit():
                {"q_speed": 0.0, "q_radius": 0.0, "vib_lag": 0.0}):
         res = fuse.run(fuse.Config(**kw), y)
         assert np.isfinite(res.speed).all() and np.isfinite(res.speed_std).all(), kw
+
+
+def test_aided_step_and_run_refuse_a_state_of_another_config():
+    """A state of another M (or other detector windows) ran silently, with numbers from the
+    wrong arrays (omega 0.0 from both here); a state of the config itself still gives step ==
+    run."""
+    from vibrospeed.estimators import aided
+
+    c2 = aided.Config()
+    c3 = aided.Config(model=HarmonicModel(M=3, dt=0.01, q_omega=0.5, q_amp=0.004, r=0.0022))
+    y = np.sin(20.0 * np.arange(100) * 0.01)
+    u = np.zeros(100)
+    for cfg, other in ((c2, c3), (c3, c2), (c2, aided.Config(ss_window=0.5)),
+                       (c2, aided.Config(mode_n=7))):
+        st = aided.init(other)
+        with pytest.raises(ParameterError, match="^aided state: .* do not match") as exc:
+            aided.step(cfg, st, 0.3, 0.0)
+        assert "\n" not in str(exc.value)
+        with pytest.raises(ParameterError, match="^aided state: .* do not match"):
+            aided.run(cfg, y, u, state=st)
+    res = aided.run(c3, y, u, state=aided.init(c3))
+    st = aided.init(c3)
+    for k in range(y.size):
+        st, est = aided.step(c3, st, y[k], u[k])
+        assert est.omega == res.omega[k]

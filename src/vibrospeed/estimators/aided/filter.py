@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vibrospeed.errors import InputError
+from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators.aided.config import STANDSTILL_KINDS, Config
 from vibrospeed.estimators.aided.core import N_OUT, _aided_run, _aided_step
 from vibrospeed.estimators.aiding import Sample, input_arrays
@@ -82,6 +82,19 @@ def _args(config: Config) -> tuple:
     return (m.M, STANDSTILL_KINDS[config.standstill], float(config.mode_len), flags, fp)
 
 
+def _check_state(config: Config, state: State) -> None:
+    """A state made for another M or other detector windows ran silently (omega 0 or NaN):
+    the compiled core takes the sizes from the config for some arrays, from the state for
+    others."""
+    n = config.n_state
+    shapes = (np.shape(state.x), np.shape(state.P), np.shape(state.window.buf),
+              np.shape(state.mode.buf), np.shape(state.line))
+    want = ((n,), (n, n), (config.ss_len,), (config.mode_len,), (6,))
+    if shapes != want:
+        raise ParameterError(f"aided state: x, P, window, mode, line {shapes} do not match the "
+                             f"config's M = {config.model.M} and windows {want}")
+
+
 def _unpack(state: State) -> list:
     return [state.x.copy(), state.P.copy(), state.window.buf.copy(),
             state.window.pos_count.copy(), state.window.flag.copy(),
@@ -122,6 +135,7 @@ def step(
     """
     if isinstance(y, Sample):
         y, u, gain, ref, ref_var, still, comb = y
+    _check_state(config, state)
     a = _unpack(state)
     out = np.empty(N_OUT + config.model.M)
     _aided_step(a[0], a[1], float(y), float(u), float(gain), float(ref), float(ref_var),
@@ -181,7 +195,10 @@ def run(
         if v.shape != (n,):
             raise InputError(f"aided.run: '{name}' has shape {v.shape}, expected ({n},) like y")
         extra.append(v)
-    a = _unpack(init(config) if state is None else state)
+    if state is None:
+        state = init(config)
+    _check_state(config, state)
+    a = _unpack(state)
     o = _aided_run(y, u, gain, ref, ref_var, *extra, *a, *_args(config))
     return Result(o[:, 0], o[:, 1], o[:, 2], o[:, 3] > 0.5, o[:, 4] > 0.5, o[:, 5] > 0.5,
                   o[:, 6], o[:, 7], o[:, 8], o[:, 9], o[:, 10] > 0.5, o[:, N_OUT:], _pack(a))
