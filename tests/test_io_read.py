@@ -47,3 +47,15 @@ def test_read_with_resample(tmp_path):
     np.testing.assert_allclose(r.t, np.arange(6) / 100, atol=1e-15)
     np.testing.assert_allclose(r["ax"], 3 * r.t, atol=1e-12)
     assert "linear interpolation" in r.notes[-1]
+
+
+def test_unknown_format_quotes_the_header_printably(tmp_path):
+    """A binary file's first line is quoted with its control characters escaped (a terminal
+    escape, NUL or BEL in the error line would act on the terminal or the summary table) and
+    cut at 40 characters."""
+    p = tmp_path / "x.bin"
+    p.write_bytes(b"AB\x1b[31mRED\x00\x07CD" + b"z" * 60 + b"\n1,2\n")
+    with pytest.raises(ReaderError, match=r"unknown format \(header starts 'AB\\x1b\[31mRED"
+                                          r"\\x00\\x07CDz+\.\.\.'\)") as exc:
+        vio.read(p)
+    assert str(exc.value).isprintable()

@@ -250,7 +250,7 @@ def _detect_format(p: Path, *, mapping: bool, inside: bool) -> str:
     first = _first_line(p)
     if not first:
         raise ReaderError(p, "empty file (no header row)")
-    from vibrospeed.io._csv import sniff_delimiter
+    from vibrospeed.io._csv import _short, sniff_delimiter
 
     delim = sniff_delimiter(first)
     head = [h.strip().strip('"').strip() for h in first.split(delim)]
@@ -258,7 +258,7 @@ def _detect_format(p: Path, *, mapping: bool, inside: bool) -> str:
         return "csv"
     raise ReaderError(
         p,
-        f"unknown format (header starts '{first[:40]}'): give --format "
+        f"unknown format (header starts '{_short(first, 40)}'): give --format "
         f"({', '.join(FORMATS)}) or a column mapping such as --columns t=time,ay=acc_y",
         row=1,
     )
