@@ -228,3 +228,19 @@ def test_batch_report_names_its_estimate_beside_it(drive, tmp_path):
     out.rename(moved)
     rows = _rows(moved / "cart_ekf.html")
     assert rows["estimate file"] == "cart_ekf.csv" and (moved / rows["estimate file"]).is_file()
+
+
+@pytest.mark.parametrize("extra", [["-p", "omega_max=30"], ["--preset", "online"],
+                                   ["--wheel-radius", "0.31"]])
+def test_report_with_an_estimate_refuses_options_that_would_do_nothing(drive, tmp_path, extra):
+    """``-p``, ``--preset`` and ``--wheel-radius`` make an estimate; beside ``--estimate`` they
+    were silently ignored (a radius asked for gave no speed): one line, exit 2, no page."""
+    est = tmp_path / "est.csv"
+    assert runner.invoke(app, ["estimate", str(drive), "-m", "ekf", "-o", str(est)]).exit_code == 0
+    page = tmp_path / "r.html"
+    res = runner.invoke(app, ["report", str(drive), "--estimate", str(est), "-o", str(page),
+                              *extra])
+    assert res.exit_code == 2 and not page.exists(), res.output
+    assert res.stderr == (f"vibrospeed: error: {extra[0]} with --estimate: they set how the "
+                          "recording is estimated, and --estimate gives the estimate; leave out "
+                          "one or the other\n")

@@ -28,6 +28,7 @@ from vibrospeed.cli.options import (
     SortOpt,
     at_least,
 )
+from vibrospeed.errors import ParameterError
 
 
 @_friendly
@@ -68,6 +69,13 @@ def report(
     from vibrospeed.eval.report import write_report
 
     _check_output(output)
+    if estimate_csv is not None:
+        given = [flag for flag, v in (("-p", param), ("--preset", preset),
+                                      ("--wheel-radius", wheel_radius)) if v]
+        if given:  # they make an estimate; one given would silently do nothing
+            raise ParameterError(f"{', '.join(given)} with --estimate: they set how the "
+                                 "recording is estimated, and --estimate gives the estimate; "
+                                 "leave out one or the other")
     ref = io.read(truth) if truth else None
     if estimate_csv is not None:
         rec = _load(input, fmt, columns, mapping, rate, sort)
@@ -103,7 +111,6 @@ def _check_same_input(estimate_csv: Path, side: dict, recording: Path) -> None:
     """Refuse to draw an estimate over a recording it was not made from: the estimate's sidecar
     records its input's SHA-256 (of the file, or of all files of a folder), and a page pairing
     one drive's spectrogram with another drive's speed would look plausible and be wrong."""
-    from vibrospeed.errors import ParameterError
     from vibrospeed.io._common import sha256_path
 
     want = side.get("input_sha256")
