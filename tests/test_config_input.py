@@ -197,3 +197,24 @@ def test_aided_step_and_run_refuse_a_state_of_another_config():
     for k in range(y.size):
         st, est = aided.step(c3, st, y[k], u[k])
         assert est.omega == res.omega[k]
+
+
+def test_aided_grid_step_and_run_refuse_detector_windows_of_another_config():
+    """A state with a 0.5 s standstill window ran with it under a 0.2 s config (omega 20.0
+    from step, 10.2 from run here); the config's own state still gives step == run."""
+    from vibrospeed.estimators import aided_grid
+
+    cfg = aided_grid.Config()
+    y = np.sin(20.0 * np.arange(60) * 0.01)
+    u = np.zeros(60)
+    for other in (aided_grid.Config(ss_window=0.5), aided_grid.Config(mode_n=7)):
+        st = aided_grid.init(other)
+        with pytest.raises(ParameterError, match="^aided_grid state: .* do not match"):
+            aided_grid.step(cfg, st, 0.3, 0.0)
+        with pytest.raises(ParameterError, match="^aided_grid state: .* do not match"):
+            aided_grid.run(cfg, y, u, state=st)
+    res = aided_grid.run(cfg, y, u)
+    st = aided_grid.init(cfg)
+    for k in range(y.size):
+        st, est = aided_grid.step(cfg, st, y[k], u[k])
+        assert est.omega == res.omega[k]

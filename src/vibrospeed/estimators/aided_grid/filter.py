@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vibrospeed.errors import InputError
+from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
 from vibrospeed.estimators.aided_grid.config import Config
@@ -67,6 +67,19 @@ def init(config: Config) -> State:
     buf = None if config.comb is None else np.zeros(config.comb.frame_len)
     return State(rbpmf.init(config.tracker), 0.0, det.window_init(config.ss_len),
                  det.mode_init(config.mode_len), buf, 0)
+
+
+def _check_state(config: Config, state: State) -> None:
+    """A state made for other detector windows (or another comb frame) ran silently with
+    them: the detectors take their lengths from the state. (The grid state is checked by the
+    RBPMF.)"""
+    shapes = (np.shape(state.window.buf), np.shape(state.mode.buf),
+              None if state.buf is None else np.shape(state.buf))
+    want = ((config.ss_len,), (config.mode_len,),
+            None if config.comb is None else (config.comb.frame_len,))
+    if shapes != want:
+        raise ParameterError(f"aided_grid state: window, mode, comb buffer {shapes} do not "
+                             f"match the config's {want}")
 
 
 def _push(buf: np.ndarray, count: int, y: np.ndarray) -> np.ndarray:
@@ -181,6 +194,7 @@ def step(config: Config, state: State, y: float | Sample, u: float = np.nan, *,
     ``standstill='broadband'``; this tracker has no ``comb`` input)."""
     if isinstance(y, Sample):
         y, u, gain, ref, ref_var, still = y[:6]
+    _check_state(config, state)
     window = det.WindowState(state.window.buf.copy(), state.window.pos_count.copy(),
                              state.window.flag.copy())
     mode = det.ModeState(state.mode.buf.copy(), state.mode.pos_count.copy(),
@@ -251,6 +265,7 @@ def run(config: Config, y: np.ndarray | Sample, u: np.ndarray | None = None, *,
         raise InputError(f"aided_grid.run: 'still' has shape {still.shape}, expected ({n},) "
                          "like y")
     st = init(config) if state is None else state
+    _check_state(config, st)
     window = det.WindowState(st.window.buf.copy(), st.window.pos_count.copy(),
                              st.window.flag.copy())
     mode = det.ModeState(st.mode.buf.copy(), st.mode.pos_count.copy(), st.mode.flag.copy())
