@@ -197,7 +197,7 @@ def test_batch_index_and_reports_carry_the_note(tmp_path):
 
 def test_report_refuses_an_estimate_of_another_drive(drive, tmp_path):
     """``--estimate`` of another drive (its sidecar's input checksum differs) is one line,
-    exit status 2, no page: the spectrogram of one drive under another's speed would look
+    exit status 2, no page (nor plot): the spectrogram of one drive under another's speed would look
     plausible. The estimate of this drive, or one without a sidecar, still makes the page."""
     other = tmp_path / "other.csv"
     io.write(sim.simulate("cart", seed=5, duration=6), other)
@@ -212,6 +212,10 @@ def test_report_refuses_an_estimate_of_another_drive(drive, tmp_path):
                           "recording, or leave out --estimate to estimate this one\n")
     res = runner.invoke(app, ["report", str(other), "--estimate", str(est), "-o", str(html_out)])
     assert res.exit_code == 0 and html_out.is_file(), res.output
+    png = tmp_path / "p.png"  # the plot command draws an estimate the same way: same check
+    res = runner.invoke(app, ["plot", str(drive), "--estimate", str(est), "-o", str(png)])
+    assert res.exit_code == 2 and not png.exists()
+    assert res.stderr.endswith("give that recording, or an estimate of this one\n")
     Path(f"{est}.json").unlink()  # no sidecar: nothing to check against
     res = runner.invoke(app, ["report", str(drive), "--estimate", str(est), "-o",
                               str(tmp_path / "bare.html")])

@@ -80,14 +80,7 @@ def report(
     if estimate_csv is not None:
         rec = _load(input, fmt, columns, mapping, rate, sort)
         track = io.read_track(estimate_csv)
-        side_path = Path(f"{estimate_csv}.json")
-        side = {}
-        if side_path.is_file():
-            try:
-                side = json.loads(side_path.read_text(encoding="utf-8"))
-            except (OSError, ValueError):
-                side = {}
-        side = side if isinstance(side, dict) else {}
+        side = _sidecar(estimate_csv)
         _check_same_input(estimate_csv, side, input)
         meta = side.get("meta") or {}
         used_axis = axis or meta.get("axis")
@@ -107,7 +100,19 @@ def report(
     err.print(f"wrote {output}", markup=False, soft_wrap=True)  # a path is text, not markup
 
 
-def _check_same_input(estimate_csv: Path, side: dict, recording: Path) -> None:
+def _sidecar(estimate_csv: Path) -> dict:
+    """The estimate's ``.json`` sidecar as a dict (empty where there is none or it is not
+    JSON: the estimate still draws, without what the sidecar says)."""
+    side_path = Path(f"{estimate_csv}.json")
+    try:
+        side = json.loads(side_path.read_text(encoding="utf-8")) if side_path.is_file() else {}
+    except (OSError, ValueError):
+        side = {}
+    return side if isinstance(side, dict) else {}
+
+
+def _check_same_input(estimate_csv: Path, side: dict, recording: Path,
+                      hint: str = "leave out --estimate to estimate this one") -> None:
     """Refuse to draw an estimate over a recording it was not made from: the estimate's sidecar
     records its input's SHA-256 (of the file, or of all files of a folder), and a page pairing
     one drive's spectrogram with another drive's speed would look plausible and be wrong."""
@@ -118,8 +123,8 @@ def _check_same_input(estimate_csv: Path, side: dict, recording: Path) -> None:
         return
     made = side.get("input") or "another recording"
     raise ParameterError(f"{estimate_csv}: estimated from {made}, not from {recording} (the "
-                         "input checksum in its .json sidecar differs): give that recording, "
-                         "or leave out --estimate to estimate this one")
+                         f"input checksum in its .json sidecar differs): give that recording, "
+                         f"or {hint}")
 
 
 @_friendly
@@ -216,6 +221,9 @@ def plot(
     _check_output(output)
     rec = _load(input, fmt, columns, mapping, rate, sort)
     track = io.read_track(estimate_csv) if estimate_csv else None
+    if estimate_csv is not None:
+        _check_same_input(estimate_csv, _sidecar(estimate_csv), input,
+                          hint="an estimate of this one")
     ref = io.read(truth) if truth else None
     plot_track(output, rec, track, axis=axis_channel(axis), truth=ref, harmonics=harmonics,
                window_s=window)
