@@ -334,3 +334,25 @@ def test_gps_riss_init_refuses_an_offset_guess_that_is_not_finite(offset0):
     _refused(lambda: gps_riss.init(gps_riss.Config(), 10.0, offset0=offset0), "offset0")
     st = gps_riss.init(gps_riss.Config(), 10.0, offset0=0.2)
     assert st.offset == 0.2 and st.speed == 10.0
+
+
+def test_fuse_step_reads_none_as_run_does():
+    """``gps_sats=None`` (or another input None) raised a TypeError from float() in step,
+    while run reads a missing input as "none / unknown": the numbers now equal run's and
+    those of step with NaN, bitwise."""
+    from vibrospeed.estimators import fuse
+
+    cfg = fuse.Config()
+    t = np.arange(0.0, 2.0, 0.04)
+    g = np.where(np.arange(t.size) % 2 == 0, 10.0 + 0.1 * t, np.nan)
+    a = np.full(t.size, 0.1)
+    st0 = fuse.init(cfg, 10.0)
+    _, ref = fuse.run(cfg, fuse.Sample(t, accel=a, gps_speed=g, gps_sats=None), state=st0)
+    st_none = st_nan = st0
+    for k in range(t.size):
+        st_none, e_none = fuse.step(cfg, st_none, fuse.Sample(t[k], a[k], g[k], gps_sats=None,
+                                                              omega=None, omega_std=None))
+        st_nan, e_nan = fuse.step(cfg, st_nan, fuse.Sample(t[k], a[k], g[k]))
+        assert e_none.speed == e_nan.speed == ref.speed[k]
+        assert e_none.speed_std == ref.speed_std[k]
+    np.testing.assert_array_equal(st_none.P, st_nan.P)

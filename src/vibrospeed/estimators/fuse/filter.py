@@ -180,9 +180,12 @@ def step(config: Config, state: State, y, grid=None) -> tuple[State, Estimate]:
     """One fusion sample ``y``, a :class:`Sample` or the tuple ``(t, accel, gps_speed,
     gps_sats, omega, omega_std, line, still[, soft[, posterior]])``; ``posterior`` (N,) is the
     tracker's grid posterior of the signal part (summing to its line probability) on ``grid``
-    (N,), read with ``vib_measure="posterior"``. The Estimate holds ``speed``, ``speed_std``
-    and the :data:`EXTRAS`."""
+    (N,), read with ``vib_measure="posterior"``; an input given as None is "none" (NaN /
+    False), as in :func:`run`. The Estimate holds ``speed``, ``speed_std`` and the
+    :data:`EXTRAS`."""
     t, am, g, sats, om, om_std, line, still, *rest = y
+    # None: none / unknown, as run reads a missing input (TypeError from float() before)
+    am, g, sats, om, om_std = (math.nan if v is None else v for v in (am, g, sats, om, om_std))
     soft = bool(rest[0]) if rest else False
     post = rest[1] if len(rest) > 1 else None
     gr = _grid_array(grid, post)
