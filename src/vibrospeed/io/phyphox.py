@@ -3,8 +3,9 @@
 A folder is one export when it holds ``Accelerometer.csv``, or when exactly one of its subfolders
 does and no file beside it may be a recording (an export unpacked into a folder of its own;
 :func:`vibrospeed.io._common.export_folders`). A folder with several such subfolders, or with one
-beside other drives' files, holds several drives: each is one recording (``vibrospeed batch`` reads them one by one), and reading
-the folder, or a zip holding several exports, as one recording is an error naming them.
+beside other drives' files, holds several drives: each is one recording (``vibrospeed batch``
+reads them one by one), and reading the folder, or a zip holding several exports, as one
+recording is an error naming them.
 
 Files used (each with its own time base, first column ``Time (s)``):
 
