@@ -43,6 +43,8 @@ def _check_rows(df, d, broken, ok_status):
                                                                         "error"]]
     assert (good["format"] == "csv").all() and np.allclose(good["duration_s"], 7.99)
     assert (good["median_speed"] > 0).all() and (good["distance_m"] > 0).all()
+    assert ((good["distance_lo_m"] <= good["distance_m"])
+            & (good["distance_m"] <= good["distance_hi_m"])).all()
     assert "fitted_radius" not in df.columns  # no method here fits a radius
 
 
@@ -165,15 +167,18 @@ def test_drive_summary_leaves_unmeasured_speeds_empty():
     # the reference: median of a linear ramp 10..30 rad/s is 20; distance = 0.3 * mean * T
     full = {"median_omega": 20.0, "median_speed": 6.0, "distance_m": 0.3 * 20.0 * 1.99}
     for track in (_track(), _track(has_signal=np.r_[zeros[:-1], 1.0]),
-                  _track(has_signal=zeros, standstill=np.r_[1.0, zeros[1:]]),
+                  _track(has_signal=zeros, standstill=ones),  # standing throughout: parked
                   _track(has_signal=zeros, source=np.full(n, 1.0))):  # fuse: GPS held
         row = batch.drive_summary(track)
         assert row["note"] == ""
         for k, v in full.items():
             assert row[k] == pytest.approx(v, rel=1e-12), k
-    # a line detector that never claimed, no standstill, fuse on acceleration alone (source 0)
+    # a line detector that never claimed, no standstill or one only part of the time (the
+    # moving part is then a guess), fuse on acceleration alone (source 0) or standing (3)
     for track in (_track(has_signal=zeros), _track(has_signal=zeros, standstill=zeros),
-                  _track(has_signal=zeros, source=zeros)):
+                  _track(has_signal=zeros, standstill=np.r_[1.0, zeros[1:]]),
+                  _track(has_signal=zeros, source=zeros),
+                  _track(has_signal=zeros, source=np.r_[3.0, zeros[1:]])):
         row = batch.drive_summary(track)
         assert row["signal_share"] == 0.0
         assert np.isnan([row["median_speed"], row["median_omega"], row["distance_m"]]).all()
@@ -216,9 +221,13 @@ def test_batch_rows_and_reports_share_one_rule():
     assert batch.drive_summary is metrics.track_summary is batch.track_summary
     assert batch.task.NO_EVIDENCE_NOTE == metrics.NO_EVIDENCE_NOTE
     n = 200
-    seen = metrics.measured(_track(has_signal=np.zeros(n), standstill=np.r_[np.zeros(n - 1), 1]))
-    assert seen.sum() == 1 and seen[-1]
-    assert metrics.measured(_track()) is None
+    moving, standing = metrics.evidence(_track(has_signal=np.r_[1.0, np.zeros(n - 1)],
+                                               standstill=np.r_[np.zeros(n - 1), 1]))
+    assert moving.sum() == 1 and moving[0] and standing.sum() == 1 and standing[-1]
+    moving, standing = metrics.evidence(_track(has_signal=np.zeros(n),
+                                               source=np.r_[1.0, 2.0, 3.0, np.zeros(n - 3)]))
+    assert list(np.flatnonzero(moving)) == [0, 1] and list(np.flatnonzero(standing)) == [2]
+    assert metrics.evidence(_track()) is None
 
 
 def test_error_rows_name_their_recording(tmp_path):
@@ -432,3 +441,19 @@ def test_androsensor_gps_file_is_part_of_its_trip(tmp_path):
         assert [p.split("/")[-1] for p, err in found if err is None] == want, found
     rec = io.read(logs / "accel.a.csv")
     assert np.nanmax(rec["gps_speed"]) == pytest.approx(20.0)  # its GPS read with it
+
+
+def test_the_band_distances_are_the_estimates_band_integrated(tmp_path):
+    """``distance_lo_m`` / ``distance_hi_m``: the trapezoids of the written estimate's
+    ``speed_lo`` / ``speed_hi``, recomputed with numpy from its CSV."""
+    io.write(sim.simulate("cart", seed=4, duration=8), tmp_path / "drive.csv")
+    df = batch.run([tmp_path / "drive.csv"], tmp_path / "out",
+                   params={"omega_min": "2", "omega_max": "30"}, jobs=1)
+    row = df.iloc[0]
+    est = io.read_track(tmp_path / "out" / row["output"])
+    for col, edge in (("distance_lo_m", est.speed_lo), ("distance_m", est.speed),
+                      ("distance_hi_m", est.speed_hi)):
+        ok = np.isfinite(edge[1:]) & np.isfinite(edge[:-1])
+        ref = np.sum((0.5 * (edge[1:] + edge[:-1]) * np.diff(est.t))[ok])
+        assert row[col] == pytest.approx(ref, rel=1e-9), col
+    assert row["distance_lo_m"] < row["distance_m"] < row["distance_hi_m"]

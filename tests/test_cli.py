@@ -219,8 +219,8 @@ def test_batch_counts_the_drives_without_a_measurement(tmp_path):
     assert res.exit_code == 0, res.output
     lines = res.stderr.splitlines()
     said = next(k for k, ln in enumerate(lines) if "3 recordings (3 ok, 0 skipped, 0 error)" in ln)
-    assert lines[said + 1] == ("2 drives without a wheel line, standstill or GPS: speed numbers "
-                               "left empty (see the note column)")
+    assert lines[said + 1] == ("2 drives without a wheel line or GPS while moving: speed "
+                               "numbers left empty (see the note column)")
     res = _run("batch", src / "cart.csv", "-o", tmp_path / "cart_out", *grid)
     assert res.exit_code == 0, res.output
     assert "1 ok, 0 skipped, 0 error" in res.stderr and "note column" not in res.stderr

@@ -139,9 +139,10 @@ def test_report_of_a_drive_without_a_line_shows_the_note(tmp_path):
     rows = _rows(tmp_path / "n.html")
     assert rows["share with a wheel line"] == "0.0 %"
     assert rows["distance"] == rows["median speed"] == rows["median omega"] == "–"
+    assert rows["distance at the speed band's edges"] == "–"
     assert rows["note"] == NO_EVIDENCE_NOTE
     text = " ".join(" ".join(_parse(tmp_path / "n.html").text).split())
-    assert "No wheel line was seen in this drive, and no standstill or GPS" in text
+    assert "No wheel line was seen in this drive, and no GPS: wherever no standstill" in text
 
     # a simulated cart drive: numbers, no note; the reference is the estimate file itself
     cart = tmp_path / "cart.csv"
@@ -159,6 +160,9 @@ def test_report_of_a_drive_without_a_line_shows_the_note(tmp_path):
     assert float(rows["median speed"].split()[0]) == pytest.approx(np.median(v), abs=0.006)
     dist = float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(t)))  # trapezoids
     assert float(rows["distance"].split()[0]) == pytest.approx(dist, abs=0.06)
+    lo, hi = (float(x) for x in rows["distance at the speed band's edges"][:-2].split(" – "))
+    for got, edge in ((lo, table["speed_lo"].to_numpy()), (hi, table["speed_hi"].to_numpy())):
+        assert got == pytest.approx(np.sum(0.5 * (edge[1:] + edge[:-1]) * np.diff(t)), abs=0.06)
     assert float(rows["median omega"].split()[0]) == pytest.approx(
         np.median(table["omega"]), abs=0.006)
 
@@ -174,7 +178,7 @@ def test_batch_index_and_reports_carry_the_note(tmp_path):
     res = runner.invoke(app, ["batch", str(src), "-o", str(out), "-j", "1", "--report",
                               "-p", "omega_min=2", "-p", "omega_max=30"])
     assert res.exit_code == 0, res.output
-    assert ("1 drive without a wheel line, standstill or GPS: speed numbers left empty "
+    assert ("1 drive without a wheel line or GPS while moving: speed numbers left empty "
             "(see the note column)") in res.stderr
     summary = pd.read_csv(out / "summary.csv", keep_default_na=False)
     assert list(summary["note"]) == [NO_EVIDENCE_NOTE, ""]

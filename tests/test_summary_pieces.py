@@ -20,7 +20,7 @@ def _track(seed: int, n: int, *, claims: bool, radius) -> Track:
     sig = (rng.random(n) < 0.3).astype(float) if claims else np.zeros(n)
     sig[rng.random(n) < 0.05] = np.nan
     tr.extras["has_signal"] = sig
-    tr.extras["standstill"] = np.zeros(n)
+    tr.extras["standstill"] = (rng.random(n) < (0.05 if seed % 3 else 0.0)).astype(float)
     if claims and seed % 2:  # a fuse track says what each sample's speed rests on
         src = rng.integers(0, 4, n).astype(float)
         src[rng.random(n) < 0.05] = np.nan
@@ -89,10 +89,13 @@ def _direct(tr: Track) -> dict:
            "distance_m": float(np.sum((0.5 * (v[:-1] + v[1:]) * np.diff(t))[ok]))
            if ok.any() else math.nan,
            "fitted_radius": math.nan, "note": ""}
-    seen = np.nan_to_num(np.asarray(tr.extras["has_signal"])) > 0.5
-    if "source" in tr.extras:  # fuse: anything but the accelerometer alone is a measurement
-        seen |= np.nan_to_num(np.asarray(tr.extras["source"]), nan=0.0) > 0
-    if not seen.any():
+    moving = np.nan_to_num(np.asarray(tr.extras["has_signal"])) > 0.5
+    standing = np.nan_to_num(np.asarray(tr.extras["standstill"])) > 0.5
+    if "source" in tr.extras:  # fuse: GPS (1) or vibration (2) while moving, 3 standing
+        src = np.nan_to_num(np.asarray(tr.extras["source"]), nan=0.0)
+        moving |= (src == 1) | (src == 2)
+        standing |= src == 3
+    if not moving.any() and not (moving | standing).all():
         out.update(median_speed=math.nan, median_omega=math.nan, distance_m=math.nan,
                    distance_lo_m=math.nan, distance_hi_m=math.nan, note=NO_EVIDENCE_NOTE)
     return out
@@ -138,3 +141,17 @@ def test_summary_line_says_what_the_speed_rests_on_and_the_band_distances():
     assert "claimed" not in line and "guess" not in line
     nan_band = {**base, "distance_lo_m": math.nan}
     assert summary_line(nan_band).endswith("distance 1234 m")
+
+
+def test_a_standstill_alone_does_not_make_the_moving_guesses_measured():
+    tr = _track(3, 300, claims=False, radius=0.3)
+    tr.extras["standstill"] = np.zeros(300)
+    tr.extras["standstill"][:40] = 1.0  # a stop found, no line claimed anywhere
+    got = track_summary(tr)
+    assert got["note"] == NO_EVIDENCE_NOTE and math.isnan(got["distance_m"])
+    assert math.isnan(got["median_speed"]) and math.isnan(got["distance_hi_m"])
+    parked = _track(3, 300, claims=False, radius=0.3)
+    parked.extras["standstill"] = np.ones(300)  # a standstill everywhere: the 0 m/s measured
+    parked.speed[:] = 0.0
+    got = track_summary(parked)
+    assert got["note"] == "" and got["distance_m"] == 0.0 and got["median_speed"] == 0.0

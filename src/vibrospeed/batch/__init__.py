@@ -15,12 +15,14 @@ recordings, each in its own task, and returns the summary table (one row per rec
 ``median_speed``   median of the speed estimate in m/s (empty without a wheel radius)
 ``median_omega``   median of omega in rad/s
 ``distance_m``     integral of the speed over time in m; these three are empty where the
-                   method says where it sees a line and nothing of the drive rests on a
-                   measurement (:func:`drive_summary`)
+                   method says where it sees a line and nothing of the moving drive rests on
+                   a measurement (:func:`drive_summary`)
+``distance_lo_m``  the same integral of the speed band's lower / upper edge (``speed_lo``,
+``distance_hi_m``  ``speed_hi``): the distance if every sample sat at that edge of its band
 ``fitted_radius``  wheel radius in m fitted by the method (only present when a method gives one)
 ``status``         ``ok``, ``skipped`` (an up-to-date output was there) or ``error``
 ``error``          one line saying what went wrong
-``note``           why numbers are empty (no wheel line, standstill or GPS), else empty
+``note``           why numbers are empty (no wheel line or GPS while moving), else empty
 ``wall_s``         seconds spent on this recording
 ``report``         its HTML report (only with ``report=True``)
 =================  ==========================================================================

@@ -18,7 +18,8 @@ from vibrospeed.batch.single import EstimateOptions
 #: Summary columns in order; ``fitted_radius`` and ``report`` appear only when they have values.
 SUMMARY_COLUMNS = (
     "file", "output", "format", "duration_s", "method", "signal_share", "median_speed",
-    "median_omega", "distance_m", "fitted_radius", "status", "error", "note", "wall_s", "report",
+    "median_omega", "distance_m", "distance_lo_m", "distance_hi_m", "fitted_radius", "status",
+    "error", "note", "wall_s", "report",
 )
 
 

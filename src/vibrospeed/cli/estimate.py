@@ -309,7 +309,7 @@ def batch(
     same name get a short hash added). summary.csv (and summary.parquet with pyarrow) has per
     recording: file, format, duration, method, share with a wheel line, median speed,
     distance, status (ok / skipped / error), the error in one line, a note where nothing was
-    measured (no wheel line, standstill or GPS: the speed numbers are left empty; the count is
+    measured while moving (no wheel line or GPS: the speed numbers are left empty; the count is
     printed at the end) and the wall time. Run it again and every recording whose output has
     the same input checksum, method, options and vibrospeed version is skipped; a bad file is
     an error row, never the end of the batch (exit status 2 when any recording failed).
@@ -343,9 +343,9 @@ def batch(
     print(f"wrote {output / 'summary.csv'}{extra}: {len(df)} recordings ({said})",
           file=sys.stderr)
     noted = int((df["note"].fillna("").astype(str) != "").sum())
-    if noted:  # drive_summary left their speed numbers empty: nothing was measured
-        print(f"{noted} drive{'s' if noted != 1 else ''} without a wheel line, standstill or "
-              "GPS: speed numbers left empty (see the note column)", file=sys.stderr)
+    if noted:  # drive_summary left their speed numbers empty: nothing measured while moving
+        print(f"{noted} drive{'s' if noted != 1 else ''} without a wheel line or GPS while "
+              "moving: speed numbers left empty (see the note column)", file=sys.stderr)
     if counts.get("error", 0):
         raise typer.Exit(2)
 

@@ -186,26 +186,29 @@ def fitted_radius(track) -> float:
 SOURCE_NAMES = ("accelerometer", "gps", "vibration", "standstill")
 
 #: The ``note`` of a track whose speed numbers are left empty (see :func:`track_summary`).
-NO_EVIDENCE_NOTE = ("no wheel line claimed and no standstill or GPS seen: median_speed, "
+NO_EVIDENCE_NOTE = ("no wheel line claimed and no GPS seen while moving: median_speed, "
                     "median_omega and distance_m left empty")
 
 
-def measured(track) -> np.ndarray | None:
-    """Per sample, whether the estimate rests on a measurement: a claimed wheel line
-    (``has_signal``), a detected standstill (``standstill``) or, for ``fuse``, any source
-    other than acceleration alone (``source``). ``None`` when the track does not say (no
-    ``has_signal`` column: the EKF, SHS, gps-riss, ...)."""
+def evidence(track) -> tuple[np.ndarray, np.ndarray] | None:
+    """Per sample, ``(moving, standing)``: whether the estimate rests on a measurement of the
+    moving vehicle (a claimed wheel line, ``has_signal``; for ``fuse`` a GPS or vibration
+    ``source``) and whether it is a detected standstill (``standstill``; ``fuse``'s standstill
+    source). ``None`` when the track does not say (no ``has_signal`` column: the EKF, SHS,
+    gps-riss, ...)."""
     if "has_signal" not in track.extras:
         return None
-    seen = np.nan_to_num(np.asarray(track.extras["has_signal"], dtype=np.float64)) > 0.5
+    moving = np.nan_to_num(np.asarray(track.extras["has_signal"], dtype=np.float64)) > 0.5
+    standing = np.zeros(moving.size, bool)
     if "standstill" in track.extras:
-        seen |= np.nan_to_num(np.asarray(track.extras["standstill"], dtype=np.float64)) > 0.5
+        standing |= np.nan_to_num(np.asarray(track.extras["standstill"], dtype=np.float64)) > 0.5
     if "source" in track.extras:
-        from vibrospeed.estimators.fuse.config import SRC_INERTIAL
+        from vibrospeed.estimators.fuse.config import SRC_GPS, SRC_STANDSTILL, SRC_VIBRATION
 
         src = np.asarray(track.extras["source"], dtype=np.float64)
-        seen |= np.isfinite(src) & (src != SRC_INERTIAL)
-    return seen
+        moving |= (src == SRC_GPS) | (src == SRC_VIBRATION)
+        standing |= src == SRC_STANDSTILL
+    return moving, standing & ~moving
 
 
 def track_summary(track) -> dict[str, Any]:
@@ -221,13 +224,14 @@ def track_summary(track) -> dict[str, Any]:
     without a model of their correlation).
 
     Where the method says per sample whether it saw anything (``has_signal``) and no sample
-    rests on a measurement (:func:`measured`: no claimed line, no detected standstill, no
-    GPS-held ``fuse`` sample), the estimate is the tracker's prior carried through the drive,
-    not a measurement: ``median_speed``, ``median_omega`` and ``distance_m`` are NaN and
-    ``note`` is :data:`NO_EVIDENCE_NOTE`. A parked vehicle keeps its 0 m/s (its standstill was
-    detected), a ``fuse`` drive without a wheel line keeps its GPS-held speed. Otherwise the
-    medians and the distance are over all samples and ``note`` is empty; ``signal_share``
-    says how much of them rests on a line.
+    rests on a measurement of the moving vehicle (:func:`evidence`: no claimed line, no
+    GPS-held ``fuse`` sample), the estimate wherever the vehicle was not detected standing is
+    the tracker's prior carried through the drive, not a measurement: ``median_speed``,
+    ``median_omega`` and the distances are NaN and ``note`` is :data:`NO_EVIDENCE_NOTE`. A
+    parked vehicle (a standstill on every sample) keeps its 0 m/s and 0 m, a ``fuse`` drive
+    without a wheel line keeps its GPS-held speed. Otherwise the medians and the distance are
+    over all samples and ``note`` is empty; ``signal_share`` says how much of them rests on a
+    line.
     """
     acc = SummaryAccumulator(np.float64)
     acc.add(track)
@@ -249,7 +253,8 @@ class SummaryAccumulator:
         self.n_sig = 0
         self.n_sig_finite = 0
         self.sources = np.zeros(4, np.int64)  # fuse's samples per source (SRC_* order)
-        self.seen = False
+        self.seen_moving = False  # a sample rests on a measurement of the moving vehicle
+        self.n_guessed = 0  # samples resting neither on that nor on a detected standstill
         self.speeds: list[np.ndarray] = []
         self.omegas: list[np.ndarray] = []
         self.dist = np.zeros(3)  # the trapezoids of speed, speed_lo, speed_hi
@@ -272,8 +277,10 @@ class SummaryAccumulator:
             src = np.asarray(src, dtype=np.float64)
             src = src[np.isfinite(src)].astype(np.int64)
             self.sources += np.bincount(src[(src >= 0) & (src < 4)], minlength=4)
-        seen = measured(track)
-        self.seen |= bool(seen is not None and seen.any())
+        ev = evidence(track)
+        if ev is not None:
+            self.seen_moving |= bool(ev[0].any())
+            self.n_guessed += int(np.count_nonzero(~(ev[0] | ev[1])))
         for keep, x in ((self.speeds, v), (self.omegas, track.omega)):
             x = np.asarray(x, dtype=np.float64)
             keep.append(x[np.isfinite(x)].astype(self.dtype))
@@ -315,7 +322,7 @@ class SummaryAccumulator:
                 SOURCE_NAMES, self.sources, strict=True)} if self.sources.sum() else {}),
             "note": "",
         }
-        if self.has_signal and not self.seen:
+        if self.has_signal and not self.seen_moving and self.n_guessed:
             out.update(median_speed=math.nan, median_omega=math.nan, distance_m=math.nan,
                        distance_lo_m=math.nan, distance_hi_m=math.nan, note=NO_EVIDENCE_NOTE)
         return out

@@ -189,6 +189,9 @@ def render_report(
         ("samples", f"{len(rec)} at {rec.fs:.4g} Hz"),
         ("method", track.method or "?"),
         ("distance", _num(s["distance_m"], ".1f", "m")),
+        ("distance at the speed band's edges",
+         f"{s['distance_lo_m']:.1f} – {s['distance_hi_m']:.1f} m"
+         if math.isfinite(s["distance_lo_m"]) and math.isfinite(s["distance_hi_m"]) else "–"),
         ("median speed", _num(s["median_speed"], ".2f", "m/s")
          + (f" ({s['median_speed'] * 3.6:.1f} km/h)" if math.isfinite(s["median_speed"])
             else "")),
@@ -217,9 +220,10 @@ def render_report(
         line = (f"<p>A wheel line was seen during {len(iv)} stretch(es), "
                 f"{_num(100 * s['signal_share'], '.1f', '%')} of the samples (green in the speed "
                 f"plot):</p><ul>{items}</ul>{more}" if iv else
-                "<p>No wheel line was seen in this drive, and no standstill or GPS: the "
-                "estimate is the tracker's prior carried through the drive with a wide band, "
-                "not a measurement, so the summary leaves its distance and medians empty.</p>"
+                "<p>No wheel line was seen in this drive, and no GPS: wherever no standstill "
+                "was detected the estimate is the tracker's prior carried through the drive "
+                "with a wide band, not a measurement, so the summary leaves its distance and "
+                "medians empty.</p>"
                 if s["note"] else
                 "<p>No wheel line was seen in this drive; the summary numbers rest on what "
                 "was measured instead (a detected standstill, or GPS fixes for fuse).</p>")
