@@ -218,3 +218,16 @@ def test_aided_grid_step_and_run_refuse_detector_windows_of_another_config():
     for k in range(y.size):
         st, est = aided_grid.step(cfg, st, y[k], u[k])
         assert est.omega == res.omega[k]
+
+
+@pytest.mark.parametrize("method", ["grid", "aided"])
+@pytest.mark.parametrize("value", ["inf", "nan", "0", "-5"])
+def test_a_search_range_that_is_no_number_is_named_as_omega_max(method, value):
+    """The default walk is derived from ``omega_max`` (``grid.method.q_omega_for``) before the
+    config is built: the error names ``omega_max``, not the derived ``q_omega``."""
+    from vibrospeed import sim
+    from vibrospeed.estimators import get
+
+    rec = sim.simulate("cart", seed=1, duration=2)
+    with pytest.raises(ParameterError, match="^omega_max must be a finite number > 0 rad/s"):
+        get(method).estimate(rec, params={"omega_max": value}, wheel_radius=0.2)

@@ -14,6 +14,7 @@ numbers of repeated ``step``.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -81,6 +82,8 @@ def q_omega_for(omega_max: float) -> float:
     GoPro kart (40 against 16): benchmarks/robustness/RESULTS.md, "levers measured in stop
     25"."""
     q_ref, om_ref = Q_OMEGA_REF
+    if not (math.isfinite(omega_max) and omega_max > 0):  # named here, before q_omega is
+        raise ParameterError(f"omega_max must be a finite number > 0 rad/s, got {omega_max}")
     return q_ref * (float(omega_max) / om_ref)
 
 
