@@ -453,3 +453,30 @@ def test_help_is_still_the_help():
         res = _run(command, "--help")
         assert res.exit_code == 0 and res.stderr == ""
         assert res.stdout.startswith(f"Usage: vibrospeed {command} [OPTIONS]")
+
+
+def test_a_full_disk_is_the_systems_word_in_one_line_not_an_internal_error(tmp_path, monkeypatch):
+    """An OSError with the system's message (ENOSPC, EIO) is no bug of vibrospeed: one line
+    naming the file and the system's words, exit status 1, no 'please report it'."""
+    import errno
+    import os
+
+    from vibrospeed.batch.task import _one_line
+
+    src = tmp_path / "cart.csv"
+    assert _run("simulate", "--scenario", "cart", "--duration", "4", "-o", src).exit_code == 0
+
+    def full(*a, **k):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(tmp_path / "est.csv"))
+
+    monkeypatch.setattr("vibrospeed.io.write_track", full)
+    res = _run("estimate", src, "-p", "omega_min=2", "-p", "omega_max=30", "-o",
+               tmp_path / "est.csv")
+    assert res.exit_code == 1, res.output
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("vibrospeed:")]
+    assert lines == [f"vibrospeed: error: {tmp_path / 'est.csv'}: No space left on device"]
+    assert "internal error" not in res.stderr and "Traceback" not in res.output
+    # a batch row says the same in its error column
+    exc = OSError(errno.EIO, os.strerror(errno.EIO), "/data/a.csv")
+    assert _one_line(exc) == "/data/a.csv: Input/output error"
+    assert _one_line(RuntimeError("x")) == "internal error: RuntimeError: x"

@@ -33,8 +33,8 @@ drive_summary = track_summary
 def _one_line(exc: BaseException) -> str:
     if isinstance(exc, VibrospeedError):
         text = str(exc)
-    elif isinstance(exc, (FileNotFoundError, IsADirectoryError, PermissionError)):
-        text = f"{exc.filename or ''}: {exc.strerror}"
+    elif isinstance(exc, OSError) and exc.strerror:  # the file system's word: no bug of ours
+        text = f"{exc.filename or ''}: {exc.strerror}" if exc.filename else exc.strerror
     else:
         text = f"internal error: {type(exc).__name__}: {exc}"
     return " ".join(text.split())

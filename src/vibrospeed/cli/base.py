@@ -172,11 +172,15 @@ def _friendly(fn):
             devnull = os.open(os.devnull, os.O_WRONLY)
             os.dup2(devnull, sys.stdout.fileno())
             raise typer.Exit(0) from None
-        except Exception as exc:  # a bug, not bad input: one line, exit 1, traceback on demand
+        except Exception as exc:  # one line, exit 1, the traceback on demand
             if os.environ.get("VIBROSPEED_DEBUG"):
                 raise
-            print(f"vibrospeed: internal error: {type(exc).__name__}: {exc} (please report it; "
-                  "set VIBROSPEED_DEBUG=1 for the traceback)", file=sys.stderr)
+            if isinstance(exc, OSError) and exc.strerror:  # a full disk, an I/O error: the
+                where = f"{exc.filename}: " if exc.filename else ""  # system's word, no bug
+                print(f"vibrospeed: error: {where}{exc.strerror}", file=sys.stderr)
+            else:  # a bug, not bad input
+                print(f"vibrospeed: internal error: {type(exc).__name__}: {exc} (please report "
+                      "it; set VIBROSPEED_DEBUG=1 for the traceback)", file=sys.stderr)
             raise typer.Exit(1) from None
 
     return wrapper
