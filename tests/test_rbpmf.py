@@ -561,3 +561,20 @@ def test_mode_hold_matches_brute_force_and_streams():
     np.testing.assert_array_equal(np.r_[a_.omega, b_.omega], held.omega)
     with pytest.raises(ParameterError, match="mode_hold"):
         rbpmf.Config(mode_hold=0.5)
+
+
+def test_the_papers_filter_claims_nothing_it_cannot_tell():
+    """Without a "no line" state (the paper's filter) the line is assumed at every sample, so
+    the track has no ``has_signal`` column (a batch row's ``signal_share`` is then empty, as
+    for the EKF); with ``improved=true`` (re-acquisition and the "no line" state) it has one."""
+    from vibrospeed import sim
+    from vibrospeed.eval.metrics import track_summary
+
+    rec = sim.simulate("cart", seed=1, duration=6)
+    p = {"omega_min": 2, "omega_max": 30}
+    plain = rbpmf.estimate(rec, params=p)
+    assert "has_signal" not in plain.extras and np.all(plain.extras["p_null"] == 0)
+    s = track_summary(plain)
+    assert np.isnan(s["signal_share"]) and s["note"] == "" and s["distance_m"] > 0
+    improved = rbpmf.estimate(rec, params={**p, "improved": "true"})
+    assert set(np.unique(improved.extras["has_signal"])) <= {0.0, 1.0}

@@ -175,11 +175,12 @@ def columns(config: Config, res: Result, sm, omap: np.ndarray,
     extras: dict[str, np.ndarray] = {
         "omega_map": omap, "loglik": res.loglik, "p_null": p_null, "p_half": p_half,
         "p_double": p_double, "p_third": p_third, "p_triple": p_triple, "confidence": conf,
-        "has_signal": config.claims(p_null),
         "ambiguous": (amb >= 0.05).astype(np.float64), "rms": rms,
         "omega_mode": o_mode, "p_mode": p_mode, "omega_mode_std": o_mode_std,
         "multimodal": (p_mode < config.mode_share).astype(np.float64),
     }
+    if config.has_null:  # without a "no line" state (the paper's filter) nothing is claimed:
+        extras["has_signal"] = config.claims(p_null)  # the line is assumed at every sample
     if config.point == "mode":
         extras["omega_mean"] = o_mean
     for m in range(config.model.M):
