@@ -24,10 +24,13 @@ def _refused(make, name, value):
 
 @pytest.mark.parametrize("kw", [
     {"q_omega": inf}, {"q_amp": inf}, {"r": inf}, {"p0_amp": inf}, {"dt": inf},
-    {"q_omega": nan}, {"dt": nan}, {"M": nan}, {"M": inf},
+    {"q_omega": nan}, {"dt": nan}, {"M": nan}, {"M": inf}, {"M": 2.0}, {"M": np.float64(2.0)},
+    {"M": True},
 ])
 def test_harmonic_model_refuses_infinite_noise_period_or_prior(kw):
-    """Each of these made every EKF / aided output NaN (or int() failed on M)."""
+    """Each of these made every EKF / aided output NaN (or int() failed on M; a whole float M
+    such as 2.0 passed and then failed inside ``ekf.run`` / ``rbpf.run`` with numpy's
+    TypeError)."""
     (name, value), = kw.items()
     _refused(lambda: HarmonicModel(**kw), name, value)
 
@@ -41,6 +44,12 @@ def test_harmonic_model_keeps_the_valid_edges():
         assert np.isfinite(res.omega).all() and np.isfinite(res.omega_std).all(), kw
     # the probe model some estimators build before the recording's period is known
     assert HarmonicModel(dt=1.0).q_omega_step == 4.0
+    # "-p M=2" (or M=2.0) on the command line is read as the int 2 by the field's type
+    from vibrospeed.config import config_from_params
+
+    for text in ("2", "2.0"):
+        m = config_from_params(HarmonicModel, {"M": text})
+        assert type(m.M) is int and m.M == 2 and m.n_lin == 4
 
 
 @pytest.mark.parametrize("kw", [

@@ -47,8 +47,10 @@ class HarmonicModel:
     p0_amp: float = 0.1
 
     def __post_init__(self) -> None:
-        # an infinite period, noise or prior variance makes every filter's output NaN
-        if not (math.isfinite(self.M) and int(self.M) == self.M and self.M >= 1):
+        # an infinite period, noise or prior variance makes every filter's output NaN; M sizes
+        # arrays (np.arange, np.eye), which take no float, not even 2.0 ("-p M=2" is the int 2)
+        if not (isinstance(self.M, int | np.integer) and not isinstance(self.M, bool)
+                and self.M >= 1):
             raise ParameterError(f"M must be a positive integer, got {self.M}")
         for name in ("dt", "q_amp", "r", "p0_amp"):
             if not 0 < getattr(self, name) < math.inf:
