@@ -281,3 +281,16 @@ def test_algebraic_state_shapes_are_the_documented_ones():
         assert st.hist.shape == (4, cfg.n_back + 2) and st.s.shape == (42,)
         doc = algebraic.State.__doc__
         assert "``hist`` (4, ``n_back`` + 2)" in doc and "``s`` (42,)" in doc
+
+
+def test_is_count_and_check_state_the_shared_checks():
+    from vibrospeed.config import check_state, is_count
+    from vibrospeed.errors import ParameterError
+
+    assert is_count(3) and is_count(np.int64(3)) and is_count(0, 0)
+    assert not any(is_count(v) for v in (0, -1, 3.0, True, np.float64(3), "3", None))
+    check_state("m", "M = 2", x=(np.zeros(4), (4,)), b=(None, None))
+    with pytest.raises(ParameterError) as e:
+        check_state("m", "M = 2", x=(np.zeros(6), (4,)), P=(np.zeros((4, 4)), (4, 4)))
+    assert str(e.value) == ("m state: x, P ((6,), (4, 4)) do not match the config's M = 2 "
+                            "(wanted ((4,), (4, 4)))")

@@ -233,6 +233,29 @@ def flat_names(cls: type) -> set[str]:
     return set(flat_fields(cls))
 
 
+def is_count(value: Any, least: int = 1) -> bool:
+    """``value`` is a whole number of an integer type (not a bool, not 3.0) and ``>= least``:
+    array sizes and seeds, which numpy takes as integers only."""
+    import numbers
+
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool) and value >= least
+
+
+def check_state(method: str, config_says: str, **fields: tuple[Any, Any]) -> None:
+    """:class:`ParameterError` unless each state array ``name=(array, wanted_shape)`` has its
+    wanted shape (``None`` for an absent array, and a wanted ``None`` for one that must be
+    absent). A state made for another config (another ``M``, grid, particle count or window)
+    would otherwise be read past its end by compiled code, or run with the state's sizes
+    instead of the config's. ``config_says``: what of the config sets the shapes."""
+    import numpy as np
+
+    got = tuple(None if a is None else np.shape(a) for a, _ in fields.values())
+    want = tuple(w for _, w in fields.values())
+    if got != want:
+        raise ParameterError(f"{method} state: {', '.join(fields)} {got} do not match the "
+                             f"config's {config_says} (wanted {want})")
+
+
 def config_from_params(cls: type[C], params: dict[str, Any] | None = None, **defaults: Any) -> C:
     """Instantiate dataclass ``cls`` from ``defaults`` overridden by ``params``.
 

@@ -39,7 +39,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vibrospeed.config import config_from_params, parse_flag
+from vibrospeed.config import check_state, config_from_params, parse_flag
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators.kalman import joseph_update
 from vibrospeed.models.harmonic import HarmonicModel
@@ -285,12 +285,8 @@ def _comb_state(config: Config, state: State) -> np.ndarray:
 def _check_state(config: Config, state: State) -> None:
     """A state of another M would be read past its end by the compiled step (memory errors)."""
     n = 1 + config.model.n_lin
-    shapes = (np.shape(state.x), np.shape(state.P),
-              (3,) if state.comb is None else np.shape(state.comb))
-    if shapes != ((n,), (n, n), (3,)):
-        raise ParameterError(f"ekf state: x {shapes[0]}, P {shapes[1]}, comb {shapes[2]} do not "
-                             f"match the config's M = {config.model.M} (x ({n},), P ({n}, {n}), "
-                             "comb (3,))")
+    check_state("ekf", f"M = {config.model.M}", x=(state.x, (n,)), P=(state.P, (n, n)),
+                comb=(state.comb, None if state.comb is None else (3,)))
 
 
 def step(config: Config, state: State, y: float, comb: float = np.nan

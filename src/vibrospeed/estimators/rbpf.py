@@ -31,7 +31,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vibrospeed.config import flat_dict
+from vibrospeed.config import check_state, flat_dict, is_count
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators import resampling
 from vibrospeed.estimators.grid.app import prepare
@@ -40,11 +40,6 @@ from vibrospeed.estimators.kalman import predict_one, rotation_blocks, update_on
 from vibrospeed.estimators.scaling import DEFAULT_SIGNAL_RMS, DEFAULT_TAU
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Estimate, Recording, Track
-
-
-def _is_int(v) -> bool:
-    """``v`` is an integer (numpy's draws take no float count or seed, not even 3000.0)."""
-    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
 
 
 def _paper_model(dt: float = 0.01) -> HarmonicModel:
@@ -81,7 +76,7 @@ class Config:
     nyquist: str = "warn"
 
     def __post_init__(self) -> None:
-        if not (_is_int(self.n_particles) and self.n_particles >= 1):
+        if not is_count(self.n_particles):
             raise ParameterError(f"n_particles must be a positive integer, got {self.n_particles}")
         if not 0 <= self.omega_min <= self.omega_max < math.inf:
             raise ParameterError(
@@ -98,7 +93,7 @@ class Config:
         resampling.get_scheme(self.scheme)
         if not self.ess_threshold >= 0:
             raise ParameterError(f"ess_threshold must be >= 0, got {self.ess_threshold}")
-        if not (_is_int(self.seed) and self.seed >= 0):
+        if not is_count(self.seed, 0):
             raise ParameterError(f"seed must be an integer >= 0, got {self.seed}")
         for name in ("rms_tau", "signal_rms"):
             if not 0 < getattr(self, name) < math.inf:
@@ -267,11 +262,9 @@ def _check_state(config: Config, state: State) -> None:
     """A state of another K or M would be read past its end by the compiled steps (heap
     corruption) or run with another particle count than the config says."""
     K, n = config.n_particles, config.model.n_lin
-    shapes = tuple(np.shape(a) for a in (state.omega, state.log_w, state.mean, state.cov))
-    if shapes != ((K,), (K,), (K, n), (K, n, n)):
-        raise ParameterError(f"rbpf state: omega, log_w, mean, cov {shapes} do not match the "
-                             f"config's n_particles = {K} and M = {config.model.M} "
-                             f"(({K},), ({K},), ({K}, {n}), ({K}, {n}, {n}))")
+    check_state("rbpf", f"n_particles = {K} and M = {config.model.M}",
+                omega=(state.omega, (K,)), log_w=(state.log_w, (K,)),
+                mean=(state.mean, (K, n)), cov=(state.cov, (K, n, n)))
 
 
 def step(config: Config, state: State, y: float) -> tuple[State, Estimate]:

@@ -25,6 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from vibrospeed.config import is_count
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.types import Estimate, Recording, Track
 
@@ -59,7 +60,7 @@ class Config:
         for name, least in (("batch", 8), ("n_fft", 8), ("n_harmonics", 1),
                             ("points_per_octave", 1)):
             v = getattr(self, name)
-            if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= least):
+            if not is_count(v, least):
                 raise ParameterError(f"{name} must be an integer >= {least}, got {v}")
         if self.n_fft < self.batch:
             raise ParameterError(f"n_fft ({self.n_fft}) must be >= batch ({self.batch})")

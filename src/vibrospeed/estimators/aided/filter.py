@@ -19,7 +19,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.config import check_state
+from vibrospeed.errors import InputError
 from vibrospeed.estimators.aided.config import STANDSTILL_KINDS, Config
 from vibrospeed.estimators.aided.core import N_OUT, _aided_run, _aided_step
 from vibrospeed.estimators.aiding import Sample, input_arrays
@@ -87,12 +88,9 @@ def _check_state(config: Config, state: State) -> None:
     the compiled core takes the sizes from the config for some arrays, from the state for
     others."""
     n = config.n_state
-    shapes = (np.shape(state.x), np.shape(state.P), np.shape(state.window.buf),
-              np.shape(state.mode.buf), np.shape(state.line))
-    want = ((n,), (n, n), (config.ss_len,), (config.mode_len,), (6,))
-    if shapes != want:
-        raise ParameterError(f"aided state: x, P, window, mode, line {shapes} do not match the "
-                             f"config's M = {config.model.M} and windows {want}")
+    check_state("aided", f"M = {config.model.M} and windows", x=(state.x, (n,)),
+                P=(state.P, (n, n)), window=(state.window.buf, (config.ss_len,)),
+                mode=(state.mode.buf, (config.mode_len,)), line=(state.line, (6,)))
 
 
 def _unpack(state: State) -> list:

@@ -17,7 +17,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.config import check_state
+from vibrospeed.errors import InputError
 from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
 from vibrospeed.estimators.aided_grid.config import Config
@@ -73,13 +74,10 @@ def _check_state(config: Config, state: State) -> None:
     """A state made for other detector windows (or another comb frame) ran silently with
     them: the detectors take their lengths from the state. (The grid state is checked by the
     RBPMF.)"""
-    shapes = (np.shape(state.window.buf), np.shape(state.mode.buf),
-              None if state.buf is None else np.shape(state.buf))
-    want = ((config.ss_len,), (config.mode_len,),
-            None if config.comb is None else (config.comb.frame_len,))
-    if shapes != want:
-        raise ParameterError(f"aided_grid state: window, mode, comb buffer {shapes} do not "
-                             f"match the config's {want}")
+    check_state("aided_grid", "windows and comb frame",
+                window=(state.window.buf, (config.ss_len,)),
+                mode=(state.mode.buf, (config.mode_len,)),
+                comb=(state.buf, None if config.comb is None else (config.comb.frame_len,)))
 
 
 def _push(buf: np.ndarray, count: int, y: np.ndarray) -> np.ndarray:

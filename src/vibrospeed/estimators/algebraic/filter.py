@@ -8,6 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from vibrospeed.config import check_state
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.algebraic.config import INPUTS, OUTPUTS, Config, State, init
 from vibrospeed.estimators.algebraic.core import _NS, _core, _run
@@ -44,11 +45,8 @@ def _estimate(out: np.ndarray) -> Estimate:
 def _check_state(config: Config, state: State, n_taps: int) -> None:
     """A state made for other windows or another backtracking depth gave NaN or shifted
     numbers: the compiled core indexes its buffers by the config's lengths."""
-    shapes = (np.shape(state.buf), np.shape(state.hist), np.shape(state.s))
-    want = ((4, n_taps), (4, config.n_back + 2), (_NS,))
-    if shapes != want:
-        raise ParameterError(f"algebraic state: buf, hist, s {shapes} do not match the config "
-                             f"(windows and backtracking: {want})")
+    check_state("algebraic", "windows and backtracking", buf=(state.buf, (4, n_taps)),
+                hist=(state.hist, (4, config.n_back + 2)), s=(state.s, (_NS,)))
 
 
 def step(config: Config, state: State, y, taps=None) -> tuple[State, Estimate]:

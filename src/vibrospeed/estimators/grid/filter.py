@@ -36,6 +36,7 @@ from typing import NamedTuple
 import numpy as np
 
 import vibrospeed.estimators.grid.summary as cols
+from vibrospeed.config import check_state
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.grid.config import Config
 from vibrospeed.estimators.grid.core import (
@@ -440,12 +441,10 @@ def run(
     ys = np.ascontiguousarray(y, dtype=np.float64)
     N = config.n_grid
     n = 2 * config.model.M
-    if lw.shape != (N,) or mean.shape != (N, n) or cov.shape != (N, n, n) \
-            or not -1 <= int(st.mode_j) < N:
-        # the compiled loop would read and write past the arrays (memory errors)
-        raise ParameterError(f"grid state: log_w {lw.shape}, mean {mean.shape}, cov "
-                             f"{cov.shape}, mode_j {int(st.mode_j)} do not match the config's "
-                             f"grid and model (N = {N}, 2M = {n})")
+    says = f"grid and model (N = {N}, 2M = {n})"
+    check_state("grid", says, log_w=(lw, (N,)), mean=(mean, (N, n)), cov=(cov, (N, n, n)))
+    if not -1 <= int(st.mode_j) < N:  # the compiled loop would index past the grid
+        raise ParameterError(f"grid state: mode_j {int(st.mode_j)} is off the config's {says}")
     if extra is None:
         ex_idx, ex_val = np.zeros(0, np.int64), np.zeros((0, N + 1))
     else:
