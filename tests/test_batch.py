@@ -232,20 +232,20 @@ def test_batch_rows_and_reports_share_one_rule():
 
 def test_error_rows_name_their_recording(tmp_path):
     """Every error row names its recording, as the summary's ``error`` column promises: a
-    reader's error by the path it read (not named twice), a parameter the method does not know
-    (found per recording, by the estimator) with the file put first, one line each."""
+    reader's error by the path it read (not named twice), a parameter value the method cannot
+    read (found per recording, by the estimator) with the file put first, one line each."""
     from vibrospeed.batch.task import _lost
 
     src = tmp_path / "in"
     src.mkdir()
     io.write(sim.simulate("cart", seed=0, duration=4), src / "drive.csv")
     (src / "empty.csv").write_text("")
-    df = batch.run([src], tmp_path / "out", method="ekf", params={"no_such_name": "1"}, jobs=1)
+    df = batch.run([src], tmp_path / "out", method="ekf", params={"omega_max": "abc"}, jobs=1)
     assert list(df["status"]) == ["error", "error"]
     for _, r in df.iterrows():
         assert r["error"].count(r["file"]) == 1 and "\n" not in r["error"], r["error"]
     drive = df.loc[df["file"].str.endswith("drive.csv"), "error"].iloc[0]
-    assert drive.startswith(f"{src / 'drive.csv'}: unknown parameter 'no_such_name'")
+    assert drive.startswith(f"{src / 'drive.csv'}: parameter 'omega_max': cannot read 'abc'")
     empty = df.loc[df["file"].str.endswith("empty.csv"), "error"].iloc[0]
     assert empty == f"{src / 'empty.csv'}: empty file"
     job = {"file": "logs/a.csv", "input": "/x/logs/a.csv", "output": "/o/a_ekf.csv",
@@ -276,6 +276,65 @@ def test_reading_option_mistakes_stop_the_batch_before_it_starts(tmp_path, opts,
                                    flag[key], value])
     assert res.exit_code == 2 and not out.exists(), res.output
     assert res.stderr.count("\n") == 1 and res.stderr.startswith("vibrospeed: error: ")
+
+
+@pytest.mark.parametrize(("method", "name", "said"), [
+    ("ekf", "omega_mx", "'omega_max' or 'omega_min' or 'omega0'"),
+    ("fuse", "vib_gte", "'vib_gate' or 'vib_use' or 'vib_sep'"),
+    ("aided", "trackr", "'tracker'"),
+])
+def test_unknown_parameter_stops_the_batch_before_it_starts(tmp_path, method, name, said):
+    """A ``-p`` name the method takes nowhere is one line naming the method and the nearest
+    accepted names, before anything is read or written (it was one error row per recording,
+    ``unknown parameter ... for Config``), from Python and from the command line."""
+    from vibrospeed.errors import ParameterError
+
+    io.write(sim.simulate("cart", seed=0, duration=2), tmp_path / "drive.csv")
+    out = tmp_path / "out"
+    line = f"unknown parameter '{name}' for method '{method}' (did you mean {said}?)"
+    with pytest.raises(ParameterError) as exc:
+        batch.run([tmp_path / "drive.csv"], out, method=method, params={name: "1"})
+    assert str(exc.value) == line and not out.exists()
+    res = CliRunner().invoke(app, ["batch", str(tmp_path / "drive.csv"), "-o", str(out),
+                                   "-m", method, "-p", f"{name}=1"])
+    assert res.exit_code == 2 and not out.exists(), res.output
+    assert res.stderr == f"vibrospeed: error: {line}\n"
+
+
+# method -> the estimator modules whose estimate() reads its params (besides Config fields)
+_READERS = {"ekf": ["ekf.py"], "rbpmf": ["rbpmf.py", "grid/app.py"],
+            "grid": ["grid/method.py", "grid/app.py"], "rbpf": ["rbpf.py"], "shs": ["shs.py"],
+            "aided": ["aided/method.py", "aided_grid/method.py"],
+            "gps-riss": ["gps_riss/method.py"], "fuse": ["fuse/method.py"],
+            "algebraic": ["algebraic/method.py"]}
+
+
+def test_every_name_an_estimator_reads_is_accepted_by_the_batch():
+    """The batch's up-front check (``estimators.parameters``) accepts every name an estimator
+    takes out of its params by hand (``params.pop("comb", ...)``, read from the source) and its
+    Config fields, so it refuses no name the estimator would have used; and an estimate with
+    names taken besides the Config (ekf's prefilter, normalize_tau, comb) runs."""
+    from vibrospeed import estimators
+    from vibrospeed.config import flat_names
+
+    assert set(_READERS) == set(estimators.METHODS)
+    src = Path(estimators.__file__).parent
+    popped = re.compile(r'\b(?:params|cfg_kw|own|inp|model_kw)\.(?:pop|get|setdefault)\('
+                        r'\s*"(\w+)"')
+    for method, files in _READERS.items():
+        names = set(estimators.parameters(method))
+        read = {n for f in files for n in popped.findall((src / f).read_text())}
+        assert read <= names, (method, read - names)
+        assert flat_names(estimators.get(method).Config) <= names
+    assert {"online", "radius_from", "accel_axis", "omega_max", "comb_snr"} <= \
+        set(estimators.parameters("fuse"))  # its own names and its grid tracker's
+
+
+def test_names_besides_the_config_run(tmp_path):
+    io.write(sim.simulate("cart", seed=0, duration=2), tmp_path / "drive.csv")
+    df = batch.run([tmp_path / "drive.csv"], tmp_path / "out", method="ekf", jobs=1,
+                   params={"prefilter": "thesis-hp", "normalize_tau": "5", "comb": "false"})
+    assert list(df["status"]) == ["ok"], df["error"]
 
 
 def test_run_stopped_between_estimate_and_sidecar_is_not_up_to_date(tmp_path, monkeypatch):

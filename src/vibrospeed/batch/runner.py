@@ -64,6 +64,7 @@ def run(
 
     estimators.get(opts.method)  # an unknown method is the caller's mistake: fail at once
     opts.estimator_params()  # so are inconsistent shortcuts
+    opts.check_params()  # and a -p name the method takes nowhere
     opts.check_reading()  # and reading options that no recording could satisfy
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)

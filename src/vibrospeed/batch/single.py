@@ -63,6 +63,19 @@ class EstimateOptions:
                 params["fit"] = "q_omega,q_amp,r"
         return params
 
+    def check_params(self) -> None:
+        """Refuse a ``-p`` name that the method takes nowhere (its Config's fields, the names
+        its ``estimate()`` takes besides them and its presets': :func:`vibrospeed.estimators.
+        parameters`), before any recording is read: one line naming the method and the
+        nearest accepted names, instead of one error row per recording."""
+        from vibrospeed import estimators
+        from vibrospeed.config import unknown
+
+        names = estimators.parameters(self.method)
+        for name in self.estimator_params():
+            if name not in names:
+                raise unknown(name, f"method '{self.method}'", names)
+
     def check_reading(self) -> None:
         """Refuse reading options that no recording could satisfy, before any is read: a format
         name that is not one, a ``columns`` mapping that does not parse, a ``mapping`` file that

@@ -86,3 +86,60 @@ def available() -> list[str]:
         if importlib.util.find_spec(modname) is not None:
             out.append(name)
     return out
+
+
+#: Names a method's ``estimate()`` reads from ``params`` besides its ``Config``'s fields, by
+#: where it takes them: ``"module:NAME"`` is a tuple or set of names in that module, another
+#: method's name is every name that method takes (the method hands the rest on to it), other
+#: text a name popped literally (the module named in the comment).
+_BESIDES_CONFIG: dict[str, tuple[str, ...]] = {
+    "ekf": ("prefilter", "normalize_tau", "comb"),  # ekf._settings
+    "rbpmf": ("improved",),  # rbpmf._with_improved
+    "grid": ("improved",),  # grid.method._prepare (the grid filter is the improved one)
+    "aided": (  # aided.method.estimate; tracker=grid / rbpmf: aided_grid.estimate
+        "tracker", "prefilter", "lp_cutoff", "normalize_tau", "omega_min", "comb",
+        "comb_clarity", "reference", "wheelbase", "accel_detrend", "causal", "accel_offset",
+        "accel_axis", "vibrospeed.estimators.aided_grid:Config",
+        "vibrospeed.estimators.aided_grid:INPUT_PARAMS"),
+    "gps-riss": ("preset",),  # gps_riss.method.estimate: preset=paper
+    "fuse": ("vibrospeed.estimators.fuse.method:_TRACKER_OWN", "grid"),  # fuse.method._split
+}
+
+
+def parameters(method: str) -> dict[str, list]:
+    """Every name ``-p`` may give ``method``, each with the field types its value is read as.
+
+    The names are the method's ``Config`` fields (:func:`vibrospeed.config.flat_fields`: with
+    its nested model's and tracker's), the names its ``estimate()`` takes besides them (an
+    empty type list where it reads the value itself: ``ekf``'s ``prefilter``, ``normalize_tau``
+    and ``comb``, ``rbpmf``'s ``improved``, ``aided``'s ``tracker`` and the aided grid tracker's
+    names, ``gps-riss``'s ``preset``, ``fuse``'s own names and its grid tracker's) and those of
+    its presets (:mod:`vibrospeed.presets`). Nothing is read or estimated, so a batch refuses a
+    name no method call would take before it reads a recording (:func:`vibrospeed.batch.run`).
+    """
+    import dataclasses
+
+    from vibrospeed import presets
+    from vibrospeed.config import flat_fields
+
+    out: dict[str, list] = {}
+
+    def add(names) -> None:
+        for name, typs in names.items():
+            out.setdefault(name, []).extend(t for t in typs if t not in out.get(name, []))
+
+    cfg = getattr(get(method), "Config", None)
+    if dataclasses.is_dataclass(cfg):
+        add(flat_fields(cfg))
+    for ref in _BESIDES_CONFIG.get(method, ()):
+        if ref in METHODS:
+            add(parameters(ref))
+        elif ":" in ref:
+            modname, _, attr = ref.partition(":")
+            obj = getattr(importlib.import_module(modname), attr)
+            add(flat_fields(obj) if dataclasses.is_dataclass(obj) else {n: [] for n in obj})
+        else:
+            add({ref: []})
+    add({name: [] for name in presets.PARAMETERS.get(method, {})})
+    add({name: [] for p in presets.PRESETS.get(method, {}).values() for name in p.params})
+    return out
