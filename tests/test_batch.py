@@ -93,7 +93,7 @@ def test_local_pool_resume_and_changes(tmp_path):
     assert df.loc[0, "signal_share"] > 0.2  # the grid tracker says where it sees a line
     assert "file not found" in df.loc[4, "error"]
     side = json.loads((out / f"{names[0]}.json").read_text())
-    assert side["meta"]["options"]["params"] == {"omega_max": "30", "omega_min": "2"}
+    assert side["meta"]["options"]["params"] == {"omega_max": "30.0", "omega_min": "2.0"}
     # in this process: an unchanged recording is skipped, a changed one estimated again
     io.write(sim.simulate("cart", seed=7, duration=8), src / "a" / "other.csv")
     again = batch.run(inputs, out, method="grid", params=params, jobs=1)
@@ -101,6 +101,35 @@ def test_local_pool_resume_and_changes(tmp_path):
     # other options: everything again
     third = batch.run(inputs, out, method="grid", params={**params, "omega_max": 40}, jobs=1)
     assert list(third["status"]) == ["ok", "error", "ok", "ok", "error"]
+
+
+def test_resume_compares_parameters_by_value(tmp_path):
+    """``-p omega_max=30`` and ``-p omega_max=30.0`` (or 3e1, or the number 30 from Python)
+    are one option: the second run skips (it estimated everything again, the sidecar's text
+    differing); a sidecar that stored the text as typed (before the values were stored read
+    as their types) is still up to date for an equal value; another value is estimated."""
+    io.write(sim.simulate("cart", seed=5, duration=4), tmp_path / "drive.csv")
+    out = tmp_path / "out"
+
+    def run(**params):
+        df = batch.run([tmp_path / "drive.csv"], out, method="grid", jobs=1,
+                       params={"omega_min": "2", **params})
+        return df.loc[0, "status"]
+
+    assert run(omega_max="30") == "ok"
+    assert run(omega_max="30.0") == "skipped"
+    assert run(omega_max="3e1", omega_min="2.0") == "skipped"
+    assert run(omega_max=30) == "skipped"
+    res = CliRunner().invoke(app, ["batch", str(tmp_path / "drive.csv"), "-o", str(out),
+                                   "-j", "1", "-p", "omega_max=30.00,omega_min=2"])
+    assert res.exit_code == 0 and "(0 ok, 1 skipped, 0 error)" in res.stderr, res.output
+    side_path = out / "drive_grid.csv.json"
+    side = json.loads(side_path.read_text())
+    assert side["meta"]["options"]["params"] == {"omega_max": "30.0", "omega_min": "2.0"}
+    side["meta"]["options"]["params"] = {"omega_max": "30", "omega_min": "2"}  # an old sidecar
+    side_path.write_text(json.dumps(side))
+    assert run(omega_max="30.0") == "skipped"
+    assert run(omega_max="31") == "ok"
 
 
 def test_expand_inputs_and_names(tmp_path):

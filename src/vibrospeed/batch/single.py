@@ -96,8 +96,42 @@ class EstimateOptions:
         from vibrospeed.io._common import jsonable
 
         d = asdict(self)
-        d["params"] = {str(k): str(v) for k, v in sorted(self.params.items())}
+        d["params"] = canonical_params(self.method, self.params)
         return jsonable(d)
+
+    def same_as(self, stored: Any) -> bool:
+        """``stored`` (a sidecar's ``meta.options``) are these options: its ``params`` compared
+        by value (:func:`canonical_params`), so ``omega_max=30`` is ``omega_max=30.0`` and a
+        sidecar written before the params were stored canonical still matches."""
+        want = self.to_json()
+        if isinstance(stored, dict) and isinstance(stored.get("params"), dict):
+            stored = {**stored, "params": canonical_params(self.method, stored["params"])}
+        return stored == want
+
+
+def canonical_params(method: str, params: dict[str, Any]) -> dict[str, str]:
+    """``params`` (``-p`` text or values) as one text per value, by name: each value read as
+    its field's type the way the estimator reads it (:func:`vibrospeed.config.parse_value` with
+    the types of :func:`vibrospeed.estimators.parameters`) and written back
+    (:func:`vibrospeed.config.format_value`), so spellings of one value (``30``, ``30.0``,
+    ``3e1``; ``yes``, ``true``; ``1, 2``, ``1,2``) give one text. A name the method reads
+    itself (no field type) is read as a number, else as a switch, else kept as given; a value
+    its type cannot read is kept as given (the estimator refuses it)."""
+    from vibrospeed import estimators
+    from vibrospeed.config import format_value, parse_value
+
+    types = estimators.parameters(method)
+    out = {}
+    for name, value in sorted(params.items()):
+        text = value if isinstance(value, str) else format_value(value)
+        for typ in types.get(name) or (float, bool):
+            try:
+                text = format_value(parse_value(text, typ, name))
+                break
+            except ParameterError:
+                continue
+        out[str(name)] = text
+    return out
 
 
 @dataclass

@@ -67,7 +67,7 @@ def _up_to_date(job: dict[str, Any]) -> dict[str, Any] | None:
     meta = side["meta"]
     same = (side.get("method") == job["options"].method
             and side.get("version") == __version__
-            and meta.get("options") == job["options"].to_json()
+            and job["options"].same_as(meta.get("options"))
             and side.get("input_sha256") is not None
             and side.get("input_sha256") == sha256_path(job["input"]))
     return side if same else None
