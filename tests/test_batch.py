@@ -132,6 +132,34 @@ def test_resume_compares_parameters_by_value(tmp_path):
     assert run(omega_max="31") == "ok"
 
 
+def test_topic_applies_to_the_ros_bags_of_a_mixed_fleet(tmp_path):
+    """``--topic`` chooses the IMU of the fleet's ROS bags and leaves its CSV files alone (each
+    was an error row, ``format 'csv' does not take option 'topic'``); a CSV's sidecar records
+    no topic, so a run without ``--topic`` skips it, and a bag's records the one it read."""
+    pytest.importorskip("rosbags")
+    from test_io_rosbag import N, _write
+
+    bag = _write(tmp_path / "bag", imu2=True, gps=False)  # /imu/data 100 Hz, /cam/imu 25 Hz
+    io.write(sim.simulate("cart", seed=0, duration=4), tmp_path / "drive.csv")
+    out = tmp_path / "out"
+    opts = {"method": "ekf", "init_omega": 10.0, "params": {"omega_max": "30"}}
+    df = batch.run([tmp_path / "drive.csv", bag], out, jobs=1,
+                   options=batch.EstimateOptions(**opts, topic="/cam/imu"))
+    assert list(df["status"]) == ["ok", "ok"], df["error"]
+    assert list(df["format"]) == ["csv", "rosbag"]
+    assert len(io.read_track(out / df.loc[1, "output"])) == N // 4  # the camera IMU's samples
+    topics = [json.loads((out / f"{o}.json").read_text())["meta"]["options"]["topic"]
+              for o in df["output"]]
+    assert topics == [None, "/cam/imu"]
+    again = batch.run([tmp_path / "drive.csv", bag], out, jobs=1,
+                      options=batch.EstimateOptions(**opts))
+    assert list(again["status"]) == ["skipped", "ok"]  # the bag's default IMU: another topic
+    res = CliRunner().invoke(app, ["batch", str(tmp_path / "drive.csv"), str(bag), "-o",
+                                   str(out), "-j", "1", "-m", "ekf", "--init-omega", "10",
+                                   "-p", "omega_max=30", "--topic", "/cam/imu"])
+    assert res.exit_code == 0 and "(1 ok, 1 skipped, 0 error)" in res.stderr, res.output
+
+
 def test_expand_inputs_and_names(tmp_path):
     (tmp_path / "logs").mkdir()
     for name in ("x.csv", "y.csv", ".hidden.csv", "x.csv.json", "plot.png"):

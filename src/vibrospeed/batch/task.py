@@ -49,6 +49,32 @@ def _naming_file(job: dict[str, Any], text: str) -> str:
     return f"{job['file']}: {text}"
 
 
+def _for_recording(opts: EstimateOptions, path: str) -> EstimateOptions:
+    """``opts`` for the recording at ``path``: ``topic`` (a ROS bag's IMU topic) only where
+    its format's reader takes one, so one ``--topic`` serves the bags of a fleet that also
+    holds CSV files (each of which :func:`vibrospeed.io.read` would refuse with it). Where the
+    format cannot be told the options stay as given: reading then says why."""
+    if opts.topic is None:
+        return opts
+    import dataclasses
+    import inspect
+
+    from vibrospeed import io
+
+    try:
+        fmt = opts.fmt
+        if fmt == "auto":
+            fmt = io.detect_format(path, mapping=opts.columns is not None
+                                   or opts.mapping is not None or opts.rate is not None)
+        reader = io._resolve(io._REGISTRY[fmt].reader)  # the reader io.read calls
+    except (VibrospeedError, KeyError, ImportError, OSError):
+        return opts
+    takes = inspect.signature(reader).parameters
+    if "topic" in takes or any(q.kind is inspect.Parameter.VAR_KEYWORD for q in takes.values()):
+        return opts
+    return dataclasses.replace(opts, topic=None)
+
+
 def _up_to_date(job: dict[str, Any]) -> dict[str, Any] | None:
     """The output's sidecar when it records the same method, options, version and input."""
     from vibrospeed import __version__
@@ -95,6 +121,8 @@ def _work(job: dict[str, Any]) -> dict[str, Any]:
     try:
         if job.get("error"):
             raise ReaderError(job["file"], job["error"])
+        opts = _for_recording(opts, job["input"])
+        job = {**job, "options": opts}
         side = None if job.get("force") else _up_to_date(job)
         rec = None
         if side is not None:
