@@ -480,3 +480,34 @@ def test_a_full_disk_is_the_systems_word_in_one_line_not_an_internal_error(tmp_p
     exc = OSError(errno.EIO, os.strerror(errno.EIO), "/data/a.csv")
     assert _one_line(exc) == "/data/a.csv: Input/output error"
     assert _one_line(RuntimeError("x")) == "internal error: RuntimeError: x"
+
+
+@pytest.mark.parametrize(("params", "line"), [
+    (["amp0=1"], "unknown parameter 'amp0' for method 'aided' with this tracker: it is the EKF "
+                 "tracker's (-p tracker=ekf)"),
+    (["tracker=rbpmf", "amp0=1"], "unknown parameter 'amp0' for method 'aided' with this "
+                                  "tracker: it is the EKF tracker's (-p tracker=ekf)"),
+    (["tracker=ekf", "n_grid=50"], "unknown parameter 'n_grid' for method 'aided' with this "
+                                   "tracker: it is the grid tracker's (-p tracker=grid, the "
+                                   "default)"),
+    (["n_gird=50"], "unknown parameter 'n_gird' for method 'aided' (did you mean 'n_grid'?)"),
+])
+def test_an_aided_name_of_the_other_tracker_names_that_tracker(logs, tmp_path, params, line):
+    """``-m aided`` hands its names to the EKF or to a grid tracker (``-p tracker=``); a name
+    only the other one takes said "did you mean 'amp0'" for 'amp0' (the hint merged both
+    trackers' names), and a misspelt grid name was matched against the EKF's names only."""
+    out = tmp_path / "e.csv"
+    args = [a for p in params for a in ("-p", p)]
+    assert _err(_run("estimate", logs["cart"], "-m", "aided", *args, "-o", out)) == \
+        f"vibrospeed: error: {line}"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_aided_ekf_name_with_the_ekf_tracker_still_runs(logs, tmp_path):
+    import json
+
+    out = tmp_path / "e.csv"
+    res = _run("estimate", logs["cart"], "-m", "aided", "-p", "tracker=ekf", "-p", "amp0=1",
+               "-o", out)
+    assert res.exit_code == 0, res.output
+    assert json.loads(out.with_name("e.csv.json").read_text())["params"]["amp0"] == 1.0
