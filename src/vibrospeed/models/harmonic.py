@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from vibrospeed.config import is_count
 from vibrospeed.errors import ParameterError
 
 
@@ -49,8 +50,7 @@ class HarmonicModel:
     def __post_init__(self) -> None:
         # an infinite period, noise or prior variance makes every filter's output NaN; M sizes
         # arrays (np.arange, np.eye), which take no float, not even 2.0 ("-p M=2" is the int 2)
-        if not (isinstance(self.M, int | np.integer) and not isinstance(self.M, bool)
-                and self.M >= 1):
+        if not is_count(self.M):
             raise ParameterError(f"M must be a positive integer, got {self.M}")
         for name in ("dt", "q_amp", "r", "p0_amp"):
             if not 0 < getattr(self, name) < math.inf:
