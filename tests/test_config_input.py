@@ -85,6 +85,32 @@ def test_grid_config_keeps_the_valid_edges():
     assert config_from_params(Config, {"n_grid": "40"}).n_grid == 40
 
 
+def test_grid_on_rate_inf_is_an_immediate_return_to_the_line():
+    """``on_rate = inf`` means every "no line" sample returns to the line at the next step
+    (``p_on = 1``): its stationary share, the first sample's "no line" mass, is 0, which
+    ``log(0)`` computed with "divide by zero" warnings. It runs without a warning and gives the
+    numbers of a finite rate already past ``p_on = 1`` in float64 (1e300/s: the share 5e-302
+    leaves ``1 - p0`` at 1 and its mass is gone by the first update)."""
+    import warnings
+
+    from vibrospeed.estimators import rbpmf
+    from vibrospeed.estimators.grid.config import Config
+
+    y = np.sin(20.0 * np.arange(300) * 0.01) + 0.3 * np.random.default_rng(0).normal(size=300)
+    kw = {"n_grid": 40, "off_rate": 0.05, "scaling": "none"}
+    cfg = Config(**kw, on_rate=inf)
+    assert cfg.rates()[2] == 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        state = rbpmf.init(cfg)
+        res = rbpmf.run(cfg, y)
+    assert state.log_w_null == -inf and np.exp(state.log_w).sum() == pytest.approx(1.0, abs=1e-12)
+    ref = rbpmf.run(Config(**kw, on_rate=1e300), y)
+    for name in ("omega", "omega_std", "p_null"):
+        np.testing.assert_array_equal(getattr(res, name), getattr(ref, name), err_msg=name)
+    assert np.isfinite(res.omega).all() and (res.p_null > 0).all()
+
+
 @pytest.mark.parametrize("kw", [
     {"amp0": nan}, {"amp0": inf}, {"p0_omega": inf}, {"q_bias": inf}, {"p0_bias": inf},
     {"q_omega_accel": inf}, {"r_ss": inf}, {"omega0": inf}, {"ss_n": nan}, {"ss_n": inf},

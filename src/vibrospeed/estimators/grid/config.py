@@ -66,6 +66,9 @@ class Config:
         state). In it the sample is broadband, ``y ~ N(0, null_var)`` with ``null_var``
         defaulting to ``signal_rms^2`` (the running-RMS scaled signal's power). Its mass is
         reported as ``p_null``; the band spreads it uniformly over the grid (honest "no signal").
+        ``on_rate = inf`` is an immediate return to "line" (``p_on = 1``, as for any
+        ``on_rate T`` over ~37): a "no line" sample is a single broadband outlier, entered
+        with probability ``p_off`` at every sample, and its stationary share is 0.
     p_null0 : prior mass of the "no line" state at the first sample; None (default): the
         switching chain's stationary share ``off_rate / (off_rate + on_rate)`` (2 % for the
         grid's rates, i.e. "a wheel line is there" before any data). 0.5 ("not known yet")

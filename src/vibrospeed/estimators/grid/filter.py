@@ -222,7 +222,7 @@ def init(config: Config) -> State:
         p0 = (config.off_rate / (config.off_rate + config.on_rate) if config.p_null0 is None
               else float(config.p_null0))
         lw = lw + np.log1p(-p0)
-        lw0 = float(np.log(p0))
+        lw0 = float(np.log(p0)) if p0 > 0 else -np.inf  # on_rate = inf: no "no line" mass
     mean = np.zeros((N, n))
     cov = np.broadcast_to(np.eye(n) * config.model.p0_amp, (N, n, n)).copy()
     return State(lw, mean, cov, lw0)
