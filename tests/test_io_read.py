@@ -59,3 +59,26 @@ def test_unknown_format_quotes_the_header_printably(tmp_path):
                                           r"\\x00\\x07CDz+\.\.\.'\)") as exc:
         vio.read(p)
     assert str(exc.value).isprintable()
+
+
+def test_format_takes_says_which_reader_takes_which_option():
+    from vibrospeed.io import FORMATS, format_takes
+
+    assert format_takes("mapped", "columns") and format_takes("mapped", "rate")
+    assert not format_takes("csv", "topic") and not format_takes("nosuch", "topic")
+    if "rosbag" in FORMATS:
+        assert format_takes("rosbag", "topic")
+
+
+
+def test_read_refuses_an_option_its_format_does_not_take(tmp_path):
+    import pytest
+
+    from vibrospeed import io
+    from vibrospeed.errors import ParameterError
+
+    p = tmp_path / "a.csv"
+    p.write_text("t,ay\n0,1\n0.01,2\n0.02,3\n")
+    assert not io.format_takes("csv", "topic")
+    with pytest.raises(ParameterError, match="format 'csv' does not take option 'topic'"):
+        io.read(p, topic="/imu")

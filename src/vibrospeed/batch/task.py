@@ -57,7 +57,6 @@ def _for_recording(opts: EstimateOptions, path: str) -> EstimateOptions:
     if opts.topic is None:
         return opts
     import dataclasses
-    import inspect
 
     from vibrospeed import io
 
@@ -66,11 +65,9 @@ def _for_recording(opts: EstimateOptions, path: str) -> EstimateOptions:
         if fmt == "auto":
             fmt = io.detect_format(path, mapping=opts.columns is not None
                                    or opts.mapping is not None or opts.rate is not None)
-        reader = io._resolve(io._REGISTRY[fmt].reader)  # the reader io.read calls
-    except (VibrospeedError, KeyError, ImportError, OSError):
-        return opts
-    takes = inspect.signature(reader).parameters
-    if "topic" in takes or any(q.kind is inspect.Parameter.VAR_KEYWORD for q in takes.values()):
+        if fmt not in io.available_formats() or io.format_takes(fmt, "topic"):
+            return opts  # reading says why, or the reader takes the topic
+    except (VibrospeedError, ImportError, OSError):
         return opts
     return dataclasses.replace(opts, topic=None)
 

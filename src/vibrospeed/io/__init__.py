@@ -69,6 +69,7 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "available_formats",
+    "format_takes",
     "check_increasing",
     "check_nyquist",
     "detect_format",
@@ -160,6 +161,18 @@ def register_format(
         _REGISTRY[k] = _BUILTIN[k]
     FORMATS.clear()
     FORMATS.update(available_formats())
+
+
+def format_takes(name: str, option: str) -> bool:
+    """Whether the reader of format ``name`` takes the :func:`read` option ``option``
+    (``columns``, ``mapping_file``, ``rate``, ``sort``, ``topic``): e.g. only the ROS bags take
+    ``topic``. :class:`ReaderError`-free: an unknown or unavailable format takes nothing."""
+    f = _REGISTRY.get(name)
+    if f is None or not _available(f):
+        return False
+    params = inspect.signature(_resolve(f.reader)).parameters
+    return option in params or any(q.kind is inspect.Parameter.VAR_KEYWORD
+                                   for q in params.values())
 
 
 def _resolve(ref: str | Callable, *, optional: bool = False) -> Callable | None:
@@ -306,11 +319,9 @@ def read(
     reader = _resolve(_REGISTRY[name].reader)
     opts: dict[str, Any] = {"columns": columns, "mapping_file": mapping_file, "rate": rate,
                             "sort": sort, "topic": topic}
-    params = inspect.signature(reader).parameters
-    takes_kw = any(q.kind is inspect.Parameter.VAR_KEYWORD for q in params.values())
     kwargs = {}
     for k, v in opts.items():
-        if k in params or takes_kw:
+        if format_takes(name, k):
             kwargs[k] = v
         elif v not in (None, False):
             raise ParameterError(f"{p}: format '{name}' does not take option '{k}'")
