@@ -166,13 +166,26 @@ def test_algebraic_step_takes_exactly_its_four_inputs():
         assert abs(est.speed - cfg.r * 40.0) < 1e-9
 
 
+#: child code's helper: each call's outcome, 'ran' or the name of what it raised
+_OUTCOMES = (
+    "def outcomes(calls):\n"
+    "    out = []\n"
+    "    for call in calls:\n"
+    "        try:\n"
+    "            call()\n"
+    "            out.append('ran')\n"
+    "        except Exception as exc:\n"
+    "            out.append(type(exc).__name__)\n"
+    "    return out\n")
+
+
 def _in_a_child(code: str) -> str:
-    """Runs ``code`` in a fresh interpreter (a read past an array can abort the process) and
-    returns its last output line."""
+    """Runs ``code`` in a fresh interpreter (a read past an array can abort the process), with
+    :data:`_OUTCOMES`' ``outcomes`` defined, and returns its last output line."""
     import subprocess
     import sys
 
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+    res = subprocess.run([sys.executable, "-c", _OUTCOMES + code], capture_output=True, text=True,
                          timeout=300)
     lines = (res.stdout + res.stderr).strip().splitlines()
     return lines[-1] if lines else f"exit status {res.returncode}"
@@ -189,13 +202,8 @@ def test_ekf_refuses_a_state_of_another_model():
         "c2, c3 = (ekf.Config(HarmonicModel.from_thesis(M=m)) for m in (2, 3))\n"
         "out = []\n"
         "for a, b in ((c3, c2), (c2, c3)):\n"
-        "    for call in (lambda: ekf.step(b, ekf.init(a), 0.1),\n"
-        "                 lambda: ekf.run(b, np.full(50, 0.1), state=ekf.init(a))):\n"
-        "        try:\n"
-        "            call()\n"
-        "            out.append('ran')\n"
-        "        except Exception as exc:\n"
-        "            out.append(type(exc).__name__)\n"
+        "    out += outcomes((lambda: ekf.step(b, ekf.init(a), 0.1),\n"
+        "                     lambda: ekf.run(b, np.full(50, 0.1), state=ekf.init(a))))\n"
         "print(','.join(out))\n")
     assert _in_a_child(code) == "ParameterError,ParameterError,ParameterError,ParameterError"
     from vibrospeed.errors import ParameterError
@@ -219,12 +227,8 @@ def test_rbpf_refuses_a_state_of_another_particle_count_or_model():
         "k30 = rbpf.Config(n_particles=30)\n"
         "out = []\n"
         "for cfg, st in ((m3, rbpf.init(m2)), (m2, rbpf.init(m3)), (k30, rbpf.init(m3))):\n"
-        "    for call in (lambda: rbpf.step(cfg, st, 0.1), lambda: rbpf.run(cfg, [0.1] * 5, st)):\n"
-        "        try:\n"
-        "            call()\n"
-        "            out.append('ran')\n"
-        "        except Exception as exc:\n"
-        "            out.append(type(exc).__name__)\n"
+        "    out += outcomes((lambda: rbpf.step(cfg, st, 0.1),\n"
+        "                     lambda: rbpf.run(cfg, [0.1] * 5, st)))\n"
         "print(','.join(out))\n")
     assert _in_a_child(code) == ",".join(["ParameterError"] * 6)
 
