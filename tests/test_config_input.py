@@ -209,6 +209,31 @@ def test_fuse_config_keeps_inf_where_it_means_no_limit():
         assert np.isfinite(res.speed).all() and np.isfinite(res.speed_std).all(), kw
 
 
+def test_check_state_formats_its_text_only_when_a_shape_is_wrong():
+    """``config_says`` with values after it is a format string they complete (``step`` calls
+    the check per sample, the text is needed only for the error): not formatted while the
+    shapes fit, in the message as the same text given whole; text alone is used as given."""
+    from vibrospeed.config import check_state
+
+    class Counted:
+        calls = 0
+
+        def __format__(self, spec: str) -> str:
+            Counted.calls += 1
+            return "2"
+
+    check_state("m", "M = {}", Counted(), x=(np.zeros(4), (4,)), b=(None, None))
+    assert Counted.calls == 0
+    for args in (("M = {}", Counted()), ("M = 2",)):
+        with pytest.raises(ParameterError) as exc:
+            check_state("m", *args, x=(np.zeros(6), (4,)), b=(None, None))
+        assert str(exc.value) == ("m state: x, b ((6,), None) do not match the config's M = 2 "
+                                  "(wanted ((4,), None))")
+    assert Counted.calls == 1
+    with pytest.raises(ParameterError, match=r"config's \{M\} \(wanted"):  # braces as given
+        check_state("m", "{M}", x=(np.zeros(6), (4,)))
+
+
 def test_aided_step_and_run_refuse_a_state_of_another_config():
     """A state of another M (or other detector windows) ran silently, with numbers from the
     wrong arrays (omega 0.0 from both here); a state of the config itself still gives step ==

@@ -90,3 +90,29 @@ def test_omega_stays_nonnegative_under_symmetry():
     model = dataclasses.replace(HarmonicModel.from_thesis(), M=1, p0_amp=1.0)
     res = ekf.run(ekf.Config(model, omega0=0.5, p0_omega=100.0), y)
     assert np.all(res.omega >= 0)
+
+
+def test_step_makes_the_state_check_message_only_for_a_wrong_state(monkeypatch):
+    """``step`` checks the state against its config at every sample; the message's text (an
+    f-string, ~0.1-0.2 us a call) was formatted each time. It now passes a format string and
+    its value, formatted by the check only when a shape is wrong."""
+    from vibrospeed.config import check_state
+    from vibrospeed.errors import ParameterError
+
+    given = []
+
+    def spy(method, config_says, *says, **fields):
+        given.append((config_says, says))
+        check_state(method, config_says, *says, **fields)
+
+    monkeypatch.setattr(ekf, "check_state", spy)
+    cfg = ekf.Config(HarmonicModel.from_thesis(M=2))
+    st = ekf.init(cfg)
+    for v in (0.1, -0.2, 0.3):
+        st, _ = ekf.step(cfg, st, v)
+    assert given == [("M = {}", (2,))] * 3  # no text made per sample
+    wrong = ekf.init(ekf.Config(HarmonicModel.from_thesis(M=3)))
+    with pytest.raises(ParameterError) as exc:
+        ekf.step(cfg, wrong, 0.1)
+    assert str(exc.value) == ("ekf state: x, P, comb ((7,), (7, 7), (3,)) do not match the "
+                              "config's M = 2 (wanted ((5,), (5, 5), (3,)))")

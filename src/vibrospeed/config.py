@@ -241,12 +241,15 @@ def is_count(value: Any, least: int = 1) -> bool:
     return isinstance(value, numbers.Integral) and not isinstance(value, bool) and value >= least
 
 
-def check_state(method: str, config_says: str, **fields: tuple[Any, Any]) -> None:
+def check_state(method: str, config_says: str, *says: Any, **fields: tuple[Any, Any]) -> None:
     """:class:`ParameterError` unless each state array ``name=(array, wanted_shape)`` has its
     wanted shape (``None`` for an absent array, and a wanted ``None`` for one that must be
     absent). A state made for another config (another ``M``, grid, particle count or window)
     would otherwise be read past its end by compiled code, or run with the state's sizes
-    instead of the config's. ``config_says``: what of the config sets the shapes."""
+    instead of the config's. ``config_says``: what of the config sets the shapes; with
+    ``says``, a format string they complete (:meth:`str.format`), formatted only when a shape
+    is wrong (``check_state("ekf", "M = {}", M, ...)``: a ``step`` that calls this for every
+    sample makes no text while the state fits)."""
     for a, w in fields.values():  # the fast path: step() calls this for every sample
         if (None if a is None else getattr(a, "shape", None)) != w:
             break
@@ -257,8 +260,9 @@ def check_state(method: str, config_says: str, **fields: tuple[Any, Any]) -> Non
     got = tuple(None if a is None else np.shape(a) for a, _ in fields.values())
     want = tuple(w for _, w in fields.values())
     if got != want:
+        text = config_says.format(*says) if says else config_says
         raise ParameterError(f"{method} state: {', '.join(fields)} {got} do not match the "
-                             f"config's {config_says} (wanted {want})")
+                             f"config's {text} (wanted {want})")
 
 
 def config_from_params(cls: type[C], params: dict[str, Any] | None = None, **defaults: Any) -> C:

@@ -283,9 +283,11 @@ def _comb_state(config: Config, state: State) -> np.ndarray:
 
 
 def _check_state(config: Config, state: State) -> None:
-    """A state of another M would be read past its end by the compiled step (memory errors)."""
-    n = 1 + config.model.n_lin
-    check_state("ekf", f"M = {config.model.M}", x=(state.x, (n,)), P=(state.P, (n, n)),
+    """A state of another M would be read past its end by the compiled step (memory errors).
+    The message's text is made only when a shape is wrong (step calls this per sample)."""
+    m = config.model
+    n = 1 + m.n_lin
+    check_state("ekf", "M = {}", m.M, x=(state.x, (n,)), P=(state.P, (n, n)),
                 comb=(state.comb, None if state.comb is None else (3,)))
 
 
