@@ -120,3 +120,30 @@ def test_real_drive_rsq_q2_00():
     c = {k: np.corrcoef(dv[ok], np.interp(mids[ok], r.t, sm[k]))[0, 1] for k in sm}
     assert c["ay"] > 0.5 > abs(c["ax"])
     assert r.events["gps_fix"].size == 187
+
+
+def test_fixes_inside_an_accelerometer_gap_keep_rows_of_their_own(tmp_path):
+    """A phone whose accelerometer stops for 5 s while GPS goes on (1 Hz): every valid fix is
+    placed once, at its own time (not all on the samples at the gap's edges, where all but
+    two would be lost and those moved by up to 2.5 s); the accelerometer is NaN there."""
+    folder = tmp_path / "gap"
+    folder.mkdir()
+    ta = np.arange(1000) * 0.01
+    ta = ta[(ta < 3.0) | (ta >= 8.0)]  # no accelerometer sample in [3, 8) s
+    (folder / "Accelerometer.csv").write_text(
+        _ACC_H + "".join(f"{t!r},0.5,{2 * t!r},9.81\n" for t in ta.tolist()))
+    fixes = [(0.5, 4.0), (3.5, 5.0), (4.5, -1.0), (5.5, 6.0), (6.5, 7.0), (7.5, 8.0), (9.0, 9.0)]
+    (folder / "Location.csv").write_text(
+        _LOC_H + "".join(f"{t},47.6,17.6,110,{v},-1,5,5\n" for t, v in fixes))
+    r = read_phyphox(folder)
+    g = r["gps_speed"]
+    got = {(float(t), float(v)) for t, v in zip(r.t[np.isfinite(g)], g[np.isfinite(g)],
+                                                strict=True)}
+    want = {(t, v) for t, v in fixes if v >= 0}  # each valid fix at its own time, once
+    assert got == want
+    added = np.isin(r.t, [3.5, 5.5, 6.5, 7.5])  # the fix with velocity -1 adds no row
+    assert len(r) == ta.size + 4 and added.sum() == 4
+    assert np.all(np.isnan(r["ay"][added]))
+    np.testing.assert_array_equal(r["ay"][~added], 2 * ta)  # the file's rows are unchanged
+    assert any("4 valid GPS fix(es) inside accelerometer gaps" in n for n in r.notes)
+    assert not any("same sample" in n for n in r.notes)

@@ -268,3 +268,32 @@ def test_random_bytes_never_crash(tmp_path, data, zipped):
         read_sensorlogger(target)
     except InputError as exc:
         assert "\n" not in str(exc)
+
+
+def test_fixes_inside_an_accelerometer_gap_keep_rows_of_their_own(tmp_path):
+    """TotalAcceleration stops for 5 s while Location goes on at 1 Hz: every fix with a valid
+    speed is placed once at its own time (not piled onto the samples at the gap's edges, all
+    but two lost), the accelerometer NaN there; and a fix that does share a sample is noted."""
+    folder = tmp_path / "gap"
+    folder.mkdir()
+    ta = np.arange(1000) * 0.01
+    ta = ta[(ta < 3.0) | (ta >= 8.0)]
+    (folder / "TotalAcceleration.csv").write_text(_csv(
+        ["time", "seconds_elapsed", "z", "y", "x"],
+        [(n, t, 9.8, 2 * t, 0.5) for n, t in zip(_ns(ta), ta, strict=True)]))
+    fixes = [(0.5, 4.0), (0.502, 4.5), (3.5, 5.0), (4.5, -1.0), (5.5, 6.0), (7.5, 8.0)]
+    (folder / "Location.csv").write_text(_csv(
+        ["time", "seconds_elapsed", "horizontalAccuracy", "speed", "altitude", "longitude",
+         "latitude"],
+        [(n, t, 3.0, v, 120.0, 17.6, 47.6)
+         for n, (t, v) in zip(_ns([f[0] for f in fixes]), fixes, strict=True)]))
+    r = read_sensorlogger(folder)
+    g = r["gps_speed"]
+    fin = np.isfinite(g)
+    np.testing.assert_allclose(r.t[fin], [0.5, 3.5, 5.5, 7.5], atol=1e-9)
+    np.testing.assert_array_equal(g[fin], [4.5, 5.0, 6.0, 8.0])  # 0.5 / 0.502: later kept
+    added = ~np.isin(np.round(r.t, 6), np.round(ta, 6))
+    assert added.sum() == 3 and np.all(np.isnan(r["ay"][added]))
+    np.testing.assert_allclose(r["ay"][~added], 2 * ta, atol=1e-12)
+    assert any("3 valid GPS fix(es) inside accelerometer gaps" in n for n in r.notes)
+    assert any("1 valid GPS fix(es) fell on the same sample" in n for n in r.notes)

@@ -20,7 +20,9 @@ Files used (each with its own time base, first column ``Time (s)``):
                             and the channels are NaN elsewhere, so that an estimator sees every
                             fix exactly once, at most half an accelerometer period late or early
                             (if several fixes share a sample, the last one with a valid velocity
-                            is kept, both channels from the same fix).
+                            is kept, both channels from the same fix). A valid fix inside a gap
+                            of the accelerometer gets a row of its own at its time, the
+                            accelerometer NaN there (:func:`.timebase.rows_for_fixes`).
                             The raw fix times are kept as event ``gps_fix``. phyphox gives no
                             satellite count, so there is no ``gps_sats``.
 
@@ -50,7 +52,7 @@ import numpy as np
 from vibrospeed.errors import ReaderError
 from vibrospeed.io._common import export_folders, finish, several_exports
 from vibrospeed.io._csv import CsvTable, nan_notes, text_stream
-from vibrospeed.io.timebase import interp_onto, nearest_index, row_order
+from vibrospeed.io.timebase import interp_onto, nearest_index, row_order, rows_for_fixes
 from vibrospeed.types import Recording
 
 __all__ = ["is_phyphox", "read_phyphox"]
@@ -202,6 +204,13 @@ def read_phyphox(path: str | os.PathLike[str], *, sort: bool = False) -> Recordi
     notes.extend(nan_notes(chans, src.labels[ACC]))
     fs = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else float("nan")
     notes.append(f"phyphox {src.labels[ACC]}: {t.size} samples, master time line (~{fs:.4g} Hz)")
+    loc = _read_location(src, sort, notes) if LOC in src.files else None
+    if loc is not None:  # fixes inside accelerometer gaps: rows of their own (not lost)
+        t, chans, lines, added = rows_for_fixes(t, loc[1][np.isfinite(loc[2])], chans, lines)
+        if added.size:
+            notes.append(f"{added.size} valid GPS fix(es) inside accelerometer gaps (> 3 "
+                         "periods) kept on rows of their own at the fix times, the "
+                         "accelerometer NaN there")
     for name, prefix in ((GYR, "g"), (LIN, "lin_a")):
         if name not in src.files:
             continue
@@ -218,8 +227,8 @@ def read_phyphox(path: str | os.PathLike[str], *, sort: bool = False) -> Recordi
             f"(NaN outside {tg[0]:.4g}..{tg[-1]:.4g} s and across gaps > {5 * dtg:.3g} s)"
         )
     events: dict[str, np.ndarray] = {}
-    if LOC in src.files:
-        chans_gps, ev, gnotes = _location(src, t, sort, notes)
+    if loc is not None:
+        chans_gps, ev, gnotes = _location(loc, t)
         chans.update(chans_gps)
         events.update(ev)
         notes.extend(gnotes)
@@ -232,7 +241,9 @@ def read_phyphox(path: str | os.PathLike[str], *, sort: bool = False) -> Recordi
     )
 
 
-def _location(src: _Source, t: np.ndarray, sort: bool, notes: list[str]):
+def _read_location(src: _Source, sort: bool, notes: list[str]):
+    """``Location.csv``: its table's notes, fix times, velocity (NaN: no fix) and horizontal
+    accuracy (None without that column)."""
     tab, cols, lines = _read_table(src, LOC)
     label = src.labels[LOC]
     tl = cols[tab.header[0]]
@@ -246,9 +257,17 @@ def _location(src: _Source, t: np.ndarray, sort: bool, notes: list[str]):
     tl, v = tl[order], cols[vel].copy()
     with np.errstate(invalid="ignore"):
         v[v < 0] = np.nan  # phyphox writes -1 when the fix has no velocity
-    h = cols[hacc].copy() if hacc is not None else np.full(tl.size, np.nan)
-    with np.errstate(invalid="ignore"):
-        h[h < 0] = np.nan
+    h = cols[hacc].copy() if hacc is not None else None
+    if h is not None:
+        with np.errstate(invalid="ignore"):
+            h[h < 0] = np.nan
+    return tab.notes, tl, v, h
+
+
+def _location(loc, t: np.ndarray):
+    """The fixes of :func:`_read_location` placed on the accelerometer time line ``t``."""
+    tab_notes, tl, v, hacc = loc
+    h = np.full(tl.size, np.nan) if hacc is None else hacc
     dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
     inside = np.flatnonzero((tl >= t[0] - dt / 2) & (tl <= t[-1] + dt / 2))
     j = nearest_index(tl[inside], t)
@@ -266,7 +285,7 @@ def _location(src: _Source, t: np.ndarray, sort: bool, notes: list[str]):
     nvalid = int(np.count_nonzero(valid))
     nplaced = int(np.count_nonzero(np.isfinite(out["gps_speed"])))
     gnotes = [
-        *tab.notes,
+        *tab_notes,
         f"{LOC}: {tl.size} fixes, {nvalid} with a valid velocity inside the accelerometer span; "
         "gps_speed/gps_hacc placed at the accelerometer sample nearest each fix, NaN elsewhere; "
         "raw fix times in event 'gps_fix'"

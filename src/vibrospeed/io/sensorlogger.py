@@ -23,7 +23,8 @@ Files used (columns are found by name, so ``z,y,x`` and ``x,y,z`` orders both wo
                                   invalid -> NaN. Each fix is placed once, at the master
                                   sample nearest it (NaN elsewhere; of fixes sharing a sample the
                                   last with a valid speed wins), raw fix times in event
-                                  ``gps_fix`` -- as the phyphox reader does.
+                                  ``gps_fix`` -- as the phyphox reader does, a fix inside a
+                                  gap of the master getting a row of its own.
 ``Metadata.csv``                  ``platform`` and ``standardisation``: see below.
 ================================  =========================================================
 
@@ -64,7 +65,7 @@ from vibrospeed.errors import ReaderError
 from vibrospeed.io._archive import SafeZip
 from vibrospeed.io._common import export_folders, finish, several_exports
 from vibrospeed.io._csv import CsvTable
-from vibrospeed.io.timebase import interp_onto, nearest_index, row_order
+from vibrospeed.io.timebase import interp_onto, nearest_index, row_order, rows_for_fixes
 from vibrospeed.types import Recording
 
 __all__ = ["detect", "read_sensorlogger"]
@@ -246,6 +247,16 @@ def read_sensorlogger(path: str | os.PathLike[str], *, sort: bool = False) -> Re
     fs = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else float("nan")
     label = src.label(master)
     notes.append(f"Sensor Logger {label}: {t.size} samples, master time line (~{fs:.4g} Hz)")
+    loc = _read_location(src, t_ref, scale, sort, notes) if LOC in have else None
+    if loc is not None:  # fixes inside accelerometer gaps: rows of their own (not lost)
+        acc_ch = dict(zip("xyz", acc, strict=True))
+        t, acc_ch, lines, added = rows_for_fixes(t, loc[0][np.isfinite(loc[1]["gps_speed"])],
+                                                 acc_ch, lines)
+        acc = [acc_ch[k] for k in "xyz"]
+        if added.size:
+            notes.append(f"{added.size} valid GPS fix(es) inside accelerometer gaps (> 3 "
+                         "periods) kept on rows of their own at the fix times, the "
+                         "accelerometer NaN there")
 
     def onto(name: str, want: list[str]) -> list[np.ndarray] | None:
         """Columns of ``name`` interpolated onto the master time line (None if unusable)."""
@@ -307,8 +318,8 @@ def read_sensorlogger(path: str | os.PathLike[str], *, sort: bool = False) -> Re
         if k in chans:
             units[k] = "m/s^2"
     events: dict[str, np.ndarray] = {}
-    if LOC in have:
-        g, ev, gnotes, gunits = _location(src, t, t_ref, scale, sort, notes)
+    if loc is not None:
+        g, ev, gnotes, gunits = _location(loc, t)
         chans.update(g)
         events.update(ev)
         notes.extend(gnotes)
@@ -325,8 +336,9 @@ def read_sensorlogger(path: str | os.PathLike[str], *, sort: bool = False) -> Re
     )
 
 
-def _location(src: _Source, t: np.ndarray, t_ref: float, scale: float, sort: bool,
-              notes: list[str]):
+def _read_location(src: _Source, t_ref: float, scale: float, sort: bool, notes: list[str]):
+    """``Location.csv``: fix times on the master's clock and the GPS channels by name
+    (negative speed / accuracy: invalid -> NaN)."""
     label = src.label(LOC)
     with src.open(LOC) as fh:
         header = [h.strip().lower() for h in next(csv.reader([fh.readline().lstrip("\ufeff")]),
@@ -347,6 +359,12 @@ def _location(src: _Source, t: np.ndarray, t_ref: float, scale: float, sort: boo
             with np.errstate(invalid="ignore"):
                 x[x < 0] = np.nan  # the app writes negative values for "invalid"
             data[k] = x
+    return tl, data
+
+
+def _location(loc, t: np.ndarray):
+    """The fixes of :func:`_read_location` placed on the master time line ``t``."""
+    tl, data = loc
     dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
     inside = np.flatnonzero((tl >= t[0] - dt / 2) & (tl <= t[-1] + dt / 2))
     j = nearest_index(tl[inside], t)
@@ -364,6 +382,10 @@ def _location(src: _Source, t: np.ndarray, t_ref: float, scale: float, sort: boo
     gnotes = [f"{LOC}: {tl.size} fixes, {nvalid} with a valid speed inside the accelerometer "
               "span; GPS channels placed at the sample nearest each fix, NaN elsewhere; raw fix "
               "times in event 'gps_fix'"]
+    nplaced = int(np.count_nonzero(np.isfinite(out["gps_speed"])))
+    if nplaced < nvalid:
+        gnotes.append(f"{nvalid - nplaced} valid GPS fix(es) fell on the same sample as a later "
+                      "one (the later is kept)")
     if nvalid == 0:
         gnotes.append("no GPS fix with a valid speed: gps_speed is all NaN")
     units = {"gps_speed": "m/s", "gps_hacc": "m", "gps_lat": "deg", "gps_lon": "deg",

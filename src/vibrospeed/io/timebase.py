@@ -33,6 +33,7 @@ __all__ = [
     "interp_onto",
     "nearest_index",
     "place_nearest",
+    "rows_for_fixes",
     "resample_uniform",
     "sort_dedup",
     "split_at_gaps",
@@ -186,6 +187,40 @@ def place_nearest(t: np.ndarray, x: np.ndarray, grid: np.ndarray) -> np.ndarray:
         return out
     out[nearest_index(t[fin], grid)] = x[fin]  # later samples overwrite earlier ones
     return out
+
+
+def rows_for_fixes(
+    t: np.ndarray, tq: np.ndarray, channels: dict[str, np.ndarray], lines: np.ndarray
+) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray, np.ndarray]:
+    """Rows of their own for fixes (GPS) that fall inside a gap of the master time line ``t``.
+
+    :func:`place_nearest` puts a fix on the nearest master sample. Inside a gap (an interval
+    longer than 3 median periods, as :func:`describe_timebase` counts gaps) that sample is up to
+    half the gap away and every fix of the gap's half lands on it, so all but one are lost and
+    the one kept is moved by up to half the gap. Each fix time in ``tq`` inside ``[t_0,
+    t_end]`` and more than 1.5 median periods from every master sample is therefore added to
+    the time line as a row of its own, with the master ``channels`` NaN there (nothing was
+    measured); the fixes are then placed there exactly.
+
+    Returns ``(t, channels, lines, added)``: the merged increasing time line, the channels with
+    NaN at the new rows, ``lines`` (file line numbers; 0 at the new rows) and the added times.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    tq = np.asarray(tq, dtype=np.float64)
+    tq = np.unique(tq[np.isfinite(tq)])
+    if t.size < 2 or tq.size == 0:
+        return t, channels, lines, np.empty(0)
+    tol = 1.5 * float(np.median(np.diff(t)))
+    tq = tq[(tq > t[0]) & (tq < t[-1])]
+    far = np.abs(t[nearest_index(tq, t)] - tq) > tol
+    add = tq[far]
+    if add.size == 0:
+        return t, channels, lines, add
+    pos = np.searchsorted(t, add)
+    t2 = np.insert(t, pos, add)
+    chans = {k: np.insert(np.asarray(x, dtype=np.float64), pos, np.nan)
+             for k, x in channels.items()}
+    return t2, chans, np.insert(lines, pos, 0), add
 
 
 def resample_uniform(
