@@ -297,3 +297,24 @@ def test_fixes_inside_an_accelerometer_gap_keep_rows_of_their_own(tmp_path):
     np.testing.assert_allclose(r["ay"][~added], 2 * ta, atol=1e-12)
     assert any("3 valid GPS fix(es) inside accelerometer gaps" in n for n in r.notes)
     assert any("1 valid GPS fix(es) fell on the same sample" in n for n in r.notes)
+
+
+def test_empty_and_nan_accelerometer_cells_are_noted(tmp_path):
+    """Empty / NaN cells of the master accelerometer are counted in a note (phyphox and the
+    CSV readers say the same), and an axis with no number at all is refused naming it."""
+    folder = tmp_path / "nan"
+    folder.mkdir()
+    ta = np.arange(200) * 0.01
+    rows = [(n, t, 9.8, "" if 50 <= i < 80 else 2 * t, "nan" if i == 7 else 0.5)
+            for i, (n, t) in enumerate(zip(_ns(ta), ta, strict=True))]
+    text = "time,seconds_elapsed,z,y,x\n" + "".join(
+        ",".join(str(_py(v)) for v in r) + "\n" for r in rows)
+    (folder / "TotalAcceleration.csv").write_text(text)
+    r = read_sensorlogger(folder)
+    assert int(np.isnan(r["ay"]).sum()) == 30 and int(np.isnan(r["ax"]).sum()) == 1
+    assert "channel 'ay': 30 empty or NaN cell(s) of 200" in "\n".join(r.notes)
+    assert "channel 'ax': 1 empty or NaN cell(s) of 200" in "\n".join(r.notes)
+    (folder / "TotalAcceleration.csv").write_text("time,seconds_elapsed,z,y,x\n" + "".join(
+        f"{n},{t!r},9.8,,0.5\n" for n, t in zip(_ns(ta), ta, strict=True)))
+    with pytest.raises(ReaderError, match="ay.*no numeric value"):
+        read_sensorlogger(folder)

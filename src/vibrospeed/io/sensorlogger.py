@@ -64,7 +64,7 @@ import numpy as np
 from vibrospeed.errors import ReaderError
 from vibrospeed.io._archive import SafeZip
 from vibrospeed.io._common import export_folders, finish, several_exports
-from vibrospeed.io._csv import CsvTable
+from vibrospeed.io._csv import CsvTable, nan_notes
 from vibrospeed.io.timebase import interp_onto, nearest_index, row_order, rows_for_fixes
 from vibrospeed.types import Recording
 
@@ -242,6 +242,7 @@ def read_sensorlogger(path: str | os.PathLike[str], *, sort: bool = False) -> Re
     t = (traw - t_ref) * scale
     sign = -1.0 if ios_raw else 1.0
     acc = [sign * a for a in (ax, ay, az)]
+    notes.extend(nan_notes(dict(zip(("ax", "ay", "az"), acc, strict=True)), src.label(master)))
     units: dict[str, str] = {}
     chans: dict[str, np.ndarray] = {}
     fs = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else float("nan")
