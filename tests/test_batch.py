@@ -358,6 +358,59 @@ def test_unknown_parameter_stops_the_batch_before_it_starts(tmp_path, method, na
     assert res.stderr == f"vibrospeed: error: {line}\n"
 
 
+_EKF_TRACKERS = "it is the EKF tracker's (-p tracker=ekf)"
+
+
+@pytest.mark.parametrize(("params", "line"), [
+    ({"amp0": "1"}, f"unknown parameter 'amp0' for method 'aided' with this tracker: "
+                    f"{_EKF_TRACKERS}"),
+    ({"tracker": "rbpmf", "amp0": "1"}, f"unknown parameter 'amp0' for method 'aided' with "
+                                        f"this tracker: {_EKF_TRACKERS}"),
+    ({"normalize_tau": "5"}, f"unknown parameter 'normalize_tau' for method 'aided' with this "
+                             f"tracker: {_EKF_TRACKERS}"),
+    ({"tracker": "ekf", "n_grid": "50"}, "unknown parameter 'n_grid' for method 'aided' with "
+                                         "this tracker: it is the grid tracker's "
+                                         "(-p tracker=grid, the default)"),
+])
+def test_a_name_only_the_other_aided_tracker_takes_stops_the_batch(tmp_path, params, line):
+    """``-m aided`` hands its names to the EKF or to a grid tracker (``-p tracker=``): a name
+    only the tracker not chosen takes passed the up-front check (both trackers' names merged)
+    and was one error row per recording; it now stops the batch before anything is read, with
+    ``vibrospeed estimate``'s line, from Python and from the command line."""
+    from vibrospeed.errors import ParameterError
+
+    io.write(sim.simulate("cart", seed=0, duration=2), tmp_path / "drive.csv")
+    out = tmp_path / "out"
+    with pytest.raises(ParameterError) as exc:
+        batch.run([tmp_path / "drive.csv"], out, method="aided", params=params)
+    assert str(exc.value) == line and not out.exists()
+    args = [a for k, v in params.items() for a in ("-p", f"{k}={v}")]
+    for cmd in (["batch", str(tmp_path / "drive.csv"), "-o", str(out)],
+                ["estimate", str(tmp_path / "drive.csv"), "-o", str(tmp_path / "e.csv")]):
+        res = CliRunner().invoke(app, [*cmd, "-m", "aided", *args])
+        assert res.exit_code == 2 and not out.exists(), res.output
+        assert res.stderr == f"vibrospeed: error: {line}\n"
+    assert not (tmp_path / "e.csv").exists() and not (tmp_path / "e.csv.json").exists()
+
+
+def test_the_chosen_aided_trackers_own_names_run_in_a_batch(tmp_path):
+    """The tracker's own names pass: the EKF's ``amp0`` and the names ``aided.estimate`` reads
+    on the EKF path (``normalize_tau``, ``comb``) with ``tracker=ekf``, a grid name with the
+    default tracker; the sidecar keeps ``amp0``."""
+    io.write(sim.simulate("cart", seed=0, duration=2), tmp_path / "drive.csv")
+    for params in ({"tracker": "ekf", "amp0": "1", "normalize_tau": "5", "comb": "false"},
+                   {"n_grid": "50"}):
+        df = batch.run([tmp_path / "drive.csv"], tmp_path / "out", method="aided", jobs=1,
+                       params=params)
+        assert list(df["status"]) == ["ok"], df["error"]
+    res = CliRunner().invoke(app, ["batch", str(tmp_path / "drive.csv"), "-o",
+                                   str(tmp_path / "cli"), "-j", "1", "-m", "aided", "-p",
+                                   "tracker=ekf", "-p", "amp0=1"])
+    assert res.exit_code == 0 and "(1 ok, 0 skipped, 0 error)" in res.stderr, res.output
+    side = json.loads((tmp_path / "cli" / "drive_aided.csv.json").read_text())
+    assert side["params"]["amp0"] == 1.0
+
+
 # method -> the estimator modules whose estimate() reads its params (besides Config fields)
 _READERS = {"ekf": ["ekf.py"], "rbpmf": ["rbpmf.py", "grid/app.py"],
             "grid": ["grid/method.py", "grid/app.py"], "rbpf": ["rbpf.py"], "shs": ["shs.py"],

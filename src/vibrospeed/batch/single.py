@@ -72,9 +72,14 @@ class EstimateOptions:
         from vibrospeed.config import unknown
 
         names = estimators.parameters(self.method)
-        for name in self.estimator_params():
+        params = self.estimator_params()
+        for name in params:
             if name not in names:
                 raise unknown(name, f"method '{self.method}'", names)
+            # a name only the tracker not chosen takes (-m aided -p amp0=1 with the grid one)
+            refusal = other_trackers_name(self.method, name, params)
+            if refusal is not None:
+                raise refusal
 
     def check_reading(self) -> None:
         """Refuse reading options that no recording could satisfy, before any is read: a format
@@ -107,6 +112,55 @@ class EstimateOptions:
         if isinstance(stored, dict) and isinstance(stored.get("params"), dict):
             stored = {**stored, "params": canonical_params(self.method, stored["params"])}
         return stored == want
+
+
+def _trackers(method: str) -> tuple[str | None, list[tuple[str, tuple[str, ...], set[str]]]]:
+    """For a method that hands its ``-p`` names to one of several trackers: the default
+    ``tracker`` value and each tracker as (how a message names it, the ``tracker`` values that
+    pick it, the names it takes); ``(None, [])`` for the others. ``aided``
+    (:func:`vibrospeed.estimators.aided.estimate`): the thesis' EKF (``aided.Config``, with its
+    model's fields, and the names ``aided.estimate`` reads itself on that path: the plain names
+    of its entry in ``estimators._BESIDES_CONFIG``) or a grid tracker (``grid`` / ``rbpmf``:
+    ``aided_grid.Config`` with the grid tracker's and comb's fields, and its input names)."""
+    if method != "aided":
+        return None, []
+    from vibrospeed import estimators
+    from vibrospeed.config import flat_names
+    from vibrospeed.estimators import aided, aided_grid
+
+    default = aided.DEFAULT_TRACKER
+    own = {ref for ref in estimators._BESIDES_CONFIG[method]
+           if ":" not in ref and ref not in estimators.METHODS}
+    grid = "-p tracker=grid" + (", the default" if default == "grid" else "")
+    ekf = "-p tracker=ekf" + (", the default" if default == "ekf" else "")
+    return default, [
+        (f"the EKF tracker's ({ekf})", ("ekf",), flat_names(aided.Config) | own),
+        (f"the grid tracker's ({grid})", ("grid", "rbpmf"),
+         flat_names(aided_grid.Config) | set(aided_grid.INPUT_PARAMS) | {"tracker"}),
+    ]
+
+
+def other_trackers_name(method: str, name: str,
+                        params: dict[str, Any] | None = None) -> ParameterError | None:
+    """The error for ``-p`` ``name`` where the tracker in use does not take it and exactly one
+    other tracker of ``method`` does (``-m aided -p amp0=1`` with the grid tracker:
+    ``unknown parameter 'amp0' for method 'aided' with this tracker: it is the EKF tracker's
+    (-p tracker=ekf)``; the method's merged names hold it, so it was "did you mean 'amp0'");
+    else None. The tracker in use is ``params``' ``tracker`` (else the default); without
+    ``params``, the one that refused ``name`` (``vibrospeed estimate``'s error). A ``tracker``
+    that is none of them is left to the estimator, which says so."""
+    default, trackers = _trackers(method)
+    if params is not None and trackers:
+        chosen = str(params.get("tracker", default))
+        picked = [t for t in trackers if chosen in t[1]]
+        if not picked or name in picked[0][2]:
+            return None
+        trackers = [t for t in trackers if chosen not in t[1]]
+    owners = [who for who, _, names in trackers if name in names]
+    if len(owners) != 1:
+        return None
+    return ParameterError(f"unknown parameter '{name}' for method '{method}' with this "
+                          f"tracker: it is {owners[0]}")
 
 
 def canonical_params(method: str, params: dict[str, Any]) -> dict[str, str]:

@@ -296,24 +296,6 @@ def _check_numbers(method: str, params: dict[str, Any]) -> None:
             raise errors[0]
 
 
-def _tracker_names(method: str) -> dict[str, set[str]]:
-    """For a method that hands its ``-p`` names to one of several trackers, each tracker's
-    names keyed by how it is chosen; empty for the others. ``aided``: the thesis' EKF
-    (``aided.Config``) or a grid tracker (``aided_grid``: its Config with the grid tracker's
-    and comb's fields, and its input names), picked by ``-p tracker=``
-    (:func:`vibrospeed.estimators.aided.estimate`)."""
-    if method != "aided":
-        return {}
-    from vibrospeed.config import flat_names
-    from vibrospeed.estimators import aided, aided_grid
-
-    grid = "-p tracker=grid" + (", the default" if aided.DEFAULT_TRACKER == "grid" else "")
-    ekf = "-p tracker=ekf" + (", the default" if aided.DEFAULT_TRACKER == "ekf" else "")
-    return {f"the EKF tracker's ({ekf})": flat_names(aided.Config),
-            f"the grid tracker's ({grid})":
-                flat_names(aided_grid.Config) | set(aided_grid.INPUT_PARAMS)}
-
-
 def _unknown_hint(method: str, exc: ParameterError) -> ParameterError:
     """An unknown-parameter error from one of a method's nested Configs, its suggestions taken
     from all of the method's parameter names (the flat ``-p`` namespace,
@@ -323,15 +305,16 @@ def _unknown_hint(method: str, exc: ParameterError) -> ParameterError:
     import re
 
     from vibrospeed import estimators
+    from vibrospeed.batch.single import other_trackers_name
     from vibrospeed.config import unknown
 
     m = re.match(r"unknown parameter '([^']+)' for \w+", str(exc))
     if m is None or method not in estimators.METHODS:
         return exc
     name = m.group(1)
-    # the tracker in use refused it, so a name one tracker alone takes is the other one's
-    owners = [who for who, names in _tracker_names(method).items() if name in names]
-    if len(owners) == 1:
-        return ParameterError(f"unknown parameter '{name}' for method '{method}' with this "
-                              f"tracker: it is {owners[0]}")
+    # the tracker in use refused it, so a name one tracker alone takes is the other one's (the
+    # batch refuses it so before it starts: EstimateOptions.check_params)
+    other = other_trackers_name(method, name)
+    if other is not None:
+        return other
     return unknown(name, f"method '{method}'", estimators.parameters(method))
