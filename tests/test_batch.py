@@ -132,6 +132,52 @@ def test_resume_compares_parameters_by_value(tmp_path):
     assert run(omega_max="31") == "ok"
 
 
+def test_resume_compares_a_switch_the_estimator_reads_itself_by_value(tmp_path):
+    """``comb`` (ekf, aided) has no Config field: the estimator reads it with
+    ``config.parse_flag``, to which ``1``, ``true``, ``True``, ``yes`` and ``on`` are one value.
+    The resume read it as a number where it could (``1`` -> 1.0) and as a switch otherwise
+    (``true``), so ``-p comb=1`` then ``-p comb=true`` estimated everything again. Spellings
+    compare equal exactly where parse_flag reads them equal; sidecars written with ``true``
+    (the switch as stored before) or the text as typed still match; a number read by the
+    estimator itself (``normalize_tau``) still compares as a number."""
+    from vibrospeed.batch.single import canonical_params
+    from vibrospeed.config import parse_flag
+
+    spellings = ["1", "true", "True", "YES", "on", "0", "false", "No", "off", True, False, 1, 0]
+    for method in ("ekf", "aided"):
+        for a in spellings:
+            for b in spellings:
+                same = canonical_params(method, {"comb": a}) == canonical_params(method,
+                                                                                 {"comb": b})
+                assert same == (parse_flag(a, "comb") == parse_flag(b, "comb")), (a, b)
+    assert canonical_params("ekf", {"normalize_tau": "0"}) == \
+        canonical_params("ekf", {"normalize_tau": "0.0"}) != \
+        canonical_params("ekf", {"normalize_tau": "5"})
+
+    io.write(sim.simulate("cart", seed=5, duration=4), tmp_path / "drive.csv")
+    out = tmp_path / "out"
+
+    def run(**params):
+        df = batch.run([tmp_path / "drive.csv"], out, method="ekf", jobs=1, params=params)
+        return df.loc[0, "status"]
+
+    assert run(comb="1") == "ok"
+    assert [run(comb=v) for v in ("true", "True", "yes", "on", True)] == ["skipped"] * 5
+    res = CliRunner().invoke(app, ["batch", str(tmp_path / "drive.csv"), "-o", str(out),
+                                   "-m", "ekf", "-j", "1", "-p", "comb=true"])
+    assert res.exit_code == 0 and "(0 ok, 1 skipped, 0 error)" in res.stderr, res.output
+    side_path = out / "drive_ekf.csv.json"
+    side = json.loads(side_path.read_text())
+    for old in ("true", "yes", "1.0"):  # as stored before, as typed, as stored now
+        side["meta"]["options"]["params"] = {"comb": old}
+        side_path.write_text(json.dumps(side))
+        assert run(comb="1") == "skipped", old
+    assert run(comb="false") == "ok"
+    assert run(comb="0") == "skipped" and run(comb="off") == "skipped"
+    assert run(comb="false", normalize_tau="5") == "ok"
+    assert run(comb="no", normalize_tau="5.0") == "skipped"
+
+
 def test_topic_applies_to_the_ros_bags_of_a_mixed_fleet(tmp_path):
     """``--topic`` chooses the IMU of the fleet's ROS bags and leaves its CSV files alone (each
     was an error row, ``format 'csv' does not take option 'topic'``); a CSV's sidecar records

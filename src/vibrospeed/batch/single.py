@@ -169,8 +169,11 @@ def canonical_params(method: str, params: dict[str, Any]) -> dict[str, str]:
     the types of :func:`vibrospeed.estimators.parameters`) and written back
     (:func:`vibrospeed.config.format_value`), so spellings of one value (``30``, ``30.0``,
     ``3e1``; ``yes``, ``true``; ``1, 2``, ``1,2``) give one text. A name the method reads
-    itself (no field type) is read as a number, else as a switch, else kept as given; a value
-    its type cannot read is kept as given (the estimator refuses it)."""
+    itself (no field type: ``comb``, ``normalize_tau``) is read as a number where it is one,
+    else a switch word as the number it stands for (``true`` 1, ``false`` 0: such a switch is
+    read by :func:`vibrospeed.config.parse_flag`, which takes ``1``, ``true``, ``True``,
+    ``yes`` and ``on`` alike), else kept as given; a value its type cannot read is kept as
+    given (the estimator refuses it)."""
     from vibrospeed import estimators
     from vibrospeed.config import format_value, parse_value
 
@@ -178,12 +181,14 @@ def canonical_params(method: str, params: dict[str, Any]) -> dict[str, str]:
     out = {}
     for name, value in sorted(params.items()):
         text = value if isinstance(value, str) else format_value(value)
+        typed = bool(types.get(name))
         for typ in types.get(name) or (float, bool):
             try:
-                text = format_value(parse_value(text, typ, name))
-                break
+                read = parse_value(text, typ, name)
             except ParameterError:
                 continue
+            text = format_value(read if typed else float(read))
+            break
         out[str(name)] = text
     return out
 
