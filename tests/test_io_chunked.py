@@ -145,7 +145,9 @@ def test_errors_come_in_the_whole_readers_order(tmp_path, rows):
 
 
 # ---- CSV files through a column mapping --------------------------------------------------------
-UNIT_NAMES = ["g", "mg", "m/s^2", "deg/s", None]
+# units that fit each drawn channel (a unit of another quantity is refused)
+UNIT_NAMES = {"ax": ["g", "mg", "m/s^2", "counts", None], "gz": ["deg/s", "rpm", "rad/s", None]}
+UNIT_NAMES["ay"] = UNIT_NAMES["az"] = UNIT_NAMES["ax"]
 
 
 @st.composite
@@ -166,7 +168,7 @@ def mapped_files(draw):
         if np.isnan(x).all():
             x[-1] = 1.5
         raw[f"c{k}"] = x
-        unit = draw(st.sampled_from(UNIT_NAMES))
+        unit = draw(st.sampled_from(UNIT_NAMES[name]))
         scale = draw(st.sampled_from([1.0, 0.00478, -2.5]))
         items.append((name, f"c{k}", scale, draw(st.sampled_from([0.0, -0.3])), unit))
     rate = None if with_t else draw(st.sampled_from([100.0, 198.4, 3.0]))

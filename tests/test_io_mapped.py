@@ -86,3 +86,38 @@ def test_gopro_kart_raw_counts_with_rate():
         assert np.all(np.isfinite(x)) and np.all(x == np.round(x))
         assert np.all(np.abs(x) <= 32768)
     assert r["ax"][:2].tolist() == [10698.0, 10358.0]
+
+
+@pytest.mark.parametrize("columns, unit, want", [
+    ("t=time,ay=acc_y:m/s", "m/s", "m/s^2"),      # a speed unit for an acceleration
+    ("t=time,gz=acc_y:deg", "deg", "rad/s"),      # an angle for a rate
+    ("t=time:g,ay=acc_y", "g", "s"),              # an acceleration for the time
+    ("t=time,gps_speed=acc_y:deg/s", "deg/s", "m/s"),
+])
+def test_a_unit_of_another_quantity_is_refused(tmp_path, columns, unit, want):
+    """``ay=acc_y:m/s`` would label an acceleration m/s; ``gz=yaw:deg`` (meant: deg/s) would
+    label a rate rad: refused in one line naming the channel, its SI unit and the units that
+    fit, by the whole-file and the streamed reader alike."""
+    from vibrospeed.io.chunks import ChunkedRecording
+    from vibrospeed.io.mapped import UNITS
+
+    p = tmp_path / "d.csv"
+    p.write_text("time,acc_y\n0,1\n0.1,2\n0.2,3\n")
+    with pytest.raises(ParameterError) as exc:
+        read(p, columns=columns)
+    msg = str(exc.value)
+    assert f"unit '{unit}' gives {UNITS[unit][1]}" in msg and f"is in {want}" in msg
+    fits = [u for u, (_, si) in UNITS.items() if si == want]
+    assert f"(units for it: {', '.join(fits)}, or counts)" in msg
+    with pytest.raises(ParameterError) as streamed:
+        list(ChunkedRecording(p, columns=columns))
+    assert str(streamed.value) == msg
+
+
+def test_counts_and_unknown_channels_take_any_unit(tmp_path):
+    p = tmp_path / "d.csv"
+    p.write_text("time,acc_y\n0,1\n0.1,2\n0.2,3\n")
+    r = read(p, columns="t=time,ay=acc_y*0.5:counts,wheel_rpm=acc_y:rpm")
+    np.testing.assert_allclose(r["ay"], [0.5, 1.0, 1.5])
+    np.testing.assert_allclose(r["wheel_rpm"], np.array([1.0, 2.0, 3.0]) * 2 * math.pi / 60)
+    assert r.units["ay"] == "1" and r.units["wheel_rpm"] == "rad/s"

@@ -168,8 +168,8 @@ class ChunkedRecording:
 
         from vibrospeed.io.mapped import (
             UNITS,
+            _check_channel_unit,
             _check_suffixes,
-            _check_unit,
             load_mapping,
             mapping_text,
             parse_mapping,
@@ -197,7 +197,7 @@ class ChunkedRecording:
                 raise ParameterError(f"{p}: sample rate must be positive, got {rate}")
         for name, sp in spec.items():
             if sp.unit is not None:
-                _check_unit(sp.unit, f"column mapping '{name}'")
+                _check_channel_unit(name, sp.unit, str(p))
         self._spec, self._opts, self._rate = spec, opts, rate
         self._srcs = list(dict.fromkeys(sp.column for sp in spec.values()))
         with open_text(p) as fh:

@@ -84,6 +84,22 @@ def _check_unit(unit: str, where: str) -> str:
     return unit
 
 
+def _check_channel_unit(name: str, unit: str, source: str) -> None:
+    """Refuse an unknown unit, or one of another quantity than channel ``name``'s SI unit
+    (``ax=acc:m/s`` for m/s^2, ``gz=yaw:deg`` for deg/s, ``t=time:g``): its factor would be
+    applied and the channel labelled with the wrong unit. Raw ``counts`` / ``1`` go with any
+    channel (the vibration trackers normalise their input); channels vibrospeed does not know
+    take any unit."""
+    _check_unit(unit, f"column mapping '{name}'")
+    want = "s" if name == "t" else CHANNEL_UNITS.get(name)
+    have = UNITS[unit][1]
+    if want is None or have in (want, "1"):
+        return
+    fits = ", ".join(u for u, (_, si) in UNITS.items() if si == want)
+    raise ParameterError(f"{source}: column mapping '{name}': unit '{unit}' gives {have}, "
+                         f"but {name} is in {want} (units for it: {fits}, or counts)")
+
+
 def _finite(x: Any, what: str, where: str) -> float:
     try:
         v = float(x)
@@ -246,7 +262,7 @@ def read_mapped(
             raise ParameterError(f"{p}: sample rate must be positive, got {rate}")
     for name, s in spec.items():
         if s.unit is not None:
-            _check_unit(s.unit, f"column mapping '{name}'")
+            _check_channel_unit(name, s.unit, str(p))
     with open_text(p) as fh:
         tab = CsvTable(
             fh, str(p), delimiter=opts.get("delimiter"), decimal=opts.get("decimal", ".")
