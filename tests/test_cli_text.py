@@ -94,3 +94,26 @@ def test_paths_and_names_with_brackets_are_printed_as_given(tmp_path):
     assert res.exit_code == 0, res.output
     assert re.search(r"│ temp\[c\] +│", res.stdout), res.stdout
     assert res.stdout.startswith(f"{odd}:")
+
+
+def test_a_preset_spelled_out_in_the_docs_is_what_methods_prints():
+    # "The `lock` preset (`-p a=1 -p b=2 ...`)" on a method page: the flags `vibrospeed methods`
+    # prints on that preset's "=" line, every one of them (the grid page once lacked temper)
+    from pathlib import Path
+
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    res = CliRunner().invoke(app, ["methods"], env={"COLUMNS": "400"})
+    assert res.exit_code == 0, res.output
+    printed: dict[str, set[str]] = {}  # preset name -> its flags, as printed for any method
+    lines = res.stdout.splitlines()
+    for line, nxt in zip(lines, lines[1:], strict=False):
+        head, flags = line.split(), nxt.strip()
+        if len(head) > 1 and head[0].isidentifier() and flags.startswith("= -p "):
+            printed.setdefault(head[0], set()).add(flags[2:])
+    spelled = [(page.name, name, flags)
+               for page in sorted(docs.glob("*.md"))
+               for name, flags in re.findall(r"The `(\w+)` preset \(`(-p [^`]+)`\)",
+                                             " ".join(page.read_text().split()))]
+    assert spelled  # at least the grid page's lock preset
+    for page, name, flags in spelled:
+        assert flags in printed.get(name, set()), (page, name, flags, printed.get(name))
