@@ -147,3 +147,5 @@ def test_fixes_inside_an_accelerometer_gap_keep_rows_of_their_own(tmp_path):
     np.testing.assert_array_equal(r["ay"][~added], 2 * ta)  # the file's rows are unchanged
     assert any("4 valid GPS fix(es) inside accelerometer gaps" in n for n in r.notes)
     assert not any("same sample" in n for n in r.notes)
+    # the time-line notes describe the accelerometer: one gap of 5.01 s, not 5 of about 1 s
+    assert "1 time gap(s) longer than 3 periods, longest 5.01 s (first at t = 2.99 s)" in r.notes

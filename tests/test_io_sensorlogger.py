@@ -297,6 +297,7 @@ def test_fixes_inside_an_accelerometer_gap_keep_rows_of_their_own(tmp_path):
     np.testing.assert_allclose(r["ay"][~added], 2 * ta, atol=1e-12)
     assert any("3 valid GPS fix(es) inside accelerometer gaps" in n for n in r.notes)
     assert any("1 valid GPS fix(es) fell on the same sample" in n for n in r.notes)
+    assert "1 time gap(s) longer than 3 periods, longest 5.01 s (first at t = 2.99 s)" in r.notes
 
 
 def test_empty_and_nan_accelerometer_cells_are_noted(tmp_path):

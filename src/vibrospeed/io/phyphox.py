@@ -205,6 +205,7 @@ def read_phyphox(path: str | os.PathLike[str], *, sort: bool = False) -> Recordi
     fs = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else float("nan")
     notes.append(f"phyphox {src.labels[ACC]}: {t.size} samples, master time line (~{fs:.4g} Hz)")
     loc = _read_location(src, sort, notes) if LOC in src.files else None
+    added = np.empty(0)
     if loc is not None:  # fixes inside accelerometer gaps: rows of their own (not lost)
         t, chans, lines, added = rows_for_fixes(t, loc[1][np.isfinite(loc[2])], chans, lines)
         if added.size:
@@ -237,7 +238,7 @@ def read_phyphox(path: str | os.PathLike[str], *, sort: bool = False) -> Recordi
         t, chans, source=str(p), lines=lines, sort=False, units=units, events=events, notes=notes,
         axes="phone axes: x right, y top edge, z out of screen (flat, top forward: x lateral, "
         "y longitudinal, z up incl. +g)",
-        meta={"format": "phyphox"},
+        meta={"format": "phyphox", **({"fix_rows": added.tolist()} if added.size else {})},
     )
 
 

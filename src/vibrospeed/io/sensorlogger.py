@@ -249,6 +249,7 @@ def read_sensorlogger(path: str | os.PathLike[str], *, sort: bool = False) -> Re
     label = src.label(master)
     notes.append(f"Sensor Logger {label}: {t.size} samples, master time line (~{fs:.4g} Hz)")
     loc = _read_location(src, t_ref, scale, sort, notes) if LOC in have else None
+    added = np.empty(0)
     if loc is not None:  # fixes inside accelerometer gaps: rows of their own (not lost)
         acc_ch = dict(zip("xyz", acc, strict=True))
         t, acc_ch, lines, added = rows_for_fixes(t, loc[0][np.isfinite(loc[1]["gps_speed"])],
@@ -329,6 +330,8 @@ def read_sensorlogger(path: str | os.PathLike[str], *, sort: bool = False) -> Re
             "t0_epoch_ns" if scale == 1e-9 else "t0_elapsed_s": t_ref}
     if platform:
         meta["platform"] = platform
+    if added.size:
+        meta["fix_rows"] = added.tolist()
     return finish(
         t, chans, source=str(p), lines=lines, sort=False, units=units, events=events,
         notes=notes, meta=meta,

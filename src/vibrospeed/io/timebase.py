@@ -348,15 +348,23 @@ def check_nyquist(fs: float, M: int, omega_max: float, source: str = "") -> None
 
 
 def describe_timebase(rec: Recording, *, gap_factor: float = 3.0) -> list[str]:
-    """Notes on jitter and gaps of ``rec.t`` (empty if uniform and gap-free)."""
+    """Notes on jitter and gaps of ``rec.t`` (empty if uniform and gap-free).
+
+    Rows a reader added for GPS fixes inside gaps (:func:`rows_for_fixes`, their times in
+    ``rec.meta["fix_rows"]``) are left out: the notes describe the sensor's own samples, its
+    gap as one gap, not as the fixes' spacing.
+    """
     t = rec.t
+    added = rec.meta.get("fix_rows")
+    if added:
+        t = t[~np.isin(t, np.asarray(added, dtype=np.float64))]
     if t.size < 3:
         return []
     d = np.diff(t)
     med = float(np.median(d))
     notes = []
     gaps = find_gaps(t, gap_factor)
-    if not rec.is_uniform(1e-3):
+    if not np.all(np.abs(d - med) <= 1e-3 * med):  # Recording.is_uniform(1e-3) of these times
         dd = d[d <= gap_factor * med]
         jit = float(np.std(dd)) if dd.size else 0.0
         notes.append(
