@@ -264,3 +264,22 @@ def test_the_docs_cart_examples_give_a_grid_tracker_the_carts_range():
             seen += 1
             assert "omega_min=" in cmd and "omega_max=" in cmd, (page.name, cmd)
     assert seen >= 3
+
+
+def test_a_negative_band_edge_distance_reads_as_a_range():
+    # algebraic's Vx is signed: a drifting lower edge integrates to a negative distance, and
+    # "(-185-380 m ...)" read as a subtraction; the distances are the trapezoids of the columns
+    from vibrospeed.cli.estimate import summary_line
+    from vibrospeed.eval.metrics import track_summary
+    from vibrospeed.types import Track
+
+    t = np.arange(101) * 0.1  # 10 s
+    speed = np.full(t.size, 2.0)
+    track = Track.from_speed(t, speed, np.full(t.size, 1.0), lo=speed - 30.0, hi=speed + 3.0)
+    s = track_summary(track)
+    assert s["distance_lo_m"] == pytest.approx(np.trapezoid(speed - 30.0, t))  # -280 m
+    line = summary_line(s)
+    assert line.endswith("distance 20 m (-280 to 50 m at the edges of the speed band)"), line
+    s_pos = track_summary(Track.from_speed(t, speed, np.full(t.size, 1.0), lo=speed - 1.0,
+                                           hi=speed + 3.0))
+    assert summary_line(s_pos).endswith("distance 20 m (10-50 m at the edges of the speed band)")

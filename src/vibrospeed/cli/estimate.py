@@ -256,7 +256,10 @@ def summary_line(s: dict) -> str:
         parts.append(f"median speed {s['median_speed']:.2f} m/s")
         if s["distance_m"] == s["distance_m"]:
             lo, hi = s.get("distance_lo_m", math.nan), s.get("distance_hi_m", math.nan)
-            band = f" ({lo:.0f}-{hi:.0f} m at the edges of the speed band)" \
+            # "to" where an edge is negative (a signed speed, algebraic's Vx): "-185-380 m"
+            # reads as a range from -185 to -380 or as a subtraction
+            sep = " to " if lo < 0 or hi < 0 else "-"
+            band = f" ({lo:.0f}{sep}{hi:.0f} m at the edges of the speed band)" \
                 if lo == lo and hi == hi else ""
             parts.append(f"distance {s['distance_m']:.0f} m{band}")
     elif s["median_omega"] == s["median_omega"]:
