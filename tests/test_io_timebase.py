@@ -95,3 +95,23 @@ def test_nyquist():
         check_nyquist(100.0, 3, 105.0, "drive.csv")
     with pytest.raises(ParameterError):
         check_nyquist(100.0, 1, np.pi * 100.0)  # equality is not allowed
+
+
+def test_a_rate_change_is_named_not_called_jitter():
+    """A phone app that drops from 100 Hz to 50 Hz after 60 s: the time-line note names the
+    change and where (block medians), as jitter alone would misread it; a jittered 100 Hz log
+    with a single 5 s gap has no such change."""
+    from vibrospeed.io.timebase import describe_timebase
+
+    t = np.concatenate([np.arange(6000) * 0.01, 60.0 + np.arange(1, 3001) * 0.02])
+    rec = Recording(t=t, channels={"ay": np.zeros(t.size)})
+    (note,) = [n for n in describe_timebase(rec) if n.startswith("non-uniform")]
+    assert "the rate changes from 100 Hz to 50 Hz near t = " in note
+    at = float(note.split("near t = ")[1].split(" s")[0])
+    assert 60.0 <= at <= 60.0 + 200 * 0.02  # within one block of 200 intervals after it
+    assert "(block median rates 50-100 Hz)" in note
+    rng = np.random.default_rng(3)
+    tj = np.sort(np.arange(12000) * 0.01 + rng.normal(0.0, 0.002, 12000))
+    tj = tj[(tj < 40.0) | (tj >= 45.0)]
+    rec = Recording(t=tj, channels={"ay": np.zeros(tj.size)})
+    assert not any("rate changes" in n for n in describe_timebase(rec))

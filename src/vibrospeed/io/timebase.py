@@ -347,6 +347,30 @@ def check_nyquist(fs: float, M: int, omega_max: float, source: str = "") -> None
         )
 
 
+def _rate_change(t: np.ndarray, d: np.ndarray, block: int = 200, ratio: float = 1.5) -> str:
+    """Where the sample rate changes (a phone app switching rate mid-drive): the text to add to
+    the time-line note, empty if it does not.
+
+    The median period of consecutive blocks of ``block`` intervals (fewer for a short log, at
+    least 10) is robust to jitter and to single gaps; a block whose median differs from the
+    first block's by more than ``ratio`` marks the change. Its "jitter" is then no jitter: a
+    uniform resampling at the overall median rate up-samples the slower stretch (it holds
+    nothing above its own Nyquist frequency) or decimates the faster one.
+    """
+    w = min(block, d.size // 2)
+    if w < 10:
+        return ""
+    nb = d.size // w
+    med = np.median(d[: nb * w].reshape(nb, w), axis=1)
+    far = np.flatnonzero(np.maximum(med / med[0], med[0] / med) > ratio)
+    if far.size == 0:
+        return ""
+    k = int(far[0])
+    return (f"; the rate changes from {1.0 / med[0]:.4g} Hz to {1.0 / med[k]:.4g} Hz near t = "
+            f"{t[k * w]:.4g} s (block median rates {1.0 / med.max():.4g}-{1.0 / med.min():.4g} "
+            "Hz)")
+
+
 def describe_timebase(rec: Recording, *, gap_factor: float = 3.0) -> list[str]:
     """Notes on jitter and gaps of ``rec.t`` (empty if uniform and gap-free).
 
@@ -367,9 +391,11 @@ def describe_timebase(rec: Recording, *, gap_factor: float = 3.0) -> list[str]:
     if not np.all(np.abs(d - med) <= 1e-3 * med):  # Recording.is_uniform(1e-3) of these times
         dd = d[d <= gap_factor * med]
         jit = float(np.std(dd)) if dd.size else 0.0
+        change = _rate_change(t, d)
         notes.append(
             f"non-uniform time line: median period {med * 1e3:.4g} ms ({1.0 / med:.5g} Hz), "
-            f"jitter (std) {jit * 1e3:.3g} ms; resample for estimators that need a uniform rate"
+            f"jitter (std) {jit * 1e3:.3g} ms{change}; resample for estimators that need a "
+            "uniform rate"
         )
     if gaps:
         longest = max(b - a for a, b in gaps)
