@@ -283,3 +283,45 @@ def test_a_negative_band_edge_distance_reads_as_a_range():
     s_pos = track_summary(Track.from_speed(t, speed, np.full(t.size, 1.0), lo=speed - 1.0,
                                            hi=speed + 3.0))
     assert summary_line(s_pos).endswith("distance 20 m (10-50 m at the edges of the speed band)")
+
+
+def _notes(res) -> str:
+    """The note lines of a command's stderr, each joined back into one line."""
+    return " ".join(res.stderr.split())
+
+
+def test_a_default_search_range_is_named_with_the_speeds_it_covers(drive, tmp_path,
+                                                                    monkeypatch):
+    # the cart (r = 0.08 m) run with the grid's default range: the note names the range and,
+    # with the radius, v = r omega at its ends (0.8 and 9.6 m/s), and how to give another
+    est = tmp_path / "est.csv"
+    for args in ([], ["-m", "shs"], ["-m", "aided"]):
+        res = _run("estimate", drive, *args, "-o", est)
+        assert res.exit_code == 0, res.output
+        assert ("note: searched wheel speeds 10-120 rad/s (0.8-9.6 m/s at wheel radius 0.08 "
+                "m), the default: for another vehicle give its range, v / r (a cart or "
+                "forklift on r = 0.08 m: -p omega_min=2 -p omega_max=30)") in _notes(res), args
+    # a range given (either end, or by a preset) or none searched (the EKF): no note
+    for args in (["-p", "omega_min=2"], ["-p", "omega_max=30"], ["-m", "rbpmf", "--preset",
+                 "paper"], ["-m", "ekf"], ["-m", "aided", "--preset", "paper"]):
+        res = _run("estimate", drive, *args, "-o", est)
+        assert res.exit_code == 0, res.output
+        assert "searched wheel speeds" not in res.stderr, args
+    # the streamed path (a long log in blocks) says it too, from the sidecar it wrote
+    from vibrospeed.estimators.grid import stream
+
+    monkeypatch.setattr(stream, "STREAM_ROWS", 1000)
+    res = _run("estimate", drive, "-o", est)
+    assert res.exit_code == 0, res.output
+    assert "in blocks" in res.stderr
+    assert "searched wheel speeds 10-120 rad/s (0.8-9.6 m/s at wheel radius 0.08 m)" \
+        in _notes(res)
+    # without a radius the range in rad/s alone
+    bare = tmp_path / "bare.csv"
+    rec = io.read(drive)
+    rows = zip(rec.t, rec["ay"], strict=True)
+    bare.write_text("t,ay\n" + "".join(f"{t:.17g},{a:.17g}\n" for t, a in rows))
+    monkeypatch.setattr(stream, "STREAM_ROWS", 500_000)
+    res = _run("estimate", bare, "-o", est)
+    assert res.exit_code == 0, res.output
+    assert "note: searched wheel speeds 10-120 rad/s, the default:" in _notes(res)

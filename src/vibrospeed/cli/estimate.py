@@ -5,6 +5,7 @@ estimator's presets and parameters)."""
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 from pathlib import Path
@@ -198,7 +199,10 @@ def estimate(
                                       rows=streamed[0], notes=streamed[1], columns=columns,
                                       mapping=mapping, rate=rate, plot=plot,
                                       on_block=summary.add)
-            for note in st.recording_notes + st.notes:
+            side = json.loads(Path(f"{output}.json").read_text(encoding="utf-8"))
+            said = range_note(method, opts.params, side.get("params") or {},
+                              side.get("wheel_radius"))
+            for note in st.recording_notes + st.notes + ([said] if said else []):
                 err.print(f"note: {note}", markup=False)  # [ms] is a unit here
             err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)",
                       markup=False, soft_wrap=True)  # a path is text, not markup
@@ -213,7 +217,8 @@ def estimate(
     except ParameterError as exc:
         raise _unknown_hint(method, exc) from None
     rec, track = est.recording, est.track
-    for note in rec.notes + track.notes:
+    said = range_note(method, opts.params, track.params, track.wheel_radius)
+    for note in rec.notes + track.notes + ([said] if said else []):
         err.print(f"note: {note}", markup=False)
     err.print(f"wrote {output} ({len(track)} rows, method {method})", markup=False, soft_wrap=True)
     from vibrospeed.eval.metrics import track_summary
@@ -225,6 +230,30 @@ def estimate(
         plot_track(plot, rec, track, axis=vibration_channel(rec, est.axis),
                    posterior=est.grids.get("posterior"), grid=est.grids.get("grid"))
         err.print(f"wrote {plot}", markup=False, soft_wrap=True)
+
+
+#: the methods that search a range of wheel speeds (``omega_min`` .. ``omega_max``)
+RANGE_METHODS = ("grid", "rbpmf", "rbpf", "shs", "aided")
+
+
+def range_note(method: str, given: dict, params: dict, radius: float | None) -> str | None:
+    """The note that names the wheel speeds searched where the user gave no range: a grid
+    tracker finds no line outside ``omega_min`` .. ``omega_max`` (rad/s), and the default
+    10-120 rad/s is a car's wheels, so a cart or forklift (about 2-30 rad/s) run without its
+    range gets an estimate sitting at the bottom edge or no claimed line, and nothing else
+    says why. ``given``: the -p and preset parameters; ``params``: those the estimate ran
+    with (its sidecar's); ``radius``: the wheel radius in m, where known (the range in m/s,
+    ``v = r omega``). None where the user set either end, or the method searches none."""
+    if method not in RANGE_METHODS or "omega_min" in given or "omega_max" in given:
+        return None
+    lo, hi = params.get("omega_min"), params.get("omega_max")
+    if not (isinstance(lo, (int, float)) and isinstance(hi, (int, float))):
+        return None  # the aided EKF: omega clipped, no range searched
+    speeds = (f" ({radius * lo:.2g}-{radius * hi:.2g} m/s at wheel radius {radius:.3g} m)"
+              if radius else "")
+    return (f"searched wheel speeds {lo:g}-{hi:g} rad/s{speeds}, the default: for another "
+            "vehicle give its range, v / r (a cart or forklift on r = 0.08 m: -p omega_min=2 "
+            "-p omega_max=30)")
 
 
 def _percent(share: float) -> str:
