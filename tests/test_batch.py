@@ -168,7 +168,7 @@ def test_resume_compares_a_switch_the_estimator_reads_itself_by_value(tmp_path):
     assert res.exit_code == 0 and "(0 ok, 1 skipped, 0 error)" in res.stderr, res.output
     side_path = out / "drive_ekf.csv.json"
     side = json.loads(side_path.read_text())
-    for old in ("true", "yes", "1.0"):  # as stored before, as typed, as stored now
+    for old in ("true", "yes", "1.0"):  # as stored now, as typed, as stored before
         side["meta"]["options"]["params"] = {"comb": old}
         side_path.write_text(json.dumps(side))
         assert run(comb="1") == "skipped", old
@@ -176,6 +176,94 @@ def test_resume_compares_a_switch_the_estimator_reads_itself_by_value(tmp_path):
     assert run(comb="0") == "skipped" and run(comb="off") == "skipped"
     assert run(comb="false", normalize_tau="5") == "ok"
     assert run(comb="no", normalize_tau="5.0") == "skipped"
+
+
+def test_names_the_estimators_read_themselves_have_the_type_they_are_read_as():
+    """Every ``-p`` name has a type (``estimators.parameters``): a name an estimator reads by
+    hand with ``config.parse_flag`` is a switch (``bool``), one it reads with ``float(...)`` a
+    number (both found in the estimators' source), so the batch reads each value as the
+    estimator will instead of guessing."""
+    from vibrospeed import estimators
+
+    src = Path(estimators.__file__).parent
+    text = "\n".join((src / f).read_text() for files in _READERS.values() for f in files)
+    get = r'\b(?:params|cfg_kw|own|inp)\.(?:pop|get)\(\s*"(\w+)"'
+    flags = set(re.findall(r"parse_flag\(\s*" + get, text))
+    numbers = set(re.findall(r"\bfloat\(\s*" + get, text))
+    assert {"comb", "causal", "improved", "online"} <= flags
+    assert {"normalize_tau", "comb_clarity", "accel_detrend"} <= numbers
+    for method in estimators.METHODS:
+        types = estimators.parameters(method)
+        assert all(types.values()), (method, [n for n, t in types.items() if not t])
+        for name in flags & set(types):
+            assert types[name] == [bool], (method, name)
+        for name in numbers & set(types):
+            assert float in types[name], (method, name)
+
+
+@pytest.mark.parametrize(("method", "params", "line"), [
+    ("ekf", {"comb": "1.0"}, "parameter 'comb': cannot read '1.0' as bool (true or false)"),
+    ("ekf", {"comb": "maybe"}, "parameter 'comb': cannot read 'maybe' as bool (true or false)"),
+    ("ekf", {"normalize_tau": "abc"},
+     "parameter 'normalize_tau': cannot read 'abc' as float (a number)"),
+    ("aided", {"causal": "2"}, "parameter 'causal': cannot read '2' as bool (true or false)"),
+    ("fuse", {"online": "yes please"},
+     "parameter 'online': cannot read 'yes please' as bool (true or false)"),
+])
+def test_a_bad_value_of_a_name_the_estimator_reads_stops_the_batch(tmp_path, method, params,
+                                                                   line):
+    """A value the estimator's own reading refuses (``parse_flag`` takes ``1`` but not
+    ``1.0``; ``float('abc')`` was an internal error) stops the batch before any recording is
+    read, exit 2 and one line naming the parameter and the value (it was an error row per
+    recording; ``comb=1.0`` after ``comb=true`` was even skipped as the same option)."""
+    from vibrospeed.config import parse_flag
+    from vibrospeed.errors import ParameterError
+
+    name, value = next(iter(params.items()))
+    if name in ("comb", "causal", "online"):  # the estimator's own reading refuses it too
+        with pytest.raises(ParameterError):
+            parse_flag(value, name)
+    io.write(sim.simulate("cart", seed=0, duration=2), tmp_path / "drive.csv")
+    out = tmp_path / "out"
+    with pytest.raises(ParameterError) as exc:
+        batch.run([tmp_path / "drive.csv"], out, method=method, jobs=1, params=params)
+    assert str(exc.value) == line and not out.exists()
+    res = CliRunner().invoke(app, ["batch", str(tmp_path / "drive.csv"), "-o", str(out),
+                                   "-m", method, "-j", "1", "-p", f"{name}={value}"])
+    assert res.exit_code == 2 and not out.exists(), res.output
+    assert res.stderr == f"vibrospeed: error: {line}\n"
+
+
+def test_a_switch_refused_by_the_estimator_is_no_earlier_options_switch(tmp_path):
+    """``comb=1.0`` read as the number 1 matched a ``comb=true`` sidecar and the recording was
+    skipped although ``ekf`` refuses the value; now it is refused before the resume looks,
+    and the stored switch (``true``; ``1.0`` / ``0.0`` as sidecars stored it before) still
+    matches the spellings ``parse_flag`` reads alike."""
+    from vibrospeed.batch.single import canonical_params
+    from vibrospeed.errors import ParameterError
+
+    assert canonical_params("ekf", {"comb": "1.0"}) != canonical_params("ekf", {"comb": "true"})
+    assert canonical_params("ekf", {"comb": "1.0"}, stored=True) == \
+        canonical_params("ekf", {"comb": "on"}) == {"comb": "true"}
+    assert canonical_params("aided", {"causal": "0.0"}, stored=True) == \
+        canonical_params("aided", {"causal": 0}) == {"causal": "false"}
+    io.write(sim.simulate("cart", seed=5, duration=3), tmp_path / "drive.csv")
+    out = tmp_path / "out"
+
+    def run(**params):
+        return batch.run([tmp_path / "drive.csv"], out, method="ekf", jobs=1,
+                         params=params).loc[0, "status"]
+
+    assert run(comb="false") == "ok"
+    side_path = out / "drive_ekf.csv.json"
+    side = json.loads(side_path.read_text())
+    assert side["meta"]["options"]["params"] == {"comb": "false"}
+    side["meta"]["options"]["params"] = {"comb": "0.0"}  # as stored before
+    side_path.write_text(json.dumps(side))
+    assert run(comb="0") == "skipped" and run(comb="off") == "skipped"
+    for bad in ("0.0", "1.0"):
+        with pytest.raises(ParameterError, match=f"'comb': cannot read '{bad}'"):
+            run(comb=bad)
 
 
 def test_topic_applies_to_the_ros_bags_of_a_mixed_fleet(tmp_path):

@@ -66,20 +66,23 @@ class EstimateOptions:
     def check_params(self) -> None:
         """Refuse a ``-p`` name that the method takes nowhere (its Config's fields, the names
         its ``estimate()`` takes besides them and its presets': :func:`vibrospeed.estimators.
-        parameters`), before any recording is read: one line naming the method and the
-        nearest accepted names, instead of one error row per recording."""
+        parameters`), or a value that none of the name's types reads (``-p comb=1.0``,
+        ``-p tracker=bogus``), before any recording is read: one line naming the method and
+        the nearest accepted names, or the parameter and its value, instead of one error row
+        per recording."""
         from vibrospeed import estimators
         from vibrospeed.config import unknown
 
         names = estimators.parameters(self.method)
         params = self.estimator_params()
-        for name in params:
+        for name, value in params.items():
             if name not in names:
                 raise unknown(name, f"method '{self.method}'", names)
             # a name only the tracker not chosen takes (-m aided -p amp0=1 with the grid one)
             refusal = other_trackers_name(self.method, name, params)
             if refusal is not None:
                 raise refusal
+            _read(name, value, names[name])
 
     def check_reading(self) -> None:
         """Refuse reading options that no recording could satisfy, before any is read: a format
@@ -110,7 +113,8 @@ class EstimateOptions:
         sidecar written before the params were stored canonical still matches."""
         want = self.to_json()
         if isinstance(stored, dict) and isinstance(stored.get("params"), dict):
-            stored = {**stored, "params": canonical_params(self.method, stored["params"])}
+            stored = {**stored, "params": canonical_params(self.method, stored["params"],
+                                                           stored=True)}
         return stored == want
 
 
@@ -163,32 +167,49 @@ def other_trackers_name(method: str, name: str,
                           f"tracker: it is {owners[0]}")
 
 
-def canonical_params(method: str, params: dict[str, Any]) -> dict[str, str]:
+def _read(name: str, value: Any, types: list[Any], stored: bool = False) -> Any:
+    """``value`` read as the first of ``types`` that reads it
+    (:func:`vibrospeed.config.parse_value`), else the first type's one-line
+    :class:`ParameterError`. ``stored``: the value is from a sidecar, where a switch
+    (``bool``) may be ``1.0`` / ``0.0``, as sidecars stored ``true`` / ``false`` before the
+    switches the estimators read themselves had a type."""
+    from vibrospeed.config import parse_value
+
+    errors = []
+    for typ in types:
+        try:
+            return parse_value(value, typ, name)
+        except ParameterError as exc:
+            if stored and typ is bool and value in ("1.0", "0.0"):
+                return value == "1.0"
+            errors.append(exc)
+    if errors:
+        raise errors[0]
+    return value
+
+
+def canonical_params(method: str, params: dict[str, Any], *,
+                     stored: bool = False) -> dict[str, str]:
     """``params`` (``-p`` text or values) as one text per value, by name: each value read as
-    its field's type the way the estimator reads it (:func:`vibrospeed.config.parse_value` with
-    the types of :func:`vibrospeed.estimators.parameters`) and written back
+    its type the way the estimator reads it (:func:`vibrospeed.config.parse_value` with the
+    types of :func:`vibrospeed.estimators.parameters`, a switch such as ``comb`` as ``bool``,
+    as :func:`vibrospeed.config.parse_flag` reads it) and written back
     (:func:`vibrospeed.config.format_value`), so spellings of one value (``30``, ``30.0``,
-    ``3e1``; ``yes``, ``true``; ``1, 2``, ``1,2``) give one text. A name the method reads
-    itself (no field type: ``comb``, ``normalize_tau``) is read as a number where it is one,
-    else a switch word as the number it stands for (``true`` 1, ``false`` 0: such a switch is
-    read by :func:`vibrospeed.config.parse_flag`, which takes ``1``, ``true``, ``True``,
-    ``yes`` and ``on`` alike), else kept as given; a value its type cannot read is kept as
-    given (the estimator refuses it)."""
+    ``3e1``; ``1``, ``yes``, ``on``, ``true``; ``1, 2``, ``1,2``) give one text. A value its
+    types cannot read is kept as given (``comb=1.0``: :meth:`EstimateOptions.check_params`
+    refuses it before a batch starts). ``stored``: ``params`` of a sidecar
+    (:meth:`EstimateOptions.same_as`; a switch stored as ``1.0`` is ``true``)."""
     from vibrospeed import estimators
-    from vibrospeed.config import format_value, parse_value
+    from vibrospeed.config import format_value
 
     types = estimators.parameters(method)
     out = {}
     for name, value in sorted(params.items()):
         text = value if isinstance(value, str) else format_value(value)
-        typed = bool(types.get(name))
-        for typ in types.get(name) or (float, bool):
-            try:
-                read = parse_value(text, typ, name)
-            except ParameterError:
-                continue
-            text = format_value(read if typed else float(read))
-            break
+        try:
+            text = format_value(_read(name, text, types.get(name, []), stored))
+        except ParameterError:
+            pass
         out[str(name)] = text
     return out
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import importlib
 from types import ModuleType
+from typing import Any
 
 from vibrospeed.errors import ParameterError
 
@@ -105,17 +106,31 @@ _BESIDES_CONFIG: dict[str, tuple[str, ...]] = {
     "fuse": ("vibrospeed.estimators.fuse.method:_TRACKER_OWN", "grid"),  # fuse.method._split
 }
 
+#: The type each name of :data:`_BESIDES_CONFIG` (and of a module's set named there) is read
+#: as by the ``estimate()`` that takes it, for :func:`parameters`: ``bool`` for a switch read
+#: with :func:`vibrospeed.config.parse_flag` (the text ``bool`` reads: ``true/false, yes/no,
+#: on/off, 1/0``), ``float`` for ``float(value)``, ``float | None`` where ``none`` (or empty)
+#: is None, ``str`` for a name (a pre-filter, an axis, a file) the estimator checks itself.
+_READ_AS: dict[str, Any] = {
+    "comb": bool, "causal": bool, "improved": bool, "online": bool,
+    "normalize_tau": float, "comb_clarity": float, "accel_detrend": float,
+    "lp_cutoff": float | None, "omega_min": float | None, "wheelbase": float | None,
+    "tracker": str, "prefilter": str, "reference": str, "accel_offset": str,
+    "accel_axis": str, "preset": str, "radius_from": str, "vib_method": str,
+}
+
 
 def parameters(method: str) -> dict[str, list]:
-    """Every name ``-p`` may give ``method``, each with the field types its value is read as.
+    """Every name ``-p`` may give ``method``, each with the types its value is read as.
 
     The names are the method's ``Config`` fields (:func:`vibrospeed.config.flat_fields`: with
-    its nested model's and tracker's), the names its ``estimate()`` takes besides them (an
-    empty type list where it reads the value itself: ``ekf``'s ``prefilter``, ``normalize_tau``
+    its nested model's and tracker's), the names its ``estimate()`` takes besides them (with
+    the type it reads each as, :data:`_READ_AS`: ``ekf``'s ``prefilter``, ``normalize_tau``
     and ``comb``, ``rbpmf``'s ``improved``, ``aided``'s ``tracker`` and the aided grid tracker's
     names, ``gps-riss``'s ``preset``, ``fuse``'s own names and its grid tracker's) and those of
     its presets (:mod:`vibrospeed.presets`). Nothing is read or estimated, so a batch refuses a
-    name no method call would take before it reads a recording (:func:`vibrospeed.batch.run`).
+    name no method call would take, or a value its types cannot read, before it reads a
+    recording (:func:`vibrospeed.batch.run`).
     """
     import dataclasses
 
@@ -137,9 +152,10 @@ def parameters(method: str) -> dict[str, list]:
         elif ":" in ref:
             modname, _, attr = ref.partition(":")
             obj = getattr(importlib.import_module(modname), attr)
-            add(flat_fields(obj) if dataclasses.is_dataclass(obj) else {n: [] for n in obj})
+            add(flat_fields(obj) if dataclasses.is_dataclass(obj)
+                else {n: [_READ_AS[n]] for n in obj})
         else:
-            add({ref: []})
+            add({ref: [_READ_AS[ref]]})
     add({name: [] for name in presets.PARAMETERS.get(method, {})})
     add({name: [] for p in presets.PRESETS.get(method, {}).values() for name in p.params})
     return out
