@@ -121,3 +121,25 @@ def test_counts_and_unknown_channels_take_any_unit(tmp_path):
     np.testing.assert_allclose(r["ay"], [0.5, 1.0, 1.5])
     np.testing.assert_allclose(r["wheel_rpm"], np.array([1.0, 2.0, 3.0]) * 2 * math.pi / 60)
     assert r.units["ay"] == "1" and r.units["wheel_rpm"] == "rad/s"
+
+
+def test_an_accelerometer_in_g_read_as_si_is_noted(tmp_path):
+    """A logger's CSV in g mapped without ``:g``: the three axes' median magnitude is 1, not
+    gravity's 9.81 m/s^2, and a note says so and how to give the unit; with ``:g`` (or a file
+    in m/s^2) there is no note."""
+    rng = np.random.default_rng(5)
+    n = 500
+    a = np.column_stack([rng.normal(0, 0.05, n), rng.normal(0, 0.05, n),
+                         1.0 + rng.normal(0, 0.05, n)])  # g, gravity on z
+    p = tmp_path / "g.csv"
+    p.write_text("time,x,y,z\n" + "".join(f"{i * 10},{r[0]!r},{r[1]!r},{r[2]!r}\n"
+                                         for i, r in enumerate(a.tolist())))
+    med = float(np.median(np.linalg.norm(a, axis=1)))
+    r = read(p, columns="t=time:ms,ax=x,ay=y,az=z")
+    (note,) = [s for s in r.notes if "look like g" in s]
+    assert note.startswith(f"ax ay az: median magnitude {med:.3g} m/s^2 where gravity")
+    assert "--columns ax=COL:g" in note
+    r = read(p, columns="t=time:ms,ax=x:g,ay=y:g,az=z:g")
+    assert not any("look like g" in s for s in r.notes)
+    assert np.median(np.linalg.norm([r["ax"], r["ay"], r["az"]], axis=0)) == pytest.approx(
+        9.80665 * med)

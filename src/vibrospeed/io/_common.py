@@ -55,7 +55,29 @@ def finish(
     else:
         check_increasing(rec.t, source, rows=lines)
     rec.notes.extend(describe_timebase(rec))
+    rec.notes.extend(gravity_notes(rec))
     return rec
+
+
+def gravity_notes(rec: Recording) -> list[str]:
+    """A note where ``ax ay az`` labelled m/s^2 look like g: the median magnitude of the
+    three axes is gravity's 9.81 m/s^2 in a vehicle (its accelerations are a fraction of g and
+    average out), so a median between 0.5 and 2 is gravity in g, a file written in g (a
+    logger's CSV, a column mapping without ``:g``). Noted, not converted: ``fuse``, ``aided``
+    and ``gps-riss`` would read 1 g of acceleration as 1 m/s^2."""
+    if not all(k in rec.channels and rec.units.get(k, "m/s^2") == "m/s^2"
+               for k in ("ax", "ay", "az")):
+        return []
+    mag = np.sqrt(rec["ax"] ** 2 + rec["ay"] ** 2 + rec["az"] ** 2)
+    mag = mag[np.isfinite(mag)]
+    if mag.size < 10:
+        return []
+    med = float(np.median(mag))
+    if not 0.5 <= med <= 2.0:
+        return []
+    return [f"ax ay az: median magnitude {med:.3g} m/s^2 where gravity alone is 9.81: they look "
+            "like g, not m/s^2; give their unit (--columns ax=COL:g,... or unit = \"g\" in a "
+            "--mapping file)"]
 
 
 def jsonable(x: Any) -> Any:
