@@ -502,6 +502,11 @@ _EKF_TRACKERS = "it is the EKF tracker's (-p tracker=ekf)"
                                         f"this tracker: {_EKF_TRACKERS}"),
     ({"normalize_tau": "5"}, f"unknown parameter 'normalize_tau' for method 'aided' with this "
                              f"tracker: {_EKF_TRACKERS}"),
+    # the EKF's comb switch: the grid tracker read it as its comb evidence's Config
+    ({"comb": "false"}, f"unknown parameter 'comb' for method 'aided' with this tracker: "
+                        f"{_EKF_TRACKERS}"),
+    ({"tracker": "rbpmf", "comb": "true"}, f"unknown parameter 'comb' for method 'aided' "
+                                           f"with this tracker: {_EKF_TRACKERS}"),
     ({"tracker": "ekf", "n_grid": "50"}, "unknown parameter 'n_grid' for method 'aided' with "
                                          "this tracker: it is the grid tracker's "
                                          "(-p tracker=grid, the default)"),

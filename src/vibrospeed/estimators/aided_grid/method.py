@@ -12,7 +12,7 @@ import dataclasses
 
 import numpy as np
 
-from vibrospeed.config import parse_value
+from vibrospeed.config import flat_names, parse_value, unknown
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
@@ -152,6 +152,13 @@ def estimate(
     tr_names = {f.name for f in dataclasses.fields(rbpmf.Config)} - {"model"}
     tr_kw = {k: v for k, v in rest.items() if k in tr_names}
     cfg_kw = {k: v for k, v in rest.items() if k not in tr_names}
+    # Config's fields that hold a nested Config (the tracker, the comb evidence) are built
+    # here from their own names, never given: -p comb=false is the EKF tracker's switch
+    # (aided.estimate), unknown here (the CLI names the tracker that takes it), not text read
+    # as a Config
+    unknown_here = sorted(set(cfg_kw) - flat_names(Config))
+    if unknown_here:
+        raise unknown(unknown_here[0], Config.__name__, flat_names(Config))
     lp = inp.get("lp_cutoff")
     lp = None if lp in (None, "", "none") else float(lp)
     vib_name = axis_channel(axis)
