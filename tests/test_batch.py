@@ -532,6 +532,37 @@ def test_a_name_only_the_other_aided_tracker_takes_stops_the_batch(tmp_path, par
     assert not (tmp_path / "e.csv").exists() and not (tmp_path / "e.csv.json").exists()
 
 
+@pytest.mark.parametrize("value", ["bogus", "EKF", "5"])
+def test_an_unknown_aided_tracker_stops_the_batch_with_estimates_line(tmp_path, value):
+    """``-m aided -p tracker=bogus`` was one error row per recording; now the batch stops
+    before anything is read, exit 2, with the line ``vibrospeed estimate`` (and
+    ``aided.estimate``) gives: the value and the valid trackers."""
+    import typing
+
+    from vibrospeed import estimators
+    from vibrospeed.errors import ParameterError
+
+    valid = typing.get_args(estimators.TRACKER)
+    assert set(valid) == {"ekf", "grid", "rbpmf"}
+    line = (f"parameter 'tracker': cannot read '{value}' as "
+            f"{' | '.join(repr(v) for v in valid)} (choose from {', '.join(valid)})")
+    rec = sim.simulate("cart", seed=0, duration=2)
+    io.write(rec, tmp_path / "drive.csv")
+    with pytest.raises(ParameterError) as exc:
+        estimators.get("aided").estimate(rec, params={"tracker": value})
+    assert str(exc.value) == line
+    out = tmp_path / "out"
+    with pytest.raises(ParameterError) as exc:
+        batch.run([tmp_path / "drive.csv"], out, method="aided", params={"tracker": value})
+    assert str(exc.value) == line and not out.exists()
+    for cmd in (["batch", str(tmp_path / "drive.csv"), "-o", str(out)],
+                ["estimate", str(tmp_path / "drive.csv"), "-o", str(tmp_path / "e.csv")]):
+        res = CliRunner().invoke(app, [*cmd, "-m", "aided", "-p", f"tracker={value}"])
+        assert res.exit_code == 2 and not out.exists(), res.output
+        assert res.stderr == f"vibrospeed: error: {line}\n"
+    assert not (tmp_path / "e.csv").exists()
+
+
 def test_the_chosen_aided_trackers_own_names_run_in_a_batch(tmp_path):
     """The tracker's own names pass: the EKF's ``amp0`` and the names ``aided.estimate`` reads
     on the EKF path (``normalize_tau``, ``comb``) with ``tracker=ekf``, a grid name with the

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import importlib
 from types import ModuleType
-from typing import Any
+from typing import Any, Literal
 
 from vibrospeed.errors import ParameterError
 
@@ -106,6 +106,10 @@ _BESIDES_CONFIG: dict[str, tuple[str, ...]] = {
     "fuse": ("vibrospeed.estimators.fuse.method:_TRACKER_OWN", "grid"),  # fuse.method._split
 }
 
+#: ``-p tracker=`` of ``aided``: the vibration tracker it aids; :func:`vibrospeed.estimators.
+#: aided.estimate` reads the value as this type, so a batch refuses another with its line
+TRACKER = Literal["grid", "ekf", "rbpmf"]
+
 #: The type each name of :data:`_BESIDES_CONFIG` (and of a module's set named there) is read
 #: as by the ``estimate()`` that takes it, for :func:`parameters`: ``bool`` for a switch read
 #: with :func:`vibrospeed.config.parse_flag` (the text ``bool`` reads: ``true/false, yes/no,
@@ -115,7 +119,7 @@ _READ_AS: dict[str, Any] = {
     "comb": bool, "causal": bool, "improved": bool, "online": bool,
     "normalize_tau": float, "comb_clarity": float, "accel_detrend": float,
     "lp_cutoff": float | None, "omega_min": float | None, "wheelbase": float | None,
-    "tracker": str, "prefilter": str, "reference": str, "accel_offset": str,
+    "tracker": TRACKER, "prefilter": str, "reference": str, "accel_offset": str,
     "accel_axis": str, "preset": str, "radius_from": str, "vib_method": str,
 }
 

@@ -11,8 +11,9 @@ import dataclasses
 
 import numpy as np
 
-from vibrospeed.config import config_from_params, parse_flag
+from vibrospeed.config import config_from_params, parse_flag, parse_value
 from vibrospeed.errors import ParameterError
+from vibrospeed.estimators import TRACKER
 from vibrospeed.estimators.aided.config import Config, _thesis_model
 from vibrospeed.estimators.aided.filter import run
 from vibrospeed.estimators.aiding import (
@@ -78,14 +79,13 @@ def estimate(
     from vibrospeed.signal import prefilter as pf
 
     params = dict(params or {})
-    tracker = str(params.pop("tracker", DEFAULT_TRACKER))
+    # one of estimators.TRACKER, read as a batch reads it before it starts
+    tracker = parse_value(str(params.pop("tracker", DEFAULT_TRACKER)), TRACKER, "tracker")
     if tracker in ("rbpmf", "grid"):
         from vibrospeed.estimators import aided_grid
 
         return aided_grid.estimate(recording, axis=axis, wheel_radius=wheel_radius,
                                    params=params, progress=progress, kind=tracker)
-    if tracker != "ekf":
-        raise ParameterError(f"tracker must be 'ekf', 'rbpmf' or 'grid', got '{tracker}'")
     del progress  # one compiled pass; nothing to report
     r = wheel_radius or recording.wheel_radius
     if not r:
