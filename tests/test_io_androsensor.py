@@ -43,3 +43,30 @@ def test_synthetic_pair_and_errors(tmp_path):
     bad.write_text(acc.read_text().replace("0.2,9.8\n", "x,9.8\n", 1))
     with pytest.raises(ReaderError, match="line 2"):
         io.read(bad, "androsensor")
+
+
+def test_fixes_in_an_accelerometer_gap_and_on_one_sample(tmp_path):
+    """The accelerometer stops for 5 s while GPS goes on at 1 Hz: each fix is placed once at its
+    own time on a row of its own (the accelerometer NaN there), not piled onto the gap's edge
+    samples; two fixes 2 ms apart share a sample, and the one dropped is noted."""
+    ta = [k * 60 for k in range(200) if not 3000 <= k * 60 < 8000]  # ms, ~16.7 Hz
+    acc = tmp_path / "accel.trip.csv"
+    acc.write_text("Time since start in ms ,ACCELEROMETER X (m/s²),ACCELEROMETER Y (m/s²),"
+                   "ACCELEROMETER Z (m/s²)\n" + "".join(f"{k},0.1,0.2,9.8\n" for k in ta))
+    fixes = [(1000, 36.0), (1002, 54.0), (3500, 72.0), (5500, 90.0), (7500, 108.0)]
+    (tmp_path / "gps.trip.csv").write_text(
+        "Time since start in ms ,LOCATION Latitude : ,LOCATION Longitude : ,LOCATION Speed ( Kmh),"
+        "LOCATION ORIENTATION (°),Satellites in range,LOCATION Altitude ( m)\n"
+        + "".join(f"{t},1,2,{v},0,9,5\n" for t, v in fixes))
+    rec = io.read(acc)
+    g = rec["gps_speed"]
+    fin = np.isfinite(g)
+    np.testing.assert_allclose(rec.t[fin], [1.02, 3.5, 5.5, 7.5])  # 1.0/1.002 -> sample 1.02
+    np.testing.assert_allclose(g[fin], [15.0, 20.0, 25.0, 30.0])
+    added = np.isin(rec.t, [3.5, 5.5, 7.5])
+    assert len(rec) == len(ta) + 3 and np.all(np.isnan(rec["ay"][added]))
+    assert np.all(rec["ay"][~added] == 0.2)
+    notes = "\n".join(rec.notes)
+    assert "3 GPS fix(es) inside accelerometer gaps" in notes
+    assert "1 GPS fix(es) fell on the same accelerometer sample" in notes
+    assert "1 time gap(s) longer than 3 periods, longest 5.1 s (first at t = 2.94 s)" in notes

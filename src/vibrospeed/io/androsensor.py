@@ -6,9 +6,10 @@ quat_orient_corolla recordings in ``../shared/datasets``).
 stored as ``ax ay az`` with a note). ``gps.*.csv`` beside it (same trip suffix):
 ``Time since start in ms, LOCATION Latitude, Longitude, LOCATION Speed ( Kmh), ...,
 Satellites in range, ...``: speed km/h -> m/s as ``gps_speed`` and ``gps_sats``, each fix placed
-once at the accelerometer sample nearest it (NaN elsewhere), as for phyphox. The accelerometer
-rate of these logs (~16.7 Hz) is far too low for wheel vibrations: the vibration trackers refuse
-it through their Nyquist check; GPS fusion works.
+once at the accelerometer sample nearest it (NaN elsewhere), as for phyphox; a fix inside a gap of
+the accelerometer gets a row of its own (:func:`vibrospeed.io.timebase.rows_for_fixes`). The
+accelerometer rate of these logs (~16.7 Hz) is far too low for wheel vibrations: the vibration
+trackers refuse it through their Nyquist check; GPS fusion works.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import numpy as np
 from vibrospeed.errors import ReaderError
 from vibrospeed.io._common import finish
 from vibrospeed.io._csv import CsvTable, nan_notes, open_text
-from vibrospeed.io.timebase import place_nearest
+from vibrospeed.io.timebase import place_nearest, rows_for_fixes
 from vibrospeed.types import Recording
 
 _TIME = "Time since start in ms"
@@ -77,6 +78,7 @@ def read_androsensor(path: str | os.PathLike[str], *, sort: bool = False) -> Rec
     notes.append("AndroSensor accelerometer in Android device axes (x right, y up the screen, "
                  "z out of it): map them to vehicle axes for your mounting")
     events = {}
+    meta: dict[str, list[float]] = {}
     gps_path = p.with_name(p.name.replace("accel", "gps", 1)) if "accel" in p.name else None
     if gps_path is not None and gps_path.is_file():
         gtab, g, _ = _table(gps_path)
@@ -86,6 +88,13 @@ def read_androsensor(path: str | os.PathLike[str], *, sort: bool = False) -> Rec
         order = np.argsort(tg, kind="stable")
         tg, v, sats = tg[order], v[order], sats[order]
         inside = (tg >= np.nanmin(t)) & (tg <= np.nanmax(t))
+        if np.all(np.diff(t) > 0):  # fixes inside accelerometer gaps: rows of their own
+            t, ch, lines, added = rows_for_fixes(t, tg[inside & np.isfinite(v)], ch, lines)
+            if added.size:
+                notes.append(f"{added.size} GPS fix(es) inside accelerometer gaps (> 3 periods) "
+                             "kept on rows of their own at the fix times, the accelerometer NaN "
+                             "there")
+                meta["fix_rows"] = added.tolist()
         grid = np.sort(t)
         ch["gps_speed"] = place_nearest(tg[inside], v[inside], grid)
         ch["gps_sats"] = place_nearest(tg[inside], sats[inside], grid)
@@ -95,7 +104,13 @@ def read_androsensor(path: str | os.PathLike[str], *, sort: bool = False) -> Rec
         events["gps_fix"] = tg[inside]
         notes.append(f"{gps_path.name}: {int(inside.sum())} fixes, speed km/h -> m/s, placed at "
                      "the nearest accelerometer sample (NaN elsewhere)")
+        lost = int(np.count_nonzero(np.isfinite(v[inside]))
+                   - np.count_nonzero(np.isfinite(ch["gps_speed"])))
+        if lost:
+            notes.append(f"{lost} GPS fix(es) fell on the same accelerometer sample as a later "
+                         "one (the later is kept)")
     else:
         notes.append("no matching gps.*.csv beside the accelerometer file")
     return finish(t, ch, source=str(p), lines=lines, sort=sort, events=events, notes=notes,
+                  meta=meta,
                   axes="Android device axes (x right, y up the screen, z out of the screen)")
