@@ -325,3 +325,29 @@ def test_a_default_search_range_is_named_with_the_speeds_it_covers(drive, tmp_pa
     res = _run("estimate", bare, "-o", est)
     assert res.exit_code == 0, res.output
     assert "note: searched wheel speeds 10-120 rad/s, the default:" in _notes(res)
+
+
+def test_evaluate_json_is_strict_json_with_null_for_a_metric_that_does_not_apply(drive,
+                                                                                  tmp_path):
+    # SHS has no band and no has_signal: coverage and the claimed metrics are NaN, written as
+    # null (a bare NaN is not JSON: JavaScript's JSON.parse, jq and strict readers refuse it)
+    est, out = tmp_path / "shs.csv", tmp_path / "m.json"
+    res = _run("estimate", drive, "-m", "shs", "-p", "omega_min=4", "-p", "omega_max=30",
+               "-o", est)
+    assert res.exit_code == 0, res.output
+    res = _run("evaluate", est, "--truth", drive, "--json", out)
+    assert res.exit_code == 0, res.output
+
+    def refuse(name):
+        raise AssertionError(f"{name} in {out.read_text()}")
+
+    m = json.loads(out.read_text(), parse_constant=refuse)
+    assert m["coverage"] is None and m["claimed_share"] is None and m["n"] > 0
+    # the finite ones as computed from the two files
+    track, rec = io.read_track(est), io.read(drive)
+    w = np.interp(track.t, rec.t, rec["omega_true"])
+    moving = (w > 1.0) & np.isfinite(track.omega)
+    assert m["n"] == int(moving.sum())
+    e = track.omega[moving] - w[moving]
+    assert m["rmse"] == pytest.approx(np.sqrt(np.mean(e**2)), rel=1e-12)
+    assert m["bias"] == pytest.approx(np.mean(e), rel=1e-12)

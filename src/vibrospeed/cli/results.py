@@ -150,6 +150,7 @@ def evaluate(
     """
     from vibrospeed import io
     from vibrospeed.eval.metrics import evaluate as ev
+    from vibrospeed.io._common import jsonable
     from vibrospeed.io.atomic import atomic_write_text
 
     _check_output(json_out, "--json")
@@ -184,8 +185,9 @@ def evaluate(
     for row in rows:
         tab.add_row(*row)
     out.print(tab)
-    if json_out is not None:
-        atomic_write_text(json_out, json.dumps(m.to_dict(), indent=2))
+    if json_out is not None:  # strict JSON, as the sidecars: a metric that is NaN is null
+        atomic_write_text(json_out, json.dumps(jsonable(m.to_dict()), indent=2,
+                                               allow_nan=False) + "\n")
 
 
 @_friendly
