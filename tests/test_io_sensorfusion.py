@@ -97,3 +97,29 @@ def test_corrupted_logs_raise_reader_error_only(tmp_path, drop, junk, cut):
         assert "\n" not in str(exc)
     else:
         assert np.all(np.diff(r.t) > 0) and r.t[0] == 0.0
+
+
+def test_gps_fixes_in_an_acc_gap_and_on_one_sample(tmp_path):
+    """ACC stops for 5 s while GPS goes on: each fix inside the gap gets a row of its own at
+    its time (ACC NaN there) rather than all landing on the gap's edge samples; two fixes 1 ms
+    apart share a sample, and the one dropped is noted (the note counted every fix as placed)."""
+    t0 = 1_446_211_006_000
+    lines = [f"{t0 + 10 * i}\tACC\t0.1\t{0.01 * i}\t9.81" for i in range(1000)
+             if not 300 <= i < 800]
+    fixes = [(1000, 58.1), (1001, 58.2), (3500, 58.3), (5500, 58.4), (7500, 58.5)]
+    lines += [f"{t0 + ms}\tGPS\t{lat}\t15.57\t100" for ms, lat in fixes]
+    p = tmp_path / "sensorLog.txt"
+    p.write_text("\n".join(sorted(lines, key=lambda s: int(s.split("\t")[0]))) + "\n")
+    r = read_sensorfusion(p)
+    lat = r["gps_lat"]
+    fin = np.isfinite(lat)
+    np.testing.assert_allclose(r.t[fin], [1.0, 3.5, 5.5, 7.5])
+    np.testing.assert_array_equal(lat[fin], [58.2, 58.3, 58.4, 58.5])  # 1.001 s wins at 1.0 s
+    added = np.isin(r.t, [3.5, 5.5, 7.5])
+    assert len(r) == 500 + 3 and np.all(np.isnan(r["ay"][added]))
+    np.testing.assert_allclose(r["ay"][~added], 0.01 * np.r_[0:300, 800:1000])
+    notes = "\n".join(r.notes)
+    assert "GPS: 3 fix(es) inside ACC gaps" in notes
+    assert "GPS: 5 fixes, 5 inside the ACC span" in notes
+    assert "GPS: 1 fix(es) fell on the same ACC sample as a later one" in notes
+    assert "1 time gap(s) longer than 3 periods, longest 5.01 s (first at t = 2.99 s)" in notes

@@ -12,7 +12,8 @@ ACC    x y z (m/s^2)               ``ax ay az`` - **master time line**
 GYR    x y z (rad/s)               ``gx gy gz``, linearly interpolated onto ACC times
 MAG    x y z (uT)                  ``mx my mz``, linearly interpolated onto ACC times
 GPS    lat lon [alt] (deg, deg, m) ``gps_lat gps_lon gps_alt`` at the ACC sample nearest
-                                   each fix (NaN elsewhere); fix times in event ``gps_fix``
+                                   each fix (NaN elsewhere; inside an ACC gap on a row of
+                                   its own); fix times in event ``gps_fix``
 ORI    orientation (quaternion)    not used (counted in the notes)
 =====  ==========================  =================================================
 
@@ -34,7 +35,12 @@ import numpy as np
 from vibrospeed.errors import ReaderError
 from vibrospeed.io._common import finish
 from vibrospeed.io._csv import _short, check_file
-from vibrospeed.io.timebase import check_increasing, interp_onto, place_nearest
+from vibrospeed.io.timebase import (
+    check_increasing,
+    interp_onto,
+    place_nearest,
+    rows_for_fixes,
+)
 from vibrospeed.types import Recording
 
 __all__ = ["is_sensorfusion", "read_sensorfusion"]
@@ -143,6 +149,13 @@ def read_sensorfusion(path: str | os.PathLike[str], *, sort: bool = False) -> Re
     acc = arr["ACC"]
     chans = {"ax": acc[:, 1], "ay": acc[:, 2], "az": acc[:, 3]}
     units: dict[str, str] = {}
+    meta = {"format": "sensorfusion", "t0_ms": t0_ms}
+    if "GPS" in times:  # fixes inside ACC gaps: rows of their own (not piled on the gap's edge)
+        t, chans, _, added = rows_for_fixes(t, times["GPS"], chans, np.zeros(t.size, int))
+        if added.size:
+            notes.append(f"GPS: {added.size} fix(es) inside ACC gaps (> 3 periods) kept on rows "
+                         "of their own at the fix times, ACC NaN there")
+            meta["fix_rows"] = added.tolist()
     for tag, prefix, unit in (("GYR", "g", "rad/s"), ("MAG", "m", "uT")):
         if tag not in times:
             continue
@@ -167,7 +180,13 @@ def read_sensorfusion(path: str | os.PathLike[str], *, sort: bool = False) -> Re
                 chans[name] = place_nearest(tg[inside], x, t)
                 units[name] = unit
         events["gps_fix"] = tg
-        notes.append(f"GPS: {tg.size} fixes placed at the nearest ACC sample; times in 'gps_fix'")
+        placed = max((int(np.count_nonzero(np.isfinite(chans[k])))
+                      for k in ("gps_lat", "gps_lon", "gps_alt") if k in chans), default=0)
+        notes.append(f"GPS: {tg.size} fixes, {int(inside.sum())} inside the ACC span placed at "
+                     f"the nearest ACC sample; times in 'gps_fix'")
+        if placed < int(inside.sum()):
+            notes.append(f"GPS: {int(inside.sum()) - placed} fix(es) fell on the same ACC sample "
+                         "as a later one (the later is kept)")
     if "ORI" in times:
         notes.append(f"ORI: {times['ORI'].size} orientation lines not used")
     for tag, n in sorted(other.items()):
@@ -175,4 +194,4 @@ def read_sensorfusion(path: str | os.PathLike[str], *, sort: bool = False) -> Re
     if blank:
         notes.append(f"skipped {blank} blank or comment line(s)")
     return finish(t, chans, source=str(p), lines=None, sort=False, units=units,
-                  events=events, notes=notes, meta={"format": "sensorfusion", "t0_ms": t0_ms})
+                  events=events, notes=notes, meta=meta)
