@@ -351,3 +351,28 @@ def test_evaluate_json_is_strict_json_with_null_for_a_metric_that_does_not_apply
     e = track.omega[moving] - w[moving]
     assert m["rmse"] == pytest.approx(np.sqrt(np.mean(e**2)), rel=1e-12)
     assert m["bias"] == pytest.approx(np.mean(e), rel=1e-12)
+
+
+def test_evaluate_with_nothing_to_compare_is_a_one_line_error(drive, tmp_path):
+    # a warm-up past the end, a --min-omega above every truth sample, a truth from another
+    # time: no moving sample to score, which was a table of NaN with exit status 0
+    est = tmp_path / "est.csv"
+    res = _run("estimate", drive, "-m", "ekf", "-o", est)
+    assert res.exit_code == 0, res.output
+    rec = io.read(drive)
+    span = f"({rec.t[0]:g}-{rec.t[-1]:g} s)"
+    line = _err(_run("evaluate", est, "--truth", drive, "--warmup", 1000))
+    assert line == (f"vibrospeed: error: {est}: nothing to compare: no sample of the estimate "
+                    f"{span} 1000 s after its start (--warmup) has a finite value where the "
+                    f"truth {drive} {span} moves faster than --min-omega 1 rad/s")
+    line = _err(_run("evaluate", est, "--truth", drive, "--min-omega",
+                     float(np.max(rec["omega_true"])) + 1))
+    assert "nothing to compare" in line and "--warmup" not in line
+    later = tmp_path / "later.csv"
+    later.write_text("t,omega_true\n100,5\n101,5\n102,5\n")
+    line = _err(_run("evaluate", est, "--truth", later, "--json", tmp_path / "m.json"))
+    assert line.endswith(f"the truth {later} (100-102 s) moves faster than --min-omega 1 rad/s")
+    assert not (tmp_path / "m.json").exists()
+    # one moving sample is enough to score
+    res = _run("evaluate", est, "--truth", drive, "--warmup", rec.t[-1] - rec.t[0] - 0.5)
+    assert res.exit_code == 0, res.output

@@ -157,6 +157,14 @@ def evaluate(
     track = io.read_track(estimate_csv)
     ref = io.read(truth, truth_format)
     m = ev(track, ref, min_omega=min_omega, warmup=warmup)
+    if m.n == 0:  # a table of NaN with exit status 0 read as a result
+        # the truth's moving threshold in its unit (evaluate compares speeds at 0.3 m/s)
+        still = "0.3 m/s" if m.unit == "m/s" else f"--min-omega {min_omega:g} rad/s"
+        after = f" {warmup:g} s after its start (--warmup)" if warmup > 0 else ""
+        raise ParameterError(
+            f"{estimate_csv}: nothing to compare: no sample of the estimate "
+            f"({track.t[0]:g}-{track.t[-1]:g} s){after} has a finite value where the truth "
+            f"{truth} ({ref.t[0]:g}-{ref.t[-1]:g} s) moves faster than {still}")
     tab = Table(title=Text(f"{estimate_csv.name} vs truth {truth.name}"), title_justify="left")
     tab.add_column("metric")
     tab.add_column("value", justify="right")
