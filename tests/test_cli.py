@@ -376,3 +376,28 @@ def test_evaluate_with_nothing_to_compare_is_a_one_line_error(drive, tmp_path):
     # one moving sample is enough to score
     res = _run("evaluate", est, "--truth", drive, "--warmup", rec.t[-1] - rec.t[0] - 0.5)
     assert res.exit_code == 0, res.output
+
+
+def test_evaluate_help_says_what_min_omega_means_for_a_comparison_of_speeds(tmp_path):
+    # speeds without a wheel radius are compared in m/s with standstill below 0.3 m/s, and
+    # --min-omega (rad/s) does not apply there: the help says so, and it is so
+    from vibrospeed.cli.app import app
+
+    res = CliRunner().invoke(app, ["evaluate", "--help"], env={"COLUMNS": "300"})
+    assert res.exit_code == 0
+    text = " ".join(res.stdout.split())  # the help, its line breaks undone
+    assert ("truth below this (rad/s) = standing, excluded (speeds compared in m/s, an "
+            "estimate or truth without a wheel radius: below 0.3 m/s)") in text
+    rec_path, est = tmp_path / "braking.csv", tmp_path / "gps.csv"
+    assert _run("simulate", "--scenario", "gps_braking", "--duration", 20, "-o",
+                rec_path).exit_code == 0
+    assert _run("estimate", rec_path, "-m", "gps-riss", "-o", est).exit_code == 0
+    ns = []
+    for min_omega in (0, 1, 50):
+        res = _run("evaluate", est, "--truth", rec_path, "--min-omega", min_omega, "--json",
+                   tmp_path / "m.json")
+        assert res.exit_code == 0, res.output
+        ns.append(json.loads((tmp_path / "m.json").read_text())["n"])
+    track, rec = io.read_track(est), io.read(rec_path)
+    v = np.interp(track.t, rec.t, rec["speed_true"])
+    assert ns == [int(np.sum((v > 0.3) & np.isfinite(track.speed)))] * 3

@@ -133,7 +133,9 @@ def evaluate(
     truth: Annotated[Path, typer.Option(help="recording with omega_true or speed_true")],
     truth_format: Annotated[str, typer.Option(help="format of the truth file")] = "auto",
     min_omega: Annotated[float, typer.Option(help="truth below this (rad/s) = standing, "
-                         "excluded", callback=at_least("min omega", "rad/s", strict=False))]
+                         "excluded (speeds compared in m/s, an estimate or truth without a "
+                         "wheel radius: below 0.3 m/s)",
+                         callback=at_least("min omega", "rad/s", strict=False))]
     = 1.0,
     warmup: Annotated[float, typer.Option(help="seconds at the start excluded",
                                           callback=at_least("warm-up", "s", strict=False))]
