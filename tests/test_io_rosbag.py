@@ -68,8 +68,10 @@ def _msgs(ts):
     return imu, odom, vel, fix
 
 
-def _write(path, ros1=False, *, header_zero=(), latency_ns=2_000_000, imu2=False, gps=True):
-    """IMU 100 Hz, odometry 50 Hz (v = 1 + t), GNSS fix + TwistStamped velocity at 10 Hz."""
+def _write(path, ros1=False, *, header_zero=(), latency_ns=2_000_000, imu2=False, gps=True,
+           imu_gap=()):
+    """IMU 100 Hz (none at the indices in ``imu_gap``), odometry 50 Hz (v = 1 + t), GNSS fix +
+    TwistStamped velocity at 10 Hz."""
     ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
     imu, odom, vel, fix = _msgs(ts)
     ser = ts.serialize_ros1 if ros1 else ts.serialize_cdr
@@ -86,8 +88,9 @@ def _write(path, ros1=False, *, header_zero=(), latency_ns=2_000_000, imu2=False
         msgs = []
         for i in range(N):
             ns = T0 + i * 10_000_000
-            msgs.append((ns, c_imu, imu(0 if "/imu/data" in header_zero else ns, i),
-                         "sensor_msgs/msg/Imu"))
+            if i not in imu_gap:
+                msgs.append((ns, c_imu, imu(0 if "/imu/data" in header_zero else ns, i),
+                             "sensor_msgs/msg/Imu"))
             if imu2 and i % 4 == 0:
                 msgs.append((ns, c_imu2, imu(ns, i), "sensor_msgs/msg/Imu"))
             if i % 2 == 1:
@@ -251,3 +254,24 @@ def test_cli_topic_option(tmp_path):
     assert json.load(open(str(out) + ".json"))["method"] == "ekf"
     res = CliRunner().invoke(app, ["estimate", str(p), "--topic", "/nope", "-o", str(out)])
     assert res.exit_code == 2 and "topic /nope not found" in res.output
+
+
+def test_gnss_messages_in_an_imu_gap_keep_rows_of_their_own(tmp_path):
+    """The IMU is silent for 0.8 s while GNSS goes on at 10 Hz: each fix inside the gap is
+    placed once at its own time on a row of its own (IMU channels NaN there), not piled onto
+    the gap's edge samples with all but two lost; the time-line note still sees one gap."""
+    gap = range(60, 140)
+    r = read_rosbag(_write(tmp_path / "bag", imu_gap=gap))
+    g = r["gps_speed"]
+    fin = np.isfinite(g)
+    want_t = np.arange(5, N, 10) * 0.01
+    np.testing.assert_allclose(r.t[fin], want_t, atol=1e-9)
+    np.testing.assert_allclose(g[fin], 3.0 + np.arange(5, N, 10))  # |twist| = 3 + i
+    lat = np.isfinite(r["gps_lat"])  # status -1 at i = 55: no position there, a row all the same
+    np.testing.assert_allclose(r.t[lat], want_t[want_t != 0.55], atol=1e-9)
+    added = ~np.isin(np.round(r.t, 6), np.round(np.setdiff1d(np.arange(N), gap) * 0.01, 6))
+    np.testing.assert_allclose(r.t[added], np.arange(65, 140, 10) * 0.01, atol=1e-9)
+    assert np.all(np.isnan(r["ax"][added])) and np.all(np.isfinite(r["ax"][~added]))
+    assert "8 GNSS message time(s) inside IMU gaps" in "\n".join(r.notes)
+    assert any(n.startswith("1 time gap(s) longer than 3 periods, longest 0.81 s")
+               for n in r.notes)

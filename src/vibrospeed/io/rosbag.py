@@ -46,7 +46,7 @@ import numpy as np
 
 from vibrospeed.errors import ReaderError
 from vibrospeed.io._common import finish
-from vibrospeed.io.timebase import interp_onto, nearest_index
+from vibrospeed.io.timebase import interp_onto, nearest_index, rows_for_fixes
 from vibrospeed.types import Recording
 
 __all__ = ["detect", "read_rosbag"]
@@ -241,10 +241,24 @@ def _read(p: Path, bag: Path, topic: str | None, sort: bool, stamps: str) -> Rec
     units: dict[str, str] = {}
     events: dict[str, np.ndarray] = {}
     speed_is_gps = has_fix and "twist" in speed_topics
-    for role, tp in speed_topics.items():
+    topics = {}
+    for tp in speed_topics.values():
         tk, vk = _ordered(times[tp], np.asarray(data[tp][2], dtype=float).reshape(
             len(data[tp][2]), -1), f"{p} ({tp})", sort, notes)
-        tk = (tk - t0).astype(np.float64) * 1e-9
+        topics[tp] = ((tk - t0).astype(np.float64) * 1e-9, vk)
+    fixes = [tk[np.isfinite(vk[:, 0])] for role, tp in speed_topics.items()
+             for tk, vk in [topics[tp]] if role == "fix" or (role == "twist" and speed_is_gps)]
+    meta = {"format": "rosbag", "imu_topic": imu, "t0_ns": t0,
+            "topics": {r: tp for r, tp in speed_topics.items()}}
+    if fixes:  # fixes inside IMU gaps: rows of their own (not piled on the gap's edge)
+        t, chans, _, added = rows_for_fixes(t, np.concatenate(fixes), chans,
+                                            np.zeros(t.size, int))
+        if added.size:
+            notes.append(f"{added.size} GNSS message time(s) inside IMU gaps (> 3 periods) kept "
+                         "on rows of their own, the IMU channels NaN there")
+            meta["fix_rows"] = added.tolist()
+    for role, tp in speed_topics.items():
+        tk, vk = topics[tp]
         if tk.size == 0:
             notes.append(f"{tp}: no messages")
             continue
@@ -281,8 +295,7 @@ def _read(p: Path, bag: Path, topic: str | None, sort: bool, stamps: str) -> Rec
     units.update({"speed_odom": "m/s"})
     units = {k: v for k, v in units.items() if k in chans}
     return finish(t, chans, source=str(p), sort=False, units=units, events=events, notes=notes,
-                  meta={"format": "rosbag", "imu_topic": imu, "t0_ns": t0,
-                        "topics": {r: tp for r, tp in speed_topics.items()}},
+                  meta=meta,
                   axes="the IMU message frame (REP 103: x forward, y left, z up for a body frame)")
 
 
