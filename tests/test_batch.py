@@ -423,20 +423,24 @@ def test_batch_rows_and_reports_share_one_rule():
 
 def test_error_rows_name_their_recording(tmp_path):
     """Every error row names its recording, as the summary's ``error`` column promises: a
-    reader's error by the path it read (not named twice), a parameter value the method cannot
-    read (found per recording, by the estimator) with the file put first, one line each."""
+    reader's error by the path it read (not named twice), a parameter value the method refuses
+    (found per recording, by the estimator: a value its type cannot read stops the batch
+    before it starts) with the file put first, one line each."""
     from vibrospeed.batch.task import _lost
+    from vibrospeed.errors import ParameterError
 
     src = tmp_path / "in"
     src.mkdir()
     io.write(sim.simulate("cart", seed=0, duration=4), src / "drive.csv")
     (src / "empty.csv").write_text("")
-    df = batch.run([src], tmp_path / "out", method="ekf", params={"omega_max": "abc"}, jobs=1)
+    with pytest.raises(ParameterError, match="^parameter 'omega_max': cannot read 'abc'"):
+        batch.run([src], tmp_path / "out", method="ekf", params={"omega_max": "abc"}, jobs=1)
+    df = batch.run([src], tmp_path / "out", method="ekf", params={"prefilter": "bogus"}, jobs=1)
     assert list(df["status"]) == ["error", "error"]
     for _, r in df.iterrows():
         assert r["error"].count(r["file"]) == 1 and "\n" not in r["error"], r["error"]
     drive = df.loc[df["file"].str.endswith("drive.csv"), "error"].iloc[0]
-    assert drive.startswith(f"{src / 'drive.csv'}: parameter 'omega_max': cannot read 'abc'")
+    assert drive.startswith(f"{src / 'drive.csv'}: unknown pre-filter 'bogus'")
     empty = df.loc[df["file"].str.endswith("empty.csv"), "error"].iloc[0]
     assert empty == f"{src / 'empty.csv'}: empty file"
     job = {"file": "logs/a.csv", "input": "/x/logs/a.csv", "output": "/o/a_ekf.csv",
