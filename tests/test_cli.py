@@ -401,3 +401,20 @@ def test_evaluate_help_says_what_min_omega_means_for_a_comparison_of_speeds(tmp_
     track, rec = io.read_track(est), io.read(rec_path)
     v = np.interp(track.t, rec.t, rec["speed_true"])
     assert ns == [int(np.sum((v > 0.3) & np.isfinite(track.speed)))] * 3
+
+
+def test_a_preset_of_another_method_without_m_names_the_methods_that_have_it(drive):
+    # without -m the method is fuse or grid; "paper" is neither's, and the error named grid,
+    # a method the user never chose, as if the preset were misspelt
+    from vibrospeed import presets
+
+    owners = [m for m in presets.PRESETS if "paper" in presets.presets(m)]
+    assert "grid" not in owners and "fuse" not in owners and "rbpmf" in owners
+    line = _err(_run("estimate", drive, "--preset", "paper", "-o", "x.csv"))
+    assert line == ("vibrospeed: error: --preset paper is not a preset of the method chosen "
+                    "without -m (fuse, with GPS speed: default, online; grid: default, "
+                    f"online, lock); it is a preset of {', '.join(owners)}: give the method "
+                    "with -m")
+    # a name no method has: grid's list, as before
+    assert "unknown preset 'nope' for method 'grid' (choose from: default, online, lock)" \
+        in _err(_run("estimate", drive, "--preset", "nope", "-o", "x.csv"))

@@ -34,13 +34,14 @@ from vibrospeed.errors import ParameterError
 
 def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool, plot: bool,
                     fmt, columns, mapping, rate, sort, topic):
-    """``vibrospeed estimate``'s method without ``--method``: ``fuse`` where the recording has
-    GPS speed (:func:`vibrospeed.estimators.fuse.suits`; a note says so), else ``grid``. Grid
+    """``vibrospeed estimate``'s method without ``--method``: ``fuse`` where the recording has GPS
+    speed (:func:`vibrospeed.estimators.fuse.suits`; a note says so), else ``grid``. Grid
     options (``grid_only``, a preset fuse lacks) keep ``grid``, and so does a log the grid
     streams (fuse holds the whole log in memory; where the recording has GPS speed, a note says
-    that too). Returns the method, the recording where it was read to decide (then not read
-    again), else None, and ``(rows, notes)`` where the log streams (its rows counted once,
-    here), False where it was counted and does not, None where it was not counted."""
+    that too). A preset of neither (``paper``) is refused naming the methods that have it.
+    Returns the method, the recording where it was read to decide (then not read again), else
+    None, and ``(rows, notes)`` where the log streams (its rows counted once, here), False where
+    it was counted and does not, None where it was not counted."""
     from vibrospeed import presets
     from vibrospeed.batch import load_recording
     from vibrospeed.config import parse_params
@@ -50,6 +51,17 @@ def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool,
 
     if radius_from is not None:
         return "fuse", None, None
+    if preset is not None and preset not in presets.presets("grid") \
+            and preset not in presets.presets("fuse"):
+        # "unknown preset 'paper' for method 'grid'" named a method the user never chose
+        # (a name no method has stays grid's "unknown preset" error below)
+        owners = [m for m in presets.PRESETS if preset in presets.presets(m)]
+        if owners:
+            raise ParameterError(
+                f"--preset {preset} is not a preset of the method chosen without -m (fuse, "
+                f"with GPS speed: {', '.join(presets.presets('fuse'))}; grid: "
+                f"{', '.join(presets.presets('grid'))}); it is a preset of "
+                f"{', '.join(owners)}: give the method with -m")
     if grid_only or (preset is not None and preset not in presets.presets("fuse")):
         return "grid", None, None
     accel = str(parse_params(param).get("accel_axis", "x"))
