@@ -68,7 +68,8 @@ def gravity_notes(rec: Recording) -> list[str]:
     if not all(k in rec.channels and rec.units.get(k, "m/s^2") == "m/s^2"
                for k in ("ax", "ay", "az")):
         return []
-    mag = np.sqrt(rec["ax"] ** 2 + rec["ay"] ** 2 + rec["az"] ** 2)
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge value: inf, still not g
+        mag = np.sqrt(rec["ax"] ** 2 + rec["ay"] ** 2 + rec["az"] ** 2)
     mag = mag[np.isfinite(mag)]
     if mag.size < 10:
         return []
