@@ -150,6 +150,45 @@ def test_reference_fixes_fed():
     assert np.sqrt(np.mean((tr.omega - w) ** 2)) < 1.0
 
 
+@pytest.mark.parametrize(("tracker", "name"), [
+    ({"tracker": "ekf"}, "normalize_tau"), ({"tracker": "ekf"}, "lp_cutoff"),
+    ({"tracker": "ekf"}, "accel_detrend"), ({"tracker": "ekf"}, "comb_clarity"),
+    ({"tracker": "ekf"}, "omega_min"), ({"accel_axis": "ax"}, "lp_cutoff"),
+    ({"accel_axis": "ax"}, "accel_detrend"),
+])
+def test_a_number_read_besides_the_config_that_is_not_one_is_one_line(tracker, name):
+    """The numbers ``aided.estimate`` reads itself refuse text that is none with the
+    parameter's one line (it was ``internal error: ValueError: could not convert string to
+    float``); ``none`` still switches an optional one off."""
+    rec = SCENARIOS["start_from_rest"](seed=0, duration=10)
+    with pytest.raises(ParameterError, match=f"^parameter '{name}': cannot read 'abc' as "
+                                             "float"):
+        aided.estimate(rec, params={**tracker, name: "abc"})
+    if name == "lp_cutoff":
+        none = aided.estimate(rec, params={**tracker, name: "none"})
+        np.testing.assert_array_equal(none.omega, aided.estimate(rec, params=tracker).omega)
+
+
+@pytest.mark.parametrize("tracker", [{"tracker": "ekf"}, {"accel_axis": "ax"}])
+def test_wheelbase_given_as_text_is_read_as_metres(tracker):
+    """``-p wheelbase=0.6`` (text, as the command line gives it) was handed to the bump
+    detector as text (``TypeError: '>' not supported between 'str' and 'int'``, an internal
+    error) by both trackers; read as metres, it gives the fixes and the estimate of the
+    recording that carries that wheelbase itself; text that is no number is one line."""
+    rec = SCENARIOS["bumpy_floor"](seed=2, duration=20)
+    bare = dataclasses.replace(rec, meta={k: v for k, v in rec.meta.items()
+                                          if k != "wheelbase"})
+    own = aided.estimate(rec, params={**tracker, "reference": "bump"})
+    assert any(n.startswith("3 reference-speed fixes (bump)") for n in own.notes)
+    given = aided.estimate(bare, params={**tracker, "reference": "bump",
+                                         "wheelbase": repr(rec.meta["wheelbase"])})
+    np.testing.assert_array_equal(given.omega, own.omega)
+    assert given.notes == own.notes
+    with pytest.raises(ParameterError, match=r"^parameter 'wheelbase': cannot read 'abc' as "
+                                             r"float \| None"):
+        aided.estimate(bare, params={**tracker, "reference": "bump", "wheelbase": "abc"})
+
+
 def test_errors():
     rec = SCENARIOS["start_from_rest"](seed=0, duration=10)
     bare = Recording(t=rec.t, channels={"ax": rec["ax"], "ay": rec["ay"]})

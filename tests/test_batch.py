@@ -189,16 +189,16 @@ def test_names_the_estimators_read_themselves_have_the_type_they_are_read_as():
     text = "\n".join((src / f).read_text() for files in _READERS.values() for f in files)
     get = r'\b(?:params|cfg_kw|own|inp)\.(?:pop|get)\(\s*"(\w+)"'
     flags = set(re.findall(r"parse_flag\(\s*" + get, text))
-    numbers = set(re.findall(r"\bfloat\(\s*" + get, text))
+    numbers = set(re.findall(r"\b(?:float|parse_number)\(\s*" + get, text))
     assert {"comb", "causal", "improved", "online"} <= flags
-    assert {"normalize_tau", "comb_clarity", "accel_detrend"} <= numbers
+    assert {"normalize_tau", "comb_clarity", "accel_detrend", "wheelbase"} <= numbers
     for method in estimators.METHODS:
         types = estimators.parameters(method)
         assert all(types.values()), (method, [n for n, t in types.items() if not t])
         for name in flags & set(types):
             assert types[name] == [bool], (method, name)
         for name in numbers & set(types):
-            assert float in types[name], (method, name)
+            assert {float, float | None} & set(types[name]), (method, name)
 
 
 @pytest.mark.parametrize(("method", "params", "line"), [

@@ -172,6 +172,24 @@ def test_an_estimator_switch_outside_the_configs_is_read_strictly(method, name):
         estimators.get(method).estimate(rec, wheel_radius=0.3, params={name: "perhaps"})
 
 
+def test_a_number_read_outside_the_configs():
+    """``config.parse_number`` reads a number an estimator takes itself as a ``float``
+    (``float | None``) field reads it: numbers and their text alike, ``none`` / empty only
+    where optional, other text one line naming the parameter."""
+    from vibrospeed.config import parse_number
+
+    assert [parse_number(v, "x") for v in ("5", " 1e-3 ", "-inf", 2, 0.5)] == \
+        [5.0, 1e-3, -math.inf, 2.0, 0.5]
+    assert type(parse_number(2, "x")) is float
+    assert [parse_number(v, "x", optional=True) for v in ("none", "", None, "4")] == \
+        [None, None, None, 4.0]
+    with pytest.raises(ParameterError, match=r"^parameter 'x': cannot read 'none' as float"):
+        parse_number("none", "x")
+    with pytest.raises(ParameterError, match=r"^parameter 'lp_cutoff': cannot read 'abc' as "
+                                             r"float \| None \(a number, or none\)$"):
+        parse_number("abc", "lp_cutoff", optional=True)
+
+
 def test_text_that_cannot_be_read_is_quoted_on_one_line():
     """The refused text as Python writes it: a newline or a quote in it stays on the one line."""
     for text in ("4\n5", "it's", "tab\there"):

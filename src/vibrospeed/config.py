@@ -171,6 +171,15 @@ def parse_flag(value: Any, name: str) -> bool:
     return bool(parse_value(value, bool, name))
 
 
+def parse_number(value: Any, name: str, *, optional: bool = False) -> float | None:
+    """A number an estimator reads itself (not a Config field), given as a number or text
+    (``4``, ``1e-3``, ``inf``; with ``optional`` also ``none`` or empty: None), as
+    :func:`parse_value` reads a ``float`` (``float | None``) field; other text is a
+    :class:`ParameterError` naming ``name``."""
+    x = parse_value(value, float | None if optional else float, name)
+    return None if x is None else float(x)
+
+
 def format_value(value: Any) -> str:
     """``value`` as the text :func:`parse_value` reads back to an equal value (floats by
     ``repr``, so the round trip is exact; sequences comma-separated; None as ``none``)."""

@@ -11,7 +11,7 @@ import dataclasses
 
 import numpy as np
 
-from vibrospeed.config import config_from_params, parse_flag, parse_value
+from vibrospeed.config import config_from_params, parse_flag, parse_number, parse_value
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import TRACKER
 from vibrospeed.estimators.aided.config import Config, _thesis_model
@@ -98,21 +98,19 @@ def estimate(
     model_kw.pop("dt", None)
     accel_axis = str(cfg_kw.pop("accel_axis", "ax"))
     pre = str(cfg_kw.pop("prefilter", "thesis-hplp"))
-    lp = cfg_kw.pop("lp_cutoff", None)
-    lp = None if lp in (None, "", "none") else float(lp)
-    tau = float(cfg_kw.pop("normalize_tau", 0.0))
+    lp = parse_number(cfg_kw.pop("lp_cutoff", None), "lp_cutoff", optional=True)
+    tau = parse_number(cfg_kw.pop("normalize_tau", 0.0), "normalize_tau")
     reference = str(cfg_kw.pop("reference", "none"))
-    wheelbase = cfg_kw.pop("wheelbase", None)
-    detrend = float(cfg_kw.pop("accel_detrend", 0.0))
+    wheelbase = parse_number(cfg_kw.pop("wheelbase", None), "wheelbase", optional=True)
+    detrend = parse_number(cfg_kw.pop("accel_detrend", 0.0), "accel_detrend")
     causal = parse_flag(cfg_kw.pop("causal", False), "causal")
     offset_kind = str(cfg_kw.pop("accel_offset", "standstill"))
     if offset_kind not in ("standstill", "none"):
         raise ParameterError(f"accel_offset must be 'standstill' or 'none', got '{offset_kind}'")
-    om_min = cfg_kw.pop("omega_min", None)
-    om_min = None if om_min in (None, "", "none") else float(om_min)
+    om_min = parse_number(cfg_kw.pop("omega_min", None), "omega_min", optional=True)
     cfg_kw.setdefault("standstill", "broadband")
     cfg_kw_comb = cfg_kw.pop("comb", True)
-    comb_clarity = float(cfg_kw.pop("comb_clarity", 3.0))
+    comb_clarity = parse_number(cfg_kw.pop("comb_clarity", 3.0), "comb_clarity")
     dt = check_uniform(recording)
     defaults = _thesis_model().to_dict()
     if tau > 0:  # unit-power signal: the EKF's defaults for normalised input

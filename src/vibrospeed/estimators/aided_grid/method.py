@@ -12,7 +12,7 @@ import dataclasses
 
 import numpy as np
 
-from vibrospeed.config import flat_names, parse_value, unknown
+from vibrospeed.config import flat_names, parse_number, parse_value, unknown
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
@@ -159,8 +159,7 @@ def estimate(
     unknown_here = sorted(set(cfg_kw) - flat_names(Config))
     if unknown_here:
         raise unknown(unknown_here[0], Config.__name__, flat_names(Config))
-    lp = inp.get("lp_cutoff")
-    lp = None if lp in (None, "", "none") else float(lp)
+    lp = parse_number(inp.get("lp_cutoff"), "lp_cutoff", optional=True)
     vib_name = axis_channel(axis)
     recording.require(vib_name)
     gain = None
@@ -236,8 +235,9 @@ def estimate(
     else:
         u, ref, ref_var, more = aiding_inputs(
             recording, dt, float(r), accel_axis=accel_axis,
-            detrend=float(inp.get("accel_detrend", 0.0)),
-            reference=str(inp.get("reference", "none")), wheelbase=inp.get("wheelbase"))
+            detrend=parse_number(inp.get("accel_detrend", 0.0), "accel_detrend"),
+            reference=str(inp.get("reference", "none")),
+            wheelbase=parse_number(inp.get("wheelbase"), "wheelbase", optional=True))
         if str(inp.get("accel_offset", "none" if kind == "rbpmf" else "standstill")) \
                 == "standstill" and still is not None:
             off = standstill_offset(u, still, causal=causal)
