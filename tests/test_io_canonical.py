@@ -30,7 +30,8 @@ def _recordings(draw):
     for k in names:
         vals = draw(st.lists(st.one_of(_FINITE, st.just(np.nan)), min_size=n, max_size=n))
         vals[draw(st.integers(0, n - 1))] = draw(_FINITE)  # at least one number
-        chans[k] = np.array(vals)
+        # a speed over ground is a magnitude: a negative one is read as "no fix" (NaN)
+        chans[k] = np.abs(vals) if k == "gps_speed" else np.array(vals)
     events = {}
     if draw(st.booleans()):
         events["wss_ticks"] = np.array(draw(st.lists(_FINITE, max_size=10)))

@@ -143,3 +143,22 @@ def test_an_accelerometer_in_g_read_as_si_is_noted(tmp_path):
     assert not any("look like g" in s for s in r.notes)
     assert np.median(np.linalg.norm([r["ax"], r["ay"], r["az"]], axis=0)) == pytest.approx(
         9.80665 * med)
+
+
+def test_gps_speed_minus_one_is_no_fix(tmp_path):
+    """A phone log through a mapping (or as canonical CSV) with -1 for "no fix": the -1 fixes
+    become NaN with a note, not fixes of -1 m/s that a GPS method would follow (fuse went to
+    -0.9 m/s through such a stretch); valid fixes, 0 included, are kept."""
+    p = tmp_path / "log.csv"
+    p.write_text("time,acc,v,hacc\n0,1,-1,-1\n0.1,1,,\n0.2,1,0,5\n0.3,1,12.5,4\n0.4,1,-1,-1\n")
+    r = read(p, columns="t=time,ay=acc,gps_speed=v,gps_hacc=hacc")
+    np.testing.assert_array_equal(r["gps_speed"], [np.nan, np.nan, 0.0, 12.5, np.nan])
+    np.testing.assert_array_equal(r["gps_hacc"], [np.nan, np.nan, 5.0, 4.0, np.nan])
+    notes = "\n".join(r.notes)
+    assert "gps_speed: 2 negative value(s) read as no fix (NaN" in notes
+    assert "gps_hacc: 2 negative value(s)" in notes
+    c = tmp_path / "canon.csv"
+    c.write_text("t,ay,gps_speed\n0,1,-1\n0.1,1,3\n0.2,1,-1\n")
+    r = read(c)
+    np.testing.assert_array_equal(r["gps_speed"], [np.nan, 3.0, np.nan])
+    assert any(n.startswith("gps_speed: 2 negative value(s)") for n in r.notes)

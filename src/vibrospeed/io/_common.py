@@ -54,9 +54,32 @@ def finish(
         rec = sort_dedup(rec)
     else:
         check_increasing(rec.t, source, rows=lines)
+    rec.notes.extend(no_fix_as_nan(rec))
     rec.notes.extend(describe_timebase(rec))
     rec.notes.extend(gravity_notes(rec))
     return rec
+
+
+def no_fix_as_nan(rec: Recording) -> list[str]:
+    """Negative ``gps_speed`` / ``gps_hacc`` set to NaN (in place), with a note.
+
+    A speed over ground and an accuracy are magnitudes; phone apps write -1 for "no fix"
+    (phyphox, Sensor Logger: their readers turn it into NaN themselves). A log exported
+    through a column mapping or as a canonical CSV keeps the -1, which the GPS methods would
+    take for a fix of -1 m/s."""
+    notes = []
+    for name in ("gps_speed", "gps_hacc"):
+        x = rec.channels.get(name)
+        if x is None:
+            continue
+        with np.errstate(invalid="ignore"):
+            neg = np.asarray(x) < 0
+        n = int(np.count_nonzero(neg))
+        if n:
+            rec.channels[name] = np.where(neg, np.nan, x)
+            notes.append(f"{name}: {n} negative value(s) read as no fix (NaN; apps write -1 "
+                         "for no fix)")
+    return notes
 
 
 def gravity_notes(rec: Recording) -> list[str]:
