@@ -511,3 +511,27 @@ def test_an_aided_ekf_name_with_the_ekf_tracker_still_runs(logs, tmp_path):
                "-o", out)
     assert res.exit_code == 0, res.output
     assert json.loads(out.with_name("e.csv.json").read_text())["params"]["amp0"] == 1.0
+
+
+def test_info_on_a_slow_phone_log_says_the_omega_max_that_grid_and_fuse_need(tmp_path):
+    """A 35 Hz phone log with GPS: info said "fuse ... estimate's default for such a log" while
+    estimate then refused the default 120 rad/s ("too low for omega up to 120 rad/s"). It now
+    names the limit, pi fs, and estimate takes an omega_max just below it and refuses one just
+    above (the grid tracker's own test)."""
+    log = tmp_path / "slow.csv"
+    assert _run("simulate", "--scenario", "car", "--duration", 20, "--fs", 35,
+                "-o", log).exit_code == 0
+    fs = io.read(log).fs
+    top = np.pi * fs
+    feed = _can_feed(_run("info", log))
+    assert f"grid and fuse need -p omega_max below {top:.0f} rad/s at this rate (default 120)" \
+        in feed
+    assert f"estimate's default for such a log, with -p omega_max below {top:.0f} rad/s)" in feed
+    assert "refused" not in _run("estimate", log, "-p", f"omega_max={top - 1:.1f}",
+                                 "-o", tmp_path / "ok.csv").output
+    assert (tmp_path / "ok.csv").exists()
+    res = _run("estimate", log, "-p", f"omega_max={top + 0.5:.1f}", "-o", tmp_path / "no.csv")
+    assert res.exit_code == 2 and "too low for omega up to" in res.output
+    fast = tmp_path / "fast.csv"  # the scenario's own rate: the default range fits
+    assert _run("simulate", "--scenario", "car", "--duration", 5, "-o", fast).exit_code == 0
+    assert "omega_max below" not in _can_feed(_run("info", fast))

@@ -151,6 +151,7 @@ def info(
 
       vibrospeed info ../shared/datasets/hungary_car_phyphox/rsq_q2_00
     """
+    from vibrospeed import estimators
     from vibrospeed.estimators import fuse
     from vibrospeed.io.timebase import describe_timebase
 
@@ -179,9 +180,16 @@ def info(
         out.print(f"note: {note}", markup=False)
     ch = set(rec.channels)
     uses = []
+    # the grid tracker (grid's default, fuse's vibration) needs omega_max below pi fs (its
+    # refusal in estimators.grid.app); at a phone's 16 Hz its default 120 rad/s is refused
+    grid_max = float(estimators.get("grid").Config().tracker.omega_max)
+    fund = np.pi * rec.fs
+    grid_need = (f"; grid and fuse need -p omega_max below {fund:.0f} rad/s at this rate "
+                 f"(default {grid_max:.0f})" if fund <= grid_max else "")
     if ch & {"ax", "ay", "az"}:
         top = np.pi * rec.fs / 2  # highest omega with M = 2 harmonics below Nyquist
         limit = "" if top >= 120 else f"; only up to omega = {top:.0f} rad/s at this rate, M = 2"
+        limit += grid_need
         axes = sorted(ch & {"ax", "ay", "az"})
         both = f"; grid -p comb_axes=all reads {', '.join(axes)} together" if len(axes) > 1 else ""
         uses.append(f"ekf, rbpmf, grid, rbpf, shs (vibrations{limit}{both})")
@@ -191,7 +199,8 @@ def info(
         uses.append("gps-riss")
     if fuse.suits(rec):  # the estimator's own test, as `estimate` uses to choose its method
         uses.append("fuse (vibration + acceleration + GPS speed; estimate's default for such "
-                    "a log)")
+                    "a log" + (f", with -p omega_max below {fund:.0f} rad/s" if grid_need else "")
+                    + ")")
     elif "ax" in ch:
         uses.append("fuse (with --wheel-radius or --radius-from: no GPS speed fix)")
     if {"gz", "ax", "ay"} <= ch and all(f"wheel_omega_{w}" in ch for w in ("fl", "fr", "rl", "rr")):
