@@ -149,3 +149,14 @@ def test_fixes_inside_an_accelerometer_gap_keep_rows_of_their_own(tmp_path):
     assert not any("same sample" in n for n in r.notes)
     # the time-line notes describe the accelerometer: one gap of 5.01 s, not 5 of about 1 s
     assert "1 time gap(s) longer than 3 periods, longest 5.01 s (first at t = 2.99 s)" in r.notes
+
+
+def test_phone_axes_note_names_the_longitudinal_axis(tmp_path):
+    """A phone's x is its right edge; fuse and gps-riss read ax as forward unless told: the
+    phyphox and Sensor Logger readers say which axis to give them."""
+    from vibrospeed.io._common import PHONE_AXES_NOTE
+
+    _export(tmp_path / "e")
+    r = read_phyphox(tmp_path / "e")
+    assert PHONE_AXES_NOTE in r.notes
+    assert "-p accel_axis=y" in PHONE_AXES_NOTE and "--axis y" in PHONE_AXES_NOTE

@@ -298,6 +298,7 @@ def test_fixes_inside_an_accelerometer_gap_keep_rows_of_their_own(tmp_path):
     assert any("3 valid GPS fix(es) inside accelerometer gaps" in n for n in r.notes)
     assert any("1 valid GPS fix(es) fell on the same sample" in n for n in r.notes)
     assert "1 time gap(s) longer than 3 periods, longest 5.01 s (first at t = 2.99 s)" in r.notes
+    assert any("give -p accel_axis=y to fuse" in n for n in r.notes)  # phone axes, as phyphox
 
 
 def test_empty_and_nan_accelerometer_cells_are_noted(tmp_path):

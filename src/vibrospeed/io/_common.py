@@ -143,6 +143,14 @@ def exc_text(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
+#: The note of the phone readers (phyphox, Sensor Logger): vibrospeed's x is forward, a phone's
+#: is its right edge, and ``fuse`` / ``gps-riss`` read ``ax`` as the longitudinal acceleration
+#: unless told (docs/formats.md).
+PHONE_AXES_NOTE = ("phone axes (x right, y to the top edge, z out of the screen): lying flat with "
+                   "the top edge forward, y is longitudinal and x lateral; give -p accel_axis=y "
+                   "to fuse and --axis y to gps-riss (they read ax otherwise)")
+
+
 #: Suffixes of files that are never recordings: sidecars, images, pages, notes, settings.
 NOT_RECORDING_SUFFIXES = frozenset({".json", ".png", ".jpg", ".jpeg", ".svg", ".html", ".htm",
                                     ".md", ".toml", ".yaml", ".yml"})

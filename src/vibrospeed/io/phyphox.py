@@ -50,7 +50,7 @@ from typing import IO
 import numpy as np
 
 from vibrospeed.errors import ReaderError
-from vibrospeed.io._common import export_folders, finish, several_exports
+from vibrospeed.io._common import PHONE_AXES_NOTE, export_folders, finish, several_exports
 from vibrospeed.io._csv import CsvTable, nan_notes, text_stream
 from vibrospeed.io.timebase import interp_onto, nearest_index, row_order, rows_for_fixes
 from vibrospeed.types import Recording
@@ -204,6 +204,7 @@ def read_phyphox(path: str | os.PathLike[str], *, sort: bool = False) -> Recordi
     notes.extend(nan_notes(chans, src.labels[ACC]))
     fs = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else float("nan")
     notes.append(f"phyphox {src.labels[ACC]}: {t.size} samples, master time line (~{fs:.4g} Hz)")
+    notes.append(PHONE_AXES_NOTE)
     loc = _read_location(src, sort, notes) if LOC in src.files else None
     added = np.empty(0)
     if loc is not None:  # fixes inside accelerometer gaps: rows of their own (not lost)

@@ -63,7 +63,7 @@ import numpy as np
 
 from vibrospeed.errors import ReaderError
 from vibrospeed.io._archive import SafeZip
-from vibrospeed.io._common import export_folders, finish, several_exports
+from vibrospeed.io._common import PHONE_AXES_NOTE, export_folders, finish, several_exports
 from vibrospeed.io._csv import CsvTable, nan_notes
 from vibrospeed.io.timebase import interp_onto, nearest_index, row_order, rows_for_fixes
 from vibrospeed.types import Recording
@@ -248,6 +248,7 @@ def read_sensorlogger(path: str | os.PathLike[str], *, sort: bool = False) -> Re
     fs = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else float("nan")
     label = src.label(master)
     notes.append(f"Sensor Logger {label}: {t.size} samples, master time line (~{fs:.4g} Hz)")
+    notes.append(PHONE_AXES_NOTE)
     loc = _read_location(src, t_ref, scale, sort, notes) if LOC in have else None
     added = np.empty(0)
     if loc is not None:  # fixes inside accelerometer gaps: rows of their own (not lost)
