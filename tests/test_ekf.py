@@ -116,3 +116,21 @@ def test_step_makes_the_state_check_message_only_for_a_wrong_state(monkeypatch):
         ekf.step(cfg, wrong, 0.1)
     assert str(exc.value) == ("ekf state: x, P, comb ((7,), (7, 7), (3,)) do not match the "
                               "config's M = 2 (wanted ((5,), (5, 5), (3,)))")
+
+
+def test_normalize_tau_is_read_as_a_number_and_text_that_is_not_one_is_named():
+    """``normalize_tau`` given as text (the CLI's ``-p``) is the number it spells: ``0`` is the
+    thesis model in the signal's units, ``5`` the unit-RMS one (UNIT_RMS_MODEL); other text is
+    one :class:`ParameterError` naming it (was an internal ValueError from ``float``)."""
+    from vibrospeed.errors import ParameterError
+    from vibrospeed.types import Recording
+
+    t = np.arange(400) / 100.0
+    rec = Recording(t=t, channels={"ay": np.cos(W0 * t)}, wheel_radius=0.1)
+    thesis = HarmonicModel.from_thesis()
+    assert ekf.config_for(rec, params={"normalize_tau": "0"}).model.r == thesis.r
+    assert ekf.config_for(rec, params={"normalize_tau": "5"}).model.r \
+        == ekf.UNIT_RMS_MODEL["r"] == ekf.config_for(rec).model.r
+    with pytest.raises(ParameterError) as err:
+        ekf.estimate(rec, params={"normalize_tau": "abc"})
+    assert str(err.value) == "parameter 'normalize_tau': cannot read 'abc' as float (a number)"

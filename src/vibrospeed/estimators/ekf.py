@@ -39,7 +39,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vibrospeed.config import check_state, config_from_params, parse_flag
+from vibrospeed.config import check_state, config_from_params, parse_flag, parse_number
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators.kalman import joseph_update
 from vibrospeed.models.harmonic import HarmonicModel
@@ -363,7 +363,7 @@ def _settings(params: dict | None, dt: float) -> tuple[Config, str, float, bool]
     model_kw, cfg_kw = split_params(HarmonicModel, dict(params or {}))
     model_kw.pop("dt", None)
     pre = str(cfg_kw.pop("prefilter", "thesis-hp"))
-    tau = float(cfg_kw.pop("normalize_tau", 5.0))
+    tau = parse_number(cfg_kw.pop("normalize_tau", 5.0), "normalize_tau")
     comb_on = parse_flag(cfg_kw.pop("comb", True), "comb")
     cfg_kw.setdefault("acquire", comb_on and "omega0" not in cfg_kw)
     defaults = dict(UNIT_RMS_MODEL) if tau > 0 else HarmonicModel.from_thesis().to_dict()
