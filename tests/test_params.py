@@ -4,6 +4,7 @@ with commas, one-line errors; round trips value -> text -> value with hypothesis
 import dataclasses
 import math
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -157,7 +158,8 @@ def test_scenario_knob_errors_name_the_dotted_knob():
 
 
 @pytest.mark.parametrize("method,name", [("ekf", "comb"), ("aided", "causal"),
-                                         ("fuse", "online"), ("rbpmf", "improved")])
+                                         ("fuse", "online"), ("rbpmf", "improved"),
+                                         ("grid", "improved")])
 def test_an_estimator_switch_outside_the_configs_is_read_strictly(method, name):
     """A switch that is not a Config field (read by the method's estimate) takes true/false,
     1/0, yes/no, on/off; other text is a one-line ParameterError naming it."""
@@ -170,6 +172,19 @@ def test_an_estimator_switch_outside_the_configs_is_read_strictly(method, name):
     rec = sim.simulate("car", seed=1, duration=4.0)
     with pytest.raises(ParameterError, match=f"'{name}'.*'perhaps'"):
         estimators.get(method).estimate(rec, wheel_radius=0.3, params={name: "perhaps"})
+
+
+def test_grid_reads_improved_and_is_the_improved_filter_either_way():
+    """``-m grid`` is the improved RBPMF: ``improved`` (read as a switch, as ``rbpmf`` reads
+    it) leaves its numbers as they are without it, bit for bit."""
+    from vibrospeed import sim
+    from vibrospeed.estimators import grid
+
+    rec = sim.simulate("car", seed=1, duration=4.0)
+    base = grid.estimate(rec, wheel_radius=0.3).omega
+    for value in ("true", "false", "yes", 0):
+        tr = grid.estimate(rec, wheel_radius=0.3, params={"improved": value})
+        assert np.array_equal(tr.omega, base, equal_nan=True)
 
 
 def test_a_number_read_outside_the_configs():

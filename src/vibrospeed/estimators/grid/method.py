@@ -23,7 +23,7 @@ import numpy as np
 import vibrospeed.estimators.grid.app as _app
 import vibrospeed.estimators.grid.config as _cfg
 import vibrospeed.estimators.grid.filter as _filt
-from vibrospeed.config import config_from_params, parse_value
+from vibrospeed.config import config_from_params, parse_flag, parse_value
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.grid.comb import frame_evidence  # noqa: F401 (API)
 from vibrospeed.estimators.grid.frames import evidence, frame_ends_at, step_evidence
@@ -388,7 +388,9 @@ def _prepare(recording: Recording, axis: str, params: dict | None):
     """``(config, y, rms, notes)``; ``y`` (n,), or (n, A) with the tracked axis in column 0
     when ``comb_axes`` names other axes too."""
     params = dict(params or {})
-    params.pop("improved", None)
+    # read as rbpmf reads it (-p improved=perhaps is refused alike); either value is this
+    # filter: the grid tracker is the improved RBPMF (GRID_DEFAULTS) whatever it says
+    parse_flag(params.pop("improved", True), "improved")
     comb_kw = {k: params.pop(k) for k in list(params) if k in _COMB}
     model_names = {f.name for f in dataclasses.fields(HarmonicModel)}
     params = {**{k: v for k, v in GRID_DEFAULTS.items() if k not in model_names}, **params}
