@@ -408,13 +408,45 @@ def test_fuse_checks_the_names_it_hands_to_its_grid_tracker(logs, tmp_path, monk
 
 def test_every_preset_and_documented_example_passes_the_number_check():
     from vibrospeed import estimators, presets
-    from vibrospeed.cli.base import _check_numbers
+    from vibrospeed.batch.single import check_values
 
     for method in estimators.METHODS:
         for name in presets.presets(method):
-            _check_numbers(method, presets.preset_params(method, name))
-        _check_numbers(method, {k: p.example for k, p in presets.PARAMETERS.get(method,
-                                                                                 {}).items()})
+            check_values(method, presets.preset_params(method, name))
+        check_values(method, {k: p.example for k, p in presets.PARAMETERS.get(method,
+                                                                                {}).items()})
+
+
+@pytest.mark.parametrize(("method", "param", "line"), [
+    ("ekf", "normalize_tau=abc", "parameter 'normalize_tau': cannot read 'abc' as float "
+                                 "(a number)"),
+    ("ekf", "comb=maybe", "parameter 'comb': cannot read 'maybe' as bool (true or false)"),
+    ("rbpmf", "improved=1.0", "parameter 'improved': cannot read '1.0' as bool (true or false)"),
+    ("grid", "improved=perhaps", "parameter 'improved': cannot read 'perhaps' as bool "
+                                 "(true or false)"),
+    ("grid", "omega_max=abc", "parameter 'omega_max': cannot read 'abc' as float (a number)"),
+    ("aided", "wheelbase=long", "parameter 'wheelbase': cannot read 'long' as float | None "
+                                "(a number, or none)"),
+    ("aided", "causal=sometimes", "parameter 'causal': cannot read 'sometimes' as bool "
+                                  "(true or false)"),
+    ("aided", "tracker=bogus", "parameter 'tracker': cannot read 'bogus' as 'grid' | 'ekf' | "
+                               "'rbpmf' (choose from grid, ekf, rbpmf)"),
+    ("aided", "amp0=abc", "unknown parameter 'amp0' for method 'aided' with this tracker: "
+                          "it is the EKF tracker's (-p tracker=ekf)"),
+    ("fuse", "online=perhaps", "parameter 'online': cannot read 'perhaps' as bool "
+                               "(true or false)"),
+])
+def test_estimate_and_batch_refuse_a_value_with_the_same_line_before_reading(
+        logs, tmp_path, monkeypatch, method, param, line):
+    """A ``-p`` value its types cannot read (:func:`vibrospeed.estimators.parameters`) is one
+    line, exit 2, from ``estimate`` as from ``batch``, before the recording is read: both read
+    it with :func:`vibrospeed.batch.single.check_values`."""
+    _no_work(monkeypatch)
+    est = _run("estimate", logs["car"], "-m", method, "-p", param, "-o", tmp_path / "e.csv")
+    bat = _run("batch", logs["car"], "-m", method, "-p", param, "-o", tmp_path / "out")
+    assert est.exit_code == bat.exit_code == 2
+    assert _err(est) == _err(bat) == f"vibrospeed: error: {line}"
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_simulate_refuses_its_own_arguments_given_by_set(tmp_path):

@@ -75,14 +75,10 @@ class EstimateOptions:
 
         names = estimators.parameters(self.method)
         params = self.estimator_params()
-        for name, value in params.items():
+        for name in params:
             if name not in names:
                 raise unknown(name, f"method '{self.method}'", names)
-            # a name only the tracker not chosen takes (-m aided -p amp0=1 with the grid one)
-            refusal = other_trackers_name(self.method, name, params)
-            if refusal is not None:
-                raise refusal
-            _read(name, value, names[name])
+        check_values(self.method, params)
 
     def check_reading(self) -> None:
         """Refuse reading options that no recording could satisfy, before any is read: a format
@@ -167,7 +163,26 @@ def other_trackers_name(method: str, name: str,
                           f"tracker: it is {owners[0]}")
 
 
-def _read(name: str, value: Any, types: list[Any], stored: bool = False) -> Any:
+def check_values(method: str, params: dict[str, Any]) -> None:
+    """Refuse a ``-p`` value that none of its name's types reads
+    (:func:`vibrospeed.estimators.parameters`, :func:`read_param`: ``-p omega_max=abc``,
+    ``-p comb=1.0``, ``-p tracker=bogus``), or a name only the tracker not chosen takes
+    (``-m aided -p amp0=1`` with the grid one), with the estimator's one line; a name the
+    method does not take is left to the caller. ``vibrospeed estimate`` and ``batch`` both
+    call it before any recording is read, so they refuse the same values with the same line."""
+    from vibrospeed import estimators
+
+    names = estimators.parameters(method)
+    for name, value in params.items():
+        if name not in names:
+            continue
+        refusal = other_trackers_name(method, name, params)
+        if refusal is not None:
+            raise refusal
+        read_param(name, value, names[name])
+
+
+def read_param(name: str, value: Any, types: list[Any], stored: bool = False) -> Any:
     """``value`` read as the first of ``types`` that reads it
     (:func:`vibrospeed.config.parse_value`), else the first type's one-line
     :class:`ParameterError`. ``stored``: the value is from a sidecar, where a switch
@@ -207,7 +222,7 @@ def canonical_params(method: str, params: dict[str, Any], *,
     for name, value in sorted(params.items()):
         text = value if isinstance(value, str) else format_value(value)
         try:
-            text = format_value(_read(name, text, types.get(name, []), stored))
+            text = format_value(read_param(name, text, types.get(name, []), stored))
         except ParameterError:
             pass
         out[str(name)] = text

@@ -230,70 +230,16 @@ def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate:
 
 
 def _params(method: str, preset: str | None, param: list[str] | None) -> dict[str, str]:
-    """The estimator parameters: the preset's, then the -p flags over them; a number parameter
-    given text that is not one is refused here, before any work (:func:`_check_numbers`)."""
+    """The estimator parameters: the preset's, then the -p flags over them; a value its types
+    cannot read is refused here, before any work, with the line ``batch`` refuses it with
+    (:func:`vibrospeed.batch.single.check_values`)."""
     from vibrospeed import presets
+    from vibrospeed.batch.single import check_values
     from vibrospeed.config import parse_params
 
     params = presets.apply(method, preset, parse_params(param))
-    _check_numbers(method, params)
+    check_values(method, params)
     return params
-
-
-def _number_fields(cls) -> dict[str, list]:
-    """The names ``-p`` reaches through Config dataclass ``cls``
-    (:func:`vibrospeed.config.flat_fields`) whose field holds numbers: ``float``, ``int``,
-    either or None, or a tuple / list of them; each name with those field types."""
-    import types
-    import typing
-
-    from vibrospeed.config import flat_fields
-
-    def numeric(typ) -> bool:
-        origin, args = typing.get_origin(typ), typing.get_args(typ)
-        if origin in (typing.Union, types.UnionType):
-            rest = [a for a in args if a is not type(None)]
-            return bool(rest) and all(numeric(a) for a in rest)
-        if origin in (tuple, list):
-            items = [a for a in args if a is not Ellipsis]
-            return bool(items) and all(a in (float, int) for a in items)
-        return typ in (float, int)
-
-    out = {name: [t for t in typs if numeric(t)] for name, typs in flat_fields(cls).items()}
-    return {name: typs for name, typs in out.items() if typs}
-
-
-def _check_numbers(method: str, params: dict[str, Any]) -> None:
-    """Refuse a ``-p`` value that the method's Config reads as numbers but that is not
-    (``-p omega_max=abc``): the Config's own one-line :class:`ParameterError`
-    (``parameter 'omega_max': cannot read 'abc' as float (a number)``), raised before the
-    recording is read, for every method alike (some estimators read a number parameter
-    before their Config does). Names the Config does not know (fuse: nor its grid tracker's)
-    are left to the estimator."""
-    import dataclasses
-
-    from vibrospeed import estimators
-    from vibrospeed.config import parse_value
-
-    fields: dict[str, list] = {}
-    # fuse hands the names its Config lacks to its grid tracker (fuse.estimate's docstring)
-    for name in {"fuse": ("fuse", "grid")}.get(method, (method,)):
-        cfg = getattr(estimators.get(name), "Config", None) \
-            if name in estimators.METHODS else None
-        if dataclasses.is_dataclass(cfg):
-            own = _number_fields(cfg)
-            fields.update({k: v for k, v in own.items() if k not in fields})
-    for name, text in params.items():
-        if not isinstance(text, str) or name not in fields:
-            continue
-        errors = []
-        for typ in fields[name]:
-            try:
-                parse_value(text, typ, name)
-            except ParameterError as exc:
-                errors.append(exc)
-        if len(errors) == len(fields[name]):
-            raise errors[0]
 
 
 def _unknown_hint(method: str, exc: ParameterError) -> ParameterError:
