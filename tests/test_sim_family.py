@@ -1,5 +1,7 @@
 """The randomised family ``random`` (issue 13): determinism, drawn ranges, calibration."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -102,3 +104,31 @@ def test_lowfreq_body_motion_level_and_band():
     d = rec.meta["drawn"]
     assert all(0.0 < s <= 1.0 for s in d["lowfreq_std"])
     assert 0.5 <= d["lowfreq_cutoff"] <= 2.0
+
+
+@pytest.mark.parametrize(("knob", "value", "says"), [
+    ("vehicle", "truck", "vehicle must be any, car, forklift, cart, got 'truck'"),
+    ("level", float("inf"), "level must be 0 (drawn) or finite and > 0, got inf"),
+    ("level", -1.0, "level must be 0 (drawn) or finite and > 0, got -1.0"),
+    ("fs", -5.0, "fs must be 0 (drawn) or finite and > 0 Hz, got -5.0"),
+    ("p_stop", 2.0, "p_stop must be in [0, 1], got 2.0"),
+    ("duration", float("nan"), "duration must be > 0 s, got nan"),
+])
+def test_knobs_out_of_range_are_refused_naming_them(knob, value, says):
+    # an unknown vehicle was a KeyError inside draw() (the CLI's "internal error"), an infinite
+    # level a recording of NaN and inf, the rest silently something else
+    from vibrospeed.errors import ParameterError
+
+    with pytest.raises(ParameterError, match=r"^random: " + re.escape(says) + "$"):
+        family.RandomConfig(**{knob: value})
+    with pytest.raises(ParameterError, match=re.escape(says)):
+        sim.simulate("random", seed=1, **({"duration": 5.0} if knob != "duration" else {}),
+                     **{knob: value})
+
+
+def test_the_drawn_knobs_at_their_edges_still_draw():
+    for kw in ({"fs": 0.0, "level": 0.0}, {"p_stop": 0.0}, {"p_stop": 1.0},
+               {"vehicle": "forklift", "level": 2.0, "fs": 50.0}):
+        rec = sim.simulate("random", seed=2, duration=10, **kw)
+        assert np.isfinite(rec["ay"]).all()
+    assert rec.meta["drawn"]["vehicle"] == "forklift" and rec.fs == pytest.approx(50.0)

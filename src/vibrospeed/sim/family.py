@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vibrospeed.errors import ParameterError
 from vibrospeed.sim.scenarios import _drive, random_segments, register
 from vibrospeed.sim.sensors import G0, ImuConfig
 from vibrospeed.sim.vibration import EngineConfig, VibrationConfig
@@ -72,6 +73,22 @@ class RandomConfig:
     """Comb level relative to the calibration point; 0 draws it log-uniform in [0.1, 10]."""
     p_stop: float = 0.35
     """Probability that a cruise ends in a stop."""
+
+    def __post_init__(self) -> None:
+        # an unknown vehicle was a KeyError deep in draw(); an infinite level a recording of
+        # NaN and inf; a negative fs or level, a p_stop outside [0, 1] silently meant something
+        if self.vehicle != "any" and self.vehicle not in VEHICLES:
+            raise ParameterError(f"random: vehicle must be any, {', '.join(VEHICLES)}, got "
+                                 f"'{self.vehicle}'")
+        if not (self.duration > 0 and np.isfinite(self.duration)):
+            raise ParameterError(f"random: duration must be > 0 s, got {self.duration}")
+        for name, unit in (("fs", " Hz"), ("level", "")):
+            v = getattr(self, name)
+            if not (v >= 0 and np.isfinite(v)):
+                raise ParameterError(f"random: {name} must be 0 (drawn) or finite and > 0{unit}, "
+                                     f"got {v}")
+        if not 0 <= self.p_stop <= 1:
+            raise ParameterError(f"random: p_stop must be in [0, 1], got {self.p_stop}")
 
 
 def _loguniform(rng: np.random.Generator, lo: float, hi: float) -> float:
