@@ -129,3 +129,36 @@ def test_causal_option_and_errors():
     with pytest.raises(Exception, match="comb_count"):
         aided.Config(comb_count=0)
 
+
+
+@pytest.mark.parametrize("tracker", ["ekf", "grid", "rbpmf"])
+def test_every_tracker_refuses_an_accel_offset_it_does_not_take_alike(tracker):
+    """``accel_offset`` is 'standstill' or 'none' (aided.config.ACCEL_OFFSET) for every
+    tracker; the grid ones took any other text as 'none'."""
+    from vibrospeed.errors import ParameterError
+    from vibrospeed.types import Recording
+
+    t, _, y, u = _drive(n=600)
+    rec = Recording(t=t, channels={"ay": y, "ax": u}, wheel_radius=0.1)
+    with pytest.raises(ParameterError) as err:
+        aided.estimate(rec, params={"tracker": tracker, "accel_offset": "bogus"})
+    assert str(err.value) == ("parameter 'accel_offset': cannot read 'bogus' as 'standstill' | "
+                              "'none' (choose from standstill, none)")
+
+
+@pytest.mark.parametrize("causal", [False, True])
+def test_grid_tracker_reads_wheelbase_and_detrend_as_numbers(causal):
+    """``wheelbase`` and ``accel_detrend`` given as text (``-p``) are the numbers they spell:
+    the estimate is the one from the numbers, bit for bit, and the Track's params hold the
+    numbers (they held the text)."""
+    from vibrospeed.types import Recording
+
+    t, _, y, u = _drive()
+    rec = Recording(t=t, channels={"ay": y, "ax": u}, wheel_radius=0.1)
+    base = {"tracker": "grid", "accel_axis": "ax", "causal": causal}
+    text = aided.estimate(rec, params={**base, "wheelbase": "0.6", "accel_detrend": "0.5"})
+    num = aided.estimate(rec, params={**base, "wheelbase": 0.6, "accel_detrend": 0.5})
+    assert np.array_equal(text.omega, num.omega, equal_nan=True)
+    for tr in (text, num):
+        assert type(tr.params["wheelbase"]) is float and tr.params["wheelbase"] == 0.6
+        assert type(tr.params["accel_detrend"]) is float and tr.params["accel_detrend"] == 0.5

@@ -14,7 +14,7 @@ import numpy as np
 from vibrospeed.config import config_from_params, parse_flag, parse_number, parse_value
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import TRACKER
-from vibrospeed.estimators.aided.config import Config, _thesis_model
+from vibrospeed.estimators.aided.config import ACCEL_OFFSET, Config, _thesis_model
 from vibrospeed.estimators.aided.filter import run
 from vibrospeed.estimators.aiding import (
     aiding_inputs,
@@ -104,9 +104,8 @@ def estimate(
     wheelbase = parse_number(cfg_kw.pop("wheelbase", None), "wheelbase", optional=True)
     detrend = parse_number(cfg_kw.pop("accel_detrend", 0.0), "accel_detrend")
     causal = parse_flag(cfg_kw.pop("causal", False), "causal")
-    offset_kind = str(cfg_kw.pop("accel_offset", "standstill"))
-    if offset_kind not in ("standstill", "none"):
-        raise ParameterError(f"accel_offset must be 'standstill' or 'none', got '{offset_kind}'")
+    offset_kind = parse_value(str(cfg_kw.pop("accel_offset", "standstill")), ACCEL_OFFSET,
+                              "accel_offset")
     om_min = parse_number(cfg_kw.pop("omega_min", None), "omega_min", optional=True)
     cfg_kw.setdefault("standstill", "broadband")
     cfg_kw_comb = cfg_kw.pop("comb", True)

@@ -16,6 +16,7 @@ from vibrospeed.config import flat_names, parse_number, parse_value, unknown
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
+from vibrospeed.estimators.aided.config import ACCEL_OFFSET
 from vibrospeed.estimators.aided_grid.config import Config, _cart_tracker
 from vibrospeed.estimators.aided_grid.filter import run
 from vibrospeed.estimators.aiding import (
@@ -160,6 +161,15 @@ def estimate(
     if unknown_here:
         raise unknown(unknown_here[0], Config.__name__, flat_names(Config))
     lp = parse_number(inp.get("lp_cutoff"), "lp_cutoff", optional=True)
+    # the inputs shared with the EKF tracker, read as aided.estimate reads them (a value it
+    # refuses is refused here alike; the Track's params hold the values read, not the text)
+    if "wheelbase" in inp:
+        inp["wheelbase"] = parse_number(inp["wheelbase"], "wheelbase", optional=True)
+    if "accel_detrend" in inp:
+        inp["accel_detrend"] = parse_number(inp["accel_detrend"], "accel_detrend")
+    if "accel_offset" in inp:
+        inp["accel_offset"] = parse_value(str(inp["accel_offset"]), ACCEL_OFFSET,
+                                          "accel_offset")
     vib_name = axis_channel(axis)
     recording.require(vib_name)
     gain = None
@@ -235,10 +245,9 @@ def estimate(
     else:
         u, ref, ref_var, more = aiding_inputs(
             recording, dt, float(r), accel_axis=accel_axis,
-            detrend=parse_number(inp.get("accel_detrend", 0.0), "accel_detrend"),
-            reference=str(inp.get("reference", "none")),
-            wheelbase=parse_number(inp.get("wheelbase"), "wheelbase", optional=True))
-        if str(inp.get("accel_offset", "none" if kind == "rbpmf" else "standstill")) \
+            detrend=inp.get("accel_detrend", 0.0), reference=str(inp.get("reference", "none")),
+            wheelbase=inp.get("wheelbase"))
+        if inp.get("accel_offset", "none" if kind == "rbpmf" else "standstill") \
                 == "standstill" and still is not None:
             off = standstill_offset(u, still, causal=causal)
             u = u - off
