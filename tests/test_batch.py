@@ -800,3 +800,18 @@ def test_the_band_distances_are_the_estimates_band_integrated(tmp_path):
         ref = np.sum((0.5 * (edge[1:] + edge[:-1]) * np.diff(est.t))[ok])
         assert row[col] == pytest.approx(ref, rel=1e-9), col
     assert row["distance_lo_m"] < row["distance_m"] < row["distance_hi_m"]
+
+
+def test_the_fleets_page_example_of_a_value_its_type_cannot_read_is_the_line_batch_prints(
+        tmp_path):
+    """docs/fleets.md lists a ``-p`` value its type cannot read among the mistakes that stop a
+    batch up front, with an example and its line: the example run prints that line, exit 2."""
+    doc = (Path(__file__).parents[1] / "docs" / "fleets.md").read_text()
+    m = re.search(r"a `-p` value\s+its type cannot read \(`([^`]+)`:\s+`([^`]+)`\)", doc)
+    assert m is not None, "docs/fleets.md: the example of a -p value its type cannot read"
+    io.write(sim.simulate("cart", seed=0, duration=2), tmp_path / "drive.csv")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(app, ["batch", str(tmp_path / "drive.csv"), "-o", str(out),
+                                   "-j", "1", *m.group(1).split()])
+    assert res.exit_code == 2 and not out.exists(), res.output
+    assert res.stderr == f"vibrospeed: error: {m.group(2)}\n"
