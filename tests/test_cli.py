@@ -1,6 +1,7 @@
 """The ``vibrospeed`` command end to end, and its one-line errors (exit status 2)."""
 
 import json
+import re
 import subprocess
 import sys
 
@@ -229,8 +230,6 @@ def test_batch_counts_the_drives_without_a_measurement(tmp_path):
 def _shell_lines(text: str) -> list[str]:
     """The commands of a page's ```sh blocks, continuation lines (``\\``) joined, comments
     dropped."""
-    import re
-
     lines = []
     for block in re.findall(r"```sh\n(.*?)```", text, flags=re.S):
         for cmd in block.replace("\\\n", " ").splitlines():
@@ -418,3 +417,27 @@ def test_a_preset_of_another_method_without_m_names_the_methods_that_have_it(dri
     # a name no method has: grid's list, as before
     assert "unknown preset 'nope' for method 'grid' (choose from: default, online, lock)" \
         in _err(_run("estimate", drive, "--preset", "nope", "-o", "x.csv"))
+
+
+def test_evaluate_leaves_out_the_claimed_rows_where_nothing_was_claimed(drive, tmp_path):
+    # a grid tracker that claims no line (has_signal 0 throughout): the share row says 0.0 %,
+    # and the rows scored "there" are left out (they printed "nan" and "nan%")
+    from vibrospeed.types import Track
+
+    rec = io.read(drive)
+    truth = rec["omega_true"]
+    for claims, name in ((np.zeros(rec.t.size), "none.csv"),
+                         ((truth > 5).astype(float), "some.csv")):
+        track = Track.from_omega(rec.t, truth + 0.5, np.full(rec.t.size, 0.4),
+                                 wheel_radius=0.08, method="grid",
+                                 extras={"has_signal": claims})
+        io.write_track(track, tmp_path / name)
+        res = _run("evaluate", tmp_path / name, "--truth", drive)
+        assert res.exit_code == 0, res.output
+        assert "nan" not in res.stdout
+        has_rows = "RMSE there" in res.stdout and "band coverage there" in res.stdout
+        assert has_rows == bool(claims.any()), res.stdout
+        share = 100 * np.mean(claims[truth > 1.0])  # of the moving samples
+        assert re.search(rf"share where it claims a signal +│ +{share:.1f}%", res.stdout)
+        if claims.any():  # the estimate is the truth + 0.5 rad/s everywhere
+            assert re.search(r"RMSE there +│ +0\.500 │ rad/s", res.stdout), res.stdout

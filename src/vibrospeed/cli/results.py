@@ -186,10 +186,11 @@ def evaluate(
                  ("share at omega/2", f"{m.half_share:.1%}", ""),
                  ("share at 2 omega", f"{m.double_share:.1%}", "")]
     if m.claimed_share == m.claimed_share:
-        rows += [("share where it claims a signal", f"{m.claimed_share:.1%}", ""),
-                 ("  RMSE there", f"{m.rmse_claimed:.3f}", m.unit),
-                 ("  within max(2 rad/s, 10 %) there", f"{m.ok_claimed:.1%}", ""),
-                 ("  band coverage there", f"{m.coverage_claimed:.1%}", "")]
+        rows.append(("share where it claims a signal", f"{m.claimed_share:.1%}", ""))
+        if m.claimed_share > 0:  # no claim: nothing to score there (the metrics are NaN)
+            rows += [("  RMSE there", f"{m.rmse_claimed:.3f}", m.unit),
+                     ("  within max(2 rad/s, 10 %) there", f"{m.ok_claimed:.1%}", ""),
+                     ("  band coverage there", f"{m.coverage_claimed:.1%}", "")]
     if m.rmse_speed == m.rmse_speed and m.unit != "m/s":
         rows.append(("RMSE speed", f"{m.rmse_speed:.3f}", "m/s"))
     for row in rows:
