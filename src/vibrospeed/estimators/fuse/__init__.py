@@ -20,7 +20,8 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    not teach a gain state better than its prior (``benchmarks/fuse/RESULTS.md``).
 2. GPS speed ``g = x3(t - dl) + e ~ x3 - dl x3' + e`` (GPS/RISS paper section VI, the
    receiver's extra lag learned; extended Kalman row linearised at the estimate, ``x3' = A_c[x3]
-   X``): used only with ``sats >= min_sats``
+   X``; at a sample without an accelerometer mean the lag is a consider state, since GPS
+   alone cannot tell a late fix from another speed history): used only with ``sats >= min_sats``
    (a NaN count counts as valid); its variance grows with the part of the innovation the model
    does not explain, ``R = r_gps + r_gps_sq min(E^2, e_max^2)``, ``E^2 = max(nu^2 - S0, 0)``
    (paper eq. 13, 18; ``e_max`` large, see :class:`Config`). The change of v this update makes
@@ -32,7 +33,8 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
 3. wheel frequency: the harmonic tracker's omega (its mode) with spread ``s`` where it claims a
    line; ``s`` is the tracker's whole posterior's spread (``vib_spread="posterior"``, the
    default) or the spread within its mode (``"mode"``, the grid tracker's ``omega_mode_std``;
-   what :func:`estimate` uses online, see :class:`Config`). The line may be
+   what :func:`estimate` uses online, see :class:`Config`); none where the vibration axis has
+   no sample (the tracker only predicts there). The line may be
    the wheel's omega/2 or 2 omega (the tracker's octave errors), so the wheel frequency is
    ``k omega``, ``k in {1/2, 1, 2}``. Each hypothesis is the *linear*
    pseudo-measurement ``0 = v - r k omega + e`` (``H = [1, 0, 0, -k omega, 0...]``, exact in the

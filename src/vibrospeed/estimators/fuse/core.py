@@ -104,7 +104,11 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 nu -= hg[i] * x[i]
             s0 = quad_form(hg, P) + p[1]
             e2 = min(max(nu * nu - s0, 0.0), p[3] * p[3])
-            row_update(x, P, hg, zg, p[1] + p[2] * e2)
+            # the extra lag is seen only against the accelerometer (GPS alone cannot tell a
+            # late fix from another speed history): a sample without one leaves it alone
+            # (consider state), else the loose acceleration state lets it drift
+            keep = n - 1 if math.isnan(am) else -1
+            row_update(x, P, hg, zg, p[1] + p[2] * e2, keep)
             sc[1] = t
     # 3. wheel frequency, octave chosen by the speed prior
     kk = math.nan

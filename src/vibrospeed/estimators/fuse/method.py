@@ -16,6 +16,7 @@ import numpy as np
 
 from vibrospeed.config import config_from_params, parse_flag
 from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators.common import axis_channel
 from vibrospeed.estimators.fuse.config import (
     CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
@@ -219,6 +220,11 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
             spread = np.where(soft, np.asarray(vib.extras["omega_mode_std"], dtype=np.float64),
                               spread)
         line = line | soft
+    # where the vibration axis has no sample the tracker only predicts (its line there is its
+    # past, or offline its interpolation between both sides, not a measurement): no line, no
+    # stop evidence
+    seen = np.isfinite(recording.channel(axis_channel(axis)))
+    line, still, soft = line & seen, still & seen, soft & seen
     # 2. fusion samples (ends, above)
     arrays = {
         "t": t[ends], "accel": _block_mean(recording.channel(acc_ch), ends),
