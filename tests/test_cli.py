@@ -302,7 +302,8 @@ def test_a_default_search_range_is_named_with_the_speeds_it_covers(drive, tmp_pa
                 "forklift on r = 0.08 m: -p omega_min=2 -p omega_max=30)") in _notes(res), args
     # a range given (either end, or by a preset) or none searched (the EKF): no note
     for args in (["-p", "omega_min=2"], ["-p", "omega_max=30"], ["-m", "rbpmf", "--preset",
-                 "paper"], ["-m", "ekf"], ["-m", "aided", "--preset", "paper"]):
+                 "paper"], ["-m", "ekf"], ["-m", "aided", "--preset", "paper"],
+                 ["-m", "aided", "-p", "tracker=rbpmf"]):
         res = _run("estimate", drive, *args, "-o", est)
         assert res.exit_code == 0, res.output
         assert "searched wheel speeds" not in res.stderr, args

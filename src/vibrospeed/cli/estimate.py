@@ -258,6 +258,8 @@ def range_note(method: str, given: dict, params: dict, radius: float | None) -> 
     ``v = r omega``). None where the user set either end, or the method searches none."""
     if method not in RANGE_METHODS or "omega_min" in given or "omega_max" in given:
         return None
+    if params.get("tracker", "grid") != "grid":
+        return None  # aided's EKF (no range) and rbpmf (0-40 rad/s, omega_min 0 required)
     lo, hi = params.get("omega_min"), params.get("omega_max")
     if not (isinstance(lo, (int, float)) and isinstance(hi, (int, float))):
         return None  # the aided EKF: omega clipped, no range searched
