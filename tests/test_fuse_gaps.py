@@ -92,3 +92,39 @@ def test_a_minute_without_the_accelerometer_costs_no_more_than_gps_alone():
         assert rmse <= rmse_gps
         inband = np.mean((truth[m] >= tr.speed_lo[m]) & (truth[m] <= tr.speed_hi[m]))
         assert inband >= 0.9
+
+
+def test_the_smoothed_speed_is_projected_onto_zero(monkeypatch):
+    """Offline, where the RTS smoother leaves ``v < 0`` (here a GPS that reports -1 m/s, an
+    app's "no fix", read unconverted through the API) the smoothed state is projected onto
+    ``v = 0`` as the filter projects its own (``x <- x - P[:, v] v / P_vv``, P unchanged); the
+    band keeps ``speed_lo <= speed <= speed_hi``."""
+    from dataclasses import replace
+
+    from vibrospeed import sim
+    from vibrospeed.estimators.fuse import method
+
+    r = sim.simulate("car", seed=1, duration=120)
+    g = r["gps_speed"].copy()
+    g[(r.t >= 40) & (r.t < 70) & np.isfinite(g)] = -1.0
+    r.channels["gps_speed"] = g
+    seen = {}
+
+    def spy(cfg, o):
+        seen["cfg"], seen["o"] = cfg, o
+        seen["out"] = fuse.smooth(cfg, o)
+        return seen["out"]
+
+    monkeypatch.setattr(method, "smooth", spy)
+    tr = fuse.estimate(r)
+    assert np.all(tr.speed >= 0.0)
+    assert np.all((tr.speed_lo <= tr.speed) & (tr.speed <= tr.speed_hi))
+    xs, Ps = seen["out"]
+    raw, Praw = fuse.smooth(replace(seen["cfg"], nonneg=False), seen["o"])
+    np.testing.assert_array_equal(Ps, Praw)
+    neg = raw[:, 0] < 0.0
+    assert neg.sum() > 10
+    np.testing.assert_array_equal(xs[~neg], raw[~neg])
+    want = raw[neg] - Praw[neg, :, 0] * (raw[neg, 0] / Praw[neg, 0, 0])[:, None]
+    np.testing.assert_allclose(xs[neg], want, atol=1e-12)
+    assert np.all(xs[neg, 0] == 0.0)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from vibrospeed.estimators.fuse.config import Config
+from vibrospeed.estimators.fuse.config import IV, Config
 from vibrospeed.estimators.fuse.filter import Output
 from vibrospeed.models.gps_riss import transition
 
@@ -34,11 +34,20 @@ def smooth(config: Config, out: Output) -> tuple[np.ndarray, np.ndarray]:
     """Rauch-Tung-Striebel smoother over a :func:`run`: ``(xs, Ps)`` (n, m) and (n, m, m), the
     state given the whole log (``C_k = Pf_k F' Pp_{k+1}^-1``,
     ``xs_k = xf_k + C_k (xs_{k+1} - xp_{k+1})``, ``Ps_k = Pf_k + C_k (Ps_{k+1} - Pp_{k+1}) C_k'``).
+    With ``config.nonneg`` a smoothed ``v < 0`` is projected onto ``v = 0`` as the filter
+    projects its own (package notes, item 5: ``xs_k <- xs_k - Ps_k[:, v] v / Ps_k[v, v]``, Ps
+    unchanged): the smoother sums the filter's projected posteriors with their unconstrained
+    dynamics, which carry a speed slightly below 0 into a stop.
     """
     Ac, _, _ = config._arrays()
     xs = np.empty_like(out.xf)
     Ps = np.empty_like(out.Pf)
     if out.xf.shape[0]:
         _rts(Ac, out.xp, out.Pp, out.xf, out.Pf, out.dt, xs, Ps)
+    if config.nonneg:
+        pvv = Ps[:, IV, IV]
+        neg = (xs[:, IV] < 0.0) & (pvv > 0.0)
+        xs[neg] -= Ps[neg, :, IV] * (xs[neg, IV] / pvv[neg])[:, None]
+        xs[neg, IV] = 0.0  # exactly (the line above leaves rounding)
     return xs, Ps
 
