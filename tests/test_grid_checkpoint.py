@@ -82,16 +82,12 @@ def test_fixed_lag_block_equals_smoothing_the_log_cut_at_the_block_horizon():
 def test_grid_estimate_on_a_short_drive_is_unchanged_by_the_checkpoints(monkeypatch):
     rec = sim.simulate("car", seed=1, duration=40)  # 4000 samples: several segments of 1000
     params = {"n_grid": 60}
-    orig_s, orig_v = gs.smooth, gv.viterbi
+    orig_s = gs.smooth
     monkeypatch.setattr(app.grid_smoother, "smooth",
                         lambda *a, **k: orig_s(*a, **{**k, "checkpoint": 1000}))
-    monkeypatch.setattr(app.grid_viterbi, "viterbi",
-                        lambda *a, **k: orig_v(*a, **{**k, "checkpoint": 1000}))
     part = grid.estimate(rec, axis="y", params=params)
     monkeypatch.setattr(app.grid_smoother, "smooth",
                         lambda *a, **k: orig_s(*a, **{**k, "checkpoint": None}))
-    monkeypatch.setattr(app.grid_viterbi, "viterbi",
-                        lambda *a, **k: orig_v(*a, **{**k, "checkpoint": None}))
     whole = grid.estimate(rec, axis="y", params=params)
     for f in ("omega", "omega_lo", "omega_hi", "omega_std", "speed"):
         same(getattr(part, f), getattr(whole, f))

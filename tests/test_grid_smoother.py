@@ -107,6 +107,20 @@ def test_viterbi_equals_brute_force():
     assert np.isnan(vit.omega[vit.state == 4]).all()
 
 
+def test_grid_estimate_omega_map_follows_a_claimed_line():
+    from vibrospeed import sim
+    from vibrospeed.estimators import grid
+
+    rec = sim.simulate("cart", seed=1, duration=30)
+    tr = grid.estimate(rec, params={"omega_min": 2, "omega_max": 30})
+    om = tr.extras["omega_map"]
+    hs = tr.extras["has_signal"] > 0.5
+    assert hs.mean() > 0.4
+    assert np.isfinite(om).all()
+    truth = rec["omega_true"]
+    assert np.mean(np.abs(om[hs] - truth[hs]) <= np.maximum(0.1 * truth[hs], 0.4)) > 0.9
+
+
 def test_fixed_lag_equals_smoother_on_truncated_data():
     _, y = _signal(n=500, seed=3)
     cfg = _cfg(jump_rate=0.2)

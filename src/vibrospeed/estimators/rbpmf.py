@@ -68,7 +68,7 @@ def estimate(
     The Track's ``omega`` is the posterior mean (``point="mode"``: the mean of the MAP mode,
     the posterior mean then in extras ``omega_mean``), its band the ``level`` credible interval;
     extras ``omega_mode``, ``p_mode`` and ``multimodal`` (``p_mode < mode_share``) always;
-    extras (per sample): ``omega_map`` (filter: MAP; smoother: Viterbi path, NaN in "no line"),
+    extras (per sample): ``omega_map`` (filter: MAP; smoother: Viterbi path given a line),
     ``loglik``, ``p_null``, ``p_half``, ``p_double``, ``p_third``, ``p_triple`` (mass near
     MAP/2, 2 MAP, MAP/3, 3 MAP), ``confidence`` (= 1 - p_null), ``has_signal`` (1.0 where
     confidence >= 0.5), ``ambiguous`` (1.0 where any of the four >= 0.05), ``amp1..M`` (in

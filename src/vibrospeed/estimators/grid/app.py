@@ -7,7 +7,6 @@ import numpy as np
 
 import vibrospeed.estimators.grid.fit as _fit
 import vibrospeed.estimators.grid.smoother as grid_smoother
-import vibrospeed.estimators.grid.viterbi as grid_viterbi
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import scaling as _scaling
@@ -123,9 +122,9 @@ def track(recording: Recording, config: Config, y: np.ndarray, rms: np.ndarray, 
         res = run(config, y, return_grid_loglik=True, extra=extra)
         if config.smooth == "fb":
             sm = grid_smoother.smooth(config, res.grid_loglik, return_posterior=return_posterior)
-            vit = grid_viterbi.viterbi(config, res.grid_loglik)
-            omap = vit.omega
-            notes.append("forward-backward smoother on the grid; omega_map = Viterbi path")
+            omap = sm.omega_map
+            notes.append("forward-backward smoother on the grid; omega_map = the smoothed "
+                         "posterior's MAP")
         else:
             sm = grid_smoother.fixed_lag(config, res.grid_loglik, lag=config.lag,
                                          return_posterior=return_posterior)

@@ -10,10 +10,9 @@ per sample, 12 GiB for a day at 100 Hz. Here the log is cut into blocks of ``blo
 - the forward filter runs once over the log, its state carried from block to block (exactly
   the whole-log filter: its columns ``loglik``, ``amp*`` are bitwise the whole log's);
 - each block is smoothed over the block plus a look-ahead of ``lookahead_s`` s, whose
-  emissions are kept as the start of the next block: the forward recursion (probabilities
-  and Viterbi scores) is carried exactly from block to block; the backward recursion starts
-  (beta = 1) at the end of the look-ahead instead of the end of the log, and the Viterbi path
-  is traced back from the best state there. That is the one approximation: a sample's
+  emissions are kept as the start of the next block: the forward recursion is carried
+  exactly from block to block; the backward recursion starts (beta = 1) at the end of the
+  look-ahead instead of the end of the log. That is the one approximation: a sample's
   marginal ignores the data more than ``lookahead_s`` s after it (the grid chain forgets its
   start within a few seconds: random walk, jumps, "no line" switches, so two minutes change
   nothing measurable, benchmarks/scale/RESULTS.md); the last block, whose look-ahead reaches the
@@ -45,7 +44,6 @@ import vibrospeed.estimators.grid.comb as _comb
 import vibrospeed.estimators.grid.frames as _frames
 import vibrospeed.estimators.grid.method as _method
 import vibrospeed.estimators.grid.smoother as _sm
-import vibrospeed.estimators.grid.viterbi as _vit
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.grid.filter import Result, concat, init, run
 from vibrospeed.estimators.grid.kernel import check_grid_spacing
@@ -193,7 +191,8 @@ class Blocks:
             notes.append(f"banded kernel: B = {tr.kern.B}, discarded row mass <= "
                          f"{tr.kern.tail:.2g}")
         if tr.smooth == "fb":
-            notes.append("forward-backward smoother on the grid; omega_map = Viterbi path")
+            notes.append("forward-backward smoother on the grid; omega_map = the smoothed "
+                         "posterior's MAP")
         elif tr.smooth == "lag":
             notes.append(f"fixed-lag smoother, lag {tr.lag:g} s (delay <= 2 lag)")
         if tr.point == "mode":
@@ -235,11 +234,9 @@ class Blocks:
         cfg = self.config.tracker
         n, nb, la = self.y.size, self.nb, self.la
         lw, fwd, cmn = _sm._chain(cfg)
-        tabs = _vit._tables(cfg)[2]
         grid = cmn[2]
         N1 = grid.size + 1
         lw_f = lw.copy()  # forward recursion: log predicted weights before the block
-        delta, nd = np.empty(N1), np.empty(N1)  # Viterbi scores at the sample before it
         a_s, pr = np.empty(N1), np.empty(N1)
         fstate = init(cfg)
         pending: list[Result] = []  # filter rows from (block start - 1) on
@@ -274,20 +271,7 @@ class Blocks:
                 _sm._smooth_range(alpha, off, gll, m - 1, off, off + b - a, np.ones(N1), *cmn,
                                   outs, posts, np.zeros(0, np.int64))
                 sm = _sm._result(outs[off:off + b - a], None)
-                back = np.empty((m - off, N1), dtype=np.int32)
-                _vit._viterbi_range(gll, off, off + b - a, lw, delta, nd, back, *tabs)
-                carry = delta.copy()
-                _vit._viterbi_range(gll, off + b - a, m, lw, delta, nd, back[b - a:], *tabs)
-                path = np.empty(m, dtype=np.int64)
-                k = 0
-                for j in range(N1):
-                    if delta[j] > delta[k]:
-                        k = j
-                path[m - 1] = k
-                _vit._trace(back, off, m, path)
-                path = path[off:off + b - a]
-                omap = np.where(path < grid.size, grid[np.minimum(path, grid.size - 1)], np.nan)
-                delta[:] = carry
+                omap = sm.omega_map
             elif L:  # grid.smoother.fixed_lag's sub-blocks from a, rows counted from a - off
                 gll = _sm._emissions(rows.grid_loglik, grid.size)
                 base = a - off
@@ -315,7 +299,7 @@ class Blocks:
                                         if isinstance(getattr(last, f), np.ndarray)})]
             del rows, blk, last
             if smooth:
-                del gll, alpha, outs, back, path
+                del gll, alpha, outs
             if self.progress is not None:
                 self.progress(b, n)
             yield track

@@ -163,6 +163,13 @@ def viterbi(config: Config, grid_loglik: np.ndarray, *,
             checkpoint: int | None = CHECKPOINT, keep: int | None = None) -> Path:
     """Most probable state sequence of the grid chain (Viterbi, log domain, O(n N B)).
 
+    Not what the grid tracker reports: with its tempered likelihood a single path pays the
+    log of one kernel entry at every sample (the walk spreads each step over several grid
+    points) and gains little from the data per sample, so the path stays in "no line" (which
+    stays put) or, without that state, on a grid end (whose kernel rows hold fewer entries),
+    while the smoothed marginal, which sums over the paths, follows the line. The tracker's
+    ``omega_map`` is the smoothed posterior's MAP.
+
     Checkpointed like :func:`smooth`: the recursion's state (N+1 log scores) is kept every
     ``checkpoint`` samples, and the back pointers of the last segments that fit in ``keep``
     samples (default :data:`KEEP_BYTES` of int32); the traceback, from the last segment to
