@@ -133,7 +133,7 @@ def test_causal_option_and_errors():
 
 @pytest.mark.parametrize("tracker", ["ekf", "grid", "rbpmf"])
 def test_every_tracker_refuses_an_accel_offset_it_does_not_take_alike(tracker):
-    """``accel_offset`` is 'standstill' or 'none' (aided.config.ACCEL_OFFSET) for every
+    """``accel_offset`` is 'standstill' or 'none' (estimators.ACCEL_OFFSET) for every
     tracker; the grid ones took any other text as 'none'."""
     from vibrospeed.errors import ParameterError
     from vibrospeed.types import Recording

@@ -209,6 +209,8 @@ def test_names_the_estimators_read_themselves_have_the_type_they_are_read_as():
     ("aided", {"causal": "2"}, "parameter 'causal': cannot read '2' as bool (true or false)"),
     ("fuse", {"online": "yes please"},
      "parameter 'online': cannot read 'yes please' as bool (true or false)"),
+    ("aided", {"accel_offset": "bogus"}, "parameter 'accel_offset': cannot read 'bogus' as "
+     "'standstill' | 'none' (choose from standstill, none)"),
 ])
 def test_a_bad_value_of_a_name_the_estimator_reads_stops_the_batch(tmp_path, method, params,
                                                                    line):

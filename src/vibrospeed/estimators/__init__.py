@@ -110,6 +110,12 @@ _BESIDES_CONFIG: dict[str, tuple[str, ...]] = {
 #: aided.estimate` reads the value as this type, so a batch refuses another with its line
 TRACKER = Literal["grid", "ekf", "rbpmf"]
 
+#: ``-p accel_offset=`` of ``aided``, either tracker: 'standstill' removes the aiding
+#: acceleration's mean while standing from it, 'none' keeps it as it is; every tracker reads
+#: the value as this type (:func:`vibrospeed.config.parse_value`), so they and a batch refuse
+#: another alike
+ACCEL_OFFSET = Literal["standstill", "none"]
+
 #: The type each name of :data:`_BESIDES_CONFIG` (and of a module's set named there) is read
 #: as by the ``estimate()`` that takes it, for :func:`parameters`: ``bool`` for a switch read
 #: with :func:`vibrospeed.config.parse_flag` (the text ``bool`` reads: ``true/false, yes/no,
@@ -119,7 +125,7 @@ _READ_AS: dict[str, Any] = {
     "comb": bool, "causal": bool, "improved": bool, "online": bool,
     "normalize_tau": float, "comb_clarity": float, "accel_detrend": float,
     "lp_cutoff": float | None, "omega_min": float | None, "wheelbase": float | None,
-    "tracker": TRACKER, "prefilter": str, "reference": str, "accel_offset": str,
+    "tracker": TRACKER, "prefilter": str, "reference": str, "accel_offset": ACCEL_OFFSET,
     "accel_axis": str, "preset": str, "radius_from": str, "vib_method": str,
 }
 

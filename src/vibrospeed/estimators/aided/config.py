@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal
 
 from vibrospeed.errors import ParameterError
 from vibrospeed.models.harmonic import HarmonicModel
@@ -17,10 +16,6 @@ from vibrospeed.signal.comb import COMB_COUNT, COMB_REL
 
 STANDSTILL_KINDS = {"none": 0, "window": 1, "cusum": 2, "broadband": 3}
 
-#: ``-p accel_offset=`` of ``aided``, either tracker: 'standstill' removes the aiding
-#: acceleration's mean while standing from it, 'none' keeps it as it is; both trackers read
-#: the value as this type (:func:`vibrospeed.config.parse_value`), so they refuse another alike
-ACCEL_OFFSET = Literal["standstill", "none"]
 
 
 def _is_count(v) -> bool:

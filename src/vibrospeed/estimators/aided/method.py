@@ -13,8 +13,8 @@ import numpy as np
 
 from vibrospeed.config import config_from_params, parse_flag, parse_number, parse_value
 from vibrospeed.errors import ParameterError
-from vibrospeed.estimators import TRACKER
-from vibrospeed.estimators.aided.config import ACCEL_OFFSET, Config, _thesis_model
+from vibrospeed.estimators import ACCEL_OFFSET, TRACKER
+from vibrospeed.estimators.aided.config import Config, _thesis_model
 from vibrospeed.estimators.aided.filter import run
 from vibrospeed.estimators.aiding import (
     aiding_inputs,

@@ -14,9 +14,8 @@ import numpy as np
 
 from vibrospeed.config import flat_names, parse_number, parse_value, unknown
 from vibrospeed.errors import ParameterError
+from vibrospeed.estimators import ACCEL_OFFSET, rbpmf
 from vibrospeed.estimators import grid as gridmod
-from vibrospeed.estimators import rbpmf
-from vibrospeed.estimators.aided.config import ACCEL_OFFSET
 from vibrospeed.estimators.aided_grid.config import Config, _cart_tracker
 from vibrospeed.estimators.aided_grid.filter import run
 from vibrospeed.estimators.aiding import (
