@@ -350,3 +350,22 @@ def test_car_300s_is_fast():
     elapsed = time.perf_counter() - t0
     assert len(rec) == 30000
     assert elapsed < 1.5  # typically ~0.2 s; loose bound for a shared machine
+
+
+def _with_radius() -> list[str]:
+    import dataclasses
+
+    return sorted(n for n, c in CONFIGS.items()
+                  if "wheel_radius" in {f.name for f in dataclasses.fields(c)})
+
+
+@pytest.mark.parametrize("radius", [-1.0, 0.0, float("inf"), float("nan")])
+def test_a_wheel_radius_that_is_not_positive_is_refused_before_the_drive_is_drawn(radius):
+    # -1 ran the cart scenarios' segment loop forever (a negative cruise speed) and failed
+    # inside NumPy's uniform() for the car; every scenario with the knob names it now
+    names = _with_radius()
+    assert {"car", "cart", "stop_and_go", "validation"} <= set(names)
+    for name in names:
+        with pytest.raises(ParameterError, match=rf"^sim:{name}: wheel_radius must be > 0 m, "
+                                                 rf"got {radius}$"):
+            simulate(name, seed=1, duration=10.0, wheel_radius=radius)

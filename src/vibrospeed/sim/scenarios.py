@@ -125,6 +125,21 @@ def describe_doc(doc: str | None) -> str:
     return " ".join(para.split()).replace("``", "`")
 
 
+def _check_common(name: str, cfg: Any) -> None:
+    """Refuse a ``wheel_radius``, ``fs`` or ``duration`` field that is not finite and > 0
+    before the builder draws the profile from it: a negative radius made the cart scenarios'
+    segment loop run forever (a negative cruise speed) and the car's draw fail inside NumPy
+    (``high - low < 0``); :func:`~vibrospeed.sim.drive.simulate_drive` checks them only after
+    the profile is built. ``fs`` = 0 means "drawn" where the scenario says so (``random``)."""
+    for knob, unit, zero_ok in (("wheel_radius", "m", False), ("duration", "s", False),
+                                ("fs", "Hz", name == "random")):
+        v = getattr(cfg, knob, None)
+        if v is None or (zero_ok and v == 0):
+            continue
+        if not (np.isfinite(v) and v > 0):
+            raise ParameterError(f"sim:{name}: {knob} must be > 0 {unit}, got {v}")
+
+
 def register(name: str, config_cls: type) -> Callable[[Builder], Builder]:
     """Decorator adding a scenario builder to :data:`SCENARIOS` (see module docstring)."""
 
@@ -143,6 +158,7 @@ def register(name: str, config_cls: type) -> Callable[[Builder], Builder]:
             if duration is not None:
                 params["duration"] = duration
             cfg = make_config(config_cls, params)
+            _check_common(name, cfg)
             rec = build(cfg, np.random.default_rng(seed), gps_model=gps_model)
             rec.meta.update(scenario=name, seed=seed, config=_jsonable(cfg))
             rec.source = f"sim:{name}(seed={seed})"
