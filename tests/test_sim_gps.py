@@ -139,3 +139,24 @@ def test_outage_gps_adds_gps_without_changing_the_drive():
     assert np.sum(np.abs(err) > 1.5) > 0  # the receiver jumps
     again = simulate("random", seed=11, duration=300.0, vehicle="car", gps_model=model)
     np.testing.assert_array_equal(again["gps_speed"], g)
+
+
+def test_fs_and_duration_given_as_text_are_read_as_numbers(tmp_path):
+    # `vibrospeed simulate --scenario gps_braking --set fs=200` passes fs="200" (simulate's own
+    # argument); it reached the builder as text and failed in np.isfinite (an internal error)
+    from typer.testing import CliRunner
+
+    from vibrospeed.cli.app import app
+    from vibrospeed.sim import simulate
+
+    a = simulate("gps_braking", seed=1, fs="200", duration="12")
+    b = simulate("gps_braking", seed=1, fs=200.0, duration=12.0)
+    assert a.fs == pytest.approx(200.0) and len(a) == 2400
+    np.testing.assert_array_equal(a["ax"], b["ax"])
+    with pytest.raises(ParameterError, match="parameter 'fs': cannot read 'abc' as float"):
+        simulate("gps_braking", seed=1, fs="abc")
+    out = tmp_path / "b.csv"
+    res = CliRunner().invoke(app, ["simulate", "--scenario", "gps_braking", "--set", "fs=200",
+                                   "--duration", "12", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "at 200 Hz" in res.stderr

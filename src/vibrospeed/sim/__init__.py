@@ -120,10 +120,12 @@ def _gps_scenario(name: str, build):
     def scenario(*, seed: int = 0, duration: float | None = None, fs: float | None = None,
                  gps_model=None, **overrides):
         kw = {k: _gps_knob(build, k, v) for k, v in overrides.items()}
+        # duration and fs typed as the other knobs: `simulate --set fs=200` reaches here as
+        # the text "200" (simulate's own fs argument), which the builder's checks choked on
         if duration is not None:
-            kw["duration"] = duration
+            kw["duration"] = _gps_knob(build, "duration", duration)
         if fs is not None:
-            kw["fs"] = fs
+            kw["fs"] = _gps_knob(build, "fs", fs)
         try:
             rec = build(np.random.default_rng(seed), **kw)
         except TypeError as exc:
