@@ -128,3 +128,57 @@ def test_the_smoothed_speed_is_projected_onto_zero(monkeypatch):
     want = raw[neg] - Praw[neg, :, 0] * (raw[neg, 0] / Praw[neg, 0, 0])[:, None]
     np.testing.assert_allclose(xs[neg], want, atol=1e-12)
     assert np.all(xs[neg, 0] == 0.0)
+
+
+def test_signed_axis():
+    from vibrospeed.estimators.common import signed_axis
+
+    assert signed_axis("x") == ("ax", 1.0)
+    assert signed_axis(" -y") == ("ay", -1.0)
+    assert signed_axis("+az") == ("az", 1.0)
+    assert signed_axis("-acc_long") == ("acc_long", -1.0)
+
+
+def test_accel_gps_correlation_against_a_plain_loop():
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 120.0, 0.04)
+    v = 12.0 + 4.0 * np.sin(2 * np.pi * t / 17.0)
+    a = np.gradient(v, t) + 0.3 + 0.2 * rng.normal(size=t.size)
+    a[1000:1010] = np.nan
+    g = np.full(t.size, np.nan)
+    g[::3] = v[::3] + rng.normal(0, 0.1, t[::3].size)
+    c, n = fuse.method.accel_gps_correlation(t, a, g)
+    # reference: window edges every 5 s from the first fix; the samples that end in a window
+    fix = np.flatnonzero(np.isfinite(g))
+    edges = np.arange(t[fix[0]], t[fix[-1]], 5.0)
+    xs, ys = [], []
+    for e0, e1 in zip(edges[:-1], edges[1:], strict=True):
+        m = (t > e0) & (t <= e1)
+        if np.any(np.isnan(a[m])):
+            continue
+        dt = np.diff(t, prepend=t[0])[m]
+        xs.append(float(np.sum(a[m] * dt)))
+        ys.append(float(np.interp(e1, t[fix], g[fix]) - np.interp(e0, t[fix], g[fix])))
+    assert n == len(xs) == edges.size - 3  # 23 windows, 2 hold a NaN (t = 40.0 ends one)
+    assert c == pytest.approx(np.corrcoef(xs, ys)[0, 1], abs=1e-12)
+    assert c > 0.95
+    assert fuse.method.accel_gps_correlation(t, -a, g)[0] == pytest.approx(-c, abs=1e-12)
+
+
+def test_accel_axis_takes_a_sign_and_a_backwards_mount_is_named():
+    """``-p accel_axis=-x`` reads ``ax`` negated: a recording whose ``ax`` is negated gives,
+    with it, the numbers of the original; without it a note names the backwards mount."""
+    from vibrospeed import sim
+
+    r = sim.simulate("car", seed=1, duration=60)
+    flipped = Recording(r.t, {**r.channels, "ax": -r["ax"]}, source="flipped")
+    tr = fuse.estimate(r)
+    trf = fuse.estimate(flipped, params={"accel_axis": "-x"})
+    np.testing.assert_array_equal(trf.speed, tr.speed)
+    assert trf.params["accel_axis"] == "-ax"
+    assert any("'ax' negated" in n for n in trf.notes)
+    assert any("'ax' as it points" in n for n in tr.notes)
+    assert not any("backwards" in n and "correlat" in n for n in tr.notes + trf.notes)
+    bad = fuse.estimate(flipped)
+    assert any("anti-correlate" in n and "-p accel_axis=-ax" in n for n in bad.notes)
+    assert fuse.suits(flipped, "-x")

@@ -27,6 +27,15 @@ def axis_channel(axis: str) -> str:
     return axis
 
 
+def signed_axis(spec: str) -> tuple[str, float]:
+    """An accelerometer axis with an optional sign: ``'-ay'`` / ``'-y'`` -> ``('ay', -1.0)``,
+    ``'x'`` / ``'+ax'`` -> ``('ax', 1.0)``. A leading ``-`` names an axis that points
+    backwards (a phone mounted the other way round), whose values are negated."""
+    spec = spec.strip()
+    sign = -1.0 if spec.startswith("-") else 1.0
+    return axis_channel(spec.lstrip("+-")), sign
+
+
 def only_axis(recording, axis: str | None) -> tuple[str | None, str | None]:
     """The vibration axis when none is given and the default ``ay`` is missing: a recording
     with a single other accelerometer axis uses it. Returns ``(axis, note)`` (note None where

@@ -16,7 +16,7 @@ import numpy as np
 
 from vibrospeed.config import config_from_params, parse_flag
 from vibrospeed.errors import InputError, ParameterError
-from vibrospeed.estimators.common import axis_channel
+from vibrospeed.estimators.common import axis_channel, signed_axis
 from vibrospeed.estimators.fuse.config import (
     CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
@@ -115,7 +115,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
              vibration: Track | None = None) -> Track:
     """Fused speed of a recording: vibration tracker on ``axis``, then the filter.
 
-    ``params``: :class:`Config` fields; ``accel_axis`` (longitudinal accelerometer channel,
+    ``params``: :class:`Config` fields; ``accel_axis`` (longitudinal accelerometer channel, a
+    leading ``-`` negates it, a note names it and one says where it looks backwards,
     default ``ax``); ``online`` (true: the causal grid tracker and the forward filter only;
     default false: the smoothed grid tracker and the RTS smoother; online also ``vib_lag`` =
     :data:`CAUSAL_VIB_LAG`, ``vib_spread="mode"``, ``vib_amax``, ``vib_soft`` and
@@ -162,7 +163,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     if online and cfg.vib_measure == "posterior" and "vib_sep" not in fuse_kw:
         cfg = replace(cfg, vib_sep=CAUSAL_VIB_SEP)
     rf = radius_from if radius_from is not None else own.get("radius_from")
-    acc_ch = _axis_channel(str(own.get("accel_axis", "x")))
+    acc_ch, acc_sign = signed_axis(str(own.get("accel_axis", "x")))
+    acc_spec = ("-" if acc_sign < 0 else "") + acc_ch
     name = recording.source or "recording"
     if len(recording) < 2:
         raise InputError(f"{name}: fewer than 2 samples")
@@ -227,11 +229,22 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     line, still, soft = line & seen, still & seen, soft & seen
     # 2. fusion samples (ends, above)
     arrays = {
-        "t": t[ends], "accel": _block_mean(recording.channel(acc_ch), ends),
+        "t": t[ends], "accel": acc_sign * _block_mean(recording.channel(acc_ch), ends),
         "gps_speed": g[ends], "gps_sats": s[ends], "omega": vib.omega[ends],
         "omega_std": spread[ends], "line": line[ends], "still": _block_all(still, ends),
         "soft": soft[ends],
     }
+    notes.append(f"longitudinal acceleration: '{acc_ch}'"
+                 + (" negated (pointing backwards)" if acc_sign < 0 else " as it points")
+                 + " (-p accel_axis; a leading - negates)")
+    corr, nwin = accel_gps_correlation(arrays["t"], arrays["accel"],
+                                       np.where(cfg.valid_fixes(g, s), g, np.nan)[ends])
+    if corr <= SIGN_CORR:
+        other = acc_ch if acc_sign < 0 else "-" + acc_ch
+        notes.append(f"the speed changes integrated from '{acc_spec}' anti-correlate with the "
+                     f"GPS speed's (correlation {corr:.2f} over {nwin} windows of "
+                     f"{SIGN_WINDOW:g} s): the accelerometer looks mounted backwards; "
+                     f"-p accel_axis={other} reads it the right way round")
     grid = None
     if want_post:
         arrays["posterior"], grid = _posterior_rows(vib, ends, name)
@@ -268,7 +281,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         notes.append("the wheel radius is not known (no wheel line while GPS was good): omega "
                      "is left empty; the vibration tracker's own omega is omega_vib")
     pdict = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(cfg).items()}
-    pdict.update({"online": online, "accel_axis": acc_ch, "axis": axis,
+    pdict.update({"online": online, "accel_axis": acc_spec, "axis": axis,
                   "learned_radius": r_fin, "learned_radius_std": rs_fin,
                   "learned_gps_lag": cfg.lag.lag + float(end.x[-1]),
                   "learned_gps_lag_std": math.sqrt(max(float(end.P[-1, -1]), 0.0)),
@@ -315,11 +328,47 @@ def suits(recording: Recording, accel_axis: str = "x") -> bool:
     """Whether ``recording`` feeds ``fuse`` without a radius given: a ``gps_speed`` channel
     with at least one finite fix and the longitudinal accelerometer channel (``accel_axis``).
     ``vibrospeed estimate`` without ``--method`` picks ``fuse`` for such a recording."""
-    if "gps_speed" not in recording or _axis_channel(accel_axis) not in recording:
+    if "gps_speed" not in recording or signed_axis(accel_axis)[0] not in recording:
         return False
     return bool(np.isfinite(recording.channel("gps_speed")).any())
 
 
 def _axis_channel(axis: str) -> str:
-    axis = axis.strip()
-    return "a" + axis if axis in ("x", "y", "z") else axis
+    """The channel of an ``accel_axis`` spec, its sign dropped (``'-y'`` -> ``'ay'``)."""
+    return signed_axis(axis)[0]
+
+
+#: s, the windows over which :func:`accel_gps_correlation` compares speed changes
+SIGN_WINDOW = 5.0
+#: the correlation at or below which the accelerometer is taken to point backwards
+SIGN_CORR = -0.5
+
+
+def accel_gps_correlation(t: np.ndarray, accel: np.ndarray, gps: np.ndarray,
+                          window: float = SIGN_WINDOW) -> tuple[float, int]:
+    """Pearson correlation, over consecutive windows of ``window`` s, of the speed change the
+    accelerometer integrates (``sum accel dt``; a constant offset shifts every window alike and
+    leaves the correlation) with the GPS speed's change over the same window (its valid fixes,
+    NaN elsewhere, interpolated at the window edges; an edge without a fix within 1 s, or a
+    window with a sample without acceleration, is left out). A longitudinal axis that points
+    backwards gives a correlation near -1. Returns ``(correlation, windows used)``; NaN with
+    fewer than 10 windows or where the GPS speed changes by less than 0.5 m/s (std)."""
+    fin = np.isfinite(gps)
+    if fin.sum() < 2:
+        return math.nan, 0
+    tg, vg = t[fin], gps[fin]
+    edges = np.arange(tg[0], tg[-1], window)
+    near = np.abs(tg[np.clip(np.searchsorted(tg, edges), 0, tg.size - 1)] - edges) <= 1.0
+    near |= np.abs(tg[np.clip(np.searchsorted(tg, edges) - 1, 0, tg.size - 1)] - edges) <= 1.0
+    dts = np.diff(t, prepend=t[0])
+    ok = np.isfinite(accel)
+    cum = np.concatenate([[0.0], np.cumsum(np.where(ok, accel, 0.0) * dts)])
+    nbad = np.concatenate([[0], np.cumsum(~ok)])
+    i = np.searchsorted(t, edges, side="right")  # samples (i[j], i[j+1]] end in window j
+    dv_acc = cum[i[1:]] - cum[i[:-1]]
+    dv_gps = np.diff(np.interp(edges, tg, vg))
+    use = near[1:] & near[:-1] & (nbad[i[1:]] == nbad[i[:-1]])
+    if use.sum() < 10 or np.std(dv_gps[use]) < 0.5:
+        return math.nan, int(use.sum())
+    c = np.corrcoef(dv_acc[use], dv_gps[use])[0, 1]
+    return float(c), int(use.sum())
