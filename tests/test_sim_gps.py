@@ -3,6 +3,8 @@ scenario contains what it claims (lag model, tunnel, slope offset, jumps, pitch)
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -160,3 +162,25 @@ def test_fs_and_duration_given_as_text_are_read_as_numbers(tmp_path):
                                    "--duration", "12", "-o", str(out)])
     assert res.exit_code == 0, res.output
     assert "at 200 Hz" in res.stderr
+
+
+@pytest.mark.parametrize(("knob", "value", "says"), [
+    ("gps_rate", 0.0, "gps_rate must be > 0, got 0.0"),
+    ("gps_rate", -1.0, "gps_rate must be > 0, got -1.0"),
+    ("gps_noise", -1.0, "gps_noise must be finite and >= 0, got -1.0"),
+    ("gps_jitter", -0.1, "gps_jitter must be finite and >= 0, got -0.1"),
+    ("acc_noise", float("nan"), "acc_noise must be finite and >= 0, got nan"),
+    ("acc_bias", float("inf"), "acc_bias must be finite, got inf"),
+    ("lag", "abc", "lag must be a GpsLagModel (Python API; the command line sets gps_delay), "
+                   "got 'abc'"),
+])
+def test_knobs_out_of_range_are_refused_naming_them(knob, value, says):
+    # each was an internal error (ZeroDivisionError, NumPy's "scale < 0" / "high - low < 0",
+    # "'str' object has no attribute 'delay'") or, acc_bias=inf, a recording of inf
+    from vibrospeed.sim import simulate
+
+    for name in ("gps_braking", "gps_tunnel"):
+        with pytest.raises(ParameterError, match=re.escape(says) + "$"):
+            simulate(name, seed=1, duration=30.0, **{knob: value})
+    rec = simulate("gps_braking", seed=1, duration=30.0, gps_noise=0.0, acc_bias=-0.5)
+    assert np.isfinite(rec["ax"]).all()  # the edges allowed

@@ -98,6 +98,18 @@ def drive(
     acc_bias : m/s^2 constant accelerometer offset.  acc_gain : calibration gain error.
     slope_rad : (n,) road slope theta (uphill +).  pitch_deg : (n,) body pitch (nose up +).
     """
+    # the noise levels and rates a user sets (--set): checked here, where they were an
+    # internal error of NumPy (a negative std, a zero rate) or a recording of inf
+    for name, value, lo in (("gps_rate", gps_rate, 0.0), ("gps_noise", gps_noise, None),
+                            ("gps_jitter", gps_jitter, None), ("acc_noise", acc_noise, None),
+                            ("acc_bias", acc_bias, -np.inf), ("acc_gain", acc_gain, -np.inf)):
+        ok = np.isfinite(value) and (value > lo if lo is not None else value >= 0)
+        if not ok:
+            need = ("finite" if lo == -np.inf else "> 0" if lo == 0.0 else "finite and >= 0")
+            raise ParameterError(f"{source}: {name} must be {need}, got {value}")
+    if lag is not None and not isinstance(lag, GpsLagModel):
+        raise ParameterError(f"{source}: lag must be a GpsLagModel (Python API; the command "
+                             f"line sets gps_delay), got {lag!r}")
     lag = lag or GpsLagModel.paper()
     n = t.size
     speed = _integrate(t, accel, v0)
