@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import time
 
 import numpy as np
@@ -359,7 +360,7 @@ def _with_radius() -> list[str]:
                   if "wheel_radius" in {f.name for f in dataclasses.fields(c)})
 
 
-@pytest.mark.parametrize("radius", [-1.0, 0.0, float("inf"), float("nan")])
+@pytest.mark.parametrize("radius", [-1.0, 0.0, float("inf")])  # NaN: the next test
 def test_a_wheel_radius_that_is_not_positive_is_refused_before_the_drive_is_drawn(radius):
     # -1 ran the cart scenarios' segment loop forever (a negative cruise speed) and failed
     # inside NumPy's uniform() for the car; every scenario with the knob names it now
@@ -369,3 +370,16 @@ def test_a_wheel_radius_that_is_not_positive_is_refused_before_the_drive_is_draw
         with pytest.raises(ParameterError, match=rf"^sim:{name}: wheel_radius must be > 0 m, "
                                                  rf"got {radius}$"):
             simulate(name, seed=1, duration=10.0, wheel_radius=radius)
+
+
+@pytest.mark.parametrize(("name", "knob", "value"), [
+    ("car", "turn_rate", "nan"),                  # NumPy's "lam < 0 or lam is NaN"
+    ("car", "vibration.fade_rate", float("nan")),  # the same, in a nested knob
+    ("cart", "initial_stop", "nan"),              # silently a NaN segment before
+    ("car", "vibration.harmonic_amps", "0.1,nan"),
+    ("stop_and_go", "wheel_radius", float("nan")),
+])
+def test_a_nan_knob_is_refused_naming_it(name, knob, value):
+    with pytest.raises(ParameterError, match=rf"^parameter '{re.escape(knob)}': NaN is not a "
+                                             rf"value, got {re.escape(repr(value))}$"):
+        simulate(name, seed=1, duration=10.0, **{knob: value})

@@ -17,6 +17,7 @@ String values (from the command line) are converted to the field's type.
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 import types
 import typing
@@ -106,12 +107,20 @@ def make_config(cls: type, params: dict[str, Any] | None = None, base: Any = Non
                                   prefix=f"{prefix}{head}.")
         kw[head] = current
     try:
-        return config_from_params(cls, plain, **kw)
+        cfg = config_from_params(cls, plain, **kw)
     except ParameterError as exc:  # name the knob as it was given: vibration.harmonic_amps
         msg, head = str(exc), "parameter '"
         if prefix and msg.startswith(head):
             raise ParameterError(head + prefix + msg[len(head):]) from None
         raise
+    for name in plain:  # NaN is no knob's value: it was NumPy's "lam is NaN" deep in a draw,
+        # or silently a NaN segment or rate
+        value = getattr(cfg, name)
+        items = value if isinstance(value, tuple | list) else (value,)
+        if any(isinstance(v, float) and math.isnan(v) for v in items):
+            raise ParameterError(f"parameter '{prefix}{name}': NaN is not a value, got "
+                                 f"{plain[name]!r}")
+    return cfg
 
 
 def _jsonable(cfg: Any) -> dict:
