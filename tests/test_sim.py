@@ -383,3 +383,20 @@ def test_a_nan_knob_is_refused_naming_it(name, knob, value):
     with pytest.raises(ParameterError, match=rf"^parameter '{re.escape(knob)}': NaN is not a "
                                              rf"value, got {re.escape(repr(value))}$"):
         simulate(name, seed=1, duration=10.0, **{knob: value})
+
+
+@pytest.mark.parametrize(("knob", "value", "says"), [
+    ("accel_noise", -1.0, "imu.accel_noise must be finite and >= 0, got -1.0"),
+    ("gyro_bias_std", -0.1, "imu.gyro_bias_std must be finite and >= 0, got -0.1"),
+    ("accel_lsb", -0.01, "imu.accel_lsb must be finite and >= 0, got -0.01"),
+    ("accel_range", 0.0, "imu.accel_range must be > 0 m/s^2 (inf: no clipping), got 0.0"),
+])
+def test_imu_knobs_out_of_range_are_refused_naming_them(knob, value, says):
+    # a negative noise std was NumPy's "scale < 0" inside the draw (an internal error); a
+    # negative step or full scale quantised or clipped every reading silently
+    with pytest.raises(ParameterError, match=re.escape(says)):
+        ImuConfig(**{knob: value})
+    with pytest.raises(ParameterError, match=re.escape(says)):
+        simulate("car", seed=1, duration=10.0, **{f"imu.{knob}": value})
+    quiet = simulate("car", seed=1, duration=10.0, **{"imu.accel_noise": 0.0})  # the edge
+    assert np.isfinite(quiet["ax"]).all()

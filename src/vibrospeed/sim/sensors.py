@@ -58,6 +58,18 @@ class ImuConfig:
     accel_range: float = float("inf")
     """m/s^2, accelerometer full scale: readings are clipped to +-accel_range."""
 
+    def __post_init__(self) -> None:
+        # a negative std was NumPy's "scale < 0" deep in the draw; a negative step or full
+        # scale silently quantised or clipped every reading to nonsense
+        for name in ("accel_noise", "accel_bias_std", "gyro_noise", "gyro_bias_std",
+                     "accel_lsb"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise ParameterError(f"imu.{name} must be finite and >= 0, got {v}")
+        if not self.accel_range > 0:
+            raise ParameterError(f"imu.accel_range must be > 0 m/s^2 (inf: no clipping), got "
+                                 f"{self.accel_range}")
+
 
 @dataclass(frozen=True)
 class TickConfig:
