@@ -209,7 +209,8 @@ PARAMETERS: dict[str, dict[str, Parameter]] = {
         "online": Parameter("true", "causal: the causal grid tracker and the forward filter"),
         "radius_from": Parameter("drive1_fuse.csv.json", "wheel radius learned on an earlier "
                                  "drive (its sidecar) as the radius prior"),
-        "accel_axis": Parameter("ax", "longitudinal acceleration channel"),
+        "accel_axis": Parameter("ax", "longitudinal acceleration channel (forward +); a "
+                                "leading - negates (e.g. -ay: a phone mounted backwards)"),
         "min_sats": Parameter("5", "GPS fixes with fewer satellites are ignored"),
     },
     "algebraic": {

@@ -102,12 +102,11 @@ def standstill_offset(u: np.ndarray, still: np.ndarray, *, causal: bool = False)
 
 
 def _channel(recording: Recording, spec: str) -> np.ndarray:
-    """'ax', 'x', '-ay' (negated)... -> channel values."""
-    from vibrospeed.estimators.common import axis_channel
+    """'ax', 'x', '-ay' (negated)... -> channel values (:func:`~vibrospeed.estimators.common.
+    signed_axis`)."""
+    from vibrospeed.estimators.common import signed_axis
 
-    spec = spec.strip()
-    sign = -1.0 if spec.startswith("-") else 1.0
-    name = axis_channel(spec.lstrip("+-"))
+    name, sign = signed_axis(spec)
     recording.require(name)
     return sign * recording.channel(name)
 
