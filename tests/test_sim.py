@@ -400,3 +400,19 @@ def test_imu_knobs_out_of_range_are_refused_naming_them(knob, value, says):
         simulate("car", seed=1, duration=10.0, **{f"imu.{knob}": value})
     quiet = simulate("car", seed=1, duration=10.0, **{"imu.accel_noise": 0.0})  # the edge
     assert np.isfinite(quiet["ax"]).all()
+
+
+@pytest.mark.parametrize(("knobs", "says"), [
+    ({"gps.noise": -1.0}, "gps.noise must be finite and >= 0, got -1.0"),
+    ({"gps.tau": -1.0}, "gps.tau must be finite and > 0, got -1.0"),
+    ({"gps.lag_order": 2, "gps.wn": 0.0}, "gps.wn must be finite and > 0, got 0.0"),
+    ({"gps.outage_rate": -1.0}, "gps.outage_rate must be finite and >= 0, got -1.0"),
+    ({"gps.sats_mean": -1.0}, "gps.sats_mean must be finite and >= 0, got -1.0"),
+])
+def test_gps_knobs_out_of_range_are_refused_naming_them(knobs, says):
+    # gps.noise=-1 was NumPy's "scale < 0" (an internal error); a negative tau made an
+    # unstable receiver and the rest silently something else
+    with pytest.raises(ParameterError, match=re.escape(says)):
+        simulate("car", seed=1, duration=10.0, **knobs)
+    # wn is the second-order lag's only: with the first-order lag (default) it is not read
+    assert len(simulate("car", seed=1, duration=10.0, **{"gps.wn": 0.0})) == 1000

@@ -136,6 +136,22 @@ class GpsConfig:
             raise ParameterError(f"gps.rate_hz must be > 0, got {self.rate_hz}")
         if self.lag_order not in (0, 1, 2):
             raise ParameterError(f"gps.lag_order must be 0, 1 or 2, got {self.lag_order}")
+        # a negative noise std was NumPy's "scale < 0"; a negative tau or wn an unstable or
+        # frozen receiver; negative counts and rates silently nonsense
+        for name, need, ok in (
+            ("noise", "finite and >= 0", np.isfinite(self.noise) and self.noise >= 0),
+            ("tau", "finite and > 0", self.lag_order != 1 or (np.isfinite(self.tau)
+                                                               and self.tau > 0)),
+            ("wn", "finite and > 0", self.lag_order != 2 or (np.isfinite(self.wn)
+                                                              and self.wn > 0)),
+            ("zeta", "finite and >= 0", self.lag_order != 2 or (np.isfinite(self.zeta)
+                                                                 and self.zeta >= 0)),
+            ("sats_mean", "finite and >= 0",
+             np.isfinite(self.sats_mean) and self.sats_mean >= 0),
+            ("outage_rate", "finite and >= 0",
+             np.isfinite(self.outage_rate) and self.outage_rate >= 0)):
+            if not ok:
+                raise ParameterError(f"gps.{name} must be {need}, got {getattr(self, name)}")
         if len(self.outages) % 2:
             raise ParameterError("gps.outages: need (start, end) pairs")
 
