@@ -79,3 +79,46 @@ def test_command_examples_parse(page, line):
     preset = ctx.params.get("preset")
     if preset is not None:
         assert preset in presets.presets(ctx.params.get("method") or "grid"), (page, line)
+
+
+# the online examples' claim "the numbers of the causal batch run": each OnlineTracker the
+# page builds, in order, with the params of the batch run it stands for
+ONLINE_CASES = {
+    "README.md": [{"smooth": "none"}, {"smooth": "none", "comb_axes": "all"}],
+    "guide.md": [{"smooth": "none", "omega_min": 2, "omega_max": 30}],
+}
+
+
+@pytest.mark.parametrize("page", sorted(ONLINE_CASES))
+def test_online_examples_match_the_causal_batch_run(page, monkeypatch):
+    import numpy as np
+
+    from vibrospeed.estimators import grid, online
+
+    seen = []
+
+    class Recording(online.OnlineTracker):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.omegas = []
+            seen.append(self)
+
+        def update(self, sample):
+            est = super().update(sample)
+            self.omegas.append(est.omega)
+            return est
+
+    monkeypatch.setattr(online, "OnlineTracker", Recording)
+    path = next(p for p in PAGES if p.name == page)
+    code = next(b for b in re.findall(r"```python\n(.*?)```", path.read_text(), flags=re.S)
+                if "OnlineTracker(" in b)
+    ns: dict = {}
+    exec(compile(code, str(path), "exec"), ns)  # noqa: S102 - our own docs
+    rec = ns["rec"]
+    assert len(seen) == len(ONLINE_CASES[page])
+    for trk, params in zip(seen, ONLINE_CASES[page], strict=True):
+        assert trk.config == grid.config_for(rec, params=params)
+        batch = grid.estimate(rec, axis="y", params=params)
+        n = len(trk.omegas)
+        assert n >= 100
+        np.testing.assert_array_equal(trk.omegas, batch.omega[:n])
