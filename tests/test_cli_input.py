@@ -165,6 +165,30 @@ def test_an_output_in_a_missing_folder_is_refused_before_the_work(logs, tmp_path
     assert list(tmp_path.iterdir()) == []  # no temporary file, no probe left behind
 
 
+def test_a_figure_suffix_matplotlib_does_not_write_is_refused_before_the_work(
+        logs, tmp_path, monkeypatch):
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    _no_work(monkeypatch)
+    kinds = ", ".join("." + k for k in sorted(FigureCanvasBase.get_supported_filetypes()))
+    assert ".png" in kinds and ".txt" not in kinds
+    fig = tmp_path / "out.txt"
+    why = f"{fig}: .txt is not a figure format; give one of {kinds}"
+    line = _err(_run("estimate", logs["cart"], "-o", tmp_path / "o.csv", "--plot", fig))
+    assert line == f"vibrospeed: error: --plot {why}"
+    assert _err(_run("plot", logs["cart"], "-o", fig)) == f"vibrospeed: error: -o {why}"
+    assert list(tmp_path.iterdir()) == []  # neither the CSV nor its sidecar written
+
+
+def test_the_cli_starts_without_matplotlib():
+    import subprocess
+    import sys
+
+    code = "import sys, vibrospeed.cli.app; print('matplotlib' in sys.modules)"
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert res.stdout.strip() == "False"
+
+
 @pytest.mark.skipif(not __import__("os").path.isdir("/proc/self"), reason="needs Linux /proc")
 def test_an_output_folder_that_cannot_be_written_is_refused_before_the_work(logs, monkeypatch):
     _no_work(monkeypatch)  # /proc takes no new files, not even from root

@@ -186,18 +186,28 @@ def _friendly(fn):
     return wrapper
 
 
-def _check_output(path: Path | None, flag: str = "-o", *, folder: bool = False) -> None:
+def _check_output(path: Path | None, flag: str = "-o", *, folder: bool = False,
+                  figure: bool = False) -> None:
     """Refuse, before any work, an output that cannot be written: a file output whose folder
     is missing, is no folder or is not writable, or that is itself a folder; a ``folder``
     output (``batch -o``, created with its parents) that is a file or whose nearest existing
-    folder is not writable. Writability is tried (a temporary file made and removed there), not
-    guessed from permission bits, which say yes to root on read-only or virtual file systems.
-    The error names the user's path and its folder, as a :class:`ParameterError` (one line,
-    exit status 2)."""
+    folder is not writable; a ``figure`` whose suffix is no format matplotlib writes (no
+    suffix is PNG, as the plot writers save it). Writability is tried (a temporary file made
+    and removed there), not guessed from permission bits, which say yes to root on read-only or
+    virtual file systems. The error names the user's path and its folder, as a
+    :class:`ParameterError` (one line, exit status 2)."""
     import tempfile
 
     if path is None:
         return
+    if figure and path.suffix:
+        # matplotlib only here: a figure was asked for (the CLI's start-up does not import it)
+        from matplotlib.backend_bases import FigureCanvasBase
+
+        kinds = sorted(FigureCanvasBase.get_supported_filetypes())
+        if path.suffix[1:].lower() not in kinds:
+            raise ParameterError(f"{flag} {path}: {path.suffix} is not a figure format; give "
+                                 f"one of {', '.join('.' + k for k in kinds)}")
     if folder:
         if path.exists() and not path.is_dir():
             raise ParameterError(f"{flag} {path}: is a file, not a folder")

@@ -175,7 +175,7 @@ def estimate(
     from vibrospeed.batch import EstimateOptions, estimate_recording, vibration_channel
 
     _check_output(output)
-    _check_output(plot, "--plot")
+    _check_output(plot, "--plot", figure=True)
     rec = None  # the recording, where choosing the method read it
     streamed = None  # (rows, notes) / False where choosing the method counted the rows
     if method is None:

@@ -231,7 +231,7 @@ def plot(
     from vibrospeed.estimators.common import axis_channel
     from vibrospeed.eval.plot import plot_track
 
-    _check_output(output)
+    _check_output(output, figure=True)
     rec = _load(input, fmt, columns, mapping, rate, sort)
     track = io.read_track(estimate_csv) if estimate_csv else None
     if estimate_csv is not None:
