@@ -79,7 +79,8 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, 
     """The summary row ``out`` (every ``COL_*`` but ``COL_LOGLIK``) from grid weights ``w``
     (signal, sum 1 - w0) and null mass ``w0``:
     omega is the mean given a line (grid part renormalised); std and band are of the mixture
-    ``v_j = w_j + w0 u_j`` (the null's omega is unknown: uniform on the grid);
+    ``v_j = w_j + w0 u_j`` (the null's omega is unknown: uniform on the grid), the band the
+    equal-tailed one widened to hold the mode's mean (``COL_MODE``, the reported omega);
     MAP and ambiguity masses are of the signal part."""
     N = grid.size
     mu = 0.0
@@ -157,6 +158,17 @@ def _summary(w, w0, u, grid, edges, q_lo, q_hi, amb_rel, amb_abs, v, out, hold, 
         sb += w[j]
         mb += w[j] * grid[j]
     out[COL_MODE] = mb / sb if sb > 0.0 else grid[jb]
+    # the band is widened to hold the mode's mean, the reported omega (point="mode"): the
+    # equal-tailed band is of the mixture, the mode of the signal part, and a mode at an end of
+    # the grid (signal mass piled on the floor, or a window held by mode_hold there) lies
+    # outside the band's 1 % tail when "no line" carries the mass (p_null 0.9 on 10-120 rad/s
+    # puts the 1 % quantile 1.2 rad/s above the floor). [min(lo, mode), max(hi, mode)] holds at
+    # least the band's mass, so it is still a credible band at its level, and it is the
+    # equal-tailed band, bit for bit, wherever that already holds the mode
+    if out[COL_MODE] < out[COL_LO]:
+        out[COL_LO] = out[COL_MODE]
+    if out[COL_MODE] > out[COL_HI]:
+        out[COL_HI] = out[COL_MODE]
     # its basin: the windows reached from jb by non-increasing window excess (within TIE:
     # the running sums' round-off, so a flat posterior is one basin); p_mode is the signal
     # mass they cover; the within-mode spread is the root-mean-square distance of omega from the
