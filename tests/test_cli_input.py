@@ -591,3 +591,27 @@ def test_info_on_a_slow_phone_log_says_the_omega_max_that_grid_and_fuse_need(tmp
     fast = tmp_path / "fast.csv"  # the scenario's own rate: the default range fits
     assert _run("simulate", "--scenario", "car", "--duration", 5, "-o", fast).exit_code == 0
     assert "omega_max below" not in _can_feed(_run("info", fast))
+
+
+def test_accel_axis_without_method_names_what_keeps_fuse_out(logs, tmp_path, monkeypatch):
+    """``-p accel_axis`` without ``-m`` is for fuse, the default with GPS speed: where the
+    default falls back to grid, the line says why (it was grid's "unknown parameter")."""
+    from vibrospeed.estimators.grid import stream
+
+    out = tmp_path / "o.csv"
+    line = _err(_run("estimate", logs["car"], "-p", "accel_axis=w", "-o", out))
+    assert line == ("vibrospeed: error: -p accel_axis=w: the recording has no channel 'w' (it "
+                    "has ax, ay, az) for fuse, the default where it has GPS speed")
+    line = _err(_run("estimate", logs["cart"], "-p", "accel_axis=x", "-o", out))
+    assert line.startswith("vibrospeed: error: -p accel_axis=x: it is fuse's, the default only "
+                           "where the recording has GPS speed, and this one has none")
+    res = _run("estimate", logs["car"], "-p", "accel_axis=-x", "-o", out)
+    assert res.exit_code == 0 and "method fuse" in res.output, res.output
+    # a log long enough to stream: the signed axis is the car's ax, so fuse would suit it
+    monkeypatch.setattr(stream, "STREAM_ROWS", 1000)
+    line = _err(_run("estimate", logs["car"], "-p", "accel_axis=-x", "-o", out))
+    assert line == ("vibrospeed: error: -p accel_axis=-x: it is fuse's, and this log's 2000 "
+                    "rows are estimated with grid in blocks (bounded memory; fuse holds the "
+                    "whole log in memory): -m fuse to fuse it")
+    line = _err(_run("estimate", logs["car"], "-p", "accel_axis=w", "-o", out))
+    assert "the recording has no channel 'w' (it has ax, ay, az)" in line

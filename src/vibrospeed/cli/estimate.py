@@ -42,11 +42,13 @@ def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool,
     Returns the method, the recording where it was read to decide (then not read again), else
     None, and ``(rows, notes)`` where the log streams (its rows counted once, here), False where
     it was counted and does not, None where it was not counted."""
+    import numpy as np
+
     from vibrospeed import presets
     from vibrospeed.batch import load_recording
     from vibrospeed.config import parse_params
     from vibrospeed.estimators import fuse
-    from vibrospeed.estimators.common import axis_channel
+    from vibrospeed.estimators.common import signed_axis
     from vibrospeed.estimators.grid import stream
 
     if radius_from is not None:
@@ -64,7 +66,22 @@ def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool,
                 f"{', '.join(owners)}: give the method with -m")
     if grid_only or (preset is not None and preset not in presets.presets("fuse")):
         return "grid", None, None
-    accel = str(parse_params(param).get("accel_axis", "x"))
+    given = parse_params(param)
+    accel = str(given.get("accel_axis", "x"))
+    channel = signed_axis(accel)[0]
+
+    def _accel_axis_for_grid(why: str) -> None:
+        """``-p accel_axis`` is fuse's: where the default falls back to grid, say why (grid
+        refused it as "unknown parameter 'accel_axis' for method 'grid'", a method the user
+        never chose)."""
+        if "accel_axis" in given:
+            raise ParameterError(f"-p accel_axis={accel}: {why}")
+
+    def _no_channel(chans) -> None:
+        have = ", ".join(c for c in ("ax", "ay", "az") if c in chans) or "no accelerometer"
+        _accel_axis_for_grid(f"the recording has no channel '{channel}' (it has {have}) for "
+                             "fuse, the default where it has GPS speed")
+
     rows = stream.stream_rows(input, method="grid", params=_params("grid", preset, param),
                               fmt=fmt, columns=columns, mapping=mapping, rate=rate, sort=sort,
                               topic=topic, plot=plot)
@@ -73,13 +90,24 @@ def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool,
         # reader, so a named one has a fix once the file reads
         chans = stream.channel_names(input, fmt, columns=columns, mapping=mapping, rate=rate)
         notes = []
-        if "gps_speed" in chans and axis_channel(accel) in chans:
+        if "gps_speed" in chans and channel not in chans:
+            _no_channel(chans)
+        elif "gps_speed" in chans:
+            _accel_axis_for_grid(
+                f"it is fuse's, and this log's {rows} rows are estimated with grid in blocks "
+                "(bounded memory; fuse holds the whole log in memory): -m fuse to fuse it")
             notes.append(f"the recording has GPS speed, but its {rows} rows are estimated with "
                          "grid in blocks (bounded memory; fuse holds the whole log in memory): "
                          "-m fuse to fuse it anyway")
         return "grid", None, (rows, notes)
     rec = load_recording(input, fmt, columns, mapping, rate, sort, topic=topic)
     if not fuse.suits(rec, accel):
+        if "gps_speed" in rec and np.isfinite(rec.channel("gps_speed")).any():
+            _no_channel(rec)  # GPS speed there: the channel is what is missing
+        else:
+            _accel_axis_for_grid("it is fuse's, the default only where the recording has GPS "
+                                 "speed, and this one has none: -m fuse with --wheel-radius, "
+                                 "or leave accel_axis out for grid")
         return "grid", rec, False
     err.print("note: the recording has GPS speed: method fuse (vibration + acceleration + GPS, "
               "one speed with its source per sample, wheel radius learned); -m grid for the "
