@@ -442,3 +442,22 @@ def test_evaluate_leaves_out_the_claimed_rows_where_nothing_was_claimed(drive, t
         assert re.search(rf"share where it claims a signal +│ +{share:.1f}%", res.stdout)
         if claims.any():  # the estimate is the truth + 0.5 rad/s everywhere
             assert re.search(r"RMSE there +│ +0\.500 │ rad/s", res.stdout), res.stdout
+
+
+def test_plot_of_a_recording_with_nothing_labelled_warns_nothing(tmp_path):
+    """``plot`` without an estimate, truth or GPS: the spectrogram alone, no empty legend (it
+    was matplotlib's "No artists with labels found to put in legend" twice on stderr)."""
+    import warnings
+
+    from vibrospeed import sim
+    from vibrospeed.types import Recording
+
+    rec = sim.simulate("cart", seed=1, duration=10)
+    io.write(Recording(rec.t, {c: rec.channel(c) for c in ("ax", "ay", "az")}),
+             tmp_path / "bare.csv")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # any warning, as an error, fails the command
+        res = _run("plot", tmp_path / "bare.csv", "-o", tmp_path / "p.png")
+    assert res.exit_code == 0, res.output
+    assert "legend" not in res.output
+    assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -103,10 +103,11 @@ def plot_track(
         if ok.any():
             ax1.plot(recording.t[ok], g[ok] / track.wheel_radius, ".", ms=3, color="tab:orange",
                      label="GPS speed / r")
-    ax0.legend(loc="upper right", fontsize=8)
+    for ax in (ax0, ax1):  # no estimate, truth or GPS: nothing labelled, no empty legend
+        if ax.get_legend_handles_labels()[1]:
+            ax.legend(loc="upper right", fontsize=8)
     ax1.set_ylabel("omega [rad/s]")
     ax1.set_xlabel("t [s]")
-    ax1.legend(loc="upper right", fontsize=8)
     ax1.grid(alpha=0.3)
     if track is not None and track.wheel_radius:
         r = track.wheel_radius
