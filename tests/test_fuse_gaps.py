@@ -182,3 +182,25 @@ def test_accel_axis_takes_a_sign_and_a_backwards_mount_is_named():
     bad = fuse.estimate(flipped)
     assert any("anti-correlate" in n and "-p accel_axis=-ax" in n for n in bad.notes)
     assert fuse.suits(flipped, "-x")
+
+
+@pytest.mark.parametrize("online", [False, True], ids=["offline", "online"])
+def test_indoor_speed_band_is_cut_at_zero(online):
+    """Indoors (no GPS, a cart on r = 0.08 m) the speed is a magnitude: ``speed >= 0`` and the
+    Gaussian band ``speed -+ z std`` has its lower edge cut at 0, offline and online; elsewhere
+    the band is the Gaussian one (z from the standard normal quantile at the level). Before the
+    cut (5e9545b) and the offline projection (5dda952) speed_lo reached -4.3 m/s offline (3146
+    of 6000 samples; 152 speeds < 0) and was < 0 on every sample online."""
+    from statistics import NormalDist
+
+    from vibrospeed import sim
+
+    rec = sim.simulate("cart", seed=1, duration=60)
+    tr = fuse.estimate(rec, wheel_radius=0.08, params={"online": "true"} if online else None)
+    z = NormalDist().inv_cdf(0.5 + tr.level / 2.0)
+    assert np.all(tr.speed >= 0.0) and np.all(tr.speed_lo >= 0.0)
+    assert np.all((tr.speed_lo <= tr.speed) & (tr.speed <= tr.speed_hi))
+    raw = tr.speed - z * tr.speed_std
+    assert np.any(raw < 0.0)  # the cut is exercised
+    np.testing.assert_allclose(tr.speed_lo, np.maximum(raw, 0.0), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(tr.speed_hi, tr.speed + z * tr.speed_std, rtol=0, atol=1e-12)
