@@ -461,3 +461,27 @@ def test_plot_of_a_recording_with_nothing_labelled_warns_nothing(tmp_path):
     assert res.exit_code == 0, res.output
     assert "legend" not in res.output
     assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_no_line_with_unread_gps_points_to_fuse(tmp_path):
+    """``-m grid`` claims no line on a recording with GPS speed: the summary says no line was
+    claimed (not "no GPS seen": grid does not read it) and points to ``-m fuse``."""
+    from vibrospeed import sim
+    from vibrospeed.eval.metrics import NO_EVIDENCE_NOTE
+    from vibrospeed.types import Recording
+
+    rec = sim.simulate("car", seed=1, duration=20)
+    rng = np.random.default_rng(0)
+    n = len(rec.t)  # accelerometer noise, no wheel line; the car's GPS
+    io.write(Recording(rec.t, {"ax": rng.normal(0, 1, n), "ay": rng.normal(0, 1, n),
+                               "az": 9.81 + rng.normal(0, 1, n),
+                               "gps_speed": rec.channel("gps_speed")}), tmp_path / "n.csv")
+    res = _run("estimate", tmp_path / "n.csv", "-m", "grid", "--wheel-radius", 0.3, "-o",
+               tmp_path / "e.csv")
+    assert res.exit_code == 0, res.output
+    line = " ".join(res.stderr.split())
+    assert line.endswith(f"summary: a wheel line claimed on 0.0 % of the samples; "
+                         f"{NO_EVIDENCE_NOTE}; the recording has GPS speed, which this method "
+                         "does not read: -m fuse reads it")
+    res = _run("estimate", tmp_path / "n.csv", "-m", "fuse", "-o", tmp_path / "f.csv")
+    assert res.exit_code == 0 and "-m fuse reads it" not in res.stderr, res.output

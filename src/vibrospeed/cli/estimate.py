@@ -246,7 +246,12 @@ def estimate(
                 err.print(f"note: {note}", markup=False)  # [ms] is a unit here
             err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)",
                       markup=False, soft_wrap=True)  # a path is text, not markup
-            err.print(summary_line(summary.result()), markup=False, soft_wrap=True)
+            chans = stream.channel_names(input, fmt, columns=columns, mapping=mapping,
+                                         rate=rate)
+            # a gps_speed the header names has a fix (the reader refuses one without any)
+            unread = method not in READS_GPS and "gps_speed" in chans
+            err.print(summary_line(summary.result(), gps_unread=unread), markup=False,
+                      soft_wrap=True)
             if plot is not None:
                 err.print(f"wrote {plot} (decimated spectrogram, no posterior image)",
                           markup=False, soft_wrap=True)
@@ -261,9 +266,14 @@ def estimate(
     for note in rec.notes + track.notes + ([said] if said else []):
         err.print(f"note: {note}", markup=False)
     err.print(f"wrote {output} ({len(track)} rows, method {method})", markup=False, soft_wrap=True)
+    import numpy as np
+
     from vibrospeed.eval.metrics import track_summary
 
-    err.print(summary_line(track_summary(track)), markup=False, soft_wrap=True)
+    unread = method not in READS_GPS and "gps_speed" in rec \
+        and bool(np.isfinite(rec.channel("gps_speed")).any())
+    err.print(summary_line(track_summary(track), gps_unread=unread), markup=False,
+              soft_wrap=True)
     if plot is not None:
         from vibrospeed.eval.plot import plot_track
 
@@ -303,13 +313,19 @@ def _percent(share: float) -> str:
     return f"{100 * share:.1f} %" if share == 0 or 100 * share >= 0.05 else "< 0.1 %"
 
 
-def summary_line(s: dict) -> str:
+#: the methods that read the recording's GPS speed
+READS_GPS = ("fuse", "gps-riss")
+
+
+def summary_line(s: dict, *, gps_unread: bool = False) -> str:
     """What the estimate rests on, in one line, from its summary numbers ``s``
     (:func:`vibrospeed.eval.metrics.track_summary`, a batch row's): the share of samples with a
     claimed wheel line (``fuse``: the shares of the samples by what the speed rests on), the
     median speed (or omega without a radius) and the distance with
     the distances at the edges of the speed band, which count every sample: where no line is
-    claimed omega is the tracker's guess, and the line says so."""
+    claimed omega is the tracker's guess, and the line says so. Where the numbers are left
+    empty (``s["note"]``) on a recording with GPS speed the method does not read
+    (``gps_unread``), the line points to ``-m fuse``, which reads it."""
     parts = []
     share = s["signal_share"]
     sources = s.get("source_shares") or {}
@@ -337,6 +353,9 @@ def summary_line(s: dict) -> str:
         parts.append(f"median omega {s['median_omega']:.1f} rad/s")
     if s["note"]:
         parts.append(s["note"])
+        if gps_unread:
+            parts.append("the recording has GPS speed, which this method does not read: "
+                         "-m fuse reads it")
     return "summary: " + "; ".join(parts) if parts else "summary: -"
 
 
