@@ -134,3 +134,21 @@ def test_normalize_tau_is_read_as_a_number_and_text_that_is_not_one_is_named():
     with pytest.raises(ParameterError) as err:
         ekf.estimate(rec, params={"normalize_tau": "abc"})
     assert str(err.value) == "parameter 'normalize_tau': cannot read 'abc' as float (a number)"
+
+
+def test_sidecar_params_rerun_the_estimate():
+    """Every value the estimate reads is in its params: run again from them (``axis`` as the
+    argument, ``dt`` from the data) it gives the same omega, and ``omega_min`` = 8 and 12,
+    which give different tracks, are told apart (the params left out omega_min)."""
+    from vibrospeed import sim
+
+    rec = sim.simulate("cart", seed=1, duration=20)
+    tracks = {}
+    for lo in (8.0, 12.0):
+        tr = ekf.estimate(rec, params={"omega_min": str(lo)})
+        assert tr.params["omega_min"] == lo
+        again_params = {k: v for k, v in tr.params.items() if k not in ("axis", "dt")}
+        again = ekf.estimate(rec, axis=tr.params["axis"], params=again_params)
+        np.testing.assert_array_equal(again.omega, tr.omega)
+        tracks[lo] = tr
+    assert not np.array_equal(tracks[8.0].omega, tracks[12.0].omega)
