@@ -4,6 +4,7 @@ import json
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -485,3 +486,35 @@ def test_no_line_with_unread_gps_points_to_fuse(tmp_path):
                          "does not read: -m fuse reads it")
     res = _run("estimate", tmp_path / "n.csv", "-m", "fuse", "-o", tmp_path / "f.csv")
     assert res.exit_code == 0 and "-m fuse reads it" not in res.stderr, res.output
+
+
+def test_every_simulate_help_example_runs(tmp_path, monkeypatch):
+    """The example lines of ``simulate --help`` run as written (``--set M=4`` was refused: the
+    harmonics are ``vibration.harmonic_amps``), and a CSV output gets its cog ticks beside it
+    in ``<name>.wss_ticks.csv``, as the help says."""
+    import shlex
+
+    from test_readme import _help_lines
+    from vibrospeed.io.canonical import read_events
+
+    lines = [line for page, line in _help_lines() if page == "simulate --help"]
+    assert len(lines) >= 5 and any("harmonic_amps" in line for line in lines)
+    monkeypatch.chdir(tmp_path)
+    for line in lines:
+        args = shlex.split(line)[2:]
+        res = _run("simulate", *args)
+        assert res.exit_code == 0, (line, res.output)
+        if "-o" in args and args[args.index("-o") + 1].endswith(".csv"):
+            out = Path(args[args.index("-o") + 1])
+            scenario = args[args.index("--scenario") + 1] if "--scenario" in args else "cart"
+            with_ticks = scenario not in ("random", "validation") \
+                and not scenario.startswith("gps_")  # as the help says
+            assert out.with_name(out.stem + ".wss_ticks.csv").is_file() == with_ticks, line
+    from vibrospeed import sim
+
+    four = sim.simulate("cart", seed=0, **{"vibration.harmonic_amps": (0.25, 0.2, 0.1, 0.05)})
+    assert four.channels.keys() == io.read("cart4.csv").channels.keys()
+    np.testing.assert_allclose(io.read("cart4.csv")["ay"], four["ay"], rtol=1e-12, atol=1e-12)
+    assert not np.allclose(four["ay"], sim.simulate("cart", seed=0)["ay"])  # M = 4, not 3
+    np.testing.assert_allclose(read_events(Path("cart.csv"))["wss_ticks"],
+                               sim.simulate("cart", seed=0).events["wss_ticks"], rtol=1e-12)

@@ -45,13 +45,19 @@ def simulate(
 ) -> None:
     """Simulate a drive with ground truth (omega_true, speed_true) and write it.
 
+    Where the scenario simulates a cog-wheel sensor (cart, car and most others; not random,
+    validation or the gps_* ones), a CSV output gets its ticks beside it, in
+    <name>.wss_ticks.csv (for `vibrospeed truth`); a Parquet output holds them inside. The
+    number of wheel harmonics is the length of vibration.harmonic_amps (each in m/s^2), as in
+    the third example.
+
     Examples:
 
-      vibrospeed simulate --scenario cart -o cart.csv
+      vibrospeed simulate --scenario cart -o cart.csv   (and cart.wss_ticks.csv)
 
       vibrospeed simulate --scenario car --seed 3 --duration 120 -o car.parquet
 
-      vibrospeed simulate --scenario car --set M=4 -o car.csv
+      vibrospeed simulate --set vibration.harmonic_amps=0.25,0.2,0.1,0.05 -o cart4.csv
 
       vibrospeed simulate --scenario random --seed 7 -o drive7.csv   (the randomised family)
 
