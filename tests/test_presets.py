@@ -160,3 +160,15 @@ def test_batch_takes_a_preset(tmp_path, drives):
     assert side["meta"]["options"]["params"] == {"M": "2", "smooth": "none"}
     res = _run("batch", path, "-o", tmp_path / "out", "-m", "ekf", "--preset", "lock")
     assert res.exit_code == 2 and "unknown preset 'lock' for method 'ekf'" in res.stderr
+
+
+def test_algebraic_slip_tol_is_documented_as_its_config_reads_it():
+    """``vibrospeed methods algebraic``: ``slip_tol`` is in m/s with the Config's default (it
+    said "0.05 relative wheel slip"; the field is a speed difference, default 0.3 m/s)."""
+    from vibrospeed.estimators import algebraic
+
+    par = presets.PARAMETERS["algebraic"]["slip_tol"]
+    assert par.about.startswith("m/s,")
+    assert par.about.endswith(f"default {algebraic.Config().slip_tol:g}")
+    assert "relative" not in par.about
+    assert algebraic.Config(slip_tol=float(par.example)).slip_tol == 0.5

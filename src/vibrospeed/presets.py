@@ -218,7 +218,8 @@ PARAMETERS: dict[str, dict[str, Parameter]] = {
                         "recording has it)"),
         "window": Parameter("0.2", "s, algebraic filter window for values"),
         "window_d": Parameter("0.3", "s, algebraic filter window for derivatives"),
-        "slip_tol": Parameter("0.05", "relative wheel slip flagged as slipping"),
+        "slip_tol": Parameter("0.5", "m/s, largest gap between the wheel speed and the "
+                              "dead-reckoned speed taken as rolling; default 0.3"),
     },
 }
 
