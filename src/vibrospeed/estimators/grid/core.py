@@ -12,7 +12,7 @@ from numba import njit
 # numba's cache keys this file's compiled functions on this file alone: _summary and the row
 # layout (N_OUT_FIXED: 14 columns, the within-mode spread the last) are compiled in, so a
 # change of summary.py must come with a change here and in smoother.py (stale caches are then
-# rebuilt; last: the mode window by its mass in excess of a flat posterior's)
+# rebuilt; last: the band widened to hold the reported mode)
 from vibrospeed.estimators.grid.summary import COL_LOGLIK, N_OUT_FIXED, _summary
 
 LOG_2PI = float(np.log(2.0 * np.pi))

@@ -58,7 +58,8 @@ import vibrospeed.estimators.grid.summary as cols
 from vibrospeed.estimators.grid.config import Config
 from vibrospeed.estimators.grid.filter import init, posterior_slots
 
-# _summary is compiled into _emit (numba's cache keys on this file: see core.py)
+# _summary is compiled into _emit (numba's cache keys on this file: see core.py; last change
+# of summary.py: the band widened to hold the reported mode)
 from vibrospeed.estimators.grid.summary import COL_LOGLIK, N_OUT_FIXED, _summary
 
 
