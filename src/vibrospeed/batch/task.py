@@ -23,11 +23,7 @@ from vibrospeed.batch.single import (
     vibration_channel,
 )
 from vibrospeed.errors import ReaderError, VibrospeedError
-from vibrospeed.eval.metrics import (  # noqa: F401 (re-exported)
-    NO_EVIDENCE_GPS_NOTE,
-    NO_EVIDENCE_NOTE,
-    track_summary,
-)
+from vibrospeed.eval.metrics import NO_EVIDENCE_NOTE, track_summary  # noqa: F401 (re-exported)
 
 #: A batch row's numbers for one track (and its ``note``): the rule of the drive report,
 #: :func:`vibrospeed.eval.metrics.track_summary`, under its batch name.

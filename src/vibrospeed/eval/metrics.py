@@ -185,13 +185,11 @@ def fitted_radius(track) -> float:
 #: what ``fuse``'s ``source`` column's values 0-3 mean (:mod:`vibrospeed.estimators.fuse`)
 SOURCE_NAMES = ("accelerometer", "gps", "vibration", "standstill")
 
-#: The ``note`` of a track whose speed numbers are left empty (see :func:`track_summary`), by
-#: what its method reads: a line from the vibration alone (grid, rbpmf, aided, ...), or
-#: a line or GPS (``fuse``, whose track has a ``source`` column)
+#: The ``note`` of a track whose speed numbers are left empty (see :func:`track_summary`). It
+#: names the wheel line alone: most methods that say where they see one read no GPS (a
+#: recording's GPS is no evidence for them), and ``fuse``'s summary gives its source shares.
 NO_EVIDENCE_NOTE = ("no wheel line claimed while moving: median_speed, median_omega and "
                     "distance_m left empty")
-NO_EVIDENCE_GPS_NOTE = ("no wheel line claimed and no GPS fix used while moving: median_speed, "
-                        "median_omega and distance_m left empty")
 
 
 def evidence(track) -> tuple[np.ndarray, np.ndarray] | None:
@@ -231,8 +229,7 @@ def track_summary(track) -> dict[str, Any]:
     rests on a measurement of the moving vehicle (:func:`evidence`: no claimed line, no
     GPS-held ``fuse`` sample), the estimate wherever the vehicle was not detected standing is
     the tracker's prior carried through the drive, not a measurement: ``median_speed``,
-    ``median_omega`` and the distances are NaN and ``note`` is :data:`NO_EVIDENCE_NOTE`
-    (:data:`NO_EVIDENCE_GPS_NOTE` for ``fuse``, which also reads GPS). A
+    ``median_omega`` and the distances are NaN and ``note`` is :data:`NO_EVIDENCE_NOTE`. A
     parked vehicle (a standstill on every sample) keeps its 0 m/s and 0 m, a ``fuse`` drive
     without a wheel line keeps its GPS-held speed. Otherwise the medians and the distance are
     over all samples and ``note`` is empty; ``signal_share`` says how much of them rests on a
@@ -258,7 +255,6 @@ class SummaryAccumulator:
         self.n_sig = 0
         self.n_sig_finite = 0
         self.sources = np.zeros(4, np.int64)  # fuse's samples per source (SRC_* order)
-        self.has_source = False  # whether the pieces carry fuse's source column
         self.seen_moving = False  # a sample rests on a measurement of the moving vehicle
         self.n_guessed = 0  # samples resting neither on that nor on a detected standstill
         self.speeds: list[np.ndarray] = []
@@ -280,7 +276,6 @@ class SummaryAccumulator:
             self.n_sig_finite += int(s.size)
         src = track.extras.get("source")
         if src is not None:
-            self.has_source = True
             src = np.asarray(src, dtype=np.float64)
             src = src[np.isfinite(src)].astype(np.int64)
             self.sources += np.bincount(src[(src >= 0) & (src < 4)], minlength=4)
@@ -331,6 +326,5 @@ class SummaryAccumulator:
         }
         if self.has_signal and not self.seen_moving and self.n_guessed:
             out.update(median_speed=math.nan, median_omega=math.nan, distance_m=math.nan,
-                       distance_lo_m=math.nan, distance_hi_m=math.nan,
-                       note=NO_EVIDENCE_GPS_NOTE if self.has_source else NO_EVIDENCE_NOTE)
+                       distance_lo_m=math.nan, distance_hi_m=math.nan, note=NO_EVIDENCE_NOTE)
         return out
