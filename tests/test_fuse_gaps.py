@@ -95,8 +95,8 @@ def test_a_minute_without_the_accelerometer_costs_no_more_than_gps_alone():
 
 
 def test_the_smoothed_speed_is_projected_onto_zero(monkeypatch):
-    """Offline, where the RTS smoother leaves ``v < 0`` (here a GPS that reports -1 m/s, an
-    app's "no fix", read unconverted through the API) the smoothed state is projected onto
+    """Offline, where the RTS smoother leaves ``v < 0`` (here around a 30 s stretch in which
+    the GPS reports -1 m/s, an app's "no fix", read as no fix) the smoothed state is projected onto
     ``v = 0`` as the filter projects its own (``x <- x - P[:, v] v / P_vv``, P unchanged); the
     band keeps ``speed_lo <= speed <= speed_hi``."""
     from dataclasses import replace
@@ -123,7 +123,7 @@ def test_the_smoothed_speed_is_projected_onto_zero(monkeypatch):
     raw, Praw = fuse.smooth(replace(seen["cfg"], nonneg=False), seen["o"])
     np.testing.assert_array_equal(Ps, Praw)
     neg = raw[:, 0] < 0.0
-    assert neg.sum() > 10
+    assert neg.sum() >= 5
     np.testing.assert_array_equal(xs[~neg], raw[~neg])
     want = raw[neg] - Praw[neg, :, 0] * (raw[neg, 0] / Praw[neg, 0, 0])[:, None]
     np.testing.assert_allclose(xs[neg], want, atol=1e-12)

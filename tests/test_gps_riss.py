@@ -420,3 +420,26 @@ def test_speed_std_is_honest_on_the_scenarios():
     o = gr.run(gr.Config.paper(), gr.Sample(rec.t, rec["ax"], rec["gps_speed"], rec["gps_sats"]))
     e = o.speed - rec["speed_true"]
     assert np.sqrt(np.mean(e**2) / np.mean(o.speed_std**2)) < 0.1  # paper set: far too wide
+
+
+@pytest.mark.parametrize("method", ["gps-riss", "fuse"])
+def test_negative_gps_speed_through_the_api_is_no_fix(method):
+    """A Recording built by hand with an app's -1 for "no fix" gets the numbers of NaN there
+    (the readers' conversion; -1 m/s was taken as a fix), a note, and stays unchanged itself."""
+    from vibrospeed import sim
+    from vibrospeed.estimators import get
+
+    rec = sim.simulate("car", seed=1, duration=40)
+    g = rec["gps_speed"].copy()
+    gap = (rec.t > 15) & (rec.t < 25) & np.isfinite(g)
+    with_nan = rec.with_channels(gps_speed=np.where(gap, np.nan, g))
+    with_neg = rec.with_channels(gps_speed=np.where(gap, -1.0, g))
+    params = {"online": "true"} if method == "fuse" else {}
+    kw = {"axis": "x"} if method == "gps-riss" else {}
+    a = get(method).estimate(with_nan, params=params, **kw)
+    b = get(method).estimate(with_neg, params=params, **kw)
+    np.testing.assert_array_equal(a.speed, b.speed)
+    np.testing.assert_array_equal(a.speed_lo, b.speed_lo)
+    assert any("negative value(s) read as no fix" in n for n in b.notes)
+    assert not any("negative value(s)" in n for n in a.notes)
+    assert np.all(with_neg["gps_speed"][gap] == -1.0)

@@ -36,6 +36,18 @@ def signed_axis(spec: str) -> tuple[str, float]:
     return axis_channel(spec.lstrip("+-")), sign
 
 
+def gps_no_fix_as_nan(recording: Recording) -> tuple[Recording, list[str]]:
+    """``recording`` with a negative ``gps_speed`` / ``gps_hacc`` as NaN (no fix), and the note
+    saying so; ``(recording, [])`` where there is none. The readers do this
+    (:func:`vibrospeed.io._common.no_fix_as_nan`: apps write -1 for no fix); a Recording built
+    through the API reaches the GPS methods as it is, where -1 m/s would be a fix."""
+    from vibrospeed.io._common import no_fix_as_nan
+
+    rec = recording.with_channels()
+    notes = no_fix_as_nan(rec)
+    return (rec, notes) if notes else (recording, [])
+
+
 def only_axis(recording, axis: str | None) -> tuple[str | None, str | None]:
     """The vibration axis when none is given and the default ``ay`` is missing: a recording
     with a single other accelerometer axis uses it. Returns ``(axis, note)`` (note None where

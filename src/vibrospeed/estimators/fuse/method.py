@@ -16,7 +16,7 @@ import numpy as np
 
 from vibrospeed.config import config_from_params, parse_flag
 from vibrospeed.errors import InputError, ParameterError
-from vibrospeed.estimators.common import axis_channel, signed_axis
+from vibrospeed.estimators.common import axis_channel, gps_no_fix_as_nan, signed_axis
 from vibrospeed.estimators.fuse.config import (
     CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
@@ -169,8 +169,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     if len(recording) < 2:
         raise InputError(f"{name}: fewer than 2 samples")
     recording.require(acc_ch)
+    recording, notes = gps_no_fix_as_nan(recording)
     has_gps = "gps_speed" in recording and np.isfinite(recording.channel("gps_speed")).any()
-    notes: list[str] = []
     if rf is not None:
         r0, rs0 = radius_from_json(rf)
         notes.append(f"radius prior {r0:.4f} +- {rs0:.4f} m from {os.fspath(rf)}")

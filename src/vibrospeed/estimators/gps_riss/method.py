@@ -11,6 +11,7 @@ import numpy as np
 
 from vibrospeed.config import config_from_params
 from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators.common import gps_no_fix_as_nan
 from vibrospeed.estimators.gps_riss.config import Config
 from vibrospeed.estimators.gps_riss.filter import Sample, _run_progress, run
 from vibrospeed.models.gps_riss import GpsLagModel, simulate_receiver
@@ -41,6 +42,7 @@ def estimate(recording: Recording, *, axis: str = "x", wheel_radius: float | Non
     cfg = config_from_params(Config, params, **base)
     ch = _AXIS_CHANNEL.get(axis, axis)
     recording.require(ch, "gps_speed")
+    recording, notes = gps_no_fix_as_nan(recording)
     sats = recording.channels.get("gps_sats")
     args = (cfg, recording.t, recording.channel(ch), recording.channel("gps_speed"), sats)
     if progress:
@@ -59,6 +61,7 @@ def estimate(recording: Recording, *, axis: str = "x", wheel_radius: float | Non
         method="gps-riss", params=params_out,
         extras={"offset": o.offset, "offset_std": o.offset_std, "gps_error": o.gps_error,
                 "accel": o.accel, "gps_model": o.gps_model, "mode": o.mode.astype(np.float64)},
+        notes=notes,
     )
 
 
