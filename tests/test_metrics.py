@@ -88,3 +88,62 @@ def test_no_evidence_note_names_no_gps():
     assert got["note"] == NO_EVIDENCE_NOTE and math.isnan(got["median_speed"])
     assert got["source_shares"]["accelerometer"] == 1.0
     assert task.NO_EVIDENCE_NOTE == NO_EVIDENCE_NOTE
+
+
+def test_interp_truth_leaves_gaps_over_max_gap_empty():
+    tt = np.array([0.0, 1.0, 2.0, 10.0, 11.0])
+    x = np.array([0.0, 1.0, 2.0, 10.0, 11.0])
+    t = np.array([0.5, 2.0, 3.0, 9.5, 10.0, 10.5, 12.0])
+    np.testing.assert_array_equal(interp_truth(tt, x, t), [0.5, 2.0, 3.0, 9.5, 10.0, 10.5, np.nan])
+    np.testing.assert_array_equal(interp_truth(tt, x, t, max_gap=2.0),
+                                  [0.5, 2.0, np.nan, np.nan, 10.0, 10.5, np.nan])
+
+
+def test_evaluate_against_a_gps_channel_scores_at_the_fixes_only(tmp_path):
+    """``--truth-channel gps_speed``: the speed estimate against the recording's own GPS, in
+    m/s, the numbers those of numpy on the fixes' interpolation, nothing scored inside an
+    outage; the CLI prints the same numbers."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from vibrospeed import io, sim
+    from vibrospeed.cli.app import app
+    from vibrospeed.errors import InputError
+    from vibrospeed.eval.metrics import evaluate
+
+    rec = sim.simulate("car", seed=1, duration=60)
+    g = rec["gps_speed"].copy()
+    g[(rec.t > 20) & (rec.t < 40)] = np.nan  # a 20 s outage: no truth there
+    rec = rec.with_channels(gps_speed=g)
+    io.write(rec, tmp_path / "drive.csv")
+    run = CliRunner().invoke
+    res = run(app, ["estimate", str(tmp_path / "drive.csv"), "-m", "gps-riss", "--axis", "x",
+                    "-o", str(tmp_path / "est.csv")])
+    assert res.exit_code == 0, res.output
+    tr = io.read_track(tmp_path / "est.csv")
+    rec = io.read(tmp_path / "drive.csv")
+    m = evaluate(tr, rec, truth_channel="gps_speed")
+    assert m.unit == "m/s"
+    g = rec["gps_speed"]
+    fix = np.isfinite(g)
+    tf = rec.t[fix]
+    w = np.interp(tr.t, tf, g[fix])
+    j = np.clip(np.searchsorted(tf, tr.t), 1, tf.size - 1)
+    inside = (tr.t >= tf[0]) & (tr.t <= tf[-1]) & ((tf[j] - tf[j - 1] <= 2.0) | (tr.t == tf[j]))
+    assert not inside[(tr.t > 21) & (tr.t < 39)].any()
+    moving = inside & (w > 0.3) & np.isfinite(tr.speed)
+    assert m.n == int(moving.sum()) > 1000
+    e = tr.speed[moving] - w[moving]
+    assert m.rmse == pytest.approx(np.sqrt(np.mean(e ** 2)))
+    assert m.bias == pytest.approx(np.mean(e))
+    res = run(app, ["evaluate", str(tmp_path / "est.csv"), "--truth", str(tmp_path / "drive.csv"),
+                    "--truth-channel", "gps_speed", "--json", str(tmp_path / "m.json")])
+    assert res.exit_code == 0, res.output
+    got = json.loads((tmp_path / "m.json").read_text())
+    assert got["n"] == m.n and got["rmse"] == pytest.approx(m.rmse)
+    with pytest.raises(InputError, match="gps_fix"):
+        evaluate(tr, rec, truth_channel="gps_fix")
+    res = run(app, ["evaluate", str(tmp_path / "est.csv"), "--truth", str(tmp_path / "drive.csv"),
+                    "--truth-channel", "gps_fix"])
+    assert res.exit_code == 2 and "gps_fix" in res.output

@@ -132,6 +132,10 @@ def evaluate(
     estimate_csv: Annotated[Path, typer.Argument(help="estimate written by `estimate`")],
     truth: Annotated[Path, typer.Option(help="recording with omega_true or speed_true")],
     truth_format: Annotated[str, typer.Option(help="format of the truth file")] = "auto",
+    truth_channel: Annotated[str | None, typer.Option(
+        help="the truth file's channel to compare with: omega_true or speed_true (default: "
+             "whichever it has), or a speed in m/s such as gps_speed (a phone drive against "
+             "its own GPS; no truth between fixes more than 2 s apart)")] = None,
     min_omega: Annotated[float, typer.Option(help="truth below this (rad/s) = standing, "
                          "excluded (speeds compared in m/s, an estimate or truth without a "
                          "wheel radius: below 0.3 m/s)",
@@ -146,9 +150,11 @@ def evaluate(
     """Compare an estimate with ground truth: RMSE (thesis eq. 3.18, truth linearly
     interpolated, moving samples only), bias, relative error, band coverage, harmonic errors.
 
-    Example:
+    Examples:
 
       vibrospeed evaluate est.csv --truth drive.csv
+
+      vibrospeed evaluate phone_est.csv --truth phone_drive --truth-channel gps_speed
     """
     from vibrospeed import io
     from vibrospeed.eval.metrics import evaluate as ev
@@ -158,7 +164,7 @@ def evaluate(
     _check_output(json_out, "--json")
     track = io.read_track(estimate_csv)
     ref = io.read(truth, truth_format)
-    m = ev(track, ref, min_omega=min_omega, warmup=warmup)
+    m = ev(track, ref, min_omega=min_omega, warmup=warmup, truth_channel=truth_channel)
     if m.n == 0:  # a table of NaN with exit status 0 read as a result
         # the truth's moving threshold in its unit (evaluate compares speeds at 0.3 m/s)
         still = "0.3 m/s" if m.unit == "m/s" else f"--min-omega {min_omega:g} rad/s"

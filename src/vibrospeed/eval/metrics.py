@@ -58,12 +58,23 @@ def truth_omega(truth: Recording, wheel_radius: float | None = None) -> np.ndarr
     )
 
 
-def interp_truth(t_truth: np.ndarray, x_truth: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Linear interpolation of the truth at ``t``; NaN outside its span or across NaN truth."""
+#: s: a truth channel named for :func:`evaluate` (GPS speed: fixes with NaN between them) is
+#: not interpolated between fixes further apart than this (an outage has no truth)
+TRUTH_GAP_S = 2.0
+
+
+def interp_truth(t_truth: np.ndarray, x_truth: np.ndarray, t: np.ndarray,
+                 max_gap: float | None = None) -> np.ndarray:
+    """Linear interpolation of the truth's finite samples at ``t``; NaN outside their span and,
+    with ``max_gap`` (s), between finite samples further apart than that."""
     ok = np.isfinite(x_truth)
     if ok.sum() < 2:
         return np.full(t.shape, np.nan)
-    out = np.interp(t, t_truth[ok], x_truth[ok], left=np.nan, right=np.nan)
+    tt = t_truth[ok]
+    out = np.interp(t, tt, x_truth[ok], left=np.nan, right=np.nan)
+    if max_gap is not None:
+        j = np.clip(np.searchsorted(tt, t), 1, tt.size - 1)  # tt[j - 1] <= t <= tt[j] inside
+        out[(tt[j] - tt[j - 1] > max_gap) & (t != tt[j])] = np.nan
     return out
 
 
@@ -77,6 +88,7 @@ def compare(
     tol: float = 0.15,
     ok_abs: float = 2.0,
     ok_rel: float = 0.10,
+    truth_max_gap: float | None = None,
 ) -> Metrics:
     """Metrics of ``track`` against truth samples ``(truth_t, truth_omega_values)`` (rad/s).
 
@@ -85,9 +97,11 @@ def compare(
     half/double harmonic shares. ``ok_abs`` (rad/s) and ``ok_rel``: a sample is "ok" within
     ``max(ok_abs, ok_rel * truth)`` (the tolerance of the accuracy tables). Where the track
     reports ``has_signal`` (grid trackers), the ``*_claimed`` fields score only the samples it
-    claims.
+    claims. ``truth_max_gap`` (s): no truth between finite truth samples further apart
+    (:func:`interp_truth`).
     """
-    w = interp_truth(np.asarray(truth_t, float), np.asarray(truth_omega_values, float), track.t)
+    w = interp_truth(np.asarray(truth_t, float), np.asarray(truth_omega_values, float), track.t,
+                     truth_max_gap)
     after = track.t >= track.t[0] + warmup
     valid = after & np.isfinite(w)
     moving = valid & (w > min_omega) & np.isfinite(track.omega)
@@ -132,18 +146,29 @@ def compare(
     )
 
 
-def evaluate(track: Track, truth: Recording, *, min_speed: float = 0.3, **kw) -> Metrics:
+def evaluate(track: Track, truth: Recording, *, min_speed: float = 0.3,
+             truth_channel: str | None = None, **kw) -> Metrics:
     """:func:`compare` against a truth recording (``omega_true`` or ``speed_true``).
 
     A speed estimate without a wheel radius (GPS fusion, algebraic Vx) against ``speed_true`` is
     compared as speeds (m/s; ``min_speed`` m/s marks standstill), reported with ``unit="m/s"``.
+    ``truth_channel``: another channel of ``truth`` holding the speed in m/s (``gps_speed``: a
+    phone drive scored against its GPS), used as ``speed_true``, not interpolated across gaps
+    over :data:`TRUTH_GAP_S` between its finite samples (its fixes).
     """
+    measured = truth_channel is not None and truth_channel not in ("omega_true", "speed_true")
+    if truth_channel is not None:
+        truth.require(truth_channel)
+        truth = Recording(truth.t, {"speed_true" if measured else truth_channel:
+                                    truth.channel(truth_channel)},
+                          wheel_radius=truth.wheel_radius, source=truth.source)
+    if measured:  # a measured speed: compared as speeds where the estimate has one
+        kw.setdefault("truth_max_gap", TRUTH_GAP_S)
     r = track.wheel_radius or truth.wheel_radius
     has_omega_truth = "omega_true" in truth.channels or ("speed_true" in truth.channels and r)
     speed_est = np.isfinite(track.speed).any()
-    if (not has_omega_truth or not np.isfinite(track.omega).any()) and speed_est and (
-        "speed_true" in truth.channels
-    ):
+    if (measured or not has_omega_truth or not np.isfinite(track.omega).any()) and speed_est \
+            and "speed_true" in truth.channels:
         as_speed = Track(track.t, track.speed, track.speed_std, track.speed_lo, track.speed_hi,
                          track.speed, track.speed_std, track.speed_lo, track.speed_hi,
                          level=track.level, wheel_radius=1.0)
