@@ -244,7 +244,6 @@ from vibrospeed.estimators.fuse.filter import (
 )
 from vibrospeed.estimators.fuse.method import (
     _TRACKER_OWN,
-    _axis_channel,
     _block_all,
     _block_mean,
     _split,
@@ -290,7 +289,6 @@ __all__ = [
     "_SAMPLE",
     "_TRACKER_OWN",
     "_as_inputs",
-    "_axis_channel",
     "_block_all",
     "_block_mean",
     "_pack",

@@ -333,11 +333,6 @@ def suits(recording: Recording, accel_axis: str = "x") -> bool:
     return bool(np.isfinite(recording.channel("gps_speed")).any())
 
 
-def _axis_channel(axis: str) -> str:
-    """The channel of an ``accel_axis`` spec, its sign dropped (``'-y'`` -> ``'ay'``)."""
-    return signed_axis(axis)[0]
-
-
 #: s, the windows over which :func:`accel_gps_correlation` compares speed changes
 SIGN_WINDOW = 5.0
 #: the correlation at or below which the accelerometer is taken to point backwards
