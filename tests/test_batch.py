@@ -140,8 +140,8 @@ def test_resume_compares_a_switch_the_estimator_reads_itself_by_value(tmp_path):
     compare equal exactly where parse_flag reads them equal; sidecars written with ``true``
     (the switch as stored before) or the text as typed still match; a number read by the
     estimator itself (``normalize_tau``) still compares as a number."""
-    from vibrospeed.batch.single import canonical_params
     from vibrospeed.config import parse_flag
+    from vibrospeed.estimators.params import canonical_params
 
     spellings = ["1", "true", "True", "YES", "on", "0", "false", "No", "off", True, False, 1, 0]
     for method in ("ekf", "aided"):
@@ -241,8 +241,8 @@ def test_a_switch_refused_by_the_estimator_is_no_earlier_options_switch(tmp_path
     skipped although ``ekf`` refuses the value; now it is refused before the resume looks,
     and the stored switch (``true``; ``1.0`` / ``0.0`` as sidecars stored it before) still
     matches the spellings ``parse_flag`` reads alike."""
-    from vibrospeed.batch.single import canonical_params
     from vibrospeed.errors import ParameterError
+    from vibrospeed.estimators.params import canonical_params
 
     assert canonical_params("ekf", {"comb": "1.0"}) != canonical_params("ekf", {"comb": "true"})
     assert canonical_params("ekf", {"comb": "1.0"}, stored=True) == \

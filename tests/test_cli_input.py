@@ -432,7 +432,7 @@ def test_fuse_checks_the_names_it_hands_to_its_grid_tracker(logs, tmp_path, monk
 
 def test_every_preset_and_documented_example_passes_the_number_check():
     from vibrospeed import estimators, presets
-    from vibrospeed.batch.single import check_values
+    from vibrospeed.estimators.params import check_values
 
     for method in estimators.METHODS:
         for name in presets.presets(method):
@@ -464,7 +464,7 @@ def test_estimate_and_batch_refuse_a_value_with_the_same_line_before_reading(
         logs, tmp_path, monkeypatch, method, param, line):
     """A ``-p`` value its types cannot read (:func:`vibrospeed.estimators.parameters`) is one
     line, exit 2, from ``estimate`` as from ``batch``, before the recording is read: both read
-    it with :func:`vibrospeed.batch.single.check_values`."""
+    it with :func:`vibrospeed.estimators.params.check_values`."""
     _no_work(monkeypatch)
     est = _run("estimate", logs["car"], "-m", method, "-p", param, "-o", tmp_path / "e.csv")
     bat = _run("batch", logs["car"], "-m", method, "-p", param, "-o", tmp_path / "out")

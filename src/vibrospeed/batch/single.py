@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from vibrospeed.errors import ParameterError
+from vibrospeed.estimators.params import canonical_params, check_values
 
 
 @dataclass(frozen=True)
@@ -105,128 +106,14 @@ class EstimateOptions:
 
     def same_as(self, stored: Any) -> bool:
         """``stored`` (a sidecar's ``meta.options``) are these options: its ``params`` compared
-        by value (:func:`canonical_params`), so ``omega_max=30`` is ``omega_max=30.0`` and a
-        sidecar written before the params were stored canonical still matches."""
+        by value (:func:`vibrospeed.estimators.params.canonical_params`), so ``omega_max=30``
+        is ``omega_max=30.0`` and a sidecar written before the params were stored canonical
+        still matches."""
         want = self.to_json()
         if isinstance(stored, dict) and isinstance(stored.get("params"), dict):
             stored = {**stored, "params": canonical_params(self.method, stored["params"],
                                                            stored=True)}
         return stored == want
-
-
-def _trackers(method: str) -> tuple[str | None, list[tuple[str, tuple[str, ...], set[str]]]]:
-    """For a method that hands its ``-p`` names to one of several trackers: the default
-    ``tracker`` value and each tracker as (how a message names it, the ``tracker`` values that
-    pick it, the names it takes); ``(None, [])`` for the others. ``aided``
-    (:func:`vibrospeed.estimators.aided.estimate`): the thesis' EKF (``aided.Config``, with its
-    model's fields, and the names ``aided.estimate`` reads itself on that path: the plain names
-    of its entry in ``estimators._BESIDES_CONFIG``) or a grid tracker (``grid`` / ``rbpmf``:
-    ``aided_grid.Config`` with the grid tracker's and comb's fields, and its input names)."""
-    if method != "aided":
-        return None, []
-    from vibrospeed import estimators
-    from vibrospeed.config import flat_names
-    from vibrospeed.estimators import aided, aided_grid
-
-    default = aided.DEFAULT_TRACKER
-    own = {ref for ref in estimators._BESIDES_CONFIG[method]
-           if ":" not in ref and ref not in estimators.METHODS}
-    grid = "-p tracker=grid" + (", the default" if default == "grid" else "")
-    ekf = "-p tracker=ekf" + (", the default" if default == "ekf" else "")
-    return default, [
-        (f"the EKF tracker's ({ekf})", ("ekf",), flat_names(aided.Config) | own),
-        (f"the grid tracker's ({grid})", ("grid", "rbpmf"),
-         flat_names(aided_grid.Config) | set(aided_grid.INPUT_PARAMS) | {"tracker"}),
-    ]
-
-
-def other_trackers_name(method: str, name: str,
-                        params: dict[str, Any] | None = None) -> ParameterError | None:
-    """The error for ``-p`` ``name`` where the tracker in use does not take it and exactly one
-    other tracker of ``method`` does (``-m aided -p amp0=1`` with the grid tracker:
-    ``unknown parameter 'amp0' for method 'aided' with this tracker: it is the EKF tracker's
-    (-p tracker=ekf)``; the method's merged names hold it, so it was "did you mean 'amp0'");
-    else None. The tracker in use is ``params``' ``tracker`` (else the default); without
-    ``params``, the one that refused ``name`` (``vibrospeed estimate``'s error). A ``tracker``
-    that is none of them is left to the estimator, which says so."""
-    default, trackers = _trackers(method)
-    if params is not None and trackers:
-        chosen = str(params.get("tracker", default))
-        picked = [t for t in trackers if chosen in t[1]]
-        if not picked or name in picked[0][2]:
-            return None
-        trackers = [t for t in trackers if chosen not in t[1]]
-    owners = [who for who, _, names in trackers if name in names]
-    if len(owners) != 1:
-        return None
-    return ParameterError(f"unknown parameter '{name}' for method '{method}' with this "
-                          f"tracker: it is {owners[0]}")
-
-
-def check_values(method: str, params: dict[str, Any]) -> None:
-    """Refuse a ``-p`` value that none of its name's types reads
-    (:func:`vibrospeed.estimators.parameters`, :func:`read_param`: ``-p omega_max=abc``,
-    ``-p comb=1.0``, ``-p tracker=bogus``), or a name only the tracker not chosen takes
-    (``-m aided -p amp0=1`` with the grid one), with the estimator's one line; a name the
-    method does not take is left to the caller. ``vibrospeed estimate`` and ``batch`` both
-    call it before any recording is read, so they refuse the same values with the same line."""
-    from vibrospeed import estimators
-
-    names = estimators.parameters(method)
-    for name, value in params.items():
-        if name not in names:
-            continue
-        refusal = other_trackers_name(method, name, params)
-        if refusal is not None:
-            raise refusal
-        read_param(name, value, names[name])
-
-
-def read_param(name: str, value: Any, types: list[Any], stored: bool = False) -> Any:
-    """``value`` read as the first of ``types`` that reads it
-    (:func:`vibrospeed.config.parse_value`), else the first type's one-line
-    :class:`ParameterError`. ``stored``: the value is from a sidecar, where a switch
-    (``bool``) may be ``1.0`` / ``0.0``, as sidecars stored ``true`` / ``false`` before the
-    switches the estimators read themselves had a type."""
-    from vibrospeed.config import parse_value
-
-    errors = []
-    for typ in types:
-        try:
-            return parse_value(value, typ, name)
-        except ParameterError as exc:
-            if stored and typ is bool and value in ("1.0", "0.0"):
-                return value == "1.0"
-            errors.append(exc)
-    if errors:
-        raise errors[0]
-    return value
-
-
-def canonical_params(method: str, params: dict[str, Any], *,
-                     stored: bool = False) -> dict[str, str]:
-    """``params`` (``-p`` text or values) as one text per value, by name: each value read as
-    its type the way the estimator reads it (:func:`vibrospeed.config.parse_value` with the
-    types of :func:`vibrospeed.estimators.parameters`, a switch such as ``comb`` as ``bool``,
-    as :func:`vibrospeed.config.parse_flag` reads it) and written back
-    (:func:`vibrospeed.config.format_value`), so spellings of one value (``30``, ``30.0``,
-    ``3e1``; ``1``, ``yes``, ``on``, ``true``; ``1, 2``, ``1,2``) give one text. A value its
-    types cannot read is kept as given (``comb=1.0``: :meth:`EstimateOptions.check_params`
-    refuses it before a batch starts). ``stored``: ``params`` of a sidecar
-    (:meth:`EstimateOptions.same_as`; a switch stored as ``1.0`` is ``true``)."""
-    from vibrospeed import estimators
-    from vibrospeed.config import format_value
-
-    types = estimators.parameters(method)
-    out = {}
-    for name, value in sorted(params.items()):
-        text = value if isinstance(value, str) else format_value(value)
-        try:
-            text = format_value(read_param(name, text, types.get(name, []), stored))
-        except ParameterError:
-            pass
-        out[str(name)] = text
-    return out
 
 
 @dataclass

@@ -242,10 +242,10 @@ def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate:
 def _params(method: str, preset: str | None, param: list[str] | None) -> dict[str, str]:
     """The estimator parameters: the preset's, then the -p flags over them; a value its types
     cannot read is refused here, before any work, with the line ``batch`` refuses it with
-    (:func:`vibrospeed.batch.single.check_values`)."""
+    (:func:`vibrospeed.estimators.params.check_values`)."""
     from vibrospeed import presets
-    from vibrospeed.batch.single import check_values
     from vibrospeed.config import parse_params
+    from vibrospeed.estimators.params import check_values
 
     params = presets.apply(method, preset, parse_params(param))
     check_values(method, params)
@@ -261,8 +261,8 @@ def _unknown_hint(method: str, exc: ParameterError) -> ParameterError:
     import re
 
     from vibrospeed import estimators
-    from vibrospeed.batch.single import other_trackers_name
     from vibrospeed.config import unknown
+    from vibrospeed.estimators.params import other_trackers_name
 
     m = re.match(r"unknown parameter '([^']+)' for \w+", str(exc))
     if m is None or method not in estimators.METHODS:
