@@ -67,6 +67,6 @@ def test_fixes_in_an_accelerometer_gap_and_on_one_sample(tmp_path):
     assert len(rec) == len(ta) + 3 and np.all(np.isnan(rec["ay"][added]))
     assert np.all(rec["ay"][~added] == 0.2)
     notes = "\n".join(rec.notes)
-    assert "3 GPS fix(es) inside accelerometer gaps" in notes
+    assert "3 valid GPS fix(es) inside accelerometer gaps" in notes
     assert "1 GPS fix(es) fell on the same accelerometer sample" in notes
     assert "1 time gap(s) longer than 3 periods, longest 5.1 s (first at t = 2.94 s)" in notes

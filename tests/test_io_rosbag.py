@@ -272,6 +272,6 @@ def test_gnss_messages_in_an_imu_gap_keep_rows_of_their_own(tmp_path):
     added = ~np.isin(np.round(r.t, 6), np.round(np.setdiff1d(np.arange(N), gap) * 0.01, 6))
     np.testing.assert_allclose(r.t[added], np.arange(65, 140, 10) * 0.01, atol=1e-9)
     assert np.all(np.isnan(r["ax"][added])) and np.all(np.isfinite(r["ax"][~added]))
-    assert "8 GNSS message time(s) inside IMU gaps" in "\n".join(r.notes)
+    assert "8 valid GPS fix(es) inside IMU gaps" in "\n".join(r.notes)
     assert any(n.startswith("1 time gap(s) longer than 3 periods, longest 0.81 s")
                for n in r.notes)

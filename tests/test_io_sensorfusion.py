@@ -119,7 +119,7 @@ def test_gps_fixes_in_an_acc_gap_and_on_one_sample(tmp_path):
     assert len(r) == 500 + 3 and np.all(np.isnan(r["ay"][added]))
     np.testing.assert_allclose(r["ay"][~added], 0.01 * np.r_[0:300, 800:1000])
     notes = "\n".join(r.notes)
-    assert "GPS: 3 fix(es) inside ACC gaps" in notes
+    assert "3 valid GPS fix(es) inside accelerometer gaps" in notes
     assert "GPS: 5 fixes, 5 inside the ACC span" in notes
     assert "GPS: 1 fix(es) fell on the same ACC sample as a later one" in notes
     assert "1 time gap(s) longer than 3 periods, longest 5.01 s (first at t = 2.99 s)" in notes

@@ -61,25 +61,41 @@ def finish(
 
 
 def no_fix_as_nan(rec: Recording) -> list[str]:
-    """Negative ``gps_speed`` / ``gps_hacc`` set to NaN (in place), with a note.
+    """Negative ``gps_speed`` / ``gps_hacc`` set to NaN (in place), with a note
+    (:func:`negative_as_no_fix`).
 
-    A speed over ground and an accuracy are magnitudes; phone apps write -1 for "no fix"
-    (phyphox, Sensor Logger: their readers turn it into NaN themselves). A log exported
-    through a column mapping or as a canonical CSV keeps the -1, which the GPS methods would
-    take for a fix of -1 m/s."""
+    A log exported through a column mapping or as a canonical CSV keeps an app's -1, which the
+    GPS methods would take for a fix of -1 m/s. The phone readers turn it into NaN themselves
+    with the same function (they need it before placing fixes), so this finds none there and
+    the note is given once."""
     notes = []
     for name in ("gps_speed", "gps_hacc"):
         x = rec.channels.get(name)
         if x is None:
             continue
-        with np.errstate(invalid="ignore"):
-            neg = np.asarray(x) < 0
-        n = int(np.count_nonzero(neg))
-        if n:
-            rec.channels[name] = np.where(neg, np.nan, x)
-            notes.append(f"{name}: {n} negative value(s) read as no fix (NaN; apps write -1 "
-                         "for no fix)")
+        y, note = negative_as_no_fix(name, x)
+        if note:
+            rec.channels[name] = y
+            notes.extend(note)
     return notes
+
+
+def negative_as_no_fix(name: str, x: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """``x`` (a ``gps_speed`` or ``gps_hacc``) with negative values NaN, and the note saying
+    how many (none: ``x`` itself and no note).
+
+    A speed over ground and an accuracy are magnitudes; phone apps (phyphox, Sensor Logger)
+    write -1 for "no fix". A reader calls this before picking the valid fixes, so that a -1 fix
+    neither gets a row of its own inside a gap (:func:`.timebase.merge_fix_rows`) nor wins a
+    sample over a valid fix."""
+    x = np.asarray(x, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        neg = x < 0
+    n = int(np.count_nonzero(neg))
+    if not n:
+        return x, []
+    return np.where(neg, np.nan, x), [f"{name}: {n} negative value(s) read as no fix (NaN; apps "
+                                      "write -1 for no fix)"]
 
 
 def gravity_notes(rec: Recording) -> list[str]:

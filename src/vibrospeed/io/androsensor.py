@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from vibrospeed.errors import ReaderError
-from vibrospeed.io._common import finish
+from vibrospeed.io._common import finish, negative_as_no_fix
 from vibrospeed.io._csv import CsvTable, nan_notes, open_text
-from vibrospeed.io.timebase import place_nearest, rows_for_fixes
+from vibrospeed.io.timebase import merge_fix_rows, place_nearest
 from vibrospeed.types import Recording
 
 _TIME = "Time since start in ms"
@@ -83,18 +83,19 @@ def read_androsensor(path: str | os.PathLike[str], *, sort: bool = False) -> Rec
     if gps_path is not None and gps_path.is_file():
         gtab, g, _ = _table(gps_path)
         tg = g[_find(gtab, "time since start")] * 1e-3
-        v = g[_find(gtab, "speed")] / 3.6
+        # a negative speed is no fix (as the phone apps' -1): NaN before the valid fixes are
+        # picked, so that it gets no row of its own inside a gap
+        v, vnote = negative_as_no_fix("gps_speed", g[_find(gtab, "speed")] / 3.6)
+        notes.extend(f"{gps_path.name}: {n}" for n in vnote)
         sats = g[_find(gtab, "satellites")]
         order = np.argsort(tg, kind="stable")
         tg, v, sats = tg[order], v[order], sats[order]
         inside = (tg >= np.nanmin(t)) & (tg <= np.nanmax(t))
         if np.all(np.diff(t) > 0):  # fixes inside accelerometer gaps: rows of their own
-            t, ch, lines, added = rows_for_fixes(t, tg[inside & np.isfinite(v)], ch, lines)
-            if added.size:
-                notes.append(f"{added.size} GPS fix(es) inside accelerometer gaps (> 3 periods) "
-                             "kept on rows of their own at the fix times, the accelerometer NaN "
-                             "there")
-                meta["fix_rows"] = added.tolist()
+            t, ch, lines, fnotes, fmeta = merge_fix_rows(t, tg[inside & np.isfinite(v)], ch,
+                                                         lines)
+            notes.extend(fnotes)
+            meta.update(fmeta)
         grid = np.sort(t)
         ch["gps_speed"] = place_nearest(tg[inside], v[inside], grid)
         ch["gps_sats"] = place_nearest(tg[inside], sats[inside], grid)

@@ -50,9 +50,15 @@ from typing import IO
 import numpy as np
 
 from vibrospeed.errors import ReaderError
-from vibrospeed.io._common import PHONE_AXES_NOTE, export_folders, finish, several_exports
+from vibrospeed.io._common import (
+    PHONE_AXES_NOTE,
+    export_folders,
+    finish,
+    negative_as_no_fix,
+    several_exports,
+)
 from vibrospeed.io._csv import CsvTable, nan_notes, text_stream
-from vibrospeed.io.timebase import interp_onto, nearest_index, row_order, rows_for_fixes
+from vibrospeed.io.timebase import interp_onto, merge_fix_rows, nearest_index, row_order
 from vibrospeed.types import Recording
 
 __all__ = ["is_phyphox", "read_phyphox"]
@@ -206,13 +212,12 @@ def read_phyphox(path: str | os.PathLike[str], *, sort: bool = False) -> Recordi
     notes.append(f"phyphox {src.labels[ACC]}: {t.size} samples, master time line (~{fs:.4g} Hz)")
     notes.append(PHONE_AXES_NOTE)
     loc = _read_location(src, sort, notes) if LOC in src.files else None
-    added = np.empty(0)
+    meta: dict[str, object] = {"format": "phyphox"}
     if loc is not None:  # fixes inside accelerometer gaps: rows of their own (not lost)
-        t, chans, lines, added = rows_for_fixes(t, loc[1][np.isfinite(loc[2])], chans, lines)
-        if added.size:
-            notes.append(f"{added.size} valid GPS fix(es) inside accelerometer gaps (> 3 "
-                         "periods) kept on rows of their own at the fix times, the "
-                         "accelerometer NaN there")
+        t, chans, lines, fnotes, fmeta = merge_fix_rows(t, loc[1][np.isfinite(loc[2])], chans,
+                                                        lines)
+        notes.extend(fnotes)
+        meta.update(fmeta)
     for name, prefix in ((GYR, "g"), (LIN, "lin_a")):
         if name not in src.files:
             continue
@@ -239,7 +244,7 @@ def read_phyphox(path: str | os.PathLike[str], *, sort: bool = False) -> Recordi
         t, chans, source=str(p), lines=lines, sort=False, units=units, events=events, notes=notes,
         axes="phone axes: x right, y top edge, z out of screen (flat, top forward: x lateral, "
         "y longitudinal, z up incl. +g)",
-        meta={"format": "phyphox", **({"fix_rows": added.tolist()} if added.size else {})},
+        meta=meta,
     )
 
 
@@ -256,13 +261,11 @@ def _read_location(src: _Source, sort: bool, notes: list[str]):
     hacc = next((h for h in tab.header if "horizontal accuracy" in h.lower()), None)
     order = row_order(tl, lines, label, sort, notes)
     cols = {k: x[order] for k, x in cols.items()}
-    tl, v = tl[order], cols[vel].copy()
-    with np.errstate(invalid="ignore"):
-        v[v < 0] = np.nan  # phyphox writes -1 when the fix has no velocity
-    h = cols[hacc].copy() if hacc is not None else None
-    if h is not None:
-        with np.errstate(invalid="ignore"):
-            h[h < 0] = np.nan
+    tl = tl[order]
+    # phyphox writes -1 when the fix has no velocity: NaN before the valid fixes are picked
+    v, vnote = negative_as_no_fix("gps_speed", cols[vel])
+    h, hnote = negative_as_no_fix("gps_hacc", cols[hacc]) if hacc is not None else (None, [])
+    notes.extend(f"{label}: {n}" for n in vnote + hnote)
     return tab.notes, tl, v, h
 
 

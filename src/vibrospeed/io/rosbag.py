@@ -46,7 +46,7 @@ import numpy as np
 
 from vibrospeed.errors import ReaderError
 from vibrospeed.io._common import finish
-from vibrospeed.io.timebase import interp_onto, nearest_index, rows_for_fixes
+from vibrospeed.io.timebase import interp_onto, merge_fix_rows, nearest_index
 from vibrospeed.types import Recording
 
 __all__ = ["detect", "read_rosbag"]
@@ -251,12 +251,10 @@ def _read(p: Path, bag: Path, topic: str | None, sort: bool, stamps: str) -> Rec
     meta = {"format": "rosbag", "imu_topic": imu, "t0_ns": t0,
             "topics": {r: tp for r, tp in speed_topics.items()}}
     if fixes:  # fixes inside IMU gaps: rows of their own (not piled on the gap's edge)
-        t, chans, _, added = rows_for_fixes(t, np.concatenate(fixes), chans,
-                                            np.zeros(t.size, int))
-        if added.size:
-            notes.append(f"{added.size} GNSS message time(s) inside IMU gaps (> 3 periods) kept "
-                         "on rows of their own, the IMU channels NaN there")
-            meta["fix_rows"] = added.tolist()
+        t, chans, _, fnotes, fmeta = merge_fix_rows(t, np.concatenate(fixes), chans,
+                                                    master="IMU")
+        notes.extend(fnotes)
+        meta.update(fmeta)
     for role, tp in speed_topics.items():
         tk, vk = topics[tp]
         if tk.size == 0:

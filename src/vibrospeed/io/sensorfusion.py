@@ -38,8 +38,8 @@ from vibrospeed.io._csv import _short, check_file
 from vibrospeed.io.timebase import (
     check_increasing,
     interp_onto,
+    merge_fix_rows,
     place_nearest,
-    rows_for_fixes,
 )
 from vibrospeed.types import Recording
 
@@ -151,11 +151,9 @@ def read_sensorfusion(path: str | os.PathLike[str], *, sort: bool = False) -> Re
     units: dict[str, str] = {}
     meta = {"format": "sensorfusion", "t0_ms": t0_ms}
     if "GPS" in times:  # fixes inside ACC gaps: rows of their own (not piled on the gap's edge)
-        t, chans, _, added = rows_for_fixes(t, times["GPS"], chans, np.zeros(t.size, int))
-        if added.size:
-            notes.append(f"GPS: {added.size} fix(es) inside ACC gaps (> 3 periods) kept on rows "
-                         "of their own at the fix times, ACC NaN there")
-            meta["fix_rows"] = added.tolist()
+        t, chans, _, fnotes, fmeta = merge_fix_rows(t, times["GPS"], chans)
+        notes.extend(fnotes)
+        meta.update(fmeta)
     for tag, prefix, unit in (("GYR", "g", "rad/s"), ("MAG", "m", "uT")):
         if tag not in times:
             continue

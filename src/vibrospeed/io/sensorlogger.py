@@ -63,9 +63,15 @@ import numpy as np
 
 from vibrospeed.errors import ReaderError
 from vibrospeed.io._archive import SafeZip
-from vibrospeed.io._common import PHONE_AXES_NOTE, export_folders, finish, several_exports
+from vibrospeed.io._common import (
+    PHONE_AXES_NOTE,
+    export_folders,
+    finish,
+    negative_as_no_fix,
+    several_exports,
+)
 from vibrospeed.io._csv import CsvTable, nan_notes
-from vibrospeed.io.timebase import interp_onto, nearest_index, row_order, rows_for_fixes
+from vibrospeed.io.timebase import interp_onto, merge_fix_rows, nearest_index, row_order
 from vibrospeed.types import Recording
 
 __all__ = ["detect", "read_sensorlogger"]
@@ -250,16 +256,13 @@ def read_sensorlogger(path: str | os.PathLike[str], *, sort: bool = False) -> Re
     notes.append(f"Sensor Logger {label}: {t.size} samples, master time line (~{fs:.4g} Hz)")
     notes.append(PHONE_AXES_NOTE)
     loc = _read_location(src, t_ref, scale, sort, notes) if LOC in have else None
-    added = np.empty(0)
+    fix_meta: dict[str, list] = {}
     if loc is not None:  # fixes inside accelerometer gaps: rows of their own (not lost)
         acc_ch = dict(zip("xyz", acc, strict=True))
-        t, acc_ch, lines, added = rows_for_fixes(t, loc[0][np.isfinite(loc[1]["gps_speed"])],
-                                                 acc_ch, lines)
+        t, acc_ch, lines, fnotes, fix_meta = merge_fix_rows(
+            t, loc[0][np.isfinite(loc[1]["gps_speed"])], acc_ch, lines)
         acc = [acc_ch[k] for k in "xyz"]
-        if added.size:
-            notes.append(f"{added.size} valid GPS fix(es) inside accelerometer gaps (> 3 "
-                         "periods) kept on rows of their own at the fix times, the "
-                         "accelerometer NaN there")
+        notes.extend(fnotes)
 
     def onto(name: str, want: list[str]) -> list[np.ndarray] | None:
         """Columns of ``name`` interpolated onto the master time line (None if unusable)."""
@@ -331,8 +334,7 @@ def read_sensorlogger(path: str | os.PathLike[str], *, sort: bool = False) -> Re
             "t0_epoch_ns" if scale == 1e-9 else "t0_elapsed_s": t_ref}
     if platform:
         meta["platform"] = platform
-    if added.size:
-        meta["fix_rows"] = added.tolist()
+    meta.update(fix_meta)
     return finish(
         t, chans, source=str(p), lines=lines, sort=False, units=units, events=events,
         notes=notes, meta=meta,
@@ -358,12 +360,10 @@ def _read_location(src: _Source, t_ref: float, scale: float, sort: bool, notes: 
         raise ReaderError(label, "time column differs from the accelerometer's")
     tl = (tl - t_ref) * sk
     data = dict(zip(cols, vals, strict=True))
-    for k in ("gps_speed", "gps_hacc"):
+    for k in ("gps_speed", "gps_hacc"):  # the app writes negative values for "invalid"
         if k in data:
-            x = data[k].copy()
-            with np.errstate(invalid="ignore"):
-                x[x < 0] = np.nan  # the app writes negative values for "invalid"
-            data[k] = x
+            data[k], knote = negative_as_no_fix(k, data[k])
+            notes.extend(f"{label}: {n}" for n in knote)
     return tl, data
 
 

@@ -31,6 +31,7 @@ __all__ = [
     "describe_timebase",
     "find_gaps",
     "interp_onto",
+    "merge_fix_rows",
     "nearest_index",
     "place_nearest",
     "rows_for_fixes",
@@ -221,6 +222,36 @@ def rows_for_fixes(
     chans = {k: np.insert(np.asarray(x, dtype=np.float64), pos, np.nan)
              for k, x in channels.items()}
     return t2, chans, np.insert(lines, pos, 0), add
+
+
+def merge_fix_rows(
+    t: np.ndarray,
+    tq: np.ndarray,
+    channels: dict[str, np.ndarray],
+    lines: np.ndarray | None = None,
+    *,
+    master: str = "accelerometer",
+) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray | None, list[str], dict[str, list]]:
+    """:func:`rows_for_fixes` with the note and the meta entry every reader gives for it.
+
+    ``tq`` holds the times of the *valid* fixes only: a "no fix" (an app's -1 speed, made NaN
+    first) must not get a row of its own. ``master`` names the sensor whose time line ``t`` is
+    (its ``channels`` are NaN on the new rows); ``lines`` may be None (no file lines).
+
+    Returns ``(t, channels, lines, notes, meta)``: ``notes`` is empty or the one note (how many
+    fixes, the gap threshold, that the master is NaN there) and ``meta`` empty or
+    ``{"fix_rows": added times}``, which :func:`describe_timebase` reads to leave those rows out.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    ln = np.zeros(t.size, dtype=np.intp) if lines is None else lines
+    t2, chans, ln, added = rows_for_fixes(t, tq, channels, ln)
+    if added.size == 0:
+        return t2, chans, lines, [], {}
+    gap = 3.0 * float(np.median(np.diff(t)))
+    note = (f"{added.size} valid GPS fix(es) inside {master} gaps (intervals > 3 median periods, "
+            f"{gap:.3g} s) kept on rows of their own at the fix times, the {master} NaN there "
+            "(their times in meta 'fix_rows')")
+    return t2, chans, None if lines is None else ln, [note], {"fix_rows": added.tolist()}
 
 
 def resample_uniform(
