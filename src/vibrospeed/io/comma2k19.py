@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vibrospeed.errors import ReaderError
+from vibrospeed.io._common import finish
 from vibrospeed.io.timebase import place_nearest
 from vibrospeed.types import WHEEL_CHANNELS, Recording
 
@@ -68,9 +69,14 @@ def _csv(path: Path, cols: list[str]) -> pd.DataFrame:
 def _monotonic(t: np.ndarray, path: Path) -> None:
     if t.ndim != 1 or t.size < 2:
         raise ReaderError(path, f"time stamps must be a 1-D array of >= 2 values, got {t.shape}")
+    nan = np.flatnonzero(~np.isfinite(t))
+    if nan.size:
+        raise ReaderError(path, f"time stamp at index {int(nan[0])} is not a number")
     bad = np.flatnonzero(~(np.diff(t) > 0))
     if bad.size:
-        raise ReaderError(path, f"time stamps not increasing at index {int(bad[0]) + 1}")
+        i = int(bad[0]) + 1
+        raise ReaderError(path, f"time stamps not increasing at index {i} ({float(t[i])!r} s after "
+                                f"{float(t[i - 1])!r} s)")
 
 
 def _interp(tq: np.ndarray, t: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -143,9 +149,11 @@ def read_comma2k19(path, *, wheel_radius: float = RAV4_WHEEL_RADIUS) -> Recordin
         if vp.shape == (tp.size, 3):
             ch["speed_pose"] = _interp(t, tp, np.linalg.norm(vp, axis=1))
             units["speed_pose"] = "m/s"
-    return Recording(
-        t=t - t[0],
-        channels=ch,
+    # through finish() like every reader: time-line, no-fix and gravity notes (the time was
+    # checked above, naming the .npy file and index, before the other files are read)
+    return finish(
+        t - t[0],
+        ch,
         units=units,
         source=str(root),
         wheel_radius=wheel_radius,

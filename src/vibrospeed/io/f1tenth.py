@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vibrospeed.errors import ReaderError
+from vibrospeed.io._common import finish
 from vibrospeed.types import WHEEL_CHANNELS, Recording
 
 if TYPE_CHECKING:
@@ -141,9 +142,11 @@ def read_f1tenth(
         f"(median period {np.median(dt) * 1e3:.3g} ms, max gap {dt.max():.3g} s)",
         f"wheel_omega = odometry speed / {wheel_radius:g} m on all four wheels",
     ]
-    return Recording(
-        t=ti - ti[0],
-        channels=ch,
+    # through finish() like every reader: time-line, no-fix and gravity notes (the IMU time was
+    # checked by _read, naming imuData.csv and its line, as the other two logs' times)
+    return finish(
+        ti - ti[0],
+        ch,
         units={"speed_odom": "m/s"},
         source=str(root),
         wheel_radius=wheel_radius,
