@@ -416,3 +416,41 @@ def test_gps_knobs_out_of_range_are_refused_naming_them(knobs, says):
         simulate("car", seed=1, duration=10.0, **knobs)
     # wn is the second-order lag's only: with the first-order lag (default) it is not read
     assert len(simulate("car", seed=1, duration=10.0, **{"gps.wn": 0.0})) == 1000
+
+
+@pytest.mark.parametrize(("name", "knob", "value", "says"), [
+    # each was taken silently: -1 meant "never stop", "no wander", "no turns", exact ticks ...
+    ("cart", "p_stop", -1.0, "p_stop must be in [0, 1], got -1.0"),
+    ("car", "p_stop", 1.5, "p_stop must be in [0, 1], got 1.5"),
+    ("cart", "initial_stop", -1.0, "initial_stop must be finite and >= 0, got -1.0"),
+    ("car", "speed_wander", -1.0, "speed_wander must be finite and >= 0, got -1.0"),
+    ("car", "turn_rate", -1.0, "turn_rate must be finite and >= 0, got -1.0"),
+    ("cart", "curvature_max", 0.0, "curvature_max must be finite and > 0, got 0.0"),
+    ("car", "cruise_time", "-1,-1",
+     "cruise_time must be a pair (min, max) with 0 < min <= max, got (-1.0, -1.0)"),
+    ("cart", "stop_time", "5,2", "stop_time must be a pair (min, max) with 0 < min <= max"),
+    ("car", "vibration.fade_rate", -1.0, "vibration.fade_rate must be finite and >= 0"),
+    ("cart", "vibration.fade_depth", 2.0, "vibration.fade_depth must be in [0, 1], got 2.0"),
+    ("car", "vibration.aa_order", -1, "vibration.aa_order must be an integer >= 0, got -1"),
+    ("car", "vibration.lowfreq_std", "-1,0,0", "vibration.lowfreq_std must be finite values"),
+    ("car", "vibration.engine.idle_rpm", -800.0, "vibration.engine.idle_rpm must be finite "
+                                                 "and > 0"),
+    ("car", "vibration.engine.downshift_rpm", 3000.0, "need downshift_rpm < upshift_rpm"),
+    ("car", "ticks.jitter", -1.0, "ticks.jitter must be finite and >= 0, got -1.0"),
+    ("car", "wheels.track", -1.0, "wheels.track must be finite and > 0, got -1.0"),
+    ("car", "gps.outage_duration", "-1,-1", "gps.outage_duration must be a pair"),
+    ("stop_and_go", "omega_spread", -1.0, "omega_spread must be finite and >= 0, got -1.0"),
+    ("bumpy_floor", "bump_interval", "8,4", "bump_interval must be a pair (min, max)"),
+])
+def test_a_knob_outside_its_domain_is_refused_naming_it(name, knob, value, says):
+    with pytest.raises(ParameterError, match=re.escape(says)):
+        simulate(name, seed=1, duration=10.0, **{knob: value})
+
+
+def test_every_default_scenario_passes_its_own_knob_checks():
+    # the checks must not refuse what the scenarios and the family draw themselves
+    for name in ("cart", "car", "stop_and_go", "bumpy_floor", "turns", "sudden_change",
+                 "start_from_rest"):
+        assert simulate(name, seed=2).t.size > 0
+    for seed in range(12):
+        assert simulate("random", seed=seed, duration=5.0).t.size > 0

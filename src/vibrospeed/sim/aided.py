@@ -36,6 +36,7 @@ import numpy as np
 
 from vibrospeed.errors import ParameterError
 from vibrospeed.sim.drive import simulate_drive
+from vibrospeed.sim.knobs import check
 from vibrospeed.sim.profile import Segment, SpeedProfile, Turn, build_profile
 from vibrospeed.sim.scenarios import SCENARIOS as SIM_SCENARIOS
 from vibrospeed.sim.scenarios import register
@@ -105,6 +106,14 @@ class AidedConfig:
     """IMU noise and biases."""
     ticks: TickConfig | None = field(default_factory=lambda: TickConfig(n_cogs=12, radius=0.0625))
     """Cog-wheel ticks (thesis appendix B); None: off."""
+
+    def __post_init__(self) -> None:
+        check(self, positive=("omega_cruise", "change_accel", "wheelbase", "bump_freq",
+                              "bump_decay"),
+              nonnegative=("omega_spread", "omega_change", "initial_stop", "bump_amp",
+                           "jerk_time"),
+              intervals=("accel", "decel", "cruise_time", "stop_time", "bump_interval",
+                         "turn_interval", "turn_duration", "turn_curvature"))
 
 
 def _speed(cfg: AidedConfig, rng: np.random.Generator) -> float:

@@ -30,6 +30,7 @@ import numpy as np
 from vibrospeed.config import config_from_params, unknown
 from vibrospeed.errors import ParameterError
 from vibrospeed.sim.drive import simulate_drive
+from vibrospeed.sim.knobs import check
 from vibrospeed.sim.profile import Segment, SpeedProfile, Turn, build_profile
 from vibrospeed.sim.sensors import GpsConfig, GpsModel, ImuConfig, TickConfig, WheelConfig
 from vibrospeed.sim.validation import AMPLITUDES, W0, validation_signal
@@ -362,6 +363,17 @@ class CartConfig:
     gps: GpsConfig | None = None
     """Built-in GPS; None: off (indoors)."""
 
+    def __post_init__(self) -> None:
+        check_drive(self)
+
+
+def check_drive(cfg: Any) -> None:
+    """The knobs the cart and car scenarios share (:func:`vibrospeed.sim.knobs.check`)."""
+    check(cfg, positive=("wander_accel", "lat_accel_max", "curvature_max"),
+          nonnegative=("initial_stop", "speed_wander", "turn_rate", "jerk_time"),
+          fractions=("p_stop",),
+          intervals=("cruise_time", "stop_time", "accel", "decel", "turn_duration"))
+
 
 def _drive(cfg, rng: np.random.Generator, gps_model, segments: list[Segment], name: str,
            grade=None) -> Recording:
@@ -457,6 +469,9 @@ class CarConfig:
     """Four wheel-speed channels; None: off."""
     gps: GpsConfig | None = field(default_factory=GpsConfig)
     """Built-in GPS (10 Hz, 0.4 s first-order lag); None: off."""
+
+    def __post_init__(self) -> None:
+        check_drive(self)
 
 
 @register("car", CarConfig)

@@ -22,6 +22,7 @@ import numpy as np
 from scipy import signal as sps
 
 from vibrospeed.errors import ParameterError
+from vibrospeed.sim.knobs import check
 
 G0 = 9.80665  # m/s^2, standard gravity
 
@@ -83,6 +84,11 @@ class TickConfig:
     jitter: float = 0.0
     """s, std of Gaussian timestamp noise added to each tick (0: exact)."""
 
+    def __post_init__(self) -> None:
+        check(self, "ticks.", nonnegative=("jitter",))
+        if self.radius is not None:
+            check(self, "ticks.", positive=("radius",))
+
 
 @dataclass(frozen=True)
 class WheelConfig:
@@ -99,6 +105,9 @@ class WheelConfig:
     """m, distance L between the axles."""
     noise: float = 0.0
     """rad/s, white noise std on each wheel channel."""
+
+    def __post_init__(self) -> None:
+        check(self, "wheels.", positive=("track", "wheelbase"), nonnegative=("noise",))
 
 
 @dataclass(frozen=True)
@@ -154,6 +163,7 @@ class GpsConfig:
                 raise ParameterError(f"gps.{name} must be {need}, got {getattr(self, name)}")
         if len(self.outages) % 2:
             raise ParameterError("gps.outages: need (start, end) pairs")
+        check(self, "gps.", intervals=("outage_duration",))
 
 
 # -- IMU ---------------------------------------------------------------------------------------

@@ -51,6 +51,7 @@ import numpy as np
 from scipy import signal as sps
 
 from vibrospeed.errors import ParameterError
+from vibrospeed.sim.knobs import check
 
 AXES = ("x", "y", "z")
 
@@ -78,6 +79,17 @@ class EngineConfig:
     """Amplitude grows as (omega_engine / omega_idle)^gamma."""
     extra_orders: tuple[tuple[float, float], ...] = ()
     """Further engine-order lines as ``(order, amplitude relative to amp)`` pairs."""
+
+    def __post_init__(self) -> None:
+        check(self, "vibration.engine.",
+              positive=("final_drive", "idle_rpm", "upshift_rpm", "downshift_rpm", "order"),
+              nonnegative=("amp", "gamma"))
+        if not self.gear_ratios or not all(g > 0 for g in self.gear_ratios):
+            raise ParameterError("vibration.engine.gear_ratios: need one or more ratios > 0, "
+                                 f"got {self.gear_ratios!r}")
+        if not self.downshift_rpm < self.upshift_rpm:
+            raise ParameterError("vibration.engine: need downshift_rpm < upshift_rpm, got "
+                                 f"{self.downshift_rpm} and {self.upshift_rpm}")
 
 
 @dataclass(frozen=True)
@@ -145,17 +157,14 @@ class VibrationConfig:
             raise ParameterError("vibration.axis_gain: need three gains (x, y, z)")
         if len(self.lowfreq_std) != 3:
             raise ParameterError("vibration.lowfreq_std: need three values (x, y, z)")
-        for name in ("omega_ref", "amp_tau", "v_ref", "resonance_q", "fade_ramp",
-                     "lowfreq_cutoff", "lowfreq_v"):
-            if not getattr(self, name) > 0:
-                raise ParameterError(f"vibration.{name} must be > 0, got {getattr(self, name)}")
-        for name in ("gamma", "road_gamma", "amp_log_std", "resonance_amp", "road_noise",
-                     "phase_jitter", "idle_noise"):
-            if not getattr(self, name) >= 0:
-                raise ParameterError(f"vibration.{name} must be >= 0, got {getattr(self, name)}")
-        lo, hi = self.fade_duration
-        if not 0 < lo <= hi:
-            raise ParameterError("vibration.fade_duration: need 0 < min <= max (s)")
+        check(self, "vibration.",
+              positive=("omega_ref", "amp_tau", "v_ref", "resonance_q", "fade_ramp",
+                        "lowfreq_cutoff", "lowfreq_v", "aa_cutoff"),
+              nonnegative=("gamma", "road_gamma", "amp_log_std", "resonance_amp", "road_noise",
+                           "phase_jitter", "idle_noise", "fade_rate", "fundamental_fade_rate",
+                           "road_floor"),
+              fractions=("fade_depth",), intervals=("fade_duration",),
+              nonnegative_each=("lowfreq_std",), counts=("aa_order",))
 
     @property
     def M(self) -> int:
