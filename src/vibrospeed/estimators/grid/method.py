@@ -439,7 +439,10 @@ def estimate(
     or :class:`vibrospeed.models.harmonic.HarmonicModel` field (defaults
     :data:`GRID_DEFAULTS` over the paper's); ``smooth=none`` gives the causal filter. Columns
     and extras as :func:`vibrospeed.estimators.rbpmf.estimate` (``p_half``, ``p_double``,
-    ``p_third``, ``p_triple``, ``ambiguous``, ``confidence``, ``has_signal``, ...).
+    ``p_third``, ``p_triple``, ``ambiguous``, ``confidence``, ``has_signal``, ...), and
+    ``standstill`` (1 where the vehicle stands: :func:`with_standstill` sets omega, speed,
+    their bands and ``has_signal`` to 0 there; ``omega_mode``, ``omega_mean``, ``omega_map``
+    and the ``p_*`` columns stay the tracker's, what it would say were the vehicle moving).
     ``return_posterior``: the grid posterior in ``extras["posterior"]`` (float32 rows, the
     signal part) and ``extras["grid"]``: True for every sample, or an increasing array of
     sample indices for those rows only (``extras["posterior_index"]``; a consumer that reads
