@@ -22,7 +22,9 @@ recordings, each in its own task, and returns the summary table (one row per rec
 ``fitted_radius``  wheel radius in m fitted by the method (only present when a method gives one)
 ``status``         ``ok``, ``skipped`` (an up-to-date output was there) or ``error``
 ``error``          one line saying what went wrong
-``note``           why numbers are empty (no wheel line or GPS while moving), else empty
+``note``           why numbers are empty (no wheel line or GPS while moving), and the note
+                   ``vibrospeed estimate`` prints where the default wheel speed range was
+                   searched (:func:`vibrospeed.estimators.params.range_note`), else empty
 ``wall_s``         seconds spent on this recording
 ``report``         its HTML report (only with ``report=True``)
 =================  ==========================================================================

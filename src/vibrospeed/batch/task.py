@@ -3,7 +3,9 @@ sidecar records the same method, options, version and input checksum, else estim
 (:func:`vibrospeed.batch.single.estimate_recording`) and write its report; a failure is a row
 with a one-line error, never an exception, so one bad recording never stops the batch. The
 row's numbers are :func:`drive_summary`'s, the rule of the drive report
-(:func:`vibrospeed.eval.metrics.track_summary`), so a row and its report never disagree."""
+(:func:`vibrospeed.eval.metrics.track_summary`), so a row and its report never disagree; its
+``note`` adds the note ``vibrospeed estimate`` prints where the default wheel speed range was
+searched (:func:`vibrospeed.estimators.params.range_note`)."""
 
 from __future__ import annotations
 
@@ -23,11 +25,16 @@ from vibrospeed.batch.single import (
     vibration_channel,
 )
 from vibrospeed.errors import ReaderError, VibrospeedError
+from vibrospeed.estimators.params import range_note
 from vibrospeed.eval.metrics import NO_EVIDENCE_NOTE, track_summary  # noqa: F401 (re-exported)
 
 #: A batch row's numbers for one track (and its ``note``): the rule of the drive report,
 #: :func:`vibrospeed.eval.metrics.track_summary`, under its batch name.
 drive_summary = track_summary
+
+#: Between the notes of one row's ``note``: the drive summary's (:data:`NO_EVIDENCE_NOTE`),
+#: then the default range's (:func:`vibrospeed.estimators.params.range_note`)
+NOTE_SEP = "; "
 
 
 def _one_line(exc: BaseException) -> str:
@@ -138,6 +145,9 @@ def _work(job: dict[str, Any]) -> dict[str, Any]:
             row["duration_s"] = float(rec.duration)
             row["status"] = "ok"
         row.update(drive_summary(track))
+        said = range_note(opts.method, opts.params, track.params, track.wheel_radius)
+        if said:  # the note vibrospeed estimate prints: the default range searched
+            row["note"] = NOTE_SEP.join(n for n in (row["note"], said) if n)
         report = job.get("report")
         if report and (row["status"] == "ok" or _stale(Path(report), Path(job["output"]))):
             from vibrospeed.eval.report import write_report

@@ -5,7 +5,6 @@ estimator's presets and parameters)."""
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from pathlib import Path
@@ -30,6 +29,7 @@ from vibrospeed.cli.options import (
     at_least,
 )
 from vibrospeed.errors import ParameterError
+from vibrospeed.estimators.params import range_note
 
 
 def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool, plot: bool,
@@ -239,9 +239,7 @@ def estimate(
                                       rows=streamed[0], notes=streamed[1], columns=columns,
                                       mapping=mapping, rate=rate, plot=plot,
                                       on_block=summary.add)
-            side = json.loads(Path(f"{output}.json").read_text(encoding="utf-8"))
-            said = range_note(method, opts.params, side.get("params") or {},
-                              side.get("wheel_radius"))
+            said = range_note(method, opts.params, st.params, st.wheel_radius)
             for note in st.recording_notes + st.notes + ([said] if said else []):
                 err.print(f"note: {note}", markup=False)  # [ms] is a unit here
             err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)",
@@ -280,32 +278,6 @@ def estimate(
         plot_track(plot, rec, track, axis=vibration_channel(rec, est.axis),
                    posterior=est.grids.get("posterior"), grid=est.grids.get("grid"))
         err.print(f"wrote {plot}", markup=False, soft_wrap=True)
-
-
-#: the methods that search a range of wheel speeds (``omega_min`` .. ``omega_max``)
-RANGE_METHODS = ("grid", "rbpmf", "rbpf", "shs", "aided")
-
-
-def range_note(method: str, given: dict, params: dict, radius: float | None) -> str | None:
-    """The note that names the wheel speeds searched where the user gave no range: a grid
-    tracker finds no line outside ``omega_min`` .. ``omega_max`` (rad/s), and the default
-    10-120 rad/s is a car's wheels, so a cart or forklift (about 2-30 rad/s) run without its
-    range gets an estimate sitting at the bottom edge or no claimed line, and nothing else
-    says why. ``given``: the -p and preset parameters; ``params``: those the estimate ran
-    with (its sidecar's); ``radius``: the wheel radius in m, where known (the range in m/s,
-    ``v = r omega``). None where the user set either end, or the method searches none."""
-    if method not in RANGE_METHODS or "omega_min" in given or "omega_max" in given:
-        return None
-    if params.get("tracker", "grid") != "grid":
-        return None  # aided's EKF (no range) and rbpmf (0-40 rad/s, omega_min 0 required)
-    lo, hi = params.get("omega_min"), params.get("omega_max")
-    if not (isinstance(lo, (int, float)) and isinstance(hi, (int, float))):
-        return None  # the aided EKF: omega clipped, no range searched
-    speeds = (f" ({radius * lo:.2g}-{radius * hi:.2g} m/s at wheel radius {radius:.3g} m)"
-              if radius else "")
-    return (f"searched wheel speeds {lo:g}-{hi:g} rad/s{speeds}, the default: for another "
-            "vehicle give its range, v / r (a cart or forklift on r = 0.08 m: -p omega_min=2 "
-            "-p omega_max=30)")
 
 
 def _percent(share: float) -> str:
@@ -403,9 +375,11 @@ def batch(
     recording: file, format, duration, method, share with a wheel line, median speed,
     distance, status (ok / skipped / error), the error in one line, a note where nothing was
     measured while moving (no wheel line or GPS: the speed numbers are left empty; the count is
-    printed at the end) and the wall time. Run it again and every recording whose output has
-    the same input checksum, method, options and vibrospeed version is skipped; a bad file is
-    an error row, never the end of the batch (exit status 2 when any recording failed).
+    printed at the end) or where the default wheel speed range was searched (estimate's note,
+    printed once at the end with its count) and the wall time. Run it again and every
+    recording whose output has the same input checksum, method, options and vibrospeed version
+    is skipped; a bad file is an error row, never the end of the batch (exit status 2 when any
+    recording failed).
 
     Examples:
 
@@ -435,10 +409,19 @@ def batch(
     extra = " + index.html and a report per recording" if report else ""
     print(f"wrote {output / 'summary.csv'}{extra}: {len(df)} recordings ({said})",
           file=sys.stderr)
-    noted = int((df["note"].fillna("").astype(str) != "").sum())
+    from collections import Counter
+
+    from vibrospeed.batch.task import NO_EVIDENCE_NOTE, NOTE_SEP
+
+    notes = [[n for n in str(text).split(NOTE_SEP) if n] for text in df["note"].fillna("")]
+    noted = sum(NO_EVIDENCE_NOTE in said for said in notes)
     if noted:  # drive_summary left their speed numbers empty: nothing measured while moving
         print(f"{noted} drive{'s' if noted != 1 else ''} without a wheel line or GPS while "
               "moving: speed numbers left empty (see the note column)", file=sys.stderr)
+    # the others (the default range searched: range_note) once each, as estimate prints them
+    for text, k in Counter(n for said in notes for n in said if n != NO_EVIDENCE_NOTE).items():
+        print(f"note: {text} ({k} recording{'s' if k != 1 else ''}, see the note column)",
+              file=sys.stderr)
     if counts.get("error", 0):
         raise typer.Exit(2)
 

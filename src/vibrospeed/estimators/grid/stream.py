@@ -24,7 +24,7 @@ from __future__ import annotations
 import csv
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -109,12 +109,15 @@ def channel_names(path, fmt: str = "auto", *, columns: str | None = None, mappin
 @dataclass
 class Streamed:
     """What :func:`estimate_file` wrote: rows, the recording's notes, the track's notes, the
-    axis used."""
+    axis used, and the parameters and wheel radius the estimate ran with, as its sidecar
+    holds them (for the CLI's notes, without reading the sidecar back)."""
 
     rows: int
     recording_notes: list[str]
     notes: list[str]
     axis: str | None
+    params: dict[str, Any] = field(default_factory=dict)
+    wheel_radius: float | None = None
 
 
 def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
@@ -240,8 +243,9 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     all_notes = [*blk.notes, *q_notes]
     side_meta = {"version": __version__, "axis": use_axis, "recording_notes": rec.notes,
                  **(meta or {})}
+    side_params = jsonable(blk.params)
     side = {
-        "kind": "track", "method": "grid", "params": jsonable(blk.params), "level": blk.level,
+        "kind": "track", "method": "grid", "params": side_params, "level": blk.level,
         "wheel_radius": blk.wheel_radius, "version": __version__,
         "input": os.fspath(input_path), "input_sha256": sha256_path(input_path),
         "columns": names or list(TRACK_COLUMNS), "notes": all_notes,
@@ -251,7 +255,7 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     if drawing is not None:
         drawing.draw(plot, level=blk.level, method="grid", M=int(blk.params["M"]),
                      wheel_radius=blk.wheel_radius)
-    return Streamed(n_out, list(rec.notes), all_notes, use_axis)
+    return Streamed(n_out, list(rec.notes), all_notes, use_axis, side_params, blk.wheel_radius)
 
 
 class StreamPlot:
