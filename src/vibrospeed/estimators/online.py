@@ -6,7 +6,9 @@
 recording sample by sample gives the numbers of the batch path (tested for the EKF, the RBPMF and
 the causal grid tracker), so a tracker tuned offline behaves the same on a device. The object is
 the only mutable thing here; its ``state`` is a tuple of the stages' immutable states and can be
-saved and restored.
+saved and restored. With ``standstill`` it also runs the causal standstill detector
+(:func:`vibrospeed.signal.standstill.stream_step`) that ``estimate()`` applies after the causal
+grid tracker, so the stops are those of the batch run too (omega and its band 0 there).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import numpy as np
 
 from vibrospeed.signal import normalize as nz
 from vibrospeed.signal import prefilter as pf
+from vibrospeed.signal import standstill as ss
 from vibrospeed.signal import whiten as wh
 
 
@@ -48,6 +51,13 @@ class OnlineTracker:
     level : resting level of the raw signal (e.g. the mean of a first second buffered on the
         device; :func:`vibrospeed.estimators.common.start_level` computes it as ``estimate()``
         does), one per axis with several comb axes; None = the first sample.
+    standstill : 0 (default): no stops (``standstill`` NaN, as the tracker's ``step``); k: the
+        causal standstill detector on k raw accelerometer axes, the samples given to
+        :meth:`update` and its ``others``. ``estimate()`` reads every accelerometer axis of the
+        recording (``ax``, ``ay``, ``az``): give them all (k = 3) for its numbers. Where it
+        decides the vehicle stands, omega, its band and ``speed`` are 0, ``has_signal`` 0 and
+        ``standstill`` 1; elsewhere ``standstill`` is 0. Only for trackers with a search range
+        (grid, rbpmf). The ``state`` then has a third part, the detectors' states.
 
     Examples
     --------
@@ -71,6 +81,7 @@ class OnlineTracker:
         normalize_tau: float | None | bool = True,
         target_rms: float | None = None,
         level: float | None = None,
+        standstill: int = 0,
     ) -> None:
         model, pre, tau, target, omega_range = _pipeline_of(config)
         self.estimator = estimator
@@ -88,6 +99,16 @@ class OnlineTracker:
         front = tuple((pf.init(self.sos, None if np.isnan(lv) else float(lv)), nz.init(),
                        wh.init()) for lv in levels)
         self.state = (front, estimator.init(config))
+        self.n_still = int(standstill)
+        self.still_plan = None
+        if self.n_still:
+            if omega_range is None or self.n_still < self.n_axes:
+                raise ValueError(
+                    "standstill needs a tracker with a search range (grid, rbpmf) and at least "
+                    f"its {self.n_axes} comb axis/axes, got {standstill} axes")
+            band = (omega_range[0], min(model.M * omega_range[1], math.pi * self.fs))
+            self.still_plan = ss.stream_plan(self.dt, band)
+            self.state += (tuple(ss.stream_init(self.still_plan) for _ in range(self.n_still)),)
 
     def _front(self, st: tuple, sample: float) -> tuple[tuple, float]:
         fs, ns, ws = st
@@ -99,21 +120,39 @@ class OnlineTracker:
             y = self.target * y
         return (fs, ns, ws), (y if math.isfinite(y) else math.nan)
 
-    def update(self, sample) -> Any:
+    def update(self, sample, others=()) -> Any:
         """Process one raw sample (NaN = missing), or with a grid config of several
         ``comb_axes`` one sample per axis in ``config.comb_axes`` order; returns the
-        estimator's estimate."""
-        front, es = self.state
+        estimator's estimate. ``others``: with ``standstill`` k, the raw samples of the k -
+        (comb axes) further accelerometer axes the standstill detector reads."""
+        front, es = self.state[:2]
         if self.n_axes == 1 and isinstance(sample, (float, int)):
             st, y = self._front(front[0], float(sample))  # one axis: no arrays
             es, est = self.estimator.step(self.config, es, y)
-            self.state = ((st,), es)
-            return est
+            self.state = ((st,), es) + self.state[2:]
+            return self._stops(est, (sample,), others) if self.n_still else est
         xs = np.atleast_1d(np.asarray(sample, dtype=np.float64))
         if xs.size != self.n_axes:
             raise ValueError(f"expected {self.n_axes} sample(s) per update, got {xs.size}")
         out = [self._front(st, float(x)) for st, x in zip(front, xs, strict=True)]
         ys = [y for _, y in out]
         es, est = self.estimator.step(self.config, es, ys[0] if self.n_axes == 1 else ys)
-        self.state = (tuple(st for st, _ in out), es)
-        return est
+        self.state = (tuple(st for st, _ in out), es) + self.state[2:]
+        return self._stops(est, xs, others) if self.n_still else est
+
+    def _stops(self, est: Any, xs, others) -> Any:
+        """``est`` with the standstill detectors' decision at this sample (as
+        :func:`vibrospeed.estimators.grid.apply_standstill` does in batch)."""
+        raw = [*(float(x) for x in xs), *(float(x) for x in np.atleast_1d(others))]
+        if len(raw) != self.n_still:
+            raise ValueError(f"standstill reads {self.n_still} axes: expected "
+                             f"{self.n_still - self.n_axes} sample(s) in others, got "
+                             f"{len(raw) - self.n_axes}")
+        out = [ss.stream_step(self.still_plan, st, x)
+               for st, x in zip(self.state[2], raw, strict=True)]
+        self.state = self.state[:2] + (tuple(st for st, _ in out),)
+        if not all(f for _, f in out):
+            return est._replace(standstill=0.0)
+        zero = {k: 0.0 for k in ("omega", "omega_std", "omega_lo", "omega_hi", "speed",
+                                 "speed_std") if math.isfinite(getattr(est, k))}
+        return est._replace(has_signal=0.0, standstill=1.0, **zero)

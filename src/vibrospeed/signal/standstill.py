@@ -36,6 +36,8 @@ Frames with fewer than half their samples finite have no level and repeat the la
 
 from __future__ import annotations
 
+from typing import Any, NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -271,3 +273,143 @@ def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s, edge_s):
     jm = np.maximum(j - 1, 0)
     nearer = np.abs(centres[jm] - np.arange(n)) < np.abs(centres[j] - np.arange(n))
     return still[np.where(nearer, jm, j)]
+
+
+# ------------------------------------------------------------------------------------------
+# streaming: one sample at a time, the decisions of ``standstill(..., causal=True)``
+# ------------------------------------------------------------------------------------------
+class StreamState(NamedTuple):
+    """Causal detector state for one axis (:func:`stream_init`, :func:`stream_step`):
+    the high-pass and low-pass filter states, the last frame's ``hp`` samples and the last
+    body-motion window's ``lp`` samples (oldest first), samples seen, each level's histogram
+    (``hist``: (2, bins)), frame counts ``total`` (2,) and last decisions ``last`` (2,), the
+    run of standing frames and the current decision. ``hp`` and ``lp`` are ring buffers: sample
+    ``i`` at ``i % size``."""
+
+    hp_state: Any
+    lp_state: Any
+    hp: np.ndarray
+    lp: np.ndarray
+    count: int
+    hist: np.ndarray
+    total: np.ndarray
+    last: np.ndarray
+    run: int
+    still: bool
+
+
+class StreamPlan(NamedTuple):
+    """What :func:`stream_step` needs besides the state: sample period, search band (rad/s),
+    frame and hop lengths in samples, the filters, whether the body motion is used."""
+
+    dt: float
+    band: tuple[float, float]
+    L: int
+    hop: int
+    Lm: int
+    hp_sos: np.ndarray
+    lp_sos: np.ndarray | None
+    win: np.ndarray
+    sel: np.ndarray
+
+
+def stream_plan(dt: float, band: tuple[float, float]) -> StreamPlan:
+    """The constants of :func:`standstill` (``causal=True``) at sample period ``dt`` for
+    ``band`` (rad/s)."""
+    from vibrospeed.signal import prefilter as pf
+
+    fs = 1.0 / dt
+    lo_hz = band[0] / (2 * np.pi)
+    hp = pf.butter_sos("highpass", min(pf.RANGE_HP * lo_hz, 0.45 * fs), fs, 4)
+    upper = min(pf.RANGE_HP * lo_hz, MOTION_HI_HZ)
+    lp = pf.butter_sos("lowpass", upper, fs, 2) if upper >= 1.5 * MOTION_LO_HZ else None
+    L = max(8, int(round(FRAME_S / dt)))
+    f = 2 * np.pi * np.fft.rfftfreq(L, dt)  # the bins broadband_level reads
+    sel = (f >= band[0]) & (f <= min(band[1], np.pi / dt))
+    if sel.sum() < 3:
+        k = int(np.argmin(np.abs(f - band[0])))
+        sel = np.zeros_like(sel)
+        sel[max(0, k - 1) : k + 2] = True
+    return StreamPlan(float(dt), (float(band[0]), float(band[1])), L,
+                      max(1, int(round(HOP_S / dt))), max(3, int(round(MOTION_FRAME_S / dt))),
+                      hp, lp, np.hanning(L), sel)
+
+
+def _frame_level(plan: StreamPlan, x: np.ndarray) -> float:
+    """:func:`broadband_level` of the one frame ``x`` (``plan.L`` samples), the same
+    operations without its framing."""
+    fin = np.isfinite(x)
+    if not fin.mean() >= 0.5:
+        return np.nan
+    fr = np.where(fin, x, 0.0)
+    X = np.fft.rfft((fr - fr.mean()) * plan.win)
+    return float(2.0 * np.sqrt(np.median(np.abs(X[plan.sel]) ** 2)) / plan.win.sum())
+
+
+def stream_init(plan: StreamPlan) -> StreamState:
+    """Nothing seen: not standing."""
+    from vibrospeed.signal import prefilter as pf
+
+    return StreamState(pf.init(plan.hp_sos), None if plan.lp_sos is None
+                       else pf.init(plan.lp_sos), np.full(plan.L, np.nan),
+                       np.full(plan.Lm, np.nan), 0, np.zeros((2, _BINS)), np.zeros(2),
+                       np.zeros(2, np.bool_), 0, False)
+
+
+_CENTRES = _LOG_LO + (_LOG_HI - _LOG_LO) / _BINS * (np.arange(_BINS) + 0.5)
+
+
+def _stream_classify(hist, total, last, k, level, min_contrast, near_floor) -> None:
+    """One frame of ``_causal`` for level ``k`` (0 broadband, 1 body motion), in place."""
+    if not level > 0:  # NaN or no level: repeat the last decision
+        return
+    width = (_LOG_HI - _LOG_LO) / _BINS
+    lg = float(np.log10(level))
+    hist[k, min(max(int((lg - _LOG_LO) / width), 0), _BINS - 1)] += 1.0
+    total[k] += 1.0
+    if total[k] >= int(round(CAUSAL_WARMUP_S / HOP_S)):
+        floor = _hist_quantile(hist[k], _CENTRES, total[k], FLOOR_Q)
+        med = _hist_quantile(hist[k], _CENTRES, total[k], 0.5)
+        last[k] = (med - floor >= np.log10(min_contrast)
+                   and lg < floor + np.log10(near_floor))
+
+
+def stream_step(plan: StreamPlan, state: StreamState, x: float) -> tuple[StreamState, bool]:
+    """One raw sample of one axis (NaN = missing): the causal decision at this sample, as
+    :func:`standstill` (``causal=True``) gives it for the samples so far. Why: a device has
+    no whole log; the detector keeps one frame of samples, one body-motion window and two
+    level histograms (bounded memory). ``state`` is left as it is."""
+    from vibrospeed.signal import prefilter as pf
+
+    i = state.count
+    hs, h = pf.step(plan.hp_sos, state.hp_state, x)
+    hp = state.hp.copy()
+    hp[i % plan.L] = h
+    ls, lp = state.lp_state, state.lp
+    if plan.lp_sos is not None:
+        ls, v = pf.step(plan.lp_sos, ls, x)
+        lp = lp.copy()
+        lp[i % plan.Lm] = v
+    run, still = state.run, state.still
+    hist, total, last = state.hist, state.total, state.last
+    if i >= plan.L - 1 and (i - plan.L + 1) % plan.hop == 0:  # a frame ends here
+        hist, total, last = hist.copy(), total.copy(), last.copy()
+        p = (i + 1) % plan.L
+        lev = _frame_level(plan, np.concatenate((hp[p:], hp[:p])))
+        _stream_classify(hist, total, last, 0, lev, MIN_CONTRAST, NEAR_FLOOR)
+        frame = bool(last[0])
+        if plan.lp_sos is not None:
+            p = (i + 1) % plan.Lm
+            w = np.concatenate((lp[p:], lp[:p]))[max(0, plan.Lm - 1 - i):]  # up to Lm so far
+            ok = np.isfinite(w)
+            t = np.arange(w.size, dtype=np.float64)[ok]
+            y = w[ok] - (np.mean(w[ok]) if ok.any() else 0.0)
+            sums = np.array([ok.sum(), y.sum(), (y * y).sum(), t.sum(), (t * t).sum(),
+                             (t * y).sum()], dtype=np.float64)[:, None]
+            motion = float(line_residual(sums, np.zeros_like(sums), plan.Lm)[0])
+            _stream_classify(hist, total, last, 1, motion, 1.0, MOTION_NEAR)
+            frame = frame and bool(last[1])
+        d = int(round(CAUSAL_DWELL_S / HOP_S))
+        run = run + 1 if frame else 0
+        still = run >= d + 1
+    return StreamState(hs, ls, hp, lp, i + 1, hist, total, last, run, still), still

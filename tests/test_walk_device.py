@@ -1,0 +1,86 @@
+"""A device's walk through the online API: the causal standstill detector one sample at a time
+(:func:`vibrospeed.signal.standstill.stream_step`) and the online tracker with it, against the
+causal batch run."""
+
+import pickle
+
+import numpy as np
+import pytest
+
+from vibrospeed import sim
+from vibrospeed.estimators import ekf, grid
+from vibrospeed.estimators.common import start_level
+from vibrospeed.estimators.online import OnlineTracker
+from vibrospeed.signal import standstill as ss
+
+P = {"smooth": "none", "omega_min": 2, "omega_max": 30}
+
+
+def test_stream_step_gives_the_causal_detectors_decisions():
+    rec = sim.simulate("stop_and_go", seed=5, duration=60)
+    ch = {c: rec[c].copy() for c in ("ax", "ay", "az")}
+    for c in ch.values():
+        c[1000:1030] = np.nan
+    ch["ax"][2600:2900] = np.nan  # a sensor that drops samples
+    X = np.column_stack([ch["ay"], ch["ax"], ch["az"]])
+    band = (2.0, 90.0)
+    ref = ss.standstill(X, 0.01, band, causal=True)
+    assert 0.03 < ref.mean() < 0.5  # the drive has stops the detector finds
+    plan = ss.stream_plan(0.01, band)
+    sts = [ss.stream_init(plan) for _ in range(3)]
+    got = np.zeros(len(X), bool)
+    for i, row in enumerate(X):
+        flags = []
+        for j in range(3):
+            if i == 3000:  # saved and restored mid-drive
+                sts[j] = pickle.loads(pickle.dumps(sts[j]))
+            sts[j], f = ss.stream_step(plan, sts[j], row[j])
+            flags.append(f)
+        got[i] = all(flags)
+    np.testing.assert_array_equal(got, ref)
+
+
+def test_online_tracker_with_standstill_is_the_causal_estimate_at_stops_too():
+    rec0 = sim.simulate("stop_and_go", seed=2, duration=40)
+    ch = {c: rec0[c].copy() for c in ("ax", "ay", "az")}
+    for c in ch.values():
+        c[1000:1030] = np.nan
+    from vibrospeed.types import Recording
+
+    rec = Recording(rec0.t, ch)
+    track = grid.estimate(rec, axis="y", params=P)
+    still = track.extras["standstill"] > 0.5
+    assert 0.03 < still.mean() < 0.5
+    cfg = grid.config_for(rec, params=P)
+    lvl = start_level(ch["ay"], 0.01)
+    trk = OnlineTracker(grid, cfg, level=lvl, standstill=3)
+    plain = OnlineTracker(grid, cfg, level=lvl)
+    est, old = [], []
+    for i, (a, x, z) in enumerate(zip(ch["ay"], ch["ax"], ch["az"], strict=True)):
+        if i == 2500:
+            trk.state = pickle.loads(pickle.dumps(trk.state))
+        est.append(trk.update(a, (x, z)))
+        old.append(plain.update(a))
+    for k in ("omega", "omega_lo", "omega_hi", "omega_std"):
+        np.testing.assert_array_equal([getattr(e, k) for e in est], getattr(track, k))
+    np.testing.assert_array_equal([e.standstill for e in est], track.extras["standstill"])
+    np.testing.assert_array_equal([e.has_signal for e in est], track.extras["has_signal"])
+    # without the detector: no stops (NaN), the tracker's guess there
+    assert np.isnan([e.standstill for e in old]).all()
+    assert min(e.omega for e, s in zip(old, still, strict=True) if s) > 0
+
+
+def test_online_standstill_with_all_comb_axes_and_refusals():
+    rec = sim.simulate("stop_and_go", seed=2, duration=25)
+    p = {**P, "comb_axes": "all", "n_grid": 60}
+    track = grid.estimate(rec, axis="y", params=p)
+    cfg = grid.config_for(rec, params=p)
+    trk = OnlineTracker(grid, cfg, level=[start_level(rec[c], 0.01) for c in cfg.comb_axes],
+                        standstill=3)
+    got = [trk.update(row) for row in np.column_stack([rec[c] for c in cfg.comb_axes])]
+    np.testing.assert_array_equal([e.omega for e in got], track.omega)
+    np.testing.assert_array_equal([e.standstill for e in got], track.extras["standstill"])
+    with pytest.raises(ValueError, match="expected 0 sample"):
+        trk.update((0.1, 0.2, 9.8), (0.0,))
+    with pytest.raises(ValueError, match="search range"):
+        OnlineTracker(ekf, ekf.config_for(rec, params={"omega0": 9.0}), standstill=3)
