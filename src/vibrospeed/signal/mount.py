@@ -73,6 +73,14 @@ class Mount(NamedTuple):
     confident: bool
 
 
+def _centred_sum(x: np.ndarray, k: int) -> np.ndarray:
+    """Sum over a centred window of ``k`` samples, as long as ``x`` (numpy's ``"same"``
+    convolution is ``k`` long when ``x`` is shorter than the window: a record under
+    ``SMOOTH_S`` s)."""
+    a = (k - 1) // 2
+    return np.convolve(x, np.ones(k), "full")[a:a + x.size]
+
+
 def _moving_average(x: np.ndarray, k: int) -> np.ndarray:
     """Centred moving average over ``k`` samples along axis 0 (NaN-aware: the mean of the
     finite samples in the window, NaN where none)."""
@@ -81,13 +89,12 @@ def _moving_average(x: np.ndarray, k: int) -> np.ndarray:
     x = np.asarray(x, dtype=np.float64)
     fin = np.isfinite(x)
     xz = np.where(fin, x, 0.0)
-    ker = np.ones(k)
     if x.ndim == 1:
-        s = np.convolve(xz, ker, "same")
-        c = np.convolve(fin.astype(np.float64), ker, "same")
+        s = _centred_sum(xz, k)
+        c = _centred_sum(fin.astype(np.float64), k)
     else:
-        s = np.column_stack([np.convolve(xz[:, j], ker, "same") for j in range(x.shape[1])])
-        c = np.column_stack([np.convolve(fin[:, j].astype(np.float64), ker, "same")
+        s = np.column_stack([_centred_sum(xz[:, j], k) for j in range(x.shape[1])])
+        c = np.column_stack([_centred_sum(fin[:, j].astype(np.float64), k)
                              for j in range(x.shape[1])])
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(c > 0, s / np.maximum(c, 1), np.nan)

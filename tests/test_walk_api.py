@@ -1,0 +1,55 @@
+"""Edge cases found by using the Python API as a researcher would (short recordings, parameters
+an estimator silently ignored): each test failed before its fix."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vibrospeed import sim
+from vibrospeed.estimators import aided
+from vibrospeed.signal import mount
+
+
+@pytest.fixture(scope="module")
+def car():
+    return sim.simulate("car", seed=1, duration=3.0)
+
+
+@pytest.mark.parametrize("n", [3, 40])
+def test_moving_average_of_a_record_shorter_than_its_window(n):
+    """A centred window longer than the record: every sample averages the finite samples
+    within ``(k - 1) // 2`` before and ``k // 2`` after it (brute force), as long as the
+    record (was: ``k`` long, numpy's "same" convolution)."""
+    k = 100
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(n, 2))
+    x[1, 0] = np.nan
+    got = mount._moving_average(x, k)
+    assert got.shape == x.shape
+    a, b = (k - 1) // 2, k // 2
+    for i in range(n):
+        w = x[max(0, i - a):i + b + 1]
+        for j in range(2):
+            np.testing.assert_allclose(got[i, j], np.nanmean(w[:, j]), rtol=1e-12)
+
+
+def test_moving_average_unchanged_for_a_long_record():
+    """For a record at least as long as the window: the numbers of numpy's "same"
+    convolution, bitwise (the mount's numbers on normal drives stay as they were)."""
+    rng = np.random.default_rng(4)
+    x = rng.normal(size=500)
+    k = 100
+    ker = np.ones(k)
+    ref = np.convolve(x, ker, "same") / np.convolve(np.ones_like(x), ker, "same")
+    np.testing.assert_array_equal(mount._moving_average(x, k), ref)
+
+
+@pytest.mark.parametrize("n", [2, 50, 99])
+def test_aided_estimates_a_recording_shorter_than_a_second(car, n):
+    """``aided.estimate`` on less than the mount's 1 s smoothing window gives one finite
+    estimate per sample (was: ValueError, operands could not be broadcast together)."""
+    rec = car.slice_time(0.0, car.t[n - 1] + 1e-6)
+    tr = aided.estimate(rec, wheel_radius=0.31)
+    assert len(tr) == n
+    assert np.all(np.isfinite(tr.omega))
