@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from vibrospeed import sim
+from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import aided
 from vibrospeed.signal import mount
 
@@ -53,3 +54,23 @@ def test_aided_estimates_a_recording_shorter_than_a_second(car, n):
     tr = aided.estimate(rec, wheel_radius=0.31)
     assert len(tr) == n
     assert np.all(np.isfinite(tr.omega))
+
+
+@pytest.mark.parametrize("params", [{"smooth": "none"}, {"smooth": "bogus"}, {"lag": "2"},
+                                    {"smooth": "lag", "lag": 2.0, "causal": "true"}])
+def test_aided_refuses_the_grid_smoothing_it_would_ignore(car, params):
+    """``-m aided`` sets the grid's ``smooth`` itself (offline: smoothed; ``causal=true``:
+    the causal filter); a ``smooth`` or ``lag`` given was dropped silently (``smooth=none``
+    gave the smoothed estimate, ``smooth=bogus`` passed). Now one line pointing to
+    ``causal=true``."""
+    with pytest.raises(ParameterError, match=r"^(smooth|lag): .*causal=true") as err:
+        aided.estimate(car, wheel_radius=0.31, params=params)
+    assert "\n" not in str(err.value)
+
+
+def test_aided_causal_is_still_the_way_to_the_causal_filter(car):
+    """The documented switch differs from the offline default (so the refusal above points
+    to something that does what ``smooth=none`` was meant to)."""
+    off = aided.estimate(car, wheel_radius=0.31)
+    on = aided.estimate(car, wheel_radius=0.31, params={"causal": "true"})
+    assert on.params["causal"] is True and off.params["causal"] is False

@@ -152,6 +152,10 @@ def estimate(
     tr_names = {f.name for f in dataclasses.fields(rbpmf.Config)} - {"model"}
     tr_kw = {k: v for k, v in rest.items() if k in tr_names}
     cfg_kw = {k: v for k, v in rest.items() if k not in tr_names}
+    own = sorted({"smooth", "lag"} & set(tr_kw)) if kind == "grid" else []
+    if own:  # set below from `causal`: a value given here was dropped without a word
+        raise ParameterError(f"{own[0]}: the aided tracker smooths offline and is causal with "
+                             "-p causal=true (--preset online); it takes no smooth or lag")
     # Config's fields that hold a nested Config (the tracker, the comb evidence) are built
     # here from their own names, never given: -p comb=false is the EKF tracker's switch
     # (aided.estimate), unknown here (the CLI names the tracker that takes it), not text read
