@@ -84,3 +84,31 @@ def test_online_standstill_with_all_comb_axes_and_refusals():
         trk.update((0.1, 0.2, 9.8), (0.0,))
     with pytest.raises(ValueError, match="search range"):
         OnlineTracker(ekf, ekf.config_for(rec, params={"omega0": 9.0}), standstill=3)
+
+
+def test_a_time_gap_fed_as_nan_samples_is_the_estimate_with_nan_in_the_gap():
+    """docs/guide.md: the online tracker has no clock; one NaN per missing period gives the
+    numbers of ``estimate`` on the uniform time line with NaN in the gap (what
+    :func:`vibrospeed.io.resample_uniform` makes of a file's gap)."""
+    from vibrospeed.types import Recording
+
+    rec = sim.simulate("cart", seed=4, duration=20)
+    ay = rec["ay"].copy()
+    ay[800:1100] = np.nan  # 3 s without samples: t jumps from 7.99 to 11.00 s
+    track = grid.estimate(Recording(rec.t, {"ay": ay}), axis="y", params=P)
+    cfg = grid.config_for(rec, params=P)
+    trk = OnlineTracker(grid, cfg, level=start_level(ay, 0.01))
+    got = []
+    for i, a in enumerate(rec["ay"]):
+        if 800 <= i < 1100:
+            continue  # the device got nothing here ...
+        if i == 1100:  # ... and learns from the next time stamp that 300 periods passed
+            gap = int(round((rec.t[1100] - rec.t[799]) / cfg.tracker.model.dt)) - 1
+            assert gap == 300
+            got += [trk.update(np.nan).omega for _ in range(gap)]
+        got.append(trk.update(a).omega)
+    np.testing.assert_array_equal(got, track.omega)
+    # the same samples joined without the NaN are not that estimate
+    join = OnlineTracker(grid, cfg, level=start_level(ay, 0.01))
+    joined = np.array([join.update(a).omega for a in rec["ay"][np.isfinite(ay)]])
+    assert np.max(np.abs(joined[800:] - track.omega[1100:])) > 0.5

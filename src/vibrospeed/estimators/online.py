@@ -56,8 +56,10 @@ class OnlineTracker:
         :meth:`update` and its ``others``. ``estimate()`` reads every accelerometer axis of the
         recording (``ax``, ``ay``, ``az``): give them all (k = 3) for its numbers. Where it
         decides the vehicle stands, omega, its band and ``speed`` are 0, ``has_signal`` 0 and
-        ``standstill`` 1; elsewhere ``standstill`` is 0. Only for trackers with a search range
-        (grid, rbpmf). The ``state`` then has a third part, the detectors' states.
+        ``standstill`` 1; elsewhere ``standstill`` is 0. Only for trackers with a search range:
+        grid (whose causal ``estimate()`` applies the same detector) and rbpmf (whose
+        ``estimate()`` has no stops: these are added). The ``state`` then has a third part,
+        the detectors' states.
 
     Examples
     --------
