@@ -82,6 +82,10 @@ def test_online_standstill_with_all_comb_axes_and_refusals():
     np.testing.assert_array_equal([e.standstill for e in got], track.extras["standstill"])
     with pytest.raises(ValueError, match="expected 0 sample"):
         trk.update((0.1, 0.2, 9.8), (0.0,))
+    other = OnlineTracker(grid, cfg, level=0.0)
+    with pytest.raises(ValueError, match="no standstill part"):
+        trk.state = other.state  # saved without the detectors
+        trk.update((0.1, 0.2, 9.8))
     with pytest.raises(ValueError, match="search range"):
         OnlineTracker(ekf, ekf.config_for(rec, params={"omega0": 9.0}), standstill=3)
 

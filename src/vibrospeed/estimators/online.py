@@ -145,6 +145,9 @@ class OnlineTracker:
     def _stops(self, est: Any, xs, others) -> Any:
         """``est`` with the standstill detectors' decision at this sample (as
         :func:`vibrospeed.estimators.grid.apply_standstill` does in batch)."""
+        if len(self.state) != 3 or len(self.state[2]) != self.n_still:
+            raise ValueError(f"state has no standstill part for {self.n_still} axes (a state "
+                             "saved from a tracker made with another standstill)")
         raw = [*(float(x) for x in xs), *(float(x) for x in np.atleast_1d(others))]
         if len(raw) != self.n_still:
             raise ValueError(f"standstill reads {self.n_still} axes: expected "
