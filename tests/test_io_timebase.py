@@ -8,6 +8,7 @@ from vibrospeed.io.timebase import (
     check_increasing,
     check_nyquist,
     find_gaps,
+    interp_onto,
     resample_uniform,
     sort_dedup,
     split_at_gaps,
@@ -115,3 +116,22 @@ def test_a_rate_change_is_named_not_called_jitter():
     tj = tj[(tj < 40.0) | (tj >= 45.0)]
     rec = Recording(t=tj, channels={"ay": np.zeros(tj.size)})
     assert not any("rate changes" in n for n in describe_timebase(rec))
+
+
+def test_the_first_sample_after_a_gap_survives_the_grid_s_rounding():
+    # 100 Hz with a 3 s hole: the median period is 0.01 up to rounding, so 1 / fs is
+    # 100.00000000000213 Hz and the grid point meant for the first sample after the hole lies
+    # 1e-11 s before it; it was NaN (301 NaN for 300 missing samples)
+    t = np.arange(0, 20, 0.01)
+    t = t[(t < 5.0) | (t >= 8.0 - 1e-9)]
+    x = np.arange(t.size, dtype=float)
+    r = resample_uniform(Recording(t=t, channels={"ay": x}, source="x"))
+    y = r["ay"]
+    assert np.isnan(y).sum() == 300  # the samples at 5.00 .. 7.99 s
+    k = int(np.searchsorted(t, 8.0 - 1e-9))
+    assert y[np.argmin(np.abs(r.t - t[k]))] == x[k]
+    # a grid point that hits a sample only within rounding takes it; one between samples
+    # across the gap stays NaN
+    g = np.array([t[k] - 1e-12, 6.0, t[k] + 0.005])
+    out = interp_onto(t, x, g, max_gap=0.05)
+    assert out[0] == x[k] and np.isnan(out[1]) and out[2] == pytest.approx(x[k] + 0.5)

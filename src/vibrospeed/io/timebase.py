@@ -149,20 +149,24 @@ def interp_onto(t: np.ndarray, x: np.ndarray, grid: np.ndarray, max_gap: float) 
     """Linear interpolation of samples ``(t, x)`` at times ``grid`` (no extrapolation).
 
     NaN where ``grid`` is outside ``[t_0, t_end]``, where a neighbouring sample is NaN, or where
-    the neighbours are more than ``max_gap`` s apart (unless ``grid`` hits a sample exactly).
+    the neighbours are more than ``max_gap`` s apart (unless ``grid`` hits a sample: within a
+    millionth of the grid's mean spacing, so that a grid ``t_0 + k / fs`` whose rounding puts
+    a point 1e-11 s before the first sample after a gap still takes that sample).
     """
     n = t.size
+    tol = 1e-6 * (grid[-1] - grid[0]) / (grid.size - 1) if grid.size > 1 else 0.0
     if n == 1:
-        return np.where(grid == t[0], x[0], np.nan)
+        return np.where(np.abs(grid - t[0]) <= tol, x[0], np.nan)
     i = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, n - 2)
     t0, t1 = t[i], t[i + 1]
     w = (grid - t0) / (t1 - t0)
     x0, x1 = x[i], x[i + 1]
     with np.errstate(invalid="ignore"):
         y = (1.0 - w) * x0 + w * x1
-    y = np.where(w == 0.0, x0, np.where(w == 1.0, x1, y))
-    inside = (w == 0.0) | (w == 1.0) | ((t1 - t0) <= max_gap)
-    outside = (grid < t[0]) | (grid > t[-1])
+    at0, at1 = np.abs(grid - t0) <= tol, np.abs(t1 - grid) <= tol
+    y = np.where(at0, x0, np.where(at1, x1, y))
+    inside = at0 | at1 | ((t1 - t0) <= max_gap)
+    outside = (grid < t[0] - tol) | (grid > t[-1] + tol)
     return np.where(inside & ~outside, y, np.nan)
 
 
