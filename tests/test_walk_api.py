@@ -74,3 +74,32 @@ def test_aided_causal_is_still_the_way_to_the_causal_filter(car):
     off = aided.estimate(car, wheel_radius=0.31)
     on = aided.estimate(car, wheel_radius=0.31, params={"causal": "true"})
     assert on.params["causal"] is True and off.params["causal"] is False
+
+
+def _gps_riss_sample():
+    from vibrospeed.estimators import gps_riss
+
+    n = 600
+    t = np.arange(n) * 0.01
+    rng = np.random.default_rng(1)
+    accel = 0.5 * np.cos(0.5 * t) + 0.05 * rng.normal(size=n)
+    gps = np.full(n, np.nan)
+    gps[::10] = 10.0 + np.sin(0.5 * t[::10]) + 0.1 * rng.normal(size=gps[::10].size)
+    return gps_riss, gps_riss.Sample(t, accel, gps, np.full(n, 9.0))
+
+
+@pytest.mark.parametrize("field", ["accel", "gps_speed"])
+def test_gps_riss_takes_an_infinite_sample_as_a_missing_one(field):
+    """An inf accelerometer sample or GPS fix is no measurement, as NaN is: the same numbers
+    as with NaN there, bitwise, and finite (was: every sample after an inf in ``accel`` NaN)."""
+    gps_riss, s = _gps_riss_sample()
+    cfg = gps_riss.Config()
+    runs = []
+    for bad in (np.inf, -np.inf, np.nan):
+        x = np.array(getattr(s, field))
+        x[[100, 250]] = bad
+        runs.append(gps_riss.run(cfg, s._replace(**{field: x})))
+    assert np.all(np.isfinite(runs[2].speed)) and np.all(np.isfinite(runs[2].speed_std))
+    for r in runs[:2]:
+        np.testing.assert_array_equal(r.speed, runs[2].speed)
+        np.testing.assert_array_equal(r.speed_std, runs[2].speed_std)

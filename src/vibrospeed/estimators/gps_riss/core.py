@@ -47,7 +47,7 @@ def _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw,
     emode = int(p[14])
     use_kf2 = emode > 0
     # 1. accelerometer pre-processing: gain, pitch (paper eq. 14, degrees)
-    has_a = not math.isnan(a_raw)
+    has_a = math.isfinite(a_raw)  # NaN or inf: no sample (an inf made every later one NaN)
     a = p[8] * a_raw
     if has_a and p[9] > 0.5:
         pitch = 0.0
@@ -90,7 +90,7 @@ def _step_core(Ac, qc, ha, hg, p, poly, x, P, x2, P2, lz, od, Pod, sc, t, a_raw,
                 lz[i] = lzn[i]
             dense_predict(x2, P2, Fc, qd)
     # 3. gating
-    has_fix = not math.isnan(gps)
+    has_fix = math.isfinite(gps)
     valid = has_fix and (math.isnan(sats) or sats >= p[7])
     r22 = math.nan
     r_acc = p[1] if valid else p[0]
