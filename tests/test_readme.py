@@ -85,7 +85,8 @@ def test_command_examples_parse(page, line):
 # page builds, in order, with the params of the batch run it stands for
 ONLINE_CASES = {
     "README.md": [{"smooth": "none"}, {"smooth": "none", "comb_axes": "all"}],
-    "guide.md": [{"smooth": "none", "omega_min": 2, "omega_max": 30}],
+    # the guide's second tracker takes the other axes for its stops (standstill=3)
+    "guide.md": [{"smooth": "none", "omega_min": 2, "omega_max": 30}] * 2,
 }
 
 
@@ -103,8 +104,8 @@ def test_online_examples_match_the_causal_batch_run(page, monkeypatch):
             self.omegas = []
             seen.append(self)
 
-        def update(self, sample):
-            est = super().update(sample)
+        def update(self, sample, *others):
+            est = super().update(sample, *others)
             self.omegas.append(est.omega)
             return est
 
