@@ -103,3 +103,20 @@ def test_gps_riss_takes_an_infinite_sample_as_a_missing_one(field):
     for r in runs[:2]:
         np.testing.assert_array_equal(r.speed, runs[2].speed)
         np.testing.assert_array_equal(r.speed_std, runs[2].speed_std)
+
+
+def test_fuse_takes_an_infinite_gps_speed_as_no_fix():
+    """``fuse.estimate`` with one GPS speed inf: the numbers of that fix NaN, bitwise (was:
+    LinAlgError in the smoother, "Array must not contain infs or NaNs")."""
+    from vibrospeed.estimators import fuse
+
+    rec = sim.simulate("car", seed=1, duration=10.0)
+    k = int(np.flatnonzero(np.isfinite(rec["gps_speed"]))[8])
+    tracks = []
+    for bad in (np.inf, np.nan):
+        g = rec["gps_speed"].copy()
+        g[k] = bad
+        tracks.append(fuse.estimate(rec.with_channels(gps_speed=g), wheel_radius=0.31))
+    assert np.all(np.isfinite(tracks[1].speed))
+    np.testing.assert_array_equal(tracks[0].speed, tracks[1].speed)
+    np.testing.assert_array_equal(tracks[0].speed_std, tracks[1].speed_std)

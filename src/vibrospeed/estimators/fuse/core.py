@@ -83,14 +83,14 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             Pp[i, j] = P[i, j]
     h = np.zeros(n)
     # 1. accelerometer (mean over the interval): a_m = a + b
-    if dt > 0.0 and not math.isnan(am):
+    if dt > 0.0 and math.isfinite(am):  # NaN or inf: no sample
         h[IA] = 1.0
         h[IB] = 1.0
         row_update(x, P, h, am, p[0] / dt)
         h[IA] = 0.0
         h[IB] = 0.0
     # 2. GPS, gated by satellites, weighted by the unexplained innovation
-    if not math.isnan(g):
+    if math.isfinite(g):  # an inf speed is no fix (it made the smoother fail)
         valid = math.isnan(sats) or sats >= p[4]
         if valid:
             sc[2] = t
@@ -107,7 +107,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             # the extra lag is seen only against the accelerometer (GPS alone cannot tell a
             # late fix from another speed history): a sample without one leaves it alone
             # (consider state), else the loose acceleration state lets it drift
-            keep = n - 1 if math.isnan(am) else -1
+            keep = n - 1 if not math.isfinite(am) else -1
             row_update(x, P, hg, zg, p[1] + p[2] * e2, keep)
             sc[1] = t
     # 3. wheel frequency, octave chosen by the speed prior
@@ -122,7 +122,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
     # accelerometer's (less the offset): a lagging line accepted at the onset of a braking
     # pulls the filter's own acceleration towards 0
     a_lag = x[IA]
-    if not math.isnan(am) and abs(am - x[IB]) > abs(a_lag):
+    if math.isfinite(am) and abs(am - x[IB]) > abs(a_lag):
         a_lag = am - x[IB]
     # beyond vib_amax the causal tracker's line trails the speed by more than its spread or
     # has jumped an octave: no line is used
