@@ -120,3 +120,28 @@ def test_fuse_takes_an_infinite_gps_speed_as_no_fix():
     assert np.all(np.isfinite(tracks[1].speed))
     np.testing.assert_array_equal(tracks[0].speed, tracks[1].speed)
     np.testing.assert_array_equal(tracks[0].speed_std, tracks[1].speed_std)
+
+
+def test_grid_step_takes_an_infinite_sample_as_a_missing_one():
+    """``grid.run`` (the numbers of ``step``) with an inf sample: those of a NaN there, bitwise,
+    and a finite band throughout (was: the comb frames holding it read the inf as 1.8e308, an
+    overflow, and omega_std NaN from then on)."""
+    import dataclasses
+
+    from vibrospeed.estimators import grid
+
+    tr = dataclasses.replace(grid._default_tracker(0.01), n_grid=60, omega_min=10.0,
+                             omega_max=60.0, smooth="none")
+    cfg = grid.Config(tracker=tr)
+    t = np.arange(600) * 0.01
+    rng = np.random.default_rng(0)
+    y = np.sin(30 * t) + 0.5 * np.sin(60 * t + 1.0) + 0.3 * rng.normal(size=t.size)
+    runs = []
+    for bad in (np.inf, -np.inf, np.nan):
+        x = y.copy()
+        x[50] = bad
+        runs.append(grid.run(cfg, x))
+    assert np.all(np.isfinite(runs[2].omega_std)) and np.all(np.isfinite(runs[2].omega_lo))
+    for r in runs[:2]:
+        for name in ("omega", "omega_std", "omega_lo", "omega_hi"):
+            np.testing.assert_array_equal(getattr(r, name), getattr(runs[2], name))

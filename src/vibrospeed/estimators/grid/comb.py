@@ -409,7 +409,9 @@ def frame_evidence(config, frames: np.ndarray, centre: bool = False, *,
         return out
     good = np.mean(~np.isfinite(frames), axis=2) <= 0.5  # (A, F): an axis' frame is usable
     n_good = good.sum(axis=0)  # (F,) axes per frame (a dead or gappy axis drops out)
-    x = np.nan_to_num(frames)
+    # a missing sample (NaN or inf) counts 0 (nan_to_num made an inf 1.8e308: an overflow
+    # and NaN evidence for every frame holding it)
+    x = np.where(np.isfinite(frames), frames, 0.0)
     x = np.ascontiguousarray(x - x.mean(axis=2, keepdims=True))
     tb = _frame_tables(config, L, centre)
     win = np.empty((tb.logp.size, A, F, L))
