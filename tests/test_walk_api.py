@@ -145,3 +145,32 @@ def test_grid_step_takes_an_infinite_sample_as_a_missing_one():
     for r in runs[:2]:
         for name in ("omega", "omega_std", "omega_lo", "omega_hi"):
             np.testing.assert_array_equal(getattr(r, name), getattr(runs[2], name))
+
+
+@pytest.mark.parametrize("method", ["aided", "fuse", "algebraic"])
+def test_a_wheel_radius_that_is_not_a_number_is_a_parameter_error(car, method):
+    """As every other method (``types.check_wheel_radius``): one line naming wheel_radius
+    (was: ValueError, "could not convert string to float: 'abc'")."""
+    from vibrospeed import estimators
+
+    with pytest.raises(ParameterError, match=r"^wheel_radius must be a number in m, got 'abc'$"):
+        estimators.get(method).estimate(car, wheel_radius="abc", params={"L1": 1.2}
+                                        if method == "algebraic" else {})
+
+
+@pytest.mark.parametrize("params", [{"L1": "abc"}, {"L1": 1.2, "r": "abc"}])
+def test_algebraic_text_l1_or_r_that_is_not_a_number_is_a_parameter_error(car, params):
+    from vibrospeed.estimators import algebraic
+
+    name = "r" if "r" in params else "L1"
+    with pytest.raises(ParameterError, match=rf"^parameter '{name}': cannot read 'abc'"):
+        algebraic.estimate(car, params=params)
+
+
+def test_algebraic_reads_l1_and_r_as_text_as_numbers(car):
+    """Text values (as ``-p`` gives them) are the numbers they say: the same Track."""
+    from vibrospeed.estimators import algebraic
+
+    a = algebraic.estimate(car, params={"L1": "1.2", "r": "0.31"})
+    b = algebraic.estimate(car, params={"L1": 1.2}, wheel_radius=0.31)
+    np.testing.assert_array_equal(a.speed, b.speed)

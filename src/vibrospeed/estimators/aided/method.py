@@ -25,7 +25,7 @@ from vibrospeed.estimators.aiding import (
 )
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal.comb import COMB_FRAME_S, COMB_HOP_S, comb_candidates
-from vibrospeed.types import Recording, Track
+from vibrospeed.types import Recording, Track, check_wheel_radius
 
 #: vibration tracker of :func:`estimate` when ``params`` names none: the grid tracker, aided
 #: (:func:`vibrospeed.estimators.aided_grid.estimate`; offline the aided forward-backward
@@ -87,7 +87,7 @@ def estimate(
         return aided_grid.estimate(recording, axis=axis, wheel_radius=wheel_radius,
                                    params=params, progress=progress, kind=tracker)
     del progress  # one compiled pass; nothing to report
-    r = wheel_radius or recording.wheel_radius
+    r = check_wheel_radius(wheel_radius) if wheel_radius else recording.wheel_radius
     if not r:
         raise ParameterError(
             f"{recording.source or 'recording'}: the aided tracker needs the wheel radius "

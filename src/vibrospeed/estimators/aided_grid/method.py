@@ -27,7 +27,7 @@ from vibrospeed.estimators.aiding import (
 )
 from vibrospeed.estimators.grid.method import CLAIM_LEVEL, GRID_DEFAULTS, q_omega_for
 from vibrospeed.models.harmonic import HarmonicModel
-from vibrospeed.types import Track
+from vibrospeed.types import Track, check_wheel_radius
 
 #: parameters of :func:`estimate` that are neither Config, rbpmf.Config nor HarmonicModel fields
 INPUT_PARAMS = ("accel_axis", "lp_cutoff", "reference", "wheelbase", "accel_detrend",
@@ -128,7 +128,7 @@ def estimate(
     from vibrospeed.estimators.common import axis_channel, check_uniform, split_params
 
     del progress
-    r = wheel_radius or recording.wheel_radius
+    r = check_wheel_radius(wheel_radius) if wheel_radius else recording.wheel_radius
     if not r:
         raise ParameterError(
             f"{recording.source or 'recording'}: the aided tracker needs the wheel radius "

@@ -8,11 +8,11 @@ from dataclasses import asdict
 
 import numpy as np
 
-from vibrospeed.config import config_from_params
+from vibrospeed.config import config_from_params, parse_number
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators.algebraic.config import OUTPUTS, Config
 from vibrospeed.estimators.algebraic.filter import run
-from vibrospeed.types import WHEEL_CHANNELS, Recording, Track
+from vibrospeed.types import WHEEL_CHANNELS, Recording, Track, check_wheel_radius
 
 
 def _uniform_grid(recording: Recording) -> tuple[np.ndarray, bool]:
@@ -53,11 +53,12 @@ def estimate(
     src = recording.source or "recording"
     params = dict(params or {})
     recording.require("gz", "ax", "ay", *WHEEL_CHANNELS)
-    r = wheel_radius or params.pop("r", None) or recording.wheel_radius
+    r = check_wheel_radius(wheel_radius) if wheel_radius else None
+    r = r or parse_number(params.pop("r", None), "r", optional=True) or recording.wheel_radius
     r = r or recording.meta.get("wheel_radius")
     if not r:
         raise ParameterError(f"{src}: the algebraic method needs the wheel radius (--wheel-radius)")
-    L1 = params.pop("L1", None) or recording.meta.get("L1")
+    L1 = parse_number(params.pop("L1", None), "L1", optional=True) or recording.meta.get("L1")
     if not L1:
         raise ParameterError(f"{src}: the algebraic method needs L1, the CG to front axle "
                              "distance in m (--param L1=...)")

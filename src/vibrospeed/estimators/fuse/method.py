@@ -32,7 +32,7 @@ from vibrospeed.estimators.fuse.config import (
 )
 from vibrospeed.estimators.fuse.filter import init, run
 from vibrospeed.estimators.fuse.smoother import smooth
-from vibrospeed.types import Recording, Track
+from vibrospeed.types import Recording, Track, check_wheel_radius
 
 # -- radius round trip ---------------------------------------------------------------------------
 
@@ -175,7 +175,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         r0, rs0 = radius_from_json(rf)
         notes.append(f"radius prior {r0:.4f} +- {rs0:.4f} m from {os.fspath(rf)}")
     elif wheel_radius:
-        r0, rs0 = float(wheel_radius), 0.01 * float(wheel_radius)
+        r0 = check_wheel_radius(wheel_radius)
+        rs0 = 0.01 * r0
         notes.append(f"radius prior {r0:.4f} +- {rs0:.4f} m (the given wheel radius, 1 %)")
     elif has_gps:
         r0, rs0 = cfg.radius0, cfg.radius_std0
