@@ -62,19 +62,29 @@ def truth_omega(truth: Recording, wheel_radius: float | None = None) -> np.ndarr
 #: not interpolated between fixes further apart than this (an outage has no truth)
 TRUTH_GAP_S = 2.0
 
+#: a run of NaN truth samples spanning more than this many median periods of the finite ones is
+#: a gap with no truth (the readers' rule for dense sensors), not bridged by interpolation
+TRUTH_NAN_PERIODS = 5.0
+
 
 def interp_truth(t_truth: np.ndarray, x_truth: np.ndarray, t: np.ndarray,
                  max_gap: float | None = None) -> np.ndarray:
     """Linear interpolation of the truth's finite samples at ``t``; NaN outside their span and,
-    with ``max_gap`` (s), between finite samples further apart than that."""
+    with ``max_gap`` (s), between finite samples further apart than that. Without ``max_gap``
+    a stretch of NaN truth samples longer than :data:`TRUTH_NAN_PERIODS` median periods of the
+    finite ones is no truth either: a dropped reference is not a straight line."""
     ok = np.isfinite(x_truth)
     if ok.sum() < 2:
         return np.full(t.shape, np.nan)
     tt = t_truth[ok]
     out = np.interp(t, tt, x_truth[ok], left=np.nan, right=np.nan)
+    j = np.clip(np.searchsorted(tt, t), 1, tt.size - 1)  # tt[j - 1] <= t <= tt[j] inside
+    dt = np.diff(tt)
     if max_gap is not None:
-        j = np.clip(np.searchsorted(tt, t), 1, tt.size - 1)  # tt[j - 1] <= t <= tt[j] inside
-        out[(tt[j] - tt[j - 1] > max_gap) & (t != tt[j])] = np.nan
+        cut = dt > max_gap
+    else:  # only where NaN samples lie between two finite ones
+        cut = (np.diff(np.flatnonzero(ok)) > 1) & (dt > TRUTH_NAN_PERIODS * np.median(dt))
+    out[cut[j - 1] & (t != tt[j])] = np.nan
     return out
 
 
@@ -89,6 +99,7 @@ def compare(
     ok_abs: float = 2.0,
     ok_rel: float = 0.10,
     truth_max_gap: float | None = None,
+    truth_speed_values: np.ndarray | None = None,
 ) -> Metrics:
     """Metrics of ``track`` against truth samples ``(truth_t, truth_omega_values)`` (rad/s).
 
@@ -98,7 +109,9 @@ def compare(
     ``max(ok_abs, ok_rel * truth)`` (the tolerance of the accuracy tables). Where the track
     reports ``has_signal`` (grid trackers), the ``*_claimed`` fields score only the samples it
     claims. ``truth_max_gap`` (s): no truth between finite truth samples further apart
-    (:func:`interp_truth`).
+    (:func:`interp_truth`). ``truth_speed_values`` (m/s, at ``truth_t``): ``rmse_speed`` is the
+    track's ``speed`` against them (its own radius may differ from the truth's: a learned or
+    wrong one); without them it is the omega error times the track's radius.
     """
     w = interp_truth(np.asarray(truth_t, float), np.asarray(truth_omega_values, float), track.t,
                      truth_max_gap)
@@ -120,6 +133,12 @@ def compare(
     double = float(np.mean(np.abs(est - 2 * wt) < tol * 2 * wt))
     r = track.wheel_radius
     rmse_v = float(np.sqrt(np.mean((r * e) ** 2))) if r else float("nan")
+    if truth_speed_values is not None:
+        vt = interp_truth(np.asarray(truth_t, float), np.asarray(truth_speed_values, float),
+                          track.t, truth_max_gap)[moving]
+        ev = np.asarray(track.speed, float)[moving] - vt
+        ev = ev[np.isfinite(ev)]
+        rmse_v = float(np.sqrt(np.mean(ev**2))) if ev.size else float("nan")
     ok = np.abs(e) <= np.maximum(ok_abs, ok_rel * wt)
     claimed = {}
     if "has_signal" in track.extras:
@@ -175,6 +194,12 @@ def evaluate(track: Track, truth: Recording, *, min_speed: float = 0.3,
         kw.pop("min_omega", None)
         m = compare(as_speed, truth.t, truth.channel("speed_true"), min_omega=min_speed, **kw)
         return replace(m, unit="m/s")
+    # the speed error from the speeds themselves: a track's radius (fuse's learned one) need not
+    # be the truth's, and then the omega error times it is not the speed error
+    if "speed_true" in truth.channels:
+        kw.setdefault("truth_speed_values", truth.channel("speed_true"))
+    elif truth.wheel_radius:
+        kw.setdefault("truth_speed_values", truth.channel("omega_true") * truth.wheel_radius)
     return compare(track, truth.t, truth_omega(truth, track.wheel_radius), **kw)
 
 
