@@ -61,8 +61,10 @@ def _run_local(jobs_list, n_jobs: int, done: Callable[[dict], None]) -> None:
                 except BrokenProcessPool:
                     done(_lost(futs[fut], "its worker process died (out of memory?)"))
         except BaseException:  # Ctrl-C, SIGTERM: stop the workers too, never leave them behind
-            for fut in futs:
-                fut.cancel()
+            # no fut.cancel() first: the pool's manager thread then fails the queued futures
+            # with BrokenProcessPool, and on Python < 3.12 it raised InvalidStateError on each
+            # cancelled one (a traceback on stderr after every Ctrl-C); with the workers gone
+            # nothing queued can start anyway
             for proc in list((getattr(pool, "_processes", None) or {}).values()):
                 proc.terminate()
             raise

@@ -225,7 +225,9 @@ def detect_format(path: str | os.PathLike[str], *, mapping: bool = False) -> str
 def _detect_format(p: Path, *, mapping: bool, inside: bool) -> str:
     """:func:`detect_format`; ``inside``: look one level into a folder for the error message."""
     if not p.exists():
-        raise ReaderError(p, "file not found")
+        from vibrospeed.io._csv import not_found
+
+        raise ReaderError(p, not_found(p))
     if mapping:
         return "mapped"
     for name, f in _REGISTRY.items():

@@ -30,11 +30,23 @@ def _short(s: str, n: int = 24) -> str:
     return s if len(s) <= n else s[: n - 3] + "..."
 
 
+def not_found(p: Path) -> str:
+    """What to say about a path that does not exist: "file not found", or for a symbolic link
+    (which ``ls`` lists) that its target is missing or that it loops."""
+    if not p.is_symlink():
+        return "file not found"
+    try:
+        target = os.readlink(p)
+    except OSError:  # pragma: no cover - gone in between
+        return "file not found"
+    return f"broken symbolic link (to '{_short(target, 60)}': missing, or a link loop)"
+
+
 def check_file(path: str | os.PathLike[str]) -> Path:
     """``path`` as a Path; :class:`ReaderError` if it is missing, a folder or empty."""
     p = Path(path)
     if not p.exists():
-        raise ReaderError(p, "file not found")
+        raise ReaderError(p, not_found(p))
     if p.is_dir():
         raise ReaderError(p, "is a folder, not a file")
     if p.stat().st_size == 0:
@@ -66,6 +78,25 @@ def sniff_delimiter(line: str) -> str:
     if best == 0:
         return ","
     return next(d for d in (",", ";", "\t") if counts[d] == best)
+
+
+def _undecodable_line(fh: TextIO) -> int | None:
+    """1-based line of the first bytes of ``fh`` that are not UTF-8, read again from the start.
+
+    The text layer decodes a block of several kB ahead of the line it hands out, so the line
+    being parsed when the error is raised is not the one that holds the bytes (it said line 0
+    for a bad byte in the first block). ``None`` where the stream cannot be read again."""
+    raw = getattr(fh, "buffer", None)
+    try:
+        raw.seek(0)
+    except (AttributeError, OSError, ValueError):
+        return None
+    for line, chunk in enumerate(iter(raw.readline, b""), start=1):
+        try:
+            chunk.decode("utf-8")
+        except UnicodeDecodeError:
+            return line
+    return None
 
 
 class CsvTable:
@@ -108,7 +139,8 @@ class CsvTable:
                 if not first or first.strip():
                     break
         except UnicodeDecodeError as exc:
-            raise ReaderError(source, f"not UTF-8 text ({exc.reason})", row=line_no) from None
+            raise ReaderError(source, f"not UTF-8 text ({exc.reason})",
+                              row=_undecodable_line(fh)) from None
         if not first.strip():
             raise ReaderError(source, "empty file (no header row)")
         if first.endswith("\r\n"):
@@ -198,7 +230,7 @@ class CsvTable:
                 ) from None
             except UnicodeDecodeError as exc:
                 raise ReaderError(
-                    self.source, f"not UTF-8 text ({exc.reason})", row=base + reader.line_num + 1
+                    self.source, f"not UTF-8 text ({exc.reason})", row=_undecodable_line(self._fh)
                 ) from None
             if len(row) != ncols:
                 if not any(c.strip() for c in row):
