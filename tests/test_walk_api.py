@@ -174,3 +174,35 @@ def test_algebraic_reads_l1_and_r_as_text_as_numbers(car):
     a = algebraic.estimate(car, params={"L1": "1.2", "r": "0.31"})
     b = algebraic.estimate(car, params={"L1": 1.2}, wheel_radius=0.31)
     np.testing.assert_array_equal(a.speed, b.speed)
+
+
+def _retimed(car, how: str):
+    from vibrospeed.types import Recording
+
+    t = car.t.copy()
+    if how == "nan":
+        t[100] = np.nan
+    elif how == "repeated":
+        t[100] = t[99]
+    elif how == "swapped":
+        t[100], t[101] = t[101], t[100]
+    return Recording(t, dict(car.channels), source="api", wheel_radius=0.31)
+
+
+@pytest.mark.parametrize("method", ["ekf", "grid", "shs", "aided", "fuse", "algebraic"])
+@pytest.mark.parametrize("how", ["nan", "repeated", "swapped"])
+def test_a_time_line_that_is_not_strictly_increasing_is_one_line_naming_the_sample(
+        car, method, how):
+    """A Recording built through the API with a NaN, a repeated or a swapped time: one
+    InputError naming the sample (was: ValueError inside NumPy, "attempt to get argmin of an
+    empty sequence" / "cannot convert float NaN to integer", or, for a repeated or swapped
+    time, an estimate as if the time line were uniform)."""
+    from vibrospeed import estimators
+    from vibrospeed.errors import InputError
+
+    rec = _retimed(car, how)
+    want = 100 if how != "swapped" else 101
+    with pytest.raises(InputError, match=rf"^api: time .* at sample {want}\b") as err:
+        estimators.get(method).estimate(rec, params={"L1": 1.2} if method == "algebraic"
+                                        else {})
+    assert "\n" not in str(err.value)

@@ -68,6 +68,25 @@ def split_params(model_cls, params: dict) -> tuple[dict, dict]:
     return model_kw, rest
 
 
+def check_time(recording: Recording) -> None:
+    """:class:`InputError` naming the first bad sample unless the time line is finite and
+    strictly increasing (a Recording's contract, which its constructor does not check: one
+    built through the API with a NaN, repeated or reversed time failed inside NumPy or was
+    estimated as if uniform). :func:`vibrospeed.io.sort_dedup` sorts and cleans one."""
+    t = recording.t
+    src = recording.source or "recording"
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise InputError(f"{src}: time t is {t[bad[0]]} at sample {bad[0]}; clean the time line "
+                         "first (vibrospeed.io.sort_dedup drops such rows)")
+    back = np.flatnonzero(np.diff(t) <= 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise InputError(f"{src}: time line is not strictly increasing at sample {i} (t = "
+                         f"{t[i]:.6g} s after {t[i - 1]:.6g} s); sort it first "
+                         "(vibrospeed.io.sort_dedup)")
+
+
 def check_uniform(recording: Recording) -> float:
     """Median sample period in s; :class:`InputError` if the time line is not uniform enough
     (more than 1 % of the periods off the median by > 5 %) or has a gap (a period over
@@ -77,6 +96,7 @@ def check_uniform(recording: Recording) -> float:
     the gaps, which every estimator bridges by prediction."""
     if len(recording) < 2:
         raise InputError(f"{recording.source or 'recording'}: fewer than 2 samples")
+    check_time(recording)
     d = np.diff(recording.t)
     dt = float(np.median(d))
     gaps = np.flatnonzero(d > GAP_FACTOR * (1.0 + UNIFORM_RTOL) * dt)

@@ -12,6 +12,7 @@ from vibrospeed.config import config_from_params, parse_number
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators.algebraic.config import OUTPUTS, Config
 from vibrospeed.estimators.algebraic.filter import run
+from vibrospeed.estimators.common import check_time
 from vibrospeed.types import WHEEL_CHANNELS, Recording, Track, check_wheel_radius
 
 
@@ -64,6 +65,7 @@ def estimate(
                              "distance in m (--param L1=...)")
     if len(recording) < 3:
         raise InputError(f"{src}: fewer than 3 samples")
+    check_time(recording)
     tg, resampled = _uniform_grid(recording)
     dt = float(np.median(np.diff(tg)))
     cfg = config_from_params(Config, params, r=float(r), L1=float(L1), dt=dt)

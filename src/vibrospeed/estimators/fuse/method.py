@@ -16,7 +16,12 @@ import numpy as np
 
 from vibrospeed.config import config_from_params, parse_flag
 from vibrospeed.errors import InputError, ParameterError
-from vibrospeed.estimators.common import axis_channel, gps_no_fix_as_nan, signed_axis
+from vibrospeed.estimators.common import (
+    axis_channel,
+    check_time,
+    gps_no_fix_as_nan,
+    signed_axis,
+)
 from vibrospeed.estimators.fuse.config import (
     CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
@@ -168,6 +173,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     name = recording.source or "recording"
     if len(recording) < 2:
         raise InputError(f"{name}: fewer than 2 samples")
+    check_time(recording)
     recording.require(acc_ch)
     recording, notes = gps_no_fix_as_nan(recording)
     has_gps = "gps_speed" in recording and np.isfinite(recording.channel("gps_speed")).any()
