@@ -206,3 +206,18 @@ def test_a_time_line_that_is_not_strictly_increasing_is_one_line_naming_the_samp
         estimators.get(method).estimate(rec, params={"L1": 1.2} if method == "algebraic"
                                         else {})
     assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("method", ["gps-riss", "algebraic"])
+def test_the_two_methods_that_take_a_time_line_with_a_gap(car, method):
+    """docs/architecture.md: gps-riss filters on the time stamps and algebraic resamples, so
+    a gap is no error for them (every other method refuses it, tests/test_gaps.py)."""
+    from vibrospeed import estimators
+    from vibrospeed.types import Recording
+
+    keep = (car.t < 1.0) | (car.t >= 1.5)
+    rec = Recording(car.t[keep], {k: v[keep] for k, v in car.channels.items()}, source="api")
+    tr = estimators.get(method).estimate(rec, wheel_radius=0.31, axis="x" if
+                                         method == "gps-riss" else None,
+                                         params={"L1": 1.2} if method == "algebraic" else {})
+    assert len(tr) == keep.sum() and np.isfinite(tr.speed[-100:]).all()
