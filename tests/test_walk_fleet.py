@@ -125,3 +125,43 @@ def test_ctrl_c_stops_the_pool_without_a_thread_traceback():
     # manager thread then failed each cancelled future (InvalidStateError on Python < 3.12),
     # a traceback on stderr after the Ctrl-C
     assert _interrupted_pool() == []
+
+
+def test_resume_estimates_again_when_a_file_read_with_the_recording_changes(tmp_path):
+    # a canonical CSV's drive.csv.json holds the wheel radius the reader applies, a --mapping
+    # file the units; resume compared the checksum of the CSV alone, so a corrected radius or
+    # unit kept the old numbers ('skipped') until --force
+    import json
+
+    import numpy as np
+
+    from vibrospeed import batch, sim
+
+    src = tmp_path / "drive.csv"
+    io.write(sim.simulate("cart", seed=0, duration=3), src)
+    out = tmp_path / "out"
+    first = batch.run([src], out, method="ekf", params={"omega_max": 30}, jobs=1)
+    assert list(first["status"]) == ["ok"]
+    again = batch.run([src], out, method="ekf", params={"omega_max": 30}, jobs=1)
+    assert list(again["status"]) == ["skipped"]
+    side = Path(f"{src}.json")
+    meta = json.loads(side.read_text())
+    r0 = meta["wheel_radius"]
+    meta["wheel_radius"] = 2 * r0
+    side.write_text(json.dumps(meta))
+    third = batch.run([src], out, method="ekf", params={"omega_max": 30}, jobs=1)
+    assert list(third["status"]) == ["ok"]
+    np.testing.assert_allclose(third["median_omega"], first["median_omega"], rtol=1e-12)
+    np.testing.assert_allclose(third["median_speed"], 2 * first["median_speed"], rtol=1e-9)
+
+    # the mapping file's contents, not only its name
+    raw = tmp_path / "raw.csv"
+    raw.write_text("ms,acc\n" + "".join(f"{10 * i},{np.sin(0.3 * i):.4f}\n" for i in range(300)))
+    mapping = tmp_path / "m.toml"
+    mapping.write_text('[columns]\nt = { column = "ms", unit = "ms" }\nay = "acc"\n')
+    opts = batch.EstimateOptions(method="ekf", params={"omega_max": 30}, mapping=str(mapping))
+    assert list(batch.run([raw], out, options=opts, jobs=1)["status"]) == ["ok"]
+    assert list(batch.run([raw], out, options=opts, jobs=1)["status"]) == ["skipped"]
+    mapping.write_text('[columns]\nt = { column = "ms", unit = "ms" }\nay = { column = "acc", '
+                       'unit = "g" }\n')
+    assert list(batch.run([raw], out, options=opts, jobs=1)["status"]) == ["ok"]

@@ -31,8 +31,9 @@ recordings, each in its own task, and returns the summary table (one row per rec
 
 A recording is skipped when its estimate and sidecar exist and the sidecar records the same
 method, options, vibrospeed version and input checksum (SHA-256 of the file or the folder's
-files). One bad recording never stops the batch: its row says why. The work runs on a local
-process pool (:mod:`concurrent.futures`, ``jobs`` processes) or, with ``scheduler`` (an address
+files, and of the files read with it: :func:`vibrospeed.batch.single.read_with`). One bad
+recording never stops the batch: its row says why. The work runs on a local process pool
+(:mod:`concurrent.futures`, ``jobs`` processes) or, with ``scheduler`` (an address
 ``tcp://host:8786`` or a ``dask.distributed.Client``), on a Dask cluster; the workers must see
 the same files (a shared file system) and have vibrospeed installed.
 

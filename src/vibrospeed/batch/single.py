@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -144,6 +145,39 @@ def load_recording(path: str | os.PathLike[str], fmt: str = "auto", columns: str
     return rec
 
 
+def read_with(path: str | os.PathLike[str], options: EstimateOptions) -> list[Path]:
+    """The files besides ``path`` itself that reading it with ``options`` takes numbers from:
+    a canonical CSV's ``<path>.json`` (units, wheel radius) and event files
+    (``drive.wss_ticks.csv``), an AndroSensor trip's ``gps.<trip>.csv``, the ``--mapping``
+    file. A folder's own files are in its checksum already."""
+    from vibrospeed.io.canonical import _event_sidecars
+
+    p = Path(path)
+    out: list[Path] = []
+    if p.is_file():
+        out.append(Path(f"{p}.json"))
+        out.extend(sorted(_event_sidecars(p).values()))
+        if "accel" in p.name:
+            out.append(p.with_name(p.name.replace("accel", "gps", 1)))
+    if options.mapping is not None:
+        out.append(Path(options.mapping))
+    return [q for q in out if q.is_file()]
+
+
+def read_with_sha256(path: str | os.PathLike[str], options: EstimateOptions) -> str:
+    """SHA-256 over :func:`read_with`'s files (names and contents): a batch output whose
+    sidecar records another is not up to date, though the input file itself is unchanged (a
+    corrected wheel radius in ``drive.csv.json``, a corrected unit in the mapping file)."""
+    import hashlib
+
+    from vibrospeed.io._common import sha256_path
+
+    h = hashlib.sha256()
+    for q in read_with(path, options):
+        h.update(q.name.encode() + b"\0" + sha256_path(q).encode() + b"\0")
+    return h.hexdigest()
+
+
 def estimate_recording(
     input: str | os.PathLike[str],  # noqa: A002 - the CLI's word
     output: str | os.PathLike[str],
@@ -168,6 +202,7 @@ def estimate_recording(
 
     method = options.method
     params = options.estimator_params()
+    read_sha = read_with_sha256(input, options) if describe else None  # before reading
     mod = estimators.get(method)
     rec = recording if recording is not None else load_recording(
         input, options.fmt, options.columns, options.mapping, options.rate, options.sort,
@@ -204,6 +239,7 @@ def estimate_recording(
     side_meta = {"version": __version__, "axis": axis, "recording_notes": rec.notes}
     if describe:
         side_meta["options"] = options.to_json()
+        side_meta["read_with_sha256"] = read_sha
         side_meta["recording"] = {"format": fmt, "duration": float(rec.duration),
                                   "samples": len(rec)}
     side_meta.update(meta or {})

@@ -22,6 +22,7 @@ from vibrospeed.batch.single import (
     EstimateOptions,
     estimate_recording,
     load_recording,
+    read_with_sha256,
     vibration_channel,
 )
 from vibrospeed.errors import ReaderError, VibrospeedError
@@ -80,7 +81,8 @@ def _for_recording(opts: EstimateOptions, path: str) -> EstimateOptions:
 
 
 def _up_to_date(job: dict[str, Any]) -> dict[str, Any] | None:
-    """The output's sidecar when it records the same method, options, version and input."""
+    """The output's sidecar when it records the same method, options, version and input (the
+    file or folder, and the files read with it: :func:`vibrospeed.batch.single.read_with`)."""
     from vibrospeed import __version__
     from vibrospeed.io._common import sha256_path
 
@@ -99,7 +101,8 @@ def _up_to_date(job: dict[str, Any]) -> dict[str, Any] | None:
             and side.get("version") == __version__
             and job["options"].same_as(meta.get("options"))
             and side.get("input_sha256") is not None
-            and side.get("input_sha256") == sha256_path(job["input"]))
+            and side.get("input_sha256") == sha256_path(job["input"])
+            and meta.get("read_with_sha256") == read_with_sha256(job["input"], job["options"]))
     return side if same else None
 
 
