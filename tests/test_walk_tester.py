@@ -1,9 +1,14 @@
 """A vehicle tester's walkthrough: evaluation against references with gaps and other radii,
 ``fuse``'s radius carried between drives (``radius_from``): numbers against hand-computed ones."""
 
+import json
+
 import numpy as np
 import pytest
 
+from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators import fuse
+from vibrospeed.estimators.fuse import method as fuse_method
 from vibrospeed.eval.metrics import evaluate
 from vibrospeed.types import Recording, Track
 
@@ -49,3 +54,84 @@ def test_rmse_speed_is_the_speed_error_when_the_track_has_another_radius():
     # omega_true with the truth's radius, no speed_true: the same
     truth2 = Recording(t, {"omega_true": v / 0.3}, wheel_radius=0.3)
     assert evaluate(est, truth2).rmse_speed == pytest.approx(0.5)
+
+
+# -- fuse: the radius of an earlier drive (radius_from) ------------------------------------------
+
+def _sidecar(tmp_path, name, obj):
+    p = tmp_path / name
+    p.write_text(json.dumps(obj))
+    return p
+
+
+def _drive(T=30.0, fs=200.0, r=0.3, gps=True, seed=0):
+    """A drive with a 3-harmonic wheel line of radius ``r`` on ay, the acceleration on ax and,
+    with ``gps``, 10 Hz GPS speed (the speed itself, 9 satellites)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, T, 1.0 / fs)
+    v = 12.0 + 3.0 * np.sin(2 * np.pi * t / 20.0)
+    phase = np.cumsum(v / r) / fs
+    ay = np.sin(phase) + 0.5 * np.sin(2 * phase) + 0.3 * np.sin(3 * phase)
+    ch = {"ax": np.gradient(v, t) + 0.1 * rng.normal(size=t.size),
+          "ay": ay + 0.3 * rng.normal(size=t.size), "az": 9.81 + 0.1 * rng.normal(size=t.size)}
+    if gps:
+        g = np.full(t.size, np.nan)
+        g[::20] = v[::20]
+        ch.update(gps_speed=g, gps_sats=np.full(t.size, 9.0))
+    return Recording(t, ch, source="drive.csv")
+
+
+def test_radius_file_of_another_method_or_never_learned(tmp_path):
+    """Another method's sidecar: its given wheel radius (said so), or one line where it has
+    none; a fuse sidecar whose radius was never learned (the 0.3 +- 0.15 m prior) is refused
+    for a drive without GPS instead of integrating the accelerometer for the whole drive."""
+    gr = _sidecar(tmp_path, "gr.csv.json", {"kind": "track", "method": "gps-riss",
+                                            "wheel_radius": None, "params": {}})
+    with pytest.raises(InputError, match="gps-riss estimate's sidecar holds no learned radius"):
+        fuse.radius_from_json(gr)
+    alg = _sidecar(tmp_path, "alg.csv.json", {"kind": "track", "method": "algebraic",
+                                              "wheel_radius": 0.31, "params": {"L1": 1.2}})
+    assert fuse_method._read_radius(alg) == (0.31, pytest.approx(0.0031), "algebraic")
+    unlearned = _sidecar(tmp_path, "h.csv.json", {
+        "kind": "track", "method": "fuse", "wheel_radius": None,
+        "params": {"learned_radius": 0.3, "learned_radius_std": 0.15}})
+    with pytest.raises(ParameterError, match="no learned radius.*needs a radius"):
+        fuse.estimate(_drive(T=2.0, gps=False), radius_from=unlearned)
+
+
+def test_radius_prior_outside_the_range_fuse_reads_lines_in_is_refused(tmp_path):
+    """A 2.5 m radius (outside radius_min..radius_max, 0.03-1 m) rejected every wheel line in
+    silence; now one line, from a file or --wheel-radius; -p radius_max= accepts it."""
+    big = _sidecar(tmp_path, "big.json", {"wheel_radius": 2.5})
+    with pytest.raises(ParameterError, match="2.5 m is outside radius_min..radius_max"):
+        fuse.estimate(_drive(T=2.0, gps=False), radius_from=big)
+    with pytest.raises(ParameterError, match="outside radius_min"):
+        fuse.estimate(_drive(T=2.0), wheel_radius=1.5)
+
+
+def test_a_prior_the_lines_seen_with_gps_contradict_gets_a_note():
+    """The lines with good fixes put the radius at GPS speed / line (0.3 m here, at any of the
+    octaves 1/2, 1, 2): a prior of 0.089 m (a kart's, on a car) gets the note, 0.3 m or its
+    octave 0.15 m do not, nor fewer than 1 s of lines."""
+    t = np.arange(0.0, 10.0, 0.04)
+    v = 10.0 + t
+    arrays = {"t": t, "gps_speed": v, "omega": v / 0.3, "line": np.ones(t.size, bool)}
+    fixes = np.ones(t.size, bool)
+    note = fuse_method._prior_mismatch(arrays, fixes, 0.089, 0.0005)
+    assert len(note) == 1 and "radius at 0.3000 m" in note[0] and "0.0890" in note[0]
+    assert fuse_method._prior_mismatch(arrays, fixes, 0.3, 0.003) == []
+    assert fuse_method._prior_mismatch(arrays, fixes, 0.15, 0.0015) == []
+    assert fuse_method._prior_mismatch(arrays, fixes & (t < 0.9), 0.089, 0.0005) == []
+
+
+@pytest.mark.slow
+def test_another_vehicles_radius_on_a_drive_with_gps_is_named():
+    """End to end: a 0.089 m prior on a 0.3 m car keeps the prior (the lines disagree) and
+    says so; the car's own radius gives no such note."""
+    rec = _drive()
+    rng = {"omega_min": 10.0, "omega_max": 120.0}
+    tr = fuse.estimate(rec, params=rng, wheel_radius=0.089)
+    assert any("put the radius at 0.30" in n for n in tr.notes)
+    assert tr.params["learned_radius"] == pytest.approx(0.089, rel=0.02)
+    tr = fuse.estimate(rec, params=rng, wheel_radius=0.3)
+    assert not any("put the radius at" in n for n in tr.notes)

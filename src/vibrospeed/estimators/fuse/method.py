@@ -45,6 +45,12 @@ def radius_from_json(path: str | os.PathLike[str]) -> tuple[float, float]:
     """``(radius, std)`` in m from an earlier ``fuse`` estimate's sidecar (``est.csv.json``:
     ``params.learned_radius`` / ``params.learned_radius_std``), or from any JSON object with
     ``wheel_radius`` and optionally ``wheel_radius_std`` (default 1 % of it)."""
+    return _read_radius(path)[:2]
+
+
+def _read_radius(path: str | os.PathLike[str]) -> tuple[float, float, str]:
+    """:func:`radius_from_json` and what the radius is: ``"learned"`` (a fuse sidecar), ``""``
+    (a wheel radius), or the method of another estimate's sidecar (a radius it was given)."""
     p = Path(path)
     try:
         side = json.loads(p.read_text(encoding="utf-8-sig"))
@@ -53,8 +59,14 @@ def radius_from_json(path: str | os.PathLike[str]) -> tuple[float, float]:
     if not isinstance(side, dict):
         raise InputError(f"{p}: the radius file must hold a JSON object")
     par = side.get("params") if isinstance(side.get("params"), dict) else {}
+    # another method's estimate sidecar: its wheel_radius is the one it was given, not learned
+    what = str(side["method"]) if side.get("kind") == "track" and "method" in side else ""
     if "learned_radius" in par:
         r, s = par.get("learned_radius"), par.get("learned_radius_std")
+        what = "learned"
+    elif what and side.get("wheel_radius") is None:
+        raise InputError(f"{p}: a {what} estimate's sidecar holds no learned radius (only fuse "
+                         "learns one) and no wheel radius")
     elif "wheel_radius" in side:
         r = side.get("wheel_radius")
         s = side.get("wheel_radius_std", None)
@@ -66,7 +78,7 @@ def radius_from_json(path: str | os.PathLike[str]) -> tuple[float, float]:
              and v > 0 for v in (r, s))
     if not ok:
         raise InputError(f"{p}: radius and its std must be positive numbers, got {r!r}, {s!r}")
-    return float(r), float(s)
+    return float(r), float(s), what
 
 
 # -- recording -> fusion samples ------------------------------------------------------------------
@@ -178,8 +190,17 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     recording, notes = gps_no_fix_as_nan(recording)
     has_gps = "gps_speed" in recording and np.isfinite(recording.channel("gps_speed")).any()
     if rf is not None:
-        r0, rs0 = radius_from_json(rf)
-        notes.append(f"radius prior {r0:.4f} +- {rs0:.4f} m from {os.fspath(rf)}")
+        r0, rs0, what = _read_radius(rf)
+        given = f" (the wheel radius given to that {what} run, not learned)" \
+            if what not in ("", "learned") else ""
+        notes.append(f"radius prior {r0:.4f} +- {rs0:.4f} m from {os.fspath(rf)}{given}")
+        if rs0 >= cfg.octave_rel * r0:  # fuse's own test of a known radius (omega column)
+            unknown = (f"{os.fspath(rf)}: {r0:.4f} +- {rs0:.4f} m is no learned radius (a "
+                       f"spread of {rs0 / r0:.0%}, octave_rel {cfg.octave_rel:g}: that drive "
+                       "never showed a wheel line while GPS was good)")
+            if not has_gps:
+                raise ParameterError(f"{unknown}; fuse without gps_speed needs a radius")
+            notes.append(f"{unknown}: GPS teaches it here")
     elif wheel_radius:
         r0 = check_wheel_radius(wheel_radius)
         rs0 = 0.01 * r0
@@ -189,6 +210,10 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     else:
         raise ParameterError(f"{name}: fuse without gps_speed needs a radius: radius_from= an "
                              "earlier fuse estimate's .json, or --wheel-radius")
+    if not cfg.radius_min <= r0 <= cfg.radius_max:  # no line would ever be read with it
+        raise ParameterError(f"{name}: radius prior {r0:.4g} m is outside radius_min.."
+                             f"radius_max ({cfg.radius_min:g}-{cfg.radius_max:g} m), where fuse "
+                             "reads wheel lines (-p radius_min= / radius_max= to widen it)")
     # 1. the vibration tracker (offline smoothed / online causal)
     tparams = {**TRACKER_DEFAULTS, **rest}
     if online:
@@ -281,6 +306,8 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     notes.append("fused speed rests on " + ", ".join(f"{k} {100 * x:.1f} %"
                                                      for k, x in shares.items()) +
                  f" of the fusion samples ({'forward filter' if online else 'RTS smoothed'})")
+    if rf is not None or wheel_radius:
+        notes.extend(_prior_mismatch(arrays, cfg.valid_fixes(g, s)[ends], r0, rs0))
     notes.append(f"learned wheel radius {r_fin:.4f} +- {rs_fin:.4f} m"
                  + ("" if has_gps else " (no GPS: the prior, kept)"))
     known = rs_fin < cfg.octave_rel * r_fin
@@ -309,6 +336,29 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     return Track.from_speed(t, speed, speed_std, wheel_radius=r_fin if known else None,
                             method="fuse",
                             params=pdict, extras=extras, notes=[*vib.notes, *notes])
+
+
+#: the share of the radius prior within which the lines seen with GPS must place the radius
+PRIOR_MISMATCH_REL = 0.1
+
+
+def _prior_mismatch(arrays: dict, fixes: np.ndarray, r0: float, rs0: float) -> list[str]:
+    """A note where the wheel lines seen with a good fix (spanning at least 1 s) place the
+    radius (GPS speed / line, their median, at the line's octaves 1/2, 1, 2) further from a
+    given prior than :data:`PRIOR_MISMATCH_REL` of it plus 3 of its std: a radius of another
+    vehicle or mount, with which the filter rejects those lines and keeps the prior."""
+    om = np.asarray(arrays["omega"], dtype=np.float64)
+    use = arrays["line"] & fixes & (np.nan_to_num(om) > 0) & (arrays["gps_speed"] > 1.0)
+    tf = arrays["t"][use]
+    if tf.size < 2 or tf[-1] - tf[0] < 1.0:
+        return []
+    q = float(np.median(arrays["gps_speed"][use] / om[use]))
+    near = min(abs(q / h - r0) for h in (0.5, 1.0, 2.0))
+    if near <= PRIOR_MISMATCH_REL * r0 + 3.0 * rs0:
+        return []
+    return [f"the wheel lines seen with GPS put the radius at {q:.4f} m (GPS speed / line, "
+            f"median of {tf.size} fusion samples), not near the prior {r0:.4f} +- {rs0:.4f} m: "
+            "a radius of another vehicle or mount? Lines that disagree with it are not used"]
 
 
 def _posterior_rows(vib: Track, ends: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
