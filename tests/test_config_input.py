@@ -4,6 +4,7 @@ parameter and the value when the ``Config`` is built; the valid edges (0, inf wh
 "never" or "no limit") still run and give finite numbers."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -291,3 +292,33 @@ def test_a_search_range_that_is_no_number_is_named_as_omega_max(method, value):
     rec = sim.simulate("cart", seed=1, duration=2)
     with pytest.raises(ParameterError, match="^omega_max must be a finite number > 0 rad/s"):
         get(method).estimate(rec, params={"omega_max": value}, wheel_radius=0.2)
+
+
+@pytest.mark.parametrize(("params", "says"), [
+    # given as values (not text) these were a TypeError deep in the Config, or taken
+    ({"omega_min": [1, 2]}, "parameter 'omega_min': cannot use [1, 2] as"),
+    ({"omega_max": None}, "parameter 'omega_max': cannot use None as"),
+    ({"omega_min": True}, "parameter 'omega_min': cannot use True as"),
+    ({"M": 2.5}, "parameter 'M': cannot use 2.5 as"),
+    ({"smooth": 3}, "parameter 'smooth': cannot use 3 as"),
+])
+def test_a_value_of_the_wrong_kind_given_through_the_api_is_one_line(params, says):
+    from vibrospeed.errors import ParameterError
+    from vibrospeed.estimators import grid
+    from vibrospeed.sim import simulate
+
+    rec = simulate("cart", seed=1, duration=5)
+    with pytest.raises(ParameterError, match=re.escape(says)):
+        grid.estimate(rec, params=params)
+
+
+def test_values_of_the_right_kind_pass_as_given():
+    import numpy as np
+
+    from vibrospeed.config import parse_value
+
+    assert parse_value(2, float) == 2 and parse_value(np.float32(2.5), float) == 2.5
+    assert parse_value(3.0, int) == 3.0 and parse_value(np.int64(4), int) == 4
+    assert parse_value(1, bool) == 1 and parse_value(np.bool_(True), bool)
+    assert parse_value((1, 2.5), tuple[float, ...]) == (1, 2.5)
+    assert parse_value(None, float | None) is None

@@ -29,10 +29,13 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import numbers
 import re
 import types
 import typing
 from typing import Any, TypeVar
+
+import numpy as np
 
 from vibrospeed.errors import ParameterError
 
@@ -85,6 +88,41 @@ def _split_items(text: str, numeric: bool) -> list[str]:
     return [s.strip() for s in text.split(sep)]
 
 
+def _kind_ok(value: Any, typ: Any) -> bool:
+    """Whether a value given as itself (not text) is of the kind ``typ`` wants: a real number
+    (not a bool) for ``float`` / ``int`` (a whole one for ``int``), a bool or a number for a
+    switch, a sequence of such items for a tuple, a member of a ``Literal``, None only where
+    ``typ`` admits it. Types beyond these (a nested Config, ``Any``) take anything."""
+    origin, args = typing.get_origin(typ), typing.get_args(typ)
+    real = isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+    if typ is Any:
+        return True
+    if origin in (typing.Union, types.UnionType):
+        return any(_kind_ok(value, a) for a in args)
+    if typ is type(None):
+        return value is None
+    if origin is typing.Literal:
+        return value in args
+    if typ is float:
+        return real
+    if typ is int:
+        return real and float(value).is_integer()
+    if typ is bool:
+        return isinstance(value, bool | np.bool_) or real
+    if typ is str:
+        return isinstance(value, str)
+    if origin in (tuple, list) or typ in (tuple, list):
+        if not isinstance(value, tuple | list | np.ndarray):
+            return False
+        if not args:
+            return all(_kind_ok(v, float) for v in value)
+        if (len(args) == 2 and args[1] is Ellipsis) or (origin or typ) is list:
+            return all(_kind_ok(v, args[0]) for v in value)
+        return len(value) == len(args) and all(_kind_ok(v, a) for v, a in zip(value, args,
+                                                                             strict=True))
+    return True
+
+
 def parse_value(text: str, typ: Any, name: str = "value") -> Any:
     """``text`` read as a value of type ``typ`` (see the module docstring's table).
 
@@ -92,6 +130,9 @@ def parse_value(text: str, typ: Any, name: str = "value") -> Any:
     be read. Types the table does not cover (a nested Config, a dict) cannot be given as text.
     """
     if not isinstance(text, str):
+        if not _kind_ok(text, typ):
+            raise ParameterError(f"parameter '{name}': cannot use {text!r} as "
+                                 f"{type_name(typ)}")
         return text
     origin = typing.get_origin(typ)
     args = typing.get_args(typ)
