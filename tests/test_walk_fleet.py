@@ -165,3 +165,31 @@ def test_resume_estimates_again_when_a_file_read_with_the_recording_changes(tmp_
     mapping.write_text('[columns]\nt = { column = "ms", unit = "ms" }\nay = { column = "acc", '
                        'unit = "g" }\n')
     assert list(batch.run([raw], out, options=opts, jobs=1)["status"]) == ["ok"]
+
+
+def test_batch_refuses_a_unit_of_the_wrong_quantity_before_it_starts(tmp_path):
+    # 'ay=acc:m/s' (a speed unit for an acceleration) and a time column beside a rate fail
+    # for every recording alike: they were one error row per recording, not one line
+    from vibrospeed import batch
+    from vibrospeed.errors import ParameterError
+
+    src = tmp_path / "log.csv"
+    src.write_text("ms,acc,yaw\n" + "".join(f"{10 * i},0.1,2\n" for i in range(100)))
+    out = tmp_path / "out"
+    bad = [
+        (dict(columns="t=ms:ms,ay=acc:m/s"), r"^--columns: column mapping 'ay': unit 'm/s'"),
+        (dict(columns="t=ms:ms,gz=yaw:deg"), r"^--columns: column mapping 'gz': unit 'deg' "
+                                             r"gives rad, but gz is in rad/s"),
+        (dict(columns="t=ms:ms,ay=acc:g", rate=100.0), "time column 't' or a sample rate"),
+    ]
+    mapping = tmp_path / "m.toml"
+    mapping.write_text('rate = 100\n[columns]\nay = { column = "acc", unit = "km/h" }\n')
+    bad.append((dict(mapping=str(mapping)), r"m.toml: column mapping 'ay': unit 'km/h'"))
+    good = tmp_path / "good.toml"  # its rate, and a time column given beside it
+    good.write_text('rate = 100\n[columns]\nay = { column = "acc", unit = "g" }\n')
+    bad.append((dict(mapping=str(good), columns="t=ms:ms"), "or a sample rate"))
+    for kw, match in bad:
+        opts = batch.EstimateOptions(method="ekf", **kw)
+        with pytest.raises(ParameterError, match=match):
+            batch.run([src], out, options=opts, jobs=1)
+        assert not (out / "summary.csv").exists()
