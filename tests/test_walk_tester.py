@@ -2,6 +2,7 @@
 ``fuse``'s radius carried between drives (``radius_from``): numbers against hand-computed ones."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -55,6 +56,33 @@ def test_rmse_speed_is_the_speed_error_when_the_track_has_another_radius():
     truth2 = Recording(t, {"omega_true": v / 0.3}, wheel_radius=0.3)
     assert evaluate(est, truth2).rmse_speed == pytest.approx(0.5)
 
+
+
+def test_a_speed_only_estimate_against_omega_truth_with_its_radius():
+    """A GPS/accelerometer estimate (speed only, no radius) against a truth of omega_true and
+    the truth's wheel radius (0.3 m) is scored as speeds (was: "nothing to compare"); without
+    that radius it is one line saying what is missing."""
+    t = np.arange(0.0, 10.0, 0.1)
+    v = 10.0 + t
+    est = Track.from_speed(t, v - 0.3, np.full(t.size, 0.2))
+    m = evaluate(est, Recording(t, {"omega_true": v / 0.3}, wheel_radius=0.3))
+    assert m.unit == "m/s" and m.n == t.size
+    assert m.rmse == pytest.approx(0.3) and m.bias == pytest.approx(-0.3)
+    with pytest.raises(InputError, match="speeds only.*omega_true without a wheel radius"):
+        evaluate(est, Recording(t, {"omega_true": v / 0.3}, source="ref.csv"))
+
+
+@pytest.mark.parametrize(("channel", "unit"), [("gps_sats", "1"), ("ax", "m/s^2")])
+def test_a_truth_channel_that_is_not_a_speed_is_refused(channel, unit):
+    """--truth-channel takes a speed in m/s: a satellite count or an acceleration was scored as
+    one (RMSE in 'm/s' of a count)."""
+    t = np.arange(0.0, 10.0, 0.1)
+    truth = Recording(t, {"speed_true": np.full(t.size, 10.0), "gps_sats": np.full(t.size, 9.0),
+                          "ax": np.zeros(t.size)}, source="drive.csv")
+    est = Track.from_speed(t, np.full(t.size, 10.0), np.full(t.size, 0.2))
+    with pytest.raises(InputError, match=re.escape(f"'{channel}' is in {unit}, not a speed")):
+        evaluate(est, truth, truth_channel=channel)
+    assert evaluate(est, truth, truth_channel="speed_true").rmse == 0.0
 
 # -- fuse: the radius of an earlier drive (radius_from) ------------------------------------------
 

@@ -176,13 +176,28 @@ def evaluate(track: Track, truth: Recording, *, min_speed: float = 0.3,
     over :data:`TRUTH_GAP_S` between its finite samples (its fixes).
     """
     measured = truth_channel is not None and truth_channel not in ("omega_true", "speed_true")
+    src = truth.source or "truth"
     if truth_channel is not None:
         truth.require(truth_channel)
+        unit = truth.units.get(truth_channel, "")
+        if measured and unit not in ("", "m/s"):  # a count, an acceleration: not a speed
+            raise InputError(f"{src}: truth channel '{truth_channel}' is in {unit}, not a "
+                             "speed in m/s")
         truth = Recording(truth.t, {"speed_true" if measured else truth_channel:
                                     truth.channel(truth_channel)},
                           wheel_radius=truth.wheel_radius, source=truth.source)
     if measured:  # a measured speed: compared as speeds where the estimate has one
         kw.setdefault("truth_max_gap", TRUTH_GAP_S)
+    if "speed_true" not in truth.channels and "omega_true" in truth.channels \
+            and truth.wheel_radius:  # the truth's speed through its own wheel
+        truth = Recording(truth.t, {**truth.channels, "speed_true":
+                                    truth.channel("omega_true") * truth.wheel_radius},
+                          wheel_radius=truth.wheel_radius, source=truth.source)
+    speed_only = not np.isfinite(track.omega).any() and np.isfinite(track.speed).any()
+    if speed_only and "speed_true" not in truth.channels:
+        raise InputError(f"{src}: the estimate has speeds only (m/s, no wheel radius) and the "
+                         "truth omega_true without a wheel radius (a .json sidecar with "
+                         "wheel_radius) or speed_true: nothing to compare them in")
     r = track.wheel_radius or truth.wheel_radius
     has_omega_truth = "omega_true" in truth.channels or ("speed_true" in truth.channels and r)
     speed_est = np.isfinite(track.speed).any()
@@ -198,8 +213,6 @@ def evaluate(track: Track, truth: Recording, *, min_speed: float = 0.3,
     # be the truth's, and then the omega error times it is not the speed error
     if "speed_true" in truth.channels:
         kw.setdefault("truth_speed_values", truth.channel("speed_true"))
-    elif truth.wheel_radius:
-        kw.setdefault("truth_speed_values", truth.channel("omega_true") * truth.wheel_radius)
     return compare(track, truth.t, truth_omega(truth, track.wheel_radius), **kw)
 
 
