@@ -193,3 +193,28 @@ def test_batch_refuses_a_unit_of_the_wrong_quantity_before_it_starts(tmp_path):
         with pytest.raises(ParameterError, match=match):
             batch.run([src], out, options=opts, jobs=1)
         assert not (out / "summary.csv").exists()
+
+
+def test_a_rerun_removes_temporaries_of_a_killed_writer(tmp_path):
+    # Ctrl-C or SIGTERM terminates the pool's workers: one stopped mid-write left its hidden
+    # '.drive_ekf.csv.<pid>-<hex>.tmp.csv' in the output folder for good
+    import subprocess
+    import sys
+
+    from vibrospeed import batch, sim
+
+    src = tmp_path / "drive.csv"
+    io.write(sim.simulate("cart", seed=0, duration=2), src)
+    out = tmp_path / "out"
+    out.mkdir()
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    dead = [out / f".drive_ekf.csv.{gone.pid}-0badc0de.tmp.csv",
+            out / f".drive_ekf.csv.json.{gone.pid}-0badc0de.tmp.json"]
+    live = out / f".drive_ekf.csv.{os.getpid()}-0badc0de.tmp.csv"  # another batch, writing
+    for q in (*dead, live):
+        q.write_text("t,omega\n0.0,")
+    df = batch.run([src], out, method="ekf", params={"omega_max": 30}, jobs=1)
+    assert list(df["status"]) == ["ok"]
+    assert not any(q.exists() for q in dead)
+    assert live.exists()

@@ -9,6 +9,7 @@ searched (:func:`vibrospeed.estimators.params.range_note`)."""
 
 from __future__ import annotations
 
+import glob
 import json
 import math
 import os
@@ -106,6 +107,24 @@ def _up_to_date(job: dict[str, Any]) -> dict[str, Any] | None:
     return side if same else None
 
 
+def _remove_dead_temporaries(*targets: Path) -> None:
+    """Remove the temporary files that a writer of ``targets`` stopped mid-write left beside
+    them (:func:`vibrospeed.io.atomic.atomic_path`'s ``.<name>.<pid>-<hex>.tmp<suffix>``: a
+    worker killed by Ctrl-C or SIGTERM gets no chance to) where that process is gone; one of a
+    live process (another batch writing the same output) is left alone."""
+    for target in targets:
+        for q in target.parent.glob(f".{glob.escape(target.name)}.*.tmp*"):
+            pid = q.name[len(target.name) + 2:].split("-", 1)[0]
+            if not pid.isdigit():
+                continue
+            try:
+                os.kill(int(pid), 0)
+            except ProcessLookupError:
+                q.unlink(missing_ok=True)
+            except (OSError, OverflowError):  # alive under another user, or not a pid
+                continue
+
+
 def _stale(report: Path, estimate: Path) -> bool:
     """A skipped recording's report is written again when it is missing or older than its
     estimate: a run without ``--report`` replaced the estimate and left the old page, which
@@ -141,6 +160,9 @@ def _work(job: dict[str, Any]) -> dict[str, Any]:
             axis = side["meta"].get("axis")
             grids: dict[str, np.ndarray] = {}
         else:
+            out = Path(job["output"])
+            _remove_dead_temporaries(out, Path(f"{out}.json"),
+                                     *([Path(job["report"])] if job.get("report") else []))
             est = estimate_recording(job["input"], job["output"], opts, describe=True,
                                      keep_posterior=bool(job.get("report")))
             rec, track, axis, grids = est.recording, est.track, est.axis, est.grids
