@@ -218,3 +218,20 @@ def test_a_rerun_removes_temporaries_of_a_killed_writer(tmp_path):
     assert list(df["status"]) == ["ok"]
     assert not any(q.exists() for q in dead)
     assert live.exists()
+
+
+def test_sort_note_counts_the_rows_out_of_order(tmp_path):
+    # one late row and five repeated ones: the note counted the rows whose place the sort
+    # changed ('1000 rows were out of order' for one late sample; 8 for the five repeats)
+    import numpy as np
+
+    t = np.round(np.arange(1000) * 0.01, 2)
+    rows = [f"{x:.2f},0.1,0.2,9.8" for x in t]
+    rows = rows[:1] + rows[2:] + rows[1:2]  # t = 0.01 written last
+    rows = rows[:500] + rows[495:500] + rows[500:]  # five stamps repeated
+    p = tmp_path / "late.csv"
+    p.write_text("t,ax,ay,az\n" + "\n".join(rows) + "\n")
+    rec = io.read(p, sort=True)
+    assert rec.t.size == 1000 and np.all(np.diff(rec.t) > 0)
+    assert "sorted by time (5 rows were out of order)" in rec.notes  # 0.01 and 4.96-4.99
+    assert "dropped 5 rows repeating an earlier timestamp (first kept)" in rec.notes
