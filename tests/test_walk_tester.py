@@ -163,3 +163,22 @@ def test_another_vehicles_radius_on_a_drive_with_gps_is_named():
     assert tr.params["learned_radius"] == pytest.approx(0.089, rel=0.02)
     tr = fuse.estimate(rec, params=rng, wheel_radius=0.3)
     assert not any("put the radius at" in n for n in tr.notes)
+
+
+# -- plot / report ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("rows", [0, 1])
+def test_plot_and_report_of_an_estimate_without_a_value_are_refused(tmp_path, rows):
+    """A header-only estimate (or one row of NaN) gave a page with 'method ?' and empty numbers
+    and a figure without an estimate, exit status 0; now one line, and nothing is written."""
+    from vibrospeed.eval.plot import plot_track
+    from vibrospeed.eval.report import write_report
+
+    t = np.arange(0.0, 5.0, 0.01)
+    rec = Recording(t, {"ay": np.sin(60.0 * t)}, source="drive.csv")
+    est = Track.from_omega(np.arange(float(rows)), np.full(rows, np.nan))
+    with pytest.raises(InputError, match="est.csv: no finite omega or speed in its"):
+        write_report(tmp_path / "r.html", rec, est, axis="ay", estimate_path="est.csv")
+    with pytest.raises(InputError, match="nothing to draw"):
+        plot_track(tmp_path / "p.png", rec, est, axis="ay")
+    assert list(tmp_path.iterdir()) == []

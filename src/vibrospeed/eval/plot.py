@@ -13,9 +13,19 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from vibrospeed.errors import InputError  # noqa: E402
 from vibrospeed.io.atomic import atomic_path  # noqa: E402
 from vibrospeed.signal.spectral import spectrogram  # noqa: E402
 from vibrospeed.types import Recording, Track  # noqa: E402
+
+
+def check_drawable(track: Track | None, name: str = "estimate") -> None:
+    """One line where ``track`` has no finite omega or speed (a header without rows, a column
+    of NaN): there is nothing to draw, and a page or figure without it reads as a result."""
+    if track is not None and not (np.isfinite(track.omega).any()
+                                  or np.isfinite(track.speed).any()):
+        raise InputError(f"{name}: no finite omega or speed in its {len(track)} row(s): "
+                         "nothing to draw")
 
 
 def plot_track(
@@ -40,6 +50,7 @@ def plot_track(
     rad/s, from a grid tracker, is drawn as an image under the estimate (paper Fig. 3).
     """
     path = Path(path)
+    check_drawable(track)
     speed_only = (track is not None and not np.isfinite(track.omega).any()
                   and np.isfinite(track.speed).any())
     if speed_only or (track is not None and "source" in track.extras):

@@ -178,7 +178,9 @@ def render_report(
     """The HTML text of a drive's report (see :func:`write_report`)."""
     from vibrospeed import __version__
     from vibrospeed.eval.metrics import track_summary
+    from vibrospeed.eval.plot import check_drawable
 
+    check_drawable(track, os.fspath(estimate_path) if estimate_path else "estimate")
     rec = recording
     title = title or rec.source or (os.fspath(input_path) if input_path else "recording")
     s = track_summary(track)
