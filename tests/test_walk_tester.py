@@ -165,6 +165,23 @@ def test_another_vehicles_radius_on_a_drive_with_gps_is_named():
     assert not any("put the radius at" in n for n in tr.notes)
 
 
+
+@pytest.mark.slow
+def test_another_vehicles_radius_without_gps_leaves_every_line_unused_and_says_so():
+    """The simulated car (0.31 m) without GPS: with a kart's 0.089 m no line is used and a note
+    says why the speed is the accelerometer's; with its own radius most samples use one."""
+    from vibrospeed import sim
+
+    car = sim.simulate("car", seed=1, duration=90.0)
+    nogps = Recording(car.t, {k: car[k] for k in ("ax", "ay", "az")}, source="car.csv")
+    tr = fuse.estimate(nogps, wheel_radius=0.089)
+    assert np.all(tr.extras["source"] != fuse.SRC_VIBRATION)
+    assert any("none fits the radius 0.0890 m" in n for n in tr.notes)
+    tr = fuse.estimate(nogps, wheel_radius=0.31)
+    assert np.mean(tr.extras["source"] == fuse.SRC_VIBRATION) > 0.5
+    assert not any("none fits the radius" in n for n in tr.notes)
+
+
 # -- plot / report ---------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("rows", [0, 1])

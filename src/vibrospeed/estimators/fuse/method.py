@@ -32,6 +32,7 @@ from vibrospeed.estimators.fuse.config import (
     IR,
     IV,
     SOURCES,
+    SRC_VIBRATION,
     TRACKER_DEFAULTS,
     Config,
 )
@@ -308,6 +309,12 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
                  f" of the fusion samples ({'forward filter' if online else 'RTS smoothed'})")
     if rf is not None or wheel_radius:
         notes.extend(_prior_mismatch(arrays, cfg.valid_fixes(g, s)[ends], r0, rs0))
+        claimed, used = float(np.mean(arrays["line"])), float(np.mean(o.source == SRC_VIBRATION))
+        if not has_gps and claimed >= 0.1 and used < 0.01:  # nothing to tell which is wrong
+            notes.append(f"the tracker claims a line on {claimed:.0%} of the fusion samples but "
+                         f"none fits the radius {r0:.4f} m with the accelerometer's speed "
+                         "(a radius of another vehicle or mount?): the speed is the "
+                         "accelerometer's integral")
     notes.append(f"learned wheel radius {r_fin:.4f} +- {rs_fin:.4f} m"
                  + ("" if has_gps else " (no GPS: the prior, kept)"))
     known = rs_fin < cfg.octave_rel * r_fin
