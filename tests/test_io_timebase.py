@@ -7,6 +7,7 @@ from vibrospeed.errors import InputError, ParameterError, ReaderError
 from vibrospeed.io.timebase import (
     check_increasing,
     check_nyquist,
+    as_uniform,
     find_gaps,
     interp_onto,
     resample_uniform,
@@ -135,3 +136,21 @@ def test_the_first_sample_after_a_gap_survives_the_grid_s_rounding():
     g = np.array([t[k] - 1e-12, 6.0, t[k] + 0.005])
     out = interp_onto(t, x, g, max_gap=0.05)
     assert out[0] == x[k] and np.isnan(out[1]) and out[2] == pytest.approx(x[k] + 0.5)
+
+
+def test_as_uniform_resamples_beyond_5_percent_and_says_why_it_did_not_within():
+    rng = np.random.default_rng(0)
+    t = np.cumsum(0.01 * (1 + rng.uniform(-0.006, 0.006, 1000)))  # a phone's 0.6 % jitter
+    rec = Recording(t=t, channels={"ay": np.sin(t)}, source="p")
+    out = as_uniform(rec)
+    assert out.t is rec.t  # estimated as it is
+    d = np.diff(t)
+    worst = np.max(np.abs(d - np.median(d))) / np.median(d)
+    assert out.notes[-1] == (f"time stamps within {100 * worst:.2g} % of uniform (under 5 %): "
+                             f"estimated at the median rate {1 / np.median(d):.6g} Hz, not "
+                             "resampled")
+    t2 = np.cumsum(0.01 * (1 + rng.uniform(-0.2, 0.2, 1000)))
+    out2 = as_uniform(Recording(t=t2, channels={"ay": np.sin(t2)}, source="p"))
+    assert "resampled" in out2.meta and out2.is_uniform()
+    u = Recording(t=np.arange(100) * 0.01, channels={"ay": np.zeros(100)}, source="u")
+    assert as_uniform(u).notes == []  # uniform: nothing to say

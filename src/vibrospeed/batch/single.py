@@ -146,16 +146,14 @@ def load_recording(path: str | os.PathLike[str], fmt: str = "auto", columns: str
                    mapping: str | os.PathLike[str] | None = None, rate: float | None = None,
                    sort: bool = False, uniform: bool = True, topic: str | None = None):
     """Read a recording as the CLI does: :func:`vibrospeed.io.read`, then non-uniform time
-    stamps resampled to the median rate (unless ``uniform`` is false); ``topic``: a ROS
-    bag's IMU topic."""
+    stamps resampled to the median rate (:func:`vibrospeed.io.timebase.as_uniform`, unless
+    ``uniform`` is false); ``topic``: a ROS bag's IMU topic."""
     from vibrospeed import io
     from vibrospeed.io import timebase
 
     rec = io.read(path, fmt, columns=columns, mapping_file=mapping, rate=rate, sort=sort,
                   topic=topic)
-    if uniform and len(rec) > 2 and not rec.is_uniform(rtol=0.05):
-        rec = timebase.resample_uniform(rec)
-    return rec
+    return timebase.as_uniform(rec) if uniform else rec
 
 
 def read_with(path: str | os.PathLike[str], options: EstimateOptions) -> list[Path]:

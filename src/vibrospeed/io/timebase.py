@@ -29,6 +29,7 @@ __all__ = [
     "check_increasing",
     "check_nyquist",
     "describe_timebase",
+    "as_uniform",
     "find_gaps",
     "interp_onto",
     "merge_fix_rows",
@@ -317,6 +318,32 @@ def resample_uniform(
         notes=[*rec.notes, note],
         meta=meta,
     )
+
+
+#: a recording whose periods all lie within this fraction of the median is estimated as it is,
+#: at its median rate (the estimators' own check, ``estimators.common.check_uniform``, allows
+#: it); beyond, :func:`as_uniform` resamples
+UNIFORM_ENOUGH = 0.05
+
+
+def as_uniform(rec: Recording) -> Recording:
+    """``rec`` ready for the estimators, as the CLI reads a file: time stamps further than
+    :data:`UNIFORM_ENOUGH` from uniform (jitter, gaps, a rate change) resampled
+    (:func:`resample_uniform`); jitter within it kept, with a note saying so where the
+    reader's note advised a resample (the estimate runs at the median rate).
+    """
+    if len(rec) <= 2:
+        return rec
+    if not rec.is_uniform(rtol=UNIFORM_ENOUGH):
+        return resample_uniform(rec)
+    if not rec.is_uniform():
+        d = np.diff(rec.t)
+        med = float(np.median(d))
+        worst = float(np.max(np.abs(d - med))) / med
+        rec.notes.append(f"time stamps within {100 * worst:.2g} % of uniform (under "
+                         f"{100 * UNIFORM_ENOUGH:g} %): estimated at the median rate "
+                         f"{1.0 / med:.6g} Hz, not resampled")
+    return rec
 
 
 def find_gaps(t: np.ndarray, factor: float = 3.0) -> list[tuple[float, float]]:

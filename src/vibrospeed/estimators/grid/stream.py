@@ -158,9 +158,7 @@ def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
                     source=str(Path(path)), wheel_radius=src.wheel_radius, notes=list(src.notes),
                     meta=dict(src.meta), **kw)
     rec.notes.extend(timebase.describe_timebase(rec))  # as the whole-file readers end
-    if len(rec) > 2 and not rec.is_uniform(rtol=0.05):
-        rec = timebase.resample_uniform(rec)
-    return rec
+    return timebase.as_uniform(rec)
 
 
 def _release_reader_memory() -> None:
