@@ -199,3 +199,20 @@ def test_plot_and_report_of_an_estimate_without_a_value_are_refused(tmp_path, ro
     with pytest.raises(InputError, match="nothing to draw"):
         plot_track(tmp_path / "p.png", rec, est, axis="ay")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_report_says_why_the_truth_was_not_compared():
+    """A truth that does not overlap the estimate (a reference 1000 s later) gave the rows
+    'RMSE against the truth –' as if a number were missing; now one row says why."""
+    from vibrospeed.eval.report import render_report
+
+    t = np.arange(0.0, 5.0, 0.01)
+    rec = Recording(t, {"ay": np.sin(60.0 * t)}, source="drive.csv")
+    est = Track.from_speed(t, np.full(t.size, 10.0), np.full(t.size, 0.1))
+    late = Recording(t + 1000.0, {"speed_true": np.full(t.size, 10.0)}, source="ref.csv")
+    page = render_report(rec, est, axis="ay", truth=late)
+    assert "not compared: no moving truth sample (1000-1004.99 s)" in page
+    assert "RMSE against the truth" not in page
+    same = Recording(t, {"speed_true": np.full(t.size, 10.0)})
+    page = render_report(rec, est, axis="ay", truth=same)
+    assert "RMSE against the truth" in page and "not compared" not in page

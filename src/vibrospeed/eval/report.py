@@ -152,8 +152,12 @@ def _truth_rows(track: Track, rec: Recording, truth: Recording | None) -> list[t
 
     try:
         m = evaluate(track, ref)
-    except Exception:  # noqa: BLE001 - the comparison is a bonus, never a reason to fail
-        return []
+    except Exception as exc:  # noqa: BLE001 - the comparison is a bonus, never a reason to fail
+        return [("against the truth", f"not compared: {exc}")]
+    if m.n == 0:  # a row of dashes would read as a missing number, not as no overlap
+        return [("against the truth", f"not compared: no moving truth sample ({ref.t[0]:g}-"
+                 f"{ref.t[-1]:g} s) where the estimate ({track.t[0]:g}-{track.t[-1]:g} s) "
+                 "has a value")]
     rows = [("RMSE against the truth", _num(m.rmse, ".3f", m.unit)),
             ("bias against the truth", _num(m.bias, "+.3f", m.unit)),
             (f"coverage of the {m.level:.0%} band", _num(100 * m.coverage, ".1f", "%"))]
