@@ -160,3 +160,14 @@ def test_phone_axes_note_names_the_longitudinal_axis(tmp_path):
     r = read_phyphox(tmp_path / "e")
     assert PHONE_AXES_NOTE in r.notes
     assert "-p accel_axis=y" in PHONE_AXES_NOTE and "--axis y" in PHONE_AXES_NOTE
+
+
+def test_a_csv_that_is_no_phyphox_export_is_refused_when_the_format_is_forced(tmp_path):
+    # a canonical CSV read with --format phyphox: its first three data columns were taken as
+    # the phone's x, y, z, the other channels dropped, and the phone-axes note given
+    p = tmp_path / "drive.csv"
+    p.write_text("t,ax,ay,az,gx\n0,0,0,9.8,0\n0.01,0,0,9.8,0\n0.02,0,0,9.8,0\n")
+    with pytest.raises(ReaderError, match=r"drive\.csv, line 1: first column 't' is not "
+                                          r"phyphox's 'Time \(s\)': not a phyphox export"):
+        read(p, "phyphox")
+    assert detect_format(p) != "phyphox"

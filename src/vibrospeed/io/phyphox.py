@@ -179,6 +179,10 @@ def _xyz(tab: CsvTable, label: str) -> list[str]:
 def _sensor(src, name, sort, notes):
     tab, cols, lines = _read_table(src, name)
     label = src.labels[name]
+    if "time" not in tab.header[0].lower():  # phyphox writes "Time (s)" first, every version
+        raise ReaderError(label, f"first column {tab.header[0]!r} is not phyphox's 'Time (s)': "
+                          "not a phyphox export (--format auto detects the format)",
+                          row=tab.header_line)
     t = cols[tab.header[0]]
     xyz = [cols[h] for h in _xyz(tab, label)]
     order = row_order(t, lines, label, sort, notes)
