@@ -63,6 +63,8 @@ def estimate(
     thesis' aided EKF, this function; ``--preset paper`` with the thesis' tests) or 'rbpmf'
     (the aiding around the paper's grid filter on the thesis cart's grid); the grid trackers go
     to :func:`vibrospeed.estimators.aided_grid.estimate`. The parameters below are the EKF's.
+    ``return_posterior`` is accepted for the common signature and ignored: the aided trackers
+    give no posterior image (``-m grid`` does).
 
     Defaults not in the thesis (measured in benchmarks/aided/RESULTS.md):
     ``standstill='broadband'`` (the
