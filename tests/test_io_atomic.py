@@ -31,3 +31,12 @@ def test_writer_that_creates_nothing_is_an_error(tmp_path):
     with pytest.raises(FileNotFoundError), atomic_path(tmp_path / "x.bin"):
         pass
     assert not (tmp_path / "x.bin").exists()
+
+
+def test_a_target_that_cannot_be_replaced_is_named_not_the_temporary_file(tmp_path):
+    target = tmp_path / "out.csv"
+    target.mkdir()  # os.replace of a file onto a folder fails
+    with pytest.raises(IsADirectoryError) as e:
+        atomic_write_text(target, "x\n")
+    assert e.value.filename == str(target) and ".tmp" not in str(e.value)
+    assert [p.name for p in tmp_path.iterdir()] == ["out.csv"]  # no temporary file left

@@ -58,7 +58,10 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         if not tmp.exists():
             raise FileNotFoundError(f"{tmp}: the writer created no file")
         _fsync_file(tmp)
-        os.replace(tmp, target)
+        try:
+            os.replace(tmp, target)
+        except OSError as exc:  # name the target, not the hidden temporary file
+            raise type(exc)(exc.errno, exc.strerror, str(target)) from None
         _fsync_dir(folder)
     finally:
         with contextlib.suppress(FileNotFoundError):
