@@ -12,7 +12,11 @@ Welch's segments (:func:`_segments`), the median over segments and the running m
 (:func:`_backgrounds`), Levinson's recursion as scipy's ``levinson`` and the FIR's dot
 products as ``numpy.convolve``'s (:func:`_finish`). Bitwise, not merely close, so that the
 whitener's output, and every track made from it, is that of the scipy calls
-(:func:`vibrospeed.signal.whiten.predictor_reference`; ``tests/test_scale_whiten.py``). The
+(:func:`vibrospeed.signal.whiten.predictor_reference`; ``tests/test_scale_whiten.py``), with
+one machine-dependent exception: the gain's dot products follow OpenBLAS's FMA ``ddot`` of
+Intel builds (Haswell on); where the BLAS picks another kernel (AMD EPYC) the reference's gain
+differs by a few ulp, and so the outputs scaled by it. The compiled numbers are the same on
+every machine, so step and batch runs still agree bit for bit. The
 FIR itself, shared by the streaming and the batch paths, is :func:`_fir_last` and
 :func:`_filter_blocks`.
 
