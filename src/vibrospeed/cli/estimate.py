@@ -158,8 +158,9 @@ def estimate(
     --fit-params, --init-omega, a grid-only preset or a log long enough to be streamed (a
     note says so where that log has GPS speed).
 
-    Non-uniform (phone) time stamps are resampled to the median rate by linear interpolation;
-    NaN samples are bridged by prediction. The band columns are a 98 % credible interval.
+    Phone time stamps within 5 % of uniform are estimated at their median rate; more jitter,
+    gaps or a rate change are resampled to the median rate by linear interpolation (a note says
+    which); NaN samples are bridged by prediction. The band columns are a 98 % credible interval.
 
     Examples:
 
