@@ -59,7 +59,10 @@ def _run_local(jobs_list, n_jobs: int, done: Callable[[dict], None]) -> None:
                 try:
                     done(fut.result())
                 except BrokenProcessPool:
-                    done(_lost(futs[fut], "its worker process died (out of memory?)"))
+                    done(_lost(futs[fut], "its worker process died (out of memory? or a "
+                                          "script calling vibrospeed.batch.run outside `if "
+                                          "__name__ == '__main__':`, which each worker "
+                                          "re-imports)"))
         except BaseException:  # Ctrl-C, SIGTERM: stop the workers too, never leave them behind
             # no fut.cancel() first: the pool's manager thread then fails the queued futures
             # with BrokenProcessPool, and on Python < 3.12 it raised InvalidStateError on each
