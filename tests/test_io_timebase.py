@@ -5,9 +5,9 @@ import pytest
 
 from vibrospeed.errors import InputError, ParameterError, ReaderError
 from vibrospeed.io.timebase import (
+    as_uniform,
     check_increasing,
     check_nyquist,
-    as_uniform,
     find_gaps,
     interp_onto,
     resample_uniform,
