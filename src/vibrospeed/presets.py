@@ -127,7 +127,12 @@ PRESETS: dict[str, dict[str, Preset]] = {
                          "only"),
     },
     "algebraic": {
-        "default": Preset({}, "Algorithms 1 and 2 of the algebraic velocity paper"),
+        "default": Preset({}, "Algorithms 1 and 2 of the algebraic velocity paper, slip found "
+                          "by the wheel speed leaving the dead-reckoned speed (detect=window, "
+                          "not the paper's test)"),
+        "paper": Preset({"detect": "seed", "backtrack": "0"},
+                        "Algorithm 1 as published: rolling while |dGx/dt| < eps1 over alpha "
+                        "samples, integration restarted from the previous sample"),
         "online": Preset({}, _CAUSAL),
     },
 }

@@ -270,8 +270,9 @@ def favourable_score(
     omega_est: np.ndarray, omega_true: np.ndarray, *, tol: float = 5.0
 ) -> FavourableScore:
     """The paper's scoring of SHS: detections within ``tol`` rad/s (paper: 5) of the truth are
-    kept; a detection within ``tol`` of half the truth is doubled and kept ("we correct for
-    missed detections due to detecting half the true fundamental"); the rest are dropped.
+    kept; a detection that doubled is within ``tol`` of the truth (within ``tol / 2`` of half
+    the truth) is doubled and kept ("we correct for missed detections due to detecting half the
+    true fundamental"): every kept value is then within ``tol``; the rest are dropped.
 
     ``omega_est``, ``omega_true`` : paired (B,) arrays, e.g. batch estimates and the batch
     means of the truth (:func:`batch_means`).
