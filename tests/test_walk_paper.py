@@ -61,3 +61,13 @@ def test_shs_favourable_score_halving_rule():
     np.testing.assert_array_equal(np.isfinite(sc.corrected), [True, True, False, False, False])
     assert sc.halved == 1 and sc.kept == 2 and sc.total == 5
     assert np.isclose(sc.rmse, np.sqrt((4.0**2 + 4.8**2) / 2))
+
+
+def test_shs_paper_constructor_is_the_paper_preset():
+    """``shs.Config.from_paper_table1`` and ``-m shs --preset paper`` are one setting: 200
+    samples per batch on 10-120 rad/s (paper IV-B) with Hermes' 48 points per octave and
+    compression 0.84 (the constructor had the default 192 points per octave)."""
+    cfg = config_from_params(shs.Config, presets.preset_params("shs", "paper"))
+    assert cfg == shs.Config.from_paper_table1()
+    assert (cfg.batch, cfg.omega_min, cfg.omega_max) == (200, 10.0, 120.0)
+    assert (cfg.points_per_octave, cfg.compression) == (48, 0.84)
