@@ -1,6 +1,10 @@
 """Plots: spectrogram of the vibration axis with the estimate, its band, harmonics and the truth.
 
 Uses matplotlib's Agg backend (no screen needed); figures are written atomically.
+:func:`track_figure` builds the figure (tests read its artists), :func:`plot_track` writes it.
+Legends sit outside the axes (never over the data), GPS fixes are drawn under the estimate,
+fixes a method ignores (too few satellites) are marked as such, and detected standstills and
+stretches without an estimate (NaN) are shaded, so none of them reads as a measured speed.
 """
 
 from __future__ import annotations
@@ -18,6 +22,13 @@ from vibrospeed.io.atomic import atomic_path  # noqa: E402
 from vibrospeed.signal.spectral import spectrogram  # noqa: E402
 from vibrospeed.types import Recording, Track  # noqa: E402
 
+#: logs longer than this (s) get the fundamental alone over the spectrogram: at several seconds
+#: per pixel the harmonics' strokes cover the image they are meant to be read against
+LONG_LOG_S = 1800.0
+
+#: z-order: GPS fixes under the band's edge lines, the estimate over them, the truth on top
+_Z_GPS, _Z_EST, _Z_TRUTH = 1.5, 2.5, 3.0
+
 
 def check_drawable(track: Track | None, name: str = "estimate") -> None:
     """One line where ``track`` has no finite omega or speed (a header without rows, a column
@@ -28,8 +39,104 @@ def check_drawable(track: Track | None, name: str = "estimate") -> None:
                          "nothing to draw")
 
 
-def plot_track(
-    path: str | Path,
+def stft_window(recording: Recording, window_s: float) -> float:
+    """The STFT window actually used: ``window_s``, shortened to an eighth of a short log (at
+    least 0.25 s) so a few-second log still shows several spectrogram columns."""
+    return float(min(window_s, max(0.25, recording.duration / 8.0)))
+
+
+def break_jumps(t: np.ndarray, y: np.ndarray, *, rate: float = 50.0,
+                floor: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+    """``t``, ``y`` with a NaN put between samples where ``y`` jumps by more than
+    ``max(floor, rate dt)`` (rad/s; 50 rad/s^2 is past a car's braking on its wheels), so a
+    tracker's hop reads as a jump, not as a vertical stroke through the spectrogram."""
+    t = np.asarray(t, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if len(y) < 2:
+        return t, y
+    with np.errstate(invalid="ignore"):
+        hop = np.abs(np.diff(y)) > np.maximum(floor, rate * np.diff(t))
+    at = np.flatnonzero(hop) + 1
+    return np.insert(t, at, np.nan), np.insert(y, at, np.nan)
+
+
+def legend_outside(ax, *, right_axis: bool = False) -> None:
+    """Legend to the right of ``ax`` (past a secondary y axis): it never covers data."""
+    if ax.get_legend_handles_labels()[1]:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.09 if right_axis else 1.01, 1.0),
+                  fontsize=8, borderaxespad=0.0)
+
+
+def _share(mask: np.ndarray) -> str:
+    """``mask``'s share of the samples in percent; a share that is not 0 never reads 0."""
+    share = 100.0 * float(np.mean(mask))
+    return f"{share:.1f} %" if share >= 0.05 else "< 0.1 %"
+
+
+def shade_stretches(ax, track: Track, y: np.ndarray) -> None:
+    """Shade, over the whole height of ``ax``, where the track flags a standstill and where
+    ``y`` (its omega or speed) is NaN, with their shares of the samples in the legend (a few
+    NaN samples are too narrow to see): one artist each, so a 2 h log stays light."""
+    tr = ax.get_xaxis_transform()
+    if "standstill" in track.extras:
+        still = np.asarray(track.extras["standstill"], dtype=np.float64) > 0.5
+        if still.any():
+            ax.fill_between(track.t, 0, 1, where=still, transform=tr, color="0.55", alpha=0.2,
+                            lw=0, step="mid", label=f"standstill detected ({_share(still)})")
+    gap = ~np.isfinite(np.asarray(y, dtype=np.float64))
+    if gap.any():
+        ax.fill_between(track.t, 0, 1, where=gap, transform=tr, facecolor="none",
+                        edgecolor="tab:red", hatch="///", alpha=0.5, lw=0, step="mid",
+                        label=f"no estimate, NaN ({_share(gap)})")
+
+
+def plot_gps(ax, recording: Recording, track: Track | None, scale: float, label: str) -> None:
+    """GPS speed fixes times ``scale`` under the estimate; fixes with fewer satellites than the
+    track's ``min_sats`` (1 where the method has none: 0 satellites is no fix) are marked as
+    ignored, not drawn as a speed (a tunnel's receiver reports 0 m/s)."""
+    if "gps_speed" not in recording.channels:
+        return
+    g = recording.channel("gps_speed")
+    ok = np.isfinite(g)
+    used = ok
+    if "gps_sats" in recording.channels:
+        min_sats = track.params.get("min_sats") if track is not None else None
+        sats = np.nan_to_num(recording.channel("gps_sats"), nan=np.inf)
+        used = ok & (sats >= float(min_sats or 1))
+        ignored = ok & ~used
+        if ignored.any():
+            ax.plot(recording.t[ignored], g[ignored] * scale, "x", ms=3, color="0.45",
+                    alpha=0.6, zorder=_Z_GPS,
+                    label=f"GPS fix ignored (< {min_sats:g} satellites)" if min_sats
+                    else "GPS, 0 satellites (no fix)")
+    if used.any():
+        ax.plot(recording.t[used], g[used] * scale, ".", ms=2.5, alpha=0.5, color="tab:orange",
+                zorder=_Z_GPS, label=label)
+
+
+def _spectrogram_panel(ax, recording: Recording, axis: str, window_s: float,
+                       omega_max: float) -> None:
+    w = stft_window(recording, window_s)
+    sg = spectrogram(recording.channel(axis), recording.fs, window_s=w, t0=recording.t[0],
+                     omega_max=omega_max)
+    db = 10 * np.log10(sg.power + 1e-20)
+    vmax = np.percentile(db, 99.5)
+    ax.pcolormesh(sg.t, sg.omega, db, shading="auto", cmap="magma", vmin=vmax - 45, vmax=vmax,
+                  rasterized=True)
+    ax.set_ylabel(f"{axis}: omega [rad/s]\n(STFT {w:.3g} s, 45 dB)")
+    ax.set_ylim(0, omega_max)
+
+
+def _truth_omega(recording: Recording, truth: Recording | None, track: Track | None):
+    tr = truth if truth is not None else recording
+    if "omega_true" in tr.channels:
+        return tr.t, tr.channel("omega_true")
+    if "speed_true" in tr.channels and track is not None and track.wheel_radius:
+        return tr.t, tr.channel("speed_true") / track.wheel_radius
+    return None, None
+
+
+def track_figure(
     recording: Recording,
     track: Track | None = None,
     *,
@@ -41,95 +148,100 @@ def plot_track(
     title: str | None = None,
     posterior: np.ndarray | None = None,
     grid: np.ndarray | None = None,
-) -> Path:
-    """Spectrogram (dB) of channel ``axis`` with the track's omega, band and harmonics over it.
-
-    Lower panel: omega (and speed axis when the radius is known) against time with the band and
-    the truth (``omega_true`` of ``truth`` or of ``recording``; GPS speed / r when the radius is
-    known). ``harmonics`` defaults to the track's M. ``posterior`` (n, N) over ``grid`` (N,)
-    rad/s, from a grid tracker, is drawn as an image under the estimate (paper Fig. 3).
-    """
-    path = Path(path)
+):
+    """The figure of :func:`plot_track` (not written; the caller closes it)."""
     check_drawable(track)
     speed_only = (track is not None and not np.isfinite(track.omega).any()
                   and np.isfinite(track.speed).any())
     if speed_only or (track is not None and "source" in track.extras):
         # GPS fusion / algebraic without a wheel radius, or fuse (speed coloured by its
         # source): lower panel in m/s
-        return _plot_speed(path, recording, track, axis=axis, truth=truth, window_s=window_s,
-                           title=title)
+        return _speed_figure(recording, track, axis=axis, truth=truth, window_s=window_s,
+                             title=title)
     if track is not None and isinstance(track.params.get("M"), int):
         harmonics = track.params["M"]
+    drawn = 1 if recording.duration > LONG_LOG_S else harmonics
     fs = recording.fs
-    x = recording.channel(axis)
     if omega_max is None:
         have = track is not None and np.isfinite(track.omega_hi).any()
         top = np.nanmax(track.omega_hi) if have else 60.0
         omega_max = float(min(np.pi * fs, max(30.0, 1.2 * harmonics * top)))
-    sg = spectrogram(x, fs, window_s=window_s, t0=recording.t[0], omega_max=omega_max)
-    fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(11, 7), sharex=True,
+    fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(12.5, 7), sharex=True,
                                    gridspec_kw={"height_ratios": [3, 2]})
-    db = 10 * np.log10(sg.power + 1e-20)
-    vmax = np.percentile(db, 99.5)
-    ax0.pcolormesh(sg.t, sg.omega, db, shading="auto", cmap="magma", vmin=vmax - 45, vmax=vmax)
-    ax0.set_ylabel(f"{axis}: omega [rad/s]")
-    ax0.set_ylim(0, omega_max)
-    tr = truth if truth is not None else recording
-    t_truth = om_truth = None
-    if "omega_true" in tr.channels:
-        t_truth, om_truth = tr.t, tr.channel("omega_true")
-    elif "speed_true" in tr.channels and (track is not None and track.wheel_radius):
-        t_truth, om_truth = tr.t, tr.channel("speed_true") / track.wheel_radius
+    _spectrogram_panel(ax0, recording, axis, window_s, omega_max)
+    t_truth, om_truth = _truth_omega(recording, truth, track)
     if track is not None and posterior is not None and grid is not None:
         post = np.asarray(posterior, dtype=np.float64)
         step = max(1, post.shape[0] // 1500)  # at most ~1500 image columns
         cols = post[: post.shape[0] // step * step].reshape(-1, step, post.shape[1]).mean(axis=1)
         tc = track.t[: cols.shape[0] * step : step]
         ax1.pcolormesh(tc, np.asarray(grid), np.log10(cols.T + 1e-12), shading="auto",
-                       cmap="Greys", vmin=-6, vmax=0, alpha=0.8)
+                       cmap="Greys", vmin=-6, vmax=0, alpha=0.8, rasterized=True)
     if track is not None:
+        shade_stretches(ax1, track, track.omega)
         shown = track.omega
         if "has_signal" in track.extras:  # harmonics only where the tracker sees a line
             shown = np.where(np.asarray(track.extras["has_signal"], float) > 0.5, shown, np.nan)
-        for m in range(1, harmonics + 1):
-            ax0.plot(track.t, m * shown, color="cyan", lw=0.8, alpha=0.9,
-                     label="estimate x m" if m == 1 else None)
+        tj, shown = break_jumps(track.t, shown)
+        for m in range(1, drawn + 1):
+            ax0.plot(tj, m * shown, color="cyan", lw=0.8, alpha=0.9, zorder=_Z_EST,
+                     label=(f"estimate x m, m = 1..{drawn}" if drawn > 1 else "estimate")
+                     if m == 1 else None)
         ax1.fill_between(track.t, track.omega_lo, track.omega_hi, color="tab:blue", alpha=0.25,
                          lw=0, label=f"{track.level:.0%} band")
         if "has_signal" in track.extras:  # dim the estimate where the tracker sees no line
             sig = np.asarray(track.extras["has_signal"], float) > 0.5
-            ax1.plot(track.t, np.where(sig, np.nan, track.omega), color="tab:blue", lw=0.6,
-                     alpha=0.35, label="estimate, no line seen")
-            ax1.plot(track.t, np.where(sig, track.omega, np.nan), color="tab:blue", lw=1.0,
-                     label=f"estimate ({track.method})")
+            ax1.plot(*break_jumps(track.t, np.where(sig, np.nan, track.omega)),
+                     color="tab:blue", lw=0.6, alpha=0.35, zorder=_Z_EST,
+                     label="estimate, no line seen")
+            ax1.plot(*break_jumps(track.t, np.where(sig, track.omega, np.nan)),
+                     color="tab:blue", lw=1.0, zorder=_Z_EST, label=f"estimate ({track.method})")
         else:
-            ax1.plot(track.t, track.omega, color="tab:blue", lw=1.0,
-                     label=f"estimate ({track.method})")
+            ax1.plot(*break_jumps(track.t, track.omega), color="tab:blue", lw=1.0,
+                     zorder=_Z_EST, label=f"estimate ({track.method})")
     if om_truth is not None:
-        ax0.plot(t_truth, om_truth, color="lime", lw=0.8, ls="--", label="truth")
-        ax1.plot(t_truth, om_truth, color="k", lw=0.9, ls="--", label="truth")
-    if "gps_speed" in recording.channels and track is not None and track.wheel_radius:
-        g = recording.channel("gps_speed")
-        ok = np.isfinite(g)
-        if ok.any():
-            ax1.plot(recording.t[ok], g[ok] / track.wheel_radius, ".", ms=3, color="tab:orange",
-                     label="GPS speed / r")
-    for ax in (ax0, ax1):  # no estimate, truth or GPS: nothing labelled, no empty legend
-        if ax.get_legend_handles_labels()[1]:
-            ax.legend(loc="upper right", fontsize=8)
-    ax1.set_ylabel("omega [rad/s]")
-    ax1.set_xlabel("t [s]")
-    ax1.grid(alpha=0.3)
-    if track is not None and track.wheel_radius:
-        r = track.wheel_radius
-        sec = ax1.secondary_yaxis("right", functions=(lambda w: w * r, lambda v: v / r))
+        ax0.plot(t_truth, om_truth, color="lime", lw=0.8, ls="--", zorder=_Z_TRUTH,
+                 label="truth")
+        ax1.plot(t_truth, om_truth, color="k", lw=0.9, ls="--", zorder=_Z_TRUTH, label="truth")
+    radius = track.wheel_radius if track is not None else None
+    if radius:
+        plot_gps(ax1, recording, track, 1.0 / radius, "GPS speed / r")
+        sec = ax1.secondary_yaxis("right", functions=(lambda w: w * radius,
+                                                      lambda v: v / radius))
         sec.set_ylabel("speed [m/s]")
-    ax0.set_title(title or f"{recording.source or 'recording'}")
-    fig.tight_layout()
+    legend_outside(ax0)
+    legend_outside(ax1, right_axis=bool(radius))
+    ax1.set_ylabel("omega [rad/s]")
+    _finish(fig, ax0, ax1, recording, title)
+    return fig
+
+
+def plot_track(path: str | Path, recording: Recording, track: Track | None = None,
+               **kw) -> Path:
+    """Spectrogram (dB) of channel ``axis`` with the track's omega, band and harmonics over it.
+
+    Lower panel: omega (and speed axis when the radius is known) against time with the band and
+    the truth (``omega_true`` of ``truth`` or of ``recording``; GPS speed / r when the radius is
+    known), detected standstills and NaN stretches shaded. ``harmonics`` defaults to the track's
+    M. ``posterior`` (n, N) over ``grid`` (N,) rad/s, from a grid tracker, is drawn as an image
+    under the estimate (paper Fig. 3). A track without omega (GPS fusion, algebraic) gets a
+    speed panel in m/s. Keywords as :func:`track_figure`.
+    """
+    path = Path(path)
+    fig = track_figure(recording, track, **kw)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png", bbox_inches="tight")
     plt.close(fig)
     return path
+
+
+def _finish(fig, ax0, ax1, recording: Recording, title: str | None) -> None:
+    """Time axis over the recording's span (a short log fills the width), grid, title."""
+    ax1.set_xlim(recording.t[0], recording.t[-1])
+    ax1.set_xlabel("t [s]")
+    ax1.grid(alpha=0.3)
+    ax0.set_title(title or f"{recording.source or 'recording'}")
+    fig.tight_layout()
 
 
 #: ``source`` code of a fused track -> (name, colour) (vibrospeed.estimators.fuse.SOURCES)
@@ -137,18 +249,25 @@ SOURCE_COLOURS = {0: ("inertial", "tab:red"), 1: ("gps", "tab:blue"),
                   2: ("vibration", "tab:green"), 3: ("standstill", "tab:gray")}
 
 
-def _plot_speed(path: Path, recording: Recording, track: Track, *, axis: str,
-                truth: Recording | None, window_s: float, title: str | None) -> Path:
-    """Spectrogram of ``axis`` over a speed panel (m/s): estimate, band, truth, GPS fixes."""
+def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recording | None,
+                  window_s: float, title: str | None):
+    """Spectrogram of ``axis`` (with omega where the track has it) over a speed panel (m/s):
+    estimate, band, truth, GPS fixes."""
     fs = recording.fs
-    sg = spectrogram(recording.channel(axis), fs, window_s=window_s, t0=recording.t[0],
-                     omega_max=float(min(np.pi * fs, 300.0)))
-    fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(11, 7), sharex=True,
+    have_omega = np.isfinite(track.omega).any()
+    top = float(np.nanmax(track.omega)) if have_omega else 0.0
+    omega_max = float(min(np.pi * fs, max(300.0, 1.5 * top)))
+    fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(12.5, 7), sharex=True,
                                    gridspec_kw={"height_ratios": [2, 3]})
-    db = 10 * np.log10(sg.power + 1e-20)
-    vmax = np.percentile(db, 99.5)
-    ax0.pcolormesh(sg.t, sg.omega, db, shading="auto", cmap="magma", vmin=vmax - 45, vmax=vmax)
-    ax0.set_ylabel(f"{axis}: omega [rad/s]")
+    _spectrogram_panel(ax0, recording, axis, window_s, omega_max)
+    if have_omega:  # fuse: its speed / learned radius over the wheel line
+        ax0.plot(track.t, track.omega, color="cyan", lw=0.8, alpha=0.9, zorder=_Z_EST,
+                 label="estimate (speed / r)")
+        t_truth, om_truth = _truth_omega(recording, truth, None)
+        if om_truth is not None:
+            ax0.plot(t_truth, om_truth, color="lime", lw=0.8, ls="--", zorder=_Z_TRUTH,
+                     label="truth")
+    shade_stretches(ax1, track, track.speed)
     ax1.fill_between(track.t, track.speed_lo, track.speed_hi, color="tab:blue", alpha=0.25,
                      lw=0, label=f"{track.level:.0%} band")
     if "source" in track.extras:  # fuse: what each sample's speed rests on
@@ -157,24 +276,17 @@ def _plot_speed(path: Path, recording: Recording, track: Track, *, axis: str,
             sel = src == code
             if sel.any():
                 ax1.plot(track.t, np.where(sel, track.speed, np.nan), color=colour, lw=1.2,
-                         label=f"{track.method}: {name}")
+                         zorder=_Z_EST, label=f"{track.method}: {name}")
     else:
-        ax1.plot(track.t, track.speed, color="tab:blue", lw=1.0,
+        ax1.plot(track.t, track.speed, color="tab:blue", lw=1.0, zorder=_Z_EST,
                  label=f"estimate ({track.method})")
     tr = truth if truth is not None else recording
     if "speed_true" in tr.channels:
-        ax1.plot(tr.t, tr.channel("speed_true"), color="k", lw=0.9, ls="--", label="truth")
-    if "gps_speed" in recording.channels:
-        g = recording.channel("gps_speed")
-        ok = np.isfinite(g)
-        ax1.plot(recording.t[ok], g[ok], ".", ms=3, color="tab:orange", label="GPS speed")
+        ax1.plot(tr.t, tr.channel("speed_true"), color="k", lw=0.9, ls="--", zorder=_Z_TRUTH,
+                 label="truth")
+    plot_gps(ax1, recording, track, 1.0, "GPS speed")
+    legend_outside(ax0)
+    legend_outside(ax1)
     ax1.set_ylabel("speed [m/s]")
-    ax1.set_xlabel("t [s]")
-    ax1.legend(loc="upper right", fontsize=8)
-    ax1.grid(alpha=0.3)
-    ax0.set_title(title or f"{recording.source or 'recording'}")
-    fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png", bbox_inches="tight")
-    plt.close(fig)
-    return path
+    _finish(fig, ax0, ax1, recording, title)
+    return fig

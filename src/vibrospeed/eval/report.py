@@ -95,18 +95,22 @@ def _spectrogram_uri(rec: Recording, track: Track, axis: str, truth: Recording |
 
 def _speed_uri(rec: Recording, track: Track, truth: Recording | None) -> str:
     """Speed (m/s; omega in rad/s without a wheel radius) against time, with the band, the
-    truth and GPS, and the stretches with a wheel line shaded."""
+    truth and GPS (under the estimate; fixes the method ignores marked), the stretches with a
+    wheel line, detected standstills and NaN stretches shaded; the legend beside the plot."""
+    from vibrospeed.eval.plot import legend_outside, plot_gps, shade_stretches
+
     r = track.wheel_radius
     as_speed = np.isfinite(track.speed).any()
     y, lo, hi = ((track.speed, track.speed_lo, track.speed_hi) if as_speed
                  else (track.omega, track.omega_lo, track.omega_hi))
     unit = "m/s" if as_speed else "rad/s"
-    fig, ax = plt.subplots(figsize=(11, 3.6))
+    fig, ax = plt.subplots(figsize=(12.5, 3.6))
     sig = track.extras.get("has_signal")
-    if sig is not None:
-        for k, (a, b) in enumerate(signal_intervals(track.t, sig)):
-            ax.axvspan(a, b, color="tab:green", alpha=0.12, lw=0,
-                       label="wheel line seen" if k == 0 else None)
+    if sig is not None:  # one artist however many stretches (a 2 h log has hundreds)
+        ax.fill_between(track.t, 0, 1, where=np.asarray(sig, dtype=np.float64) > 0.5,
+                        transform=ax.get_xaxis_transform(), color="tab:green", alpha=0.12,
+                        lw=0, step="mid", label="wheel line seen")
+    shade_stretches(ax, track, y)
     if np.isfinite(lo).any() and np.isfinite(hi).any():
         ax.fill_between(track.t, lo, hi, color="tab:blue", alpha=0.25, lw=0,
                         label=f"{track.level:.0%} band")
@@ -114,26 +118,24 @@ def _speed_uri(rec: Recording, track: Track, truth: Recording | None) -> str:
     if sig is not None:  # dim the estimate where the method sees no line
         seen = np.asarray(sig, dtype=np.float64) > 0.5
         ax.plot(track.t, np.where(seen, np.nan, y), color="tab:blue", lw=0.6, alpha=0.35,
-                label="estimate, no line seen")
-        ax.plot(track.t, np.where(seen, y, np.nan), color="tab:blue", lw=1.0, label=label)
+                zorder=2.5, label="estimate, no line seen")
+        ax.plot(track.t, np.where(seen, y, np.nan), color="tab:blue", lw=1.0, zorder=2.5,
+                label=label)
     else:
-        ax.plot(track.t, y, color="tab:blue", lw=1.0, label=label)
-    if "gps_speed" in rec.channels:
-        g = rec.channel("gps_speed")
-        ok = np.isfinite(g)
-        scale = 1.0 if as_speed else (1.0 / r if r else None)
-        if ok.any() and scale is not None:
-            ax.plot(rec.t[ok], g[ok] * scale, ".", ms=2, alpha=0.6, color="tab:orange",
-                    label="GPS speed" + ("" if as_speed else " / r"))
+        ax.plot(track.t, y, color="tab:blue", lw=1.0, zorder=2.5, label=label)
+    scale = 1.0 if as_speed else (1.0 / r if r else None)
+    if scale is not None:
+        plot_gps(ax, rec, track, scale, "GPS speed" + ("" if as_speed else " / r"))
     ref = truth if truth is not None else rec
     if as_speed and "speed_true" in ref.channels:
-        ax.plot(ref.t, ref.channel("speed_true"), "k--", lw=0.9, label="truth")
+        ax.plot(ref.t, ref.channel("speed_true"), "k--", lw=0.9, zorder=3, label="truth")
     elif not as_speed and "omega_true" in ref.channels:
-        ax.plot(ref.t, ref.channel("omega_true"), "k--", lw=0.9, label="truth")
+        ax.plot(ref.t, ref.channel("omega_true"), "k--", lw=0.9, zorder=3, label="truth")
+    ax.set_xlim(rec.t[0], rec.t[-1])
     ax.set_xlabel("t [s]")
     ax.set_ylabel(f"{'speed' if as_speed else 'omega'} [{unit}]")
     ax.grid(alpha=0.3)
-    ax.legend(loc="upper right", fontsize=8)
+    legend_outside(ax)
     fig.tight_layout()
     return _fig_uri(fig)
 
