@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 matplotlib.use("Agg")
+import matplotlib.patheffects as pe  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
 
@@ -219,5 +220,17 @@ def test_a_method_without_min_sats_marks_only_zero_satellite_fixes():
         lines = {ln.get_label(): ln for ln in fig.axes[1].get_lines()}
         np.testing.assert_allclose(lines["GPS, 0 satellites (no fix)"].get_xdata(),
                                    [8.0, 9.0, 10.0, 11.0])
+    finally:
+        plt.close(fig)
+
+
+def test_lines_over_the_spectrogram_have_a_dark_outline():
+    """Lime truth and cyan estimate vanished over the bright cells where the line is."""
+    rec = _drive()
+    fig = plot.track_figure(rec, _track(rec), axis="ay")
+    try:
+        for ln in fig.axes[0].get_lines():
+            effects = ln.get_path_effects()
+            assert isinstance(effects[0], pe.Stroke) and isinstance(effects[1], pe.Normal)
     finally:
         plt.close(fig)

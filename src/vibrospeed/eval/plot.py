@@ -14,6 +14,7 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
+import matplotlib.patheffects as pe  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -21,6 +22,10 @@ from vibrospeed.errors import InputError  # noqa: E402
 from vibrospeed.io.atomic import atomic_path  # noqa: E402
 from vibrospeed.signal.spectral import spectrogram  # noqa: E402
 from vibrospeed.types import Recording, Track  # noqa: E402
+
+#: a dark edge under the lines drawn over the spectrogram: lime or cyan alone vanish over its
+#: bright (yellow) cells, which are where the wheel line is
+_OUTLINE = [pe.Stroke(linewidth=2.0, foreground="black", alpha=0.7), pe.Normal()]
 
 #: logs longer than this (s) get the fundamental alone over the spectrogram: at several seconds
 #: per pixel the harmonics' strokes cover the image they are meant to be read against
@@ -185,6 +190,7 @@ def track_figure(
         tj, shown = break_jumps(track.t, shown)
         for m in range(1, drawn + 1):
             ax0.plot(tj, m * shown, color="cyan", lw=0.8, alpha=0.9, zorder=_Z_EST,
+                     path_effects=_OUTLINE,
                      label=(f"estimate x m, m = 1..{drawn}" if drawn > 1 else "estimate")
                      if m == 1 else None)
         ax1.fill_between(track.t, track.omega_lo, track.omega_hi, color="tab:blue", alpha=0.25,
@@ -201,6 +207,7 @@ def track_figure(
                      zorder=_Z_EST, label=f"estimate ({track.method})")
     if om_truth is not None:
         ax0.plot(t_truth, om_truth, color="lime", lw=0.8, ls="--", zorder=_Z_TRUTH,
+                 path_effects=_OUTLINE,
                  label="truth")
         ax1.plot(t_truth, om_truth, color="k", lw=0.9, ls="--", zorder=_Z_TRUTH, label="truth")
     radius = track.wheel_radius if track is not None else None
@@ -262,10 +269,12 @@ def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recor
     _spectrogram_panel(ax0, recording, axis, window_s, omega_max)
     if have_omega:  # fuse: its speed / learned radius over the wheel line
         ax0.plot(track.t, track.omega, color="cyan", lw=0.8, alpha=0.9, zorder=_Z_EST,
+                 path_effects=_OUTLINE,
                  label="estimate (speed / r)")
         t_truth, om_truth = _truth_omega(recording, truth, None)
         if om_truth is not None:
             ax0.plot(t_truth, om_truth, color="lime", lw=0.8, ls="--", zorder=_Z_TRUTH,
+                     path_effects=_OUTLINE,
                      label="truth")
     shade_stretches(ax1, track, track.speed)
     ax1.fill_between(track.t, track.speed_lo, track.speed_hi, color="tab:blue", alpha=0.25,
