@@ -3,6 +3,7 @@ estimate, ignored GPS fixes, standstills and NaN stretches marked, short logs fi
 drawn as strokes (vibrospeed.eval.plot, vibrospeed.eval.report)."""
 
 import base64
+import contextlib
 import io
 import re
 
@@ -56,6 +57,16 @@ def _track(rec, *, nan=(), still=(), jump_at=None, min_sats=5):
     return tr
 
 
+@contextlib.contextmanager
+def _figure(rec, tr):
+    """The track figure of ``tr`` over ``rec``'s ``ay``, closed afterwards."""
+    fig = plot.track_figure(rec, tr, axis="ay")
+    try:
+        yield fig
+    finally:
+        plt.close(fig)
+
+
 def _labels(ax):
     return ax.get_legend_handles_labels()[1]
 
@@ -70,18 +81,14 @@ def _inside(ax):
 
 def test_legends_sit_beside_the_axes_not_over_the_data():
     rec = _drive()
-    fig = plot.track_figure(rec, _track(rec), axis="ay")
-    try:
+    with _figure(rec, _track(rec)) as fig:
         for ax in fig.axes[:2]:
             assert _inside(ax).x0 >= 1.0  # left edge past the right spine
-    finally:
-        plt.close(fig)
 
 
 def test_gps_fixes_under_the_estimate_and_tunnel_fixes_marked_ignored():
     rec = _drive()
-    fig = plot.track_figure(rec, _track(rec), axis="ay")
-    try:
+    with _figure(rec, _track(rec)) as fig:
         ax1 = fig.axes[1]
         lines = {ln.get_label(): ln for ln in ax1.get_lines()}
         used, ignored = lines["GPS speed / r"], lines["GPS fix ignored (< 5 satellites)"]
@@ -92,15 +99,12 @@ def test_gps_fixes_under_the_estimate_and_tunnel_fixes_marked_ignored():
         np.testing.assert_allclose(ignored.get_ydata(), 0.0)
         assert len(used.get_xdata()) == 16
         np.testing.assert_allclose(used.get_ydata(), 9.0 / R)
-    finally:
-        plt.close(fig)
 
 
 def test_standstill_and_nan_stretches_are_shaded_with_their_share():
     rec = _drive()
     tr = _track(rec, nan=[(2.0, 4.0)], still=[(14.0, 19.0)])
-    fig = plot.track_figure(rec, tr, axis="ay")
-    try:
+    with _figure(rec, tr) as fig:
         labels = _labels(fig.axes[1])
         assert "standstill detected (25.0 %)" in labels  # 5 s of 20
         assert "no estimate, NaN (10.0 %)" in labels  # 2 s of 20
@@ -109,20 +113,14 @@ def test_standstill_and_nan_stretches_are_shaded_with_their_share():
         xs = np.concatenate([p.vertices[:, 0] for p in shades[0].get_paths()])
         assert xs.min() == pytest.approx(2.0, abs=0.01) and xs.max() == pytest.approx(4.0,
                                                                                       abs=0.01)
-    finally:
-        plt.close(fig)
-    fig = plot.track_figure(rec, _track(rec), axis="ay")  # none: no entry
-    try:
+    with _figure(rec, _track(rec)) as fig:  # none: no entry
         assert not [s for s in _labels(fig.axes[1]) if "standstill" in s or "NaN" in s]
-    finally:
-        plt.close(fig)
 
 
 def test_a_jump_is_not_drawn_as_a_stroke():
     rec = _drive()
     tr = _track(rec, jump_at=10.0)
-    fig = plot.track_figure(rec, tr, axis="ay")
-    try:
+    with _figure(rec, tr) as fig:
         for ax, label in ((fig.axes[0], "estimate x m, m = 1..2"),
                           (fig.axes[1], "estimate (test)")):
             ln = next(x for x in ax.get_lines() if x.get_label() == label)
@@ -133,8 +131,6 @@ def test_a_jump_is_not_drawn_as_a_stroke():
             seg = np.cumsum(~ok)[ok]
             assert not np.any((steps > 10) & (np.diff(seg) == 0))
             assert np.isnan(y).sum() == 1
-    finally:
-        plt.close(fig)
     t, y = plot.break_jumps(np.array([0.0, 0.01, 0.02, 1.02]), np.array([10., 11., 20., 60.]))
     # 9 rad/s in 10 ms breaks; 40 rad/s in 1 s (< 50 rad/s^2) does not
     np.testing.assert_array_equal(np.isnan(y), [False, False, True, False, False])
@@ -145,25 +141,19 @@ def test_a_short_log_gets_a_shorter_window_and_fills_the_width():
     rec = _drive(duration=5.0, tunnel=(0, 0))
     assert plot.stft_window(rec, 3.0) == pytest.approx(4.99 / 8)
     assert plot.stft_window(_drive(duration=60.0), 3.0) == 3.0
-    fig = plot.track_figure(rec, _track(rec), axis="ay")
-    try:
+    with _figure(rec, _track(rec)) as fig:
         assert fig.axes[1].get_xlim() == pytest.approx((0.0, 4.99))
         mesh = fig.axes[0].collections[0]
         xs = mesh.get_coordinates()[0, :, 0]
         assert xs.min() < 0.5 and xs.max() > 4.5  # the spectrogram spans the log
-    finally:
-        plt.close(fig)
 
 
 def test_a_long_log_draws_the_fundamental_alone(monkeypatch):
     rec = _drive()
     monkeypatch.setattr(plot, "LONG_LOG_S", 10.0)
-    fig = plot.track_figure(rec, _track(rec), axis="ay")
-    try:
+    with _figure(rec, _track(rec)) as fig:
         assert [x.get_label() for x in fig.axes[0].get_lines()][0] == "estimate"
         assert sum(np.nanmax(x.get_ydata()) > 31 for x in fig.axes[0].get_lines()) == 0
-    finally:
-        plt.close(fig)
 
 
 def test_fuse_figure_draws_speed_over_r_on_the_spectrogram():
@@ -172,14 +162,11 @@ def test_fuse_figure_draws_speed_over_r_on_the_spectrogram():
     tr = Track.from_omega(t, np.full(t.size, 30.0), np.full(t.size, 0.5), wheel_radius=R,
                           method="fuse", params={"min_sats": 5})
     tr.extras["source"] = np.ones(t.size)
-    fig = plot.track_figure(rec, tr, axis="ay")
-    try:
+    with _figure(rec, tr) as fig:
         assert "estimate (speed / r)" in _labels(fig.axes[0])
         assert fig.axes[1].get_ylabel() == "speed [m/s]"
         labels = _labels(fig.axes[1])
         assert "fuse: gps" in labels and "GPS fix ignored (< 5 satellites)" in labels
-    finally:
-        plt.close(fig)
 
 
 def test_report_speed_plot_marks_standstill_and_ignored_gps():
@@ -215,22 +202,16 @@ def test_a_method_without_min_sats_marks_only_zero_satellite_fixes():
     rec = _drive()
     tr = _track(rec)
     del tr.params["min_sats"]
-    fig = plot.track_figure(rec, tr, axis="ay")
-    try:
+    with _figure(rec, tr) as fig:
         lines = {ln.get_label(): ln for ln in fig.axes[1].get_lines()}
         np.testing.assert_allclose(lines["GPS, 0 satellites (no fix)"].get_xdata(),
                                    [8.0, 9.0, 10.0, 11.0])
-    finally:
-        plt.close(fig)
 
 
 def test_lines_over_the_spectrogram_have_a_dark_outline():
     """Lime truth and cyan estimate vanished over the bright cells where the line is."""
     rec = _drive()
-    fig = plot.track_figure(rec, _track(rec), axis="ay")
-    try:
+    with _figure(rec, _track(rec)) as fig:
         for ln in fig.axes[0].get_lines():
             effects = ln.get_path_effects()
             assert isinstance(effects[0], pe.Stroke) and isinstance(effects[1], pe.Normal)
-    finally:
-        plt.close(fig)
