@@ -65,6 +65,8 @@ CAUSAL_DWELL_S = 1.5
 CAUSAL_WARMUP_S = 10.0
 #: log10-level histogram (causal): 1e-7 .. 1e3 in 0.02 decades
 _LOG_LO, _LOG_HI, _BINS = -7.0, 3.0, 500
+_WIDTH = (_LOG_HI - _LOG_LO) / _BINS
+_CENTRES = _LOG_LO + _WIDTH * (np.arange(_BINS) + 0.5)
 
 
 def broadband_level(x: np.ndarray, dt: float, band: tuple[float, float], *,
@@ -143,9 +145,7 @@ def classify(level: np.ndarray, *, causal: bool = False, min_contrast: float | N
         lg = np.where(level > 0, np.log10(level), np.nan)
     lc, ln = np.log10(min_contrast), np.log10(near_floor)
     if causal:
-        width = (_LOG_HI - _LOG_LO) / _BINS
-        centres = _LOG_LO + width * (np.arange(_BINS) + 0.5)
-        return _causal(lg, centres, _LOG_LO, width, FLOOR_Q, lc, ln,
+        return _causal(lg, _CENTRES, _LOG_LO, _WIDTH, FLOOR_Q, lc, ln,
                        int(round(CAUSAL_WARMUP_S / HOP_S)))
     fin = np.isfinite(lg)
     out = np.zeros(lg.size, bool)
@@ -356,16 +356,13 @@ def stream_init(plan: StreamPlan) -> StreamState:
                        np.zeros(2, np.bool_), 0, False)
 
 
-_CENTRES = _LOG_LO + (_LOG_HI - _LOG_LO) / _BINS * (np.arange(_BINS) + 0.5)
-
 
 def _stream_classify(hist, total, last, k, level, min_contrast, near_floor) -> None:
     """One frame of ``_causal`` for level ``k`` (0 broadband, 1 body motion), in place."""
     if not level > 0:  # NaN or no level: repeat the last decision
         return
-    width = (_LOG_HI - _LOG_LO) / _BINS
     lg = float(np.log10(level))
-    hist[k, min(max(int((lg - _LOG_LO) / width), 0), _BINS - 1)] += 1.0
+    hist[k, min(max(int((lg - _LOG_LO) / _WIDTH), 0), _BINS - 1)] += 1.0
     total[k] += 1.0
     if total[k] >= int(round(CAUSAL_WARMUP_S / HOP_S)):
         floor = _hist_quantile(hist[k], _CENTRES, total[k], FLOOR_Q)
