@@ -37,7 +37,7 @@ demo: venv
 	@echo "demo outputs in $(OUT)/: simulated drives, estimates (.csv + .json), plots (.png)"
 
 test: venv
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto --dist loadfile
 
 # the documentation site into site/ (MkDocs, in the test extra); --strict: a warning fails it
 docs: venv
