@@ -186,15 +186,22 @@ def _resolve(ref: str | Callable, *, optional: bool = False) -> Callable | None:
 
 
 def _first_line(p: Path) -> str:
+    """The first non-blank line of a text file (a gzip file's text), BOM left out."""
+    import gzip
+    import zlib
+
+    from vibrospeed.io._csv import is_gzip
+
     try:
-        with open(p, encoding="utf-8", errors="replace", newline="") as fh:
+        with (gzip.open(p, "rt", encoding="utf-8", errors="replace", newline="") if is_gzip(p)
+              else open(p, encoding="utf-8", errors="replace", newline="")) as fh:
             for _ in range(50):
                 line = fh.readline()
                 if not line:
                     return ""
                 if line.strip():
                     return line.lstrip("\ufeff").strip()
-    except OSError:
+    except (OSError, EOFError, zlib.error):
         return ""
     return ""
 

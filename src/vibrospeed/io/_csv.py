@@ -3,15 +3,21 @@
 Rows are read with the :mod:`csv` module (so quoted headers, CRLF / CR line endings and a UTF-8
 BOM are handled), buffered ``chunk_rows`` at a time and converted per column with NumPy; a chunk
 that does not convert is re-scanned cell by cell to report the first bad cell's line and column.
+A gzip-compressed file (``log.csv.gz``, recognised by its magic bytes) is read as its text; a
+units row under the header (``s;g;g``, a logger's or spreadsheet's) and ISO-8601 time stamps are
+read where the reader asks for them.
 """
 
 from __future__ import annotations
 
 import contextlib
 import csv
+import gzip
 import io
+import itertools
 import os
-from collections.abc import Iterator, Sequence
+import zlib
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TextIO
 
@@ -54,16 +60,37 @@ def check_file(path: str | os.PathLike[str]) -> Path:
     return p
 
 
+GZIP_MAGIC = b"\x1f\x8b"
+
+
+def is_gzip(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` starts with the gzip magic bytes (``.csv.gz``); False if unreadable."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(2) == GZIP_MAGIC
+    except OSError:
+        return False
+
+
 @contextlib.contextmanager
 def open_text(path: str | os.PathLike[str]) -> Iterator[TextIO]:
-    """Open a text file for :class:`CsvTable` (UTF-8, newlines untranslated)."""
+    """Open a text file for :class:`CsvTable` (UTF-8, newlines untranslated); a gzip file is
+    decompressed on the fly, and a damaged or truncated one is a one-line :class:`ReaderError`
+    wherever in the file the damage is found."""
     p = check_file(path)
+    gz = is_gzip(p)
     try:
-        fh = open(p, encoding="utf-8", newline="")
+        fh = gzip.open(p, "rt", encoding="utf-8", newline="") if gz \
+            else open(p, encoding="utf-8", newline="")
     except OSError as exc:
         raise ReaderError(p, f"cannot open ({exc.strerror})") from None
     with fh:
-        yield fh
+        try:
+            yield fh
+        except (EOFError, gzip.BadGzipFile, zlib.error) as exc:
+            if not gz:
+                raise
+            raise ReaderError(p, f"damaged or truncated gzip file ({exc})") from None
 
 
 def text_stream(raw: io.BufferedIOBase) -> TextIO:
@@ -108,11 +135,17 @@ class CsvTable:
     source : name used in error messages
     delimiter : field separator; ``None`` sniffs it from the header line
     decimal : decimal mark of the numbers (``","`` for e.g. semicolon-separated European exports)
+    unit_name : where given, the first row after the header is a units row (skipped, its cells
+        in :attr:`units`) when none of its cells is a number and one of them is a unit:
+        ``unit_name(cell)`` returns the unit's name, None for no unit
+    dates : columns that may hold ISO-8601 time stamps instead of numbers (read as seconds
+        since 1970-01-01 UTC; a time without an offset is taken as UTC)
 
     Attributes
     ----------
     header : stripped column names; header_line : 1-based line of the header;
-    notes : what was noticed (BOM, CRLF, blank lines, empty cells).
+    units : column -> units-row cell (empty without a units row); units_line : its line;
+    notes : what was noticed (BOM, CRLF, blank lines, empty cells, a units row, ISO times).
     """
 
     def __init__(
@@ -122,11 +155,17 @@ class CsvTable:
         *,
         delimiter: str | None = None,
         decimal: str = ".",
+        unit_name: Callable[[str], str | None] | None = None,
+        dates: Sequence[str] = (),
     ) -> None:
         self.source = source
         self.decimal = decimal
+        self.dates = frozenset(dates)
         self.notes: list[str] = []
+        self.units: dict[str, str] = {}
+        self.units_line: int | None = None
         self._fh = fh
+        self._peeked: list[str] = []  # lines read after the header, fed to the row reader
         line_no = 0
         first = ""
         try:
@@ -159,6 +198,40 @@ class CsvTable:
             if name and name in seen:
                 raise ReaderError(source, "duplicate column name", row=line_no, column=name)
             seen.add(name)
+        self._base = line_no  # file line before the first line the row reader sees
+        if unit_name is not None:
+            self._units_row(unit_name)
+
+    def _units_row(self, unit_name: Callable[[str], str | None]) -> None:
+        """Read ahead to the first non-blank line after the header; skip it as a units row
+        when no cell is a number and some cell is a unit, else keep it for the row reader."""
+        line = ""
+        try:
+            while True:
+                line = self._fh.readline()
+                self._peeked.append(line)
+                if not line or line.strip():
+                    break
+        except UnicodeDecodeError as exc:
+            raise ReaderError(self.source, f"not UTF-8 text ({exc.reason})",
+                              row=_undecodable_line(self._fh)) from None
+        if not line.strip() or '"' in line and line.count('"') % 2:
+            return  # no row, or a quoted field running on over lines: no units row
+        try:
+            cells = [c.strip() for c in next(csv.reader([line], delimiter=self.delimiter))]
+        except (csv.Error, StopIteration):
+            return
+        if any(_is_number(c, self.decimal) for c in cells) or \
+                not any(c and unit_name(c) is not None for c in cells):
+            return
+        self.units_line = self._base + len(self._peeked)
+        self.units = {h: c for h, c in zip(self.header, cells, strict=False) if h and c}
+        self._base = self.units_line
+        blank = len(self._peeked) - 1
+        self._peeked = []
+        self.notes.append(f"units row (line {self.units_line}) read and skipped: "
+                          + ", ".join(f"{h}: '{u}'" for h, u in self.units.items())
+                          + (f"; {blank} blank line(s) before it" if blank else ""))
 
     def index(self, name: str) -> int:
         """Column index of ``name``; :class:`ReaderError` listing the header if absent."""
@@ -216,8 +289,9 @@ class CsvTable:
         line_buf: list[int] = []
         blank = 0
         total = 0
-        reader = csv.reader(self._fh, delimiter=self.delimiter)
-        base = self.header_line  # csv counts lines from where it starts reading
+        reader = csv.reader(itertools.chain(self._peeked, self._fh), delimiter=self.delimiter)
+        self._peeked = []
+        base = self._base  # csv counts lines from where it starts reading
         it = iter(reader)
         while True:
             try:
@@ -276,6 +350,9 @@ class CsvTable:
             return np.array(cells, dtype=np.float64)
         except (ValueError, OverflowError):
             pass
+        first = next((c for c in cells if c.strip().lower() not in NA_STRINGS), "")
+        if name in self.dates and first and not _is_number(first, "."):
+            return self._iso_seconds(cells, lines, name)
         vals = np.empty(len(cells))
         for k, c in enumerate(cells):
             try:
@@ -292,6 +369,35 @@ class CsvTable:
                     ) from None
         return vals
 
+    def _iso_seconds(self, cells: Sequence[str], lines: np.ndarray, name: str) -> np.ndarray:
+        """ISO-8601 time stamps as float64 seconds since 1970-01-01 UTC (NA cells NaN); the
+        first cell that is none is a :class:`ReaderError` naming its line."""
+        import pandas as pd
+
+        na = np.array([c.strip().lower() in NA_STRINGS for c in cells])
+        text = [c.strip() for c in cells]
+        try:
+            stamps = pd.to_datetime([c for c, m in zip(text, na, strict=True) if not m],
+                                    format="ISO8601", utc=True)
+        except (ValueError, OverflowError, TypeError):
+            for k, c in enumerate(text):
+                if na[k]:
+                    continue
+                try:
+                    pd.to_datetime([c], format="ISO8601", utc=True)
+                except (ValueError, OverflowError, TypeError):
+                    raise ReaderError(self.source, f"'{_short(c)}' is neither a number nor an "
+                                      "ISO-8601 time (e.g. 2024-05-01T12:00:00.250Z)",
+                                      row=int(lines[k]), column=name) from None
+            raise  # pragma: no cover - every cell parsed alone
+        out = np.full(len(cells), np.nan)
+        out[~na] = stamps.as_unit("ns").asi8 * 1e-9
+        note = (f"column '{name}': ISO-8601 time stamps read as seconds since 1970-01-01 UTC "
+                "(a time without an offset taken as UTC)")
+        if note not in self.notes:
+            self.notes.append(note)
+        return out
+
     def _comma_hint(self, cell: str) -> str:
         """What to do about ``cell`` when it is a number written with a decimal comma in a file
         whose fields are not separated by commas (a European spreadsheet's ``;`` export), else
@@ -304,6 +410,15 @@ class CsvTable:
             return ""
         return (" (a decimal comma? read the file through a --mapping TOML file with "
                 "decimal = \",\", see docs/formats.md)")
+
+
+def _is_number(cell: str, decimal: str) -> bool:
+    """Whether ``cell`` is a number written with the decimal mark ``decimal``."""
+    try:
+        float(cell.replace(decimal, ".") if decimal != "." else cell)
+    except (ValueError, OverflowError):
+        return False
+    return True
 
 
 def nan_notes(columns: dict[str, np.ndarray], source: str) -> list[str]:

@@ -26,9 +26,9 @@ import numpy as np
 
 from vibrospeed.errors import InputError, ReaderError
 from vibrospeed.io._common import finish, jsonable
-from vibrospeed.io._csv import CsvTable, nan_notes, open_text
+from vibrospeed.io._csv import CsvTable, _short, nan_notes, open_text
 from vibrospeed.io.atomic import atomic_path, atomic_write_text
-from vibrospeed.types import Recording
+from vibrospeed.types import CHANNEL_UNITS, Recording
 
 __all__ = ["event_path", "is_canonical_header", "is_event_sidecar", "read_csv", "write_csv"]
 
@@ -171,6 +171,30 @@ def read_events(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     return events
 
 
+def row_units(tab: CsvTable, p: Path) -> dict[str, str]:
+    """The units a units row under the header gives (:class:`CsvTable` ``unit_name``), checked:
+    ``t`` in s and the canonical channels in their SI units (m/s^2, rad/s, ...), otherwise a
+    :class:`ReaderError` saying how to convert through a mapping; other columns keep the text as
+    their unit."""
+    from vibrospeed.io.mapped import UNITS, unit_name
+
+    out = {}
+    for col, text in tab.units.items():
+        name = unit_name(text)
+        want = "s" if col == "t" else CHANNEL_UNITS.get(col)
+        if want is None:
+            out[col] = text  # a channel vibrospeed does not know: its unit as written
+            continue
+        if name is None or UNITS[name] != (1.0, want):
+            how = (f": read it through a mapping, --columns {col}={col}:{name} ..." if name
+                   else "")
+            raise ReaderError(p, f"units row says '{_short(text)}', but canonical CSV is in SI "
+                              f"({want}){how}", row=tab.units_line, column=col)
+        if col != "t":
+            out[col] = want
+    return out
+
+
 def read_csv(path: str | os.PathLike[str], *, sort: bool = False) -> Recording:
     """Read a canonical CSV recording (header ``t,<channels>``), its event sidecars and metadata.
 
@@ -185,8 +209,10 @@ def read_csv(path: str | os.PathLike[str], *, sort: bool = False) -> Recording:
         a numeric cell, a channel with no numeric value, time not increasing (unless ``sort``).
     """
     p = Path(path)
+    from vibrospeed.io.mapped import unit_name
+
     with open_text(p) as fh:
-        tab = CsvTable(fh, str(p))
+        tab = CsvTable(fh, str(p), unit_name=unit_name)
         if not is_canonical_header(tab.header):
             raise ReaderError(
                 p,
@@ -202,6 +228,7 @@ def read_csv(path: str | os.PathLike[str], *, sort: bool = False) -> Recording:
     side = _read_sidecar_json(p)
     units_side = side.get("units") if isinstance(side.get("units"), dict) else {}
     units = {k: str(v) for k, v in units_side.items() if k in cols}
+    units.update(row_units(tab, p))
     side_notes = side.get("notes") if isinstance(side.get("notes"), list) else []
     rec_notes = [*map(str, side_notes), *notes]
     meta = dict(side["meta"]) if isinstance(side.get("meta"), dict) else {}

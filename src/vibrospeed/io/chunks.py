@@ -32,6 +32,7 @@ Example::
 
 from __future__ import annotations
 
+import contextlib
 import os
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -117,10 +118,11 @@ class ChunkedRecording:
 
     # ---- metadata ---------------------------------------------------------------------------
     def _csv_header(self, p: Path) -> None:
-        from vibrospeed.io.canonical import _read_sidecar_json, is_canonical_header
+        from vibrospeed.io.canonical import _read_sidecar_json, is_canonical_header, row_units
+        from vibrospeed.io.mapped import unit_name
 
         with open_text(p) as fh:
-            tab = CsvTable(fh, str(p))
+            tab = CsvTable(fh, str(p), unit_name=unit_name)
         if not is_canonical_header(tab.header):
             raise ReaderError(
                 p, "not a canonical recording: the header must start with 't' followed by "
@@ -128,6 +130,7 @@ class ChunkedRecording:
         self.channels = [h for h in tab.header if h][1:]
         side = _read_sidecar_json(p)
         self._side(side)
+        self.units.update(row_units(tab, p))
         if isinstance(side.get("source"), str) and side["source"]:
             self.meta.setdefault("origin", side["source"])
 
@@ -170,9 +173,12 @@ class ChunkedRecording:
             UNITS,
             _check_channel_unit,
             _check_suffixes,
+            date_columns,
+            declared_units,
             load_mapping,
             mapping_text,
             parse_mapping,
+            unit_name,
         )
         from vibrospeed.types import CHANNEL_UNITS
 
@@ -198,14 +204,25 @@ class ChunkedRecording:
         for name, sp in spec.items():
             if sp.unit is not None:
                 _check_channel_unit(name, sp.unit, str(p))
+        from vibrospeed.io.parquet import is_parquet, iter_columns
+
+        self._parquet = is_parquet(p)
+        if self._parquet:  # a Parquet table with its own column names, as read_mapped reads it
+            spec, self._unit_notes = declared_units(spec, {}, None, str(p))
+            self._srcs = list(dict.fromkeys(sp.column for sp in spec.values()))
+            next(iter_columns(p, self._srcs, batch_rows=1), None)  # columns found and numeric
+        else:
+            with open_text(p) as fh:
+                tab = CsvTable(fh, str(p), delimiter=opts.get("delimiter"),
+                               decimal=opts.get("decimal", "."), unit_name=unit_name,
+                               dates=date_columns(spec))
+                self._dates = tuple(tab.dates)
+                _check_suffixes(spec, tab.header, str(p))
+                spec, self._unit_notes = declared_units(spec, tab.units, tab.units_line, str(p))
+                self._srcs = list(dict.fromkeys(sp.column for sp in spec.values()))
+                for c in self._srcs:
+                    tab.index(c)  # a missing column: the whole-file reader's error, before rows
         self._spec, self._opts, self._rate = spec, opts, rate
-        self._srcs = list(dict.fromkeys(sp.column for sp in spec.values()))
-        with open_text(p) as fh:
-            tab = CsvTable(fh, str(p), delimiter=opts.get("delimiter"),
-                           decimal=opts.get("decimal", "."))
-            _check_suffixes(spec, tab.header, str(p))
-            for c in self._srcs:
-                tab.index(c)  # a missing column: the whole-file reader's error, before any row
         self.channels = [k for k in spec if k != "t"]
         self.units = {k: UNITS[sp.unit][1] if sp.unit else CHANNEL_UNITS.get(k, "")
                       for k, sp in spec.items() if k != "t"}
@@ -231,8 +248,10 @@ class ChunkedRecording:
         (the file's columns, as the whole-file reader counts them)."""
         p = Path(self.path)
         if self.fmt == "csv":
+            from vibrospeed.io.mapped import unit_name
+
             with open_text(p) as fh:
-                tab = CsvTable(fh, str(p))
+                tab = CsvTable(fh, str(p), unit_name=unit_name)
                 names = ["t", *self.channels]
                 for cols, lines in tab.iter_chunks(names, chunk_rows=self.chunk_rows):
                     t = cols.pop("t")
@@ -261,12 +280,27 @@ class ChunkedRecording:
             raise ReaderError(p, "no data rows")
 
     def _raw_mapped(self, p: Path):
+        from vibrospeed.io.mapped import unit_name
+
         spec, tcol = self._spec, (self._spec["t"].column if "t" in self._spec else None)
         start = 0
-        with open_text(p) as fh:
-            tab = CsvTable(fh, str(p), delimiter=self._opts.get("delimiter"),
-                           decimal=self._opts.get("decimal", "."))
-            for raw, lines in tab.iter_chunks(self._srcs, chunk_rows=self.chunk_rows):
+        with contextlib.ExitStack() as stack:
+            if self._parquet:
+                from vibrospeed.io.parquet import iter_columns
+
+                notes = list(self._unit_notes)
+                chunks = ((raw, np.arange(start + 1, start + 1 + raw[self._srcs[0]].size))
+                          for raw in iter_columns(p, self._srcs, batch_rows=self.chunk_rows)
+                          if raw[self._srcs[0]].size)
+            else:
+                fh = stack.enter_context(open_text(p))
+                tab = CsvTable(fh, str(p), delimiter=self._opts.get("delimiter"),
+                               decimal=self._opts.get("decimal", "."), unit_name=unit_name,
+                               dates=self._dates)
+                tab.notes.extend(self._unit_notes)
+                notes = tab.notes
+                chunks = tab.iter_chunks(self._srcs, chunk_rows=self.chunk_rows)
+            for raw, lines in chunks:
                 chans = {}
                 for name, sp in spec.items():
                     x = raw[sp.column]
@@ -277,7 +311,9 @@ class ChunkedRecording:
                 t = chans.pop("t") if tcol is not None else \
                     np.arange(start, start + lines.size) / self._rate
                 start += lines.size
-                yield t, chans, lines, tab.notes, {c: x for c, x in raw.items() if c != tcol}
+                yield t, chans, lines, notes, {c: x for c, x in raw.items() if c != tcol}
+        if self._parquet and start == 0:
+            raise ReaderError(p, "no data rows")
 
     def __iter__(self) -> Iterator[Chunk]:
         src = str(Path(self.path))

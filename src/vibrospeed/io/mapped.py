@@ -36,6 +36,7 @@ import numpy as np
 from vibrospeed.errors import ParameterError, ReaderError
 from vibrospeed.io._common import finish
 from vibrospeed.io._csv import CsvTable, nan_notes, open_text
+from vibrospeed.io.parquet import is_parquet, iter_columns
 from vibrospeed.types import CHANNEL_UNITS, Recording
 
 __all__ = ["UNITS", "ColumnSpec", "load_mapping", "parse_mapping", "read_mapped"]
@@ -64,6 +65,34 @@ UNITS: dict[str, tuple[float, str]] = {
     "1": (1.0, "1"),
     "counts": (1.0, "1"),
 }
+
+
+#: how loggers and spreadsheets spell some units -> the name in :data:`UNITS`
+_SPELLINGS = {"m/s²": "m/s^2", "m/s/s": "m/s^2", "m s^-2": "m/s^2", "m s-2": "m/s^2",
+              "°/s": "deg/s", "dps": "deg/s", "°": "deg", "sec": "s", "µs": "us", "μs": "us",
+              "kph": "km/h", "kt": "kn", "knots": "kn"}
+
+
+def unit_name(text: str) -> str | None:
+    """The :data:`UNITS` name of a unit as a units row or a header writes it (``[m/s²]``,
+    ``(g)``, ``°/s``, ``ms``), None for anything else (``°C``, a word)."""
+    u = text.strip()
+    if len(u) > 2 and (u[0], u[-1]) in (("[", "]"), ("(", ")"), ("{", "}")):
+        u = u[1:-1].strip()
+    for cand in (u, u.lower()):
+        cand = _SPELLINGS.get(cand, cand)
+        if cand in UNITS:
+            return cand
+    return None
+
+
+def header_unit(column: str) -> str | None:
+    """The unit a header name ends with in brackets (``ax [m/s²]``, ``AccX (g)``), else None."""
+    c = column.strip()
+    for a, b in (("[", "]"), ("(", ")")):
+        if c.endswith(b) and a in c[:-1]:
+            return unit_name(c[c.rindex(a):])
+    return None
 
 
 class ColumnSpec(NamedTuple):
@@ -150,6 +179,14 @@ def parse_mapping(text: str) -> dict[str, ColumnSpec]:
     return out
 
 
+def date_columns(spec: dict[str, ColumnSpec]) -> tuple[str, ...]:
+    """The column that may hold ISO-8601 time stamps: ``t``'s, when mapped with no unit but
+    seconds, no scale and no offset."""
+    s = spec.get("t")
+    ok = s is not None and s.unit in (None, "s") and s.scale == 1.0 and s.offset == 0.0
+    return (s.column,) if ok else ()
+
+
 def mapping_text(spec: dict[str, ColumnSpec]) -> str:
     """The mapping as the reader's note shows it: ``gz<-yaw*0.01-0.3 [deg/s]`` is
     ``(yaw * 0.01 - 0.3)`` in deg/s (the offset with its own sign)."""
@@ -176,6 +213,42 @@ def _check_suffixes(spec: dict[str, ColumnSpec], header: list[str], source: str)
             f"{source}: column mapping '{name}={s.column}': unknown unit '{tail.strip()}' "
             f"(known: {', '.join(UNITS)}){missing}"
         )
+
+
+def declared_units(spec: dict[str, ColumnSpec], units_row: dict[str, str],
+                   units_line: int | None, source: str) -> tuple[dict[str, ColumnSpec], list[str]]:
+    """``spec`` with the units the file declares (a units row under the header, or a header
+    name ending in ``[unit]`` / ``(unit)``) filled in where the mapping gives none, and notes.
+
+    A mapping item with a scale or offset keeps its values as they are (its scale may be the
+    conversion already; noted). A declared unit that contradicts the mapping's unit, or that
+    does not measure what the channel holds, is a :class:`ParameterError` naming both."""
+    out = dict(spec)
+    notes = []
+    for name, s in spec.items():
+        row = units_row.get(s.column)
+        declared = unit_name(row) if row is not None else header_unit(s.column)
+        where = (f"the units row (line {units_line}) says '{row}'" if row is not None
+                 else f"the header '{s.column}' says {declared}")
+        if declared is None:
+            if row is not None and s.unit is None:
+                notes.append(f"column '{s.column}': units row says '{row}', no unit vibrospeed "
+                             "converts; read as it is")
+            continue
+        if s.unit is not None:
+            if UNITS[s.unit] != UNITS[declared]:
+                raise ParameterError(f"{source}: column mapping '{name}' gives unit '{s.unit}' "
+                                     f"but {where}: give the file's unit, or none")
+            continue
+        if s.scale != 1.0 or s.offset != 0.0:
+            notes.append(f"column '{s.column}': {where}; the mapping's scale/offset applied "
+                         "and no unit (give :UNIT to convert)")
+            continue
+        _check_channel_unit(name, declared, f"{source}: {where} for column mapping '{name}'")
+        out[name] = s._replace(unit=declared)
+        notes.append(f"column '{s.column}': unit {declared} from the "
+                     + ("units row" if row is not None else "header"))
+    return out, notes
 
 
 def load_mapping(path: str | os.PathLike[str]) -> tuple[dict[str, ColumnSpec], dict[str, Any]]:
@@ -263,14 +336,28 @@ def read_mapped(
     for name, s in spec.items():
         if s.unit is not None:
             _check_channel_unit(name, s.unit, str(p))
-    with open_text(p) as fh:
-        tab = CsvTable(
-            fh, str(p), delimiter=opts.get("delimiter"), decimal=opts.get("decimal", ".")
-        )
-        _check_suffixes(spec, tab.header, str(p))
+    if is_parquet(p):  # a Parquet table with its own column names
+        spec, unit_notes = declared_units(spec, {}, None, str(p))
         srcs = list(dict.fromkeys(s.column for s in spec.values()))
-        raw, lines = tab.read(srcs)
-    notes = list(tab.notes)
+        parts = list(iter_columns(p, srcs))
+        raw = {c: np.concatenate([b[c] for b in parts]) if parts else np.empty(0)
+               for c in srcs}
+        lines = np.arange(1, raw[srcs[0]].size + 1)
+        if lines.size == 0:
+            raise ReaderError(p, "no data rows")
+        notes = unit_notes
+    else:
+        with open_text(p) as fh:
+            tab = CsvTable(
+                fh, str(p), delimiter=opts.get("delimiter"), decimal=opts.get("decimal", "."),
+                unit_name=unit_name, dates=date_columns(spec),
+            )
+            _check_suffixes(spec, tab.header, str(p))
+            spec, unit_notes = declared_units(spec, tab.units, tab.units_line, str(p))
+            tab.notes.extend(unit_notes)
+            srcs = list(dict.fromkeys(s.column for s in spec.values()))
+            raw, lines = tab.read(srcs)
+        notes = list(tab.notes)
     tcol = spec["t"].column if "t" in spec else None
     notes.extend(nan_notes({c: x for c, x in raw.items() if c != tcol}, str(p)))
     chans: dict[str, np.ndarray] = {}

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +41,49 @@ def _pyarrow(path):
             path, "Parquet needs the optional package pyarrow (pip install 'vibrospeed[parquet]')"
         ) from None
     return pa, pc, pq
+
+
+def is_parquet(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a file starting with the Parquet magic ``PAR1``."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(4) == b"PAR1"
+    except OSError:
+        return False
+
+
+def iter_columns(path: str | os.PathLike[str], names: list[str],
+                 batch_rows: int = _BATCH) -> Iterator[dict[str, np.ndarray]]:
+    """The Parquet columns ``names`` as float64, ``batch_rows`` rows at a time (a column
+    mapping on a Parquet file, :mod:`.mapped`): numbers as they are, a timestamp column as
+    seconds since 1970-01-01 UTC; a missing or non-numeric column is a :class:`ReaderError`
+    naming it."""
+    p = check_file(path)
+    pa, pc, pq = _pyarrow(p)
+    try:
+        pf = pq.ParquetFile(p)
+        schema = pf.schema_arrow
+        for n in names:
+            if n not in schema.names:
+                raise ReaderError(p, f"column not found (have: {', '.join(schema.names)})",
+                                  column=n)
+            f = schema.field(n)
+            if not (pa.types.is_floating(f.type) or pa.types.is_integer(f.type)
+                    or pa.types.is_boolean(f.type) or pa.types.is_timestamp(f.type)):
+                raise ReaderError(p, f"column is not numeric ({f.type})", column=n)
+        for batch in pf.iter_batches(batch_size=batch_rows, columns=list(dict.fromkeys(names))):
+            out = {}
+            for n in names:
+                col = batch.column(n)
+                if pa.types.is_timestamp(col.type):  # naive stamps taken as UTC
+                    ns = pc.cast(col, pa.timestamp("ns", col.type.tz)).cast(pa.int64())
+                    out[n] = ns.to_numpy(zero_copy_only=False).astype(np.float64) * 1e-9
+                    out[n][np.asarray(col.is_null())] = np.nan
+                else:
+                    out[n] = pc.cast(col, pa.float64()).to_numpy(zero_copy_only=False)
+            yield out
+    except (pa.ArrowException, OSError) as exc:
+        raise ReaderError(p, f"not a readable Parquet file ({exc_text(exc)})") from None
 
 
 def write_parquet(rec: Recording, path: str | os.PathLike[str]) -> None:
