@@ -1,0 +1,58 @@
+"""Walkthrough as an indoor-positioning engineer on carts and forklifts: the aided EKF run
+causally (as on a device) over stops, checked against the cog-wheel ticks' distance."""
+
+import numpy as np
+import pytest
+
+from vibrospeed.estimators import aided
+from vibrospeed.estimators.aided.method import OFFSET_SETTLE_S, settled_offset
+from vibrospeed.estimators.aiding import standstill_offset
+from vibrospeed.eval.truth import truth_from_recording
+from vibrospeed.sim import simulate
+
+
+def _brute_offset(u, still, d):
+    """At k: mean of u[j] over j <= k - d with still[j .. j + d] all set (else NaN)."""
+    out = np.full(u.size, np.nan)
+    for k in range(u.size):
+        js = [j for j in range(0, k - d + 1) if still[j:j + d + 1].all() and j + d < u.size]
+        if js:
+            out[k] = np.mean(u[js])
+    return out
+
+
+def test_settled_offset_skips_the_start_a_late_stop_flag_holds():
+    # 50 Hz: moving, standing 3 s at an offset of 0.1 m/s^2, then a start at +0.6 m/s^2
+    # that the flag still covers for 1.5 s (a causal detector lets go late)
+    dt = 0.02
+    u = np.concatenate([np.full(100, 0.5), np.full(150, 0.1), np.full(200, 0.7)])
+    still = np.zeros(u.size)
+    still[100:325] = 1.0
+    off = settled_offset(u, still, dt)
+    d = int(round(OFFSET_SETTLE_S / dt))
+    ref = _brute_offset(u, still > 0.5, d)
+    have = np.isfinite(ref)
+    np.testing.assert_allclose(off[have], ref[have], rtol=0, atol=1e-12)
+    # the standing offset, not pulled up by the start: the plain running mean reads 0.3
+    assert off[-1] == pytest.approx(0.1, abs=1e-12)
+    assert standstill_offset(u, still, causal=True)[-1] == pytest.approx(0.3, abs=1e-12)
+    # causal: changing the samples after k leaves the offset up to k as it was
+    u2 = u.copy()
+    u2[300:] = -5.0
+    np.testing.assert_array_equal(settled_offset(u2, still, dt)[:300], off[:300])
+    # before a stop has held long enough: the running mean of standstill_offset
+    np.testing.assert_array_equal(off[~have], standstill_offset(u, still, causal=True)[~have])
+
+
+def test_causal_aided_ekf_distance_matches_the_ticks_over_stops():
+    # stop_and_go seed 1, 40 s: two stops after the causal detector's 10 s warm-up. The
+    # running a_x offset took in each start the stop flag still covered (+0.2 m/s^2 too
+    # high), so the filter read the cruise as braking: -31 % of the ticks' distance
+    rec = simulate("stop_and_go", seed=1, duration=40)
+    tr = truth_from_recording(rec)
+    d_ticks = np.trapezoid(tr["speed_true"], tr.t)
+    assert d_ticks == pytest.approx(np.trapezoid(rec["speed_true"], rec.t), rel=0.01)
+    t = aided.estimate(rec, params={"tracker": "ekf", "causal": True})
+    d = np.trapezoid(np.nan_to_num(np.asarray(t.speed)), t.t)
+    assert abs(d / d_ticks - 1) < 0.06
+    assert any("stops held 2 s" in n for n in t.notes)
