@@ -73,3 +73,22 @@ def test_estimate_and_errors():
         shs.Config(batch=50, omega_min=5.0)
     with pytest.raises(ParameterError, match="Nyquist"):
         shs.Config(dt=0.05)
+
+
+@pytest.mark.parametrize(("fs", "omega_min", "batch", "noted"), [
+    (100.0, 10.0, 200, False), (400.0, 10.0, 800, False), (100.0, 2.0, 315, True),
+    (400.0, 2.0, 1257, True)])
+def test_default_batch_is_two_seconds_or_one_period_of_omega_min(fs, omega_min, batch, noted):
+    # the paper's 200 samples at 100 Hz are 2 s; at 400 Hz a 200-sample batch (0.5 s) held less
+    # than one period of the default range's floor and was refused
+    t = np.arange(0, 16, 1 / fs)
+    ay = np.cos(20 * t) + 0.5 * np.cos(40 * t)
+    params = {"prefilter": "thesis-hp", "omega_min": omega_min, "omega_max": 30.0}
+    tr = shs.estimate(Recording(t, {"ay": ay}), params=params)
+    assert tr.params["batch"] == batch == shs.default_batch(1 / fs, params)[0]
+    assert batch * (1 / fs) >= min(2.0, 2 * np.pi / omega_min) - 1e-12
+    assert any("one period of omega_min" in n for n in tr.notes) == noted
+    assert np.nanmax(np.abs(tr.omega - 20)) < 0.5
+    # the default is the explicit batch, number for number
+    same = shs.estimate(Recording(t, {"ay": ay}), params={**params, "batch": batch})
+    np.testing.assert_array_equal(tr.omega, same.omega)

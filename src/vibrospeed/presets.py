@@ -80,7 +80,7 @@ PRESETS: dict[str, dict[str, Preset]] = {
         "online": Preset({}, _CAUSAL),
     },
     "shs": {
-        "default": Preset({}, "batches of 200 samples on 10-120 rad/s"),
+        "default": Preset({}, "2 s batches (200 samples at 100 Hz) on 10-120 rad/s"),
         "paper": Preset({"batch": "200", "omega_min": "10", "omega_max": "120",
                          "compression": "0.84", "points_per_octave": "48",
                          "prefilter": "paper-hp"},

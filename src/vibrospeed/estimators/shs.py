@@ -30,12 +30,36 @@ from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.types import Estimate, Recording, Track
 
 
+#: the paper's batch in seconds (200 samples at 100 Hz, paper IV-B)
+BATCH_S = 2.0
+
+
+def default_batch(dt: float, params: dict) -> tuple[int, str]:
+    """``(batch, note)``: the samples of :data:`BATCH_S` at period ``dt`` s (200 at 100 Hz, the
+    paper's), raised to one period of ``params``' ``omega_min`` (a batch must hold one); the
+    note says when the batch is longer than 2 s. A value that is no number is left to
+    :class:`Config`'s checks."""
+    batch = round(BATCH_S / dt)
+    try:
+        omega_min = float(params.get("omega_min", Config.omega_min))
+    except (TypeError, ValueError):
+        return batch, ""
+    if not 0 < omega_min < np.inf:
+        return batch, ""
+    period = int(np.ceil(2 * np.pi / omega_min / dt - 1e-9))
+    if period <= batch:
+        return batch, ""
+    return period, (f"SHS: batches of {period} samples ({period * dt:.3g} s), one period of "
+                    f"omega_min = {omega_min:g} rad/s (the paper's 2 s hold less)")
+
+
 @dataclass(frozen=True)
 class Config:
     """SHS parameters.
 
     dt : sample period T in s (set from the data by :func:`estimate`).
-    batch : samples per estimate (paper: 200). n_fft : FFT length (zero padding), >= batch.
+    batch : samples per estimate (paper: 200; :func:`estimate` takes 2 s of the data's rate
+        unless given, :func:`default_batch`). n_fft : FFT length (zero padding), >= batch.
     n_harmonics : K. compression : h in ``c_k = h^(k-1)`` (Hermes: 0.84).
     omega_min, omega_max : search range in rad/s (paper grid: [10, 120]).
     points_per_octave : resolution of the log-frequency axis (Hermes: 48; default 192).
@@ -236,6 +260,12 @@ def estimate(
     params.pop("dt", None)
     pre = params.get("prefilter", Config.prefilter)
     y, dt, notes = prepare_axis(recording, axis, prefilter=pre, M=1, normalize_tau=None)
+    if "batch" not in params:
+        params["batch"], note = default_batch(dt, params)
+        if note:
+            notes.append(note)
+        if "n_fft" not in params:  # zero padding to at least the batch
+            params["n_fft"] = max(Config.n_fft, 1 << (params["batch"] - 1).bit_length())
     config = config_from_params(Config, params, dt=dt)
     res = run(config, y)
     n = y.size
