@@ -195,3 +195,25 @@ def test_mapped_reader_reads_or_refuses_in_one_line(tmp_path, rows, sep):
         assert "\n" not in str(exc)
     else:
         assert np.all(np.diff(rec.t) > 0) and all(math.isfinite(v) for v in rec.t)
+
+
+# ---- phone apps ---------------------------------------------------------------------------
+
+def _sensorlogger_csv(path, t_ns, cols) -> None:
+    rows = [f"{int(t)},{(t - t_ns[0]) / 1e9!r},{z!r},{y!r},{x!r}"
+            for t, (x, y, z) in zip(t_ns.tolist(), zip(*(c.tolist() for c in cols), strict=True),
+                                    strict=True)]
+    path.write_text("time,seconds_elapsed,z,y,x\n" + "\n".join(rows) + "\n")
+
+
+def test_sensorlogger_note_names_only_the_files_there(tmp_path):
+    t_ns = 1_700_000_000_000_000_000 + np.arange(N) * 10_000_000
+    _sensorlogger_csv(tmp_path / "TotalAcceleration.csv", t_ns, (AX, AY, AY + G))
+    rec = io.read(tmp_path)
+    np.testing.assert_allclose(rec.t, T, atol=2.6e-7)  # ns epoch in float64: 0.25 us (docs)
+    np.testing.assert_array_equal(rec["ax"], AX)
+    assert not any("Accelerometer.csv" in n for n in rec.notes), rec.notes
+    _sensorlogger_csv(tmp_path / "Accelerometer.csv", t_ns, (AX, AY, AY))
+    rec = io.read(tmp_path)
+    np.testing.assert_allclose(rec["lin_az"], AY, atol=1e-12)
+    assert any("Accelerometer.csv (without gravity) as lin_ax" in n for n in rec.notes)

@@ -281,7 +281,9 @@ def read_sensorlogger(path: str | os.PathLike[str], *, sort: bool = False) -> Re
         return [interp_onto(tk, x, t, 5.0 * dt) for x in cols]
 
     if master == TOT:
-        notes.append(f"{TOT} (with gravity) used as ax ay az; {ACC} is without gravity")
+        notes.append(f"{TOT} (with gravity) used as ax ay az"
+                     + (f"; {ACC} (without gravity) as lin_ax lin_ay lin_az" if ACC in have
+                        else ""))
         if ACC in have:
             lin = onto(ACC, xyz)
             if lin is not None:
