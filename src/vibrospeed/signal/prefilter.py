@@ -7,7 +7,8 @@ Presets (cut-offs in rad/s unless said otherwise, digital design with ``fs``):
 ``thesis-hp``   high-pass order 2 at 4 rad/s (thesis 3.4)
 ``thesis-bp``   band-pass order 2, 4..50 rad/s (thesis eq. 2.7)
 ``thesis-hplp`` high-pass order 2 at 4 rad/s + low-pass order 1 with a cut-off per M:
-                M = 1: 25, M = 2: 19, M = 3: 10 rad/s (thesis table 3.1; M >= 4 uses 10)
+                M = 1: 12, M = 2: 19, M = 3: 10, M = 4: 8 rad/s (thesis table 3.1, the
+                best omega_lp per M; M > 4 uses M = 4's)
 ``paper-hp``    high-pass order 2 at 8 Hz (chassis-vibration paper, section IV)
 ``range``       tied to the search range ``omega_min..omega_max``: high-pass order 4 at
                 ``RANGE_HP * omega_min``, low-pass order 4 at ``RANGE_LP * M * omega_max``
@@ -33,8 +34,9 @@ from numba import njit
 from vibrospeed.errors import ParameterError
 from vibrospeed.signal import dsp
 
-#: thesis low-pass cut-offs (rad/s) per number of harmonics M (thesis section 3.5, table 3.1)
-THESIS_LP_CUTOFF = {1: 25.0, 2: 19.0, 3: 10.0}
+#: thesis low-pass cut-offs (rad/s) per number of harmonics M (thesis section 3.5, table 3.1:
+#: omega_lp 12 / 19 / 10 / 8 for M = 1 / 2 / 3 / 4)
+THESIS_LP_CUTOFF = {1: 12.0, 2: 19.0, 3: 10.0, 4: 8.0}
 
 PRESETS = {
     "thesis-hp": "Butterworth high-pass order 2 at 4 rad/s (thesis 3.4)",
@@ -112,7 +114,7 @@ def design(
         hi = lp_cutoff or 50.0
         return butter_sos("bandpass", (_rad_to_hz(lo), _rad_to_hz(hi)), fs, 2)
     if preset == "thesis-hplp":
-        lp = lp_cutoff or THESIS_LP_CUTOFF.get(M, 10.0)
+        lp = lp_cutoff or THESIS_LP_CUTOFF[min(max(int(M), 1), 4)]
         hp = butter_sos("highpass", _rad_to_hz(hp_cutoff or 4.0), fs, 2)
         return np.vstack([hp, butter_sos("lowpass", _rad_to_hz(lp), fs, 1)])
     if preset == "paper-hp":

@@ -24,6 +24,44 @@ OUTPUTS = (
 )
 
 
+#: longest hold or backtracking depth in s (``alpha``, ``beta``, ``reset_hold``, ``backtrack``
+#: in samples at ``Ts``): the Vx history is that long
+_MAX_HOLD_S = 60.0
+
+#: domain of each parameter: (low, low excluded, high, unit); a vehicle's geometry (an RC car's
+#: 0.03 m wheel to a mining truck's 2 m, CG to front axle up to a bus's 10 m), filter windows up
+#: to 10 s, sds of sensors that still measure something
+_DOMAINS = {
+    "r": (0.0, True, 3.0, "m"), "L1": (0.0, True, 10.0, "m"), "dt": (0.0, True, 1.0, "s"),
+    "window": (0.0, True, 10.0, "s"), "window_d": (0.0, True, 10.0, "s"),
+    "N": (1, False, 10, ""), "kappa": (-1.0, True, 50.0, ""), "mu": (-1.0, True, 50.0, ""),
+    "xi": (0.0, False, 1.0, ""),
+    "eps1": (0.0, True, np.inf, "m/s^2"), "alpha": (0, False, np.inf, "samples"),
+    "eps2": (0.0, True, np.inf, "rad/s"), "beta": (0, False, np.inf, "samples"),
+    "reset_eps_x": (0.0, False, np.inf, "m/s^2"), "reset_eps_y": (0.0, False, np.inf, "m/s^2"),
+    "reset_hold": (0, False, np.inf, "samples"), "vy0": (-100.0, False, 100.0, "m/s"),
+    "backtrack": (0, False, np.inf, "samples"), "eps_k": (0.0, False, 100.0, ""),
+    "slip_sd": (0.0, False, 1.0, ""), "acc_bias_sd": (0.0, False, 10.0, "m/s^2"),
+    "gyro_bias_sd": (0.0, False, 1.0, "rad/s"), "handover_tau": (0.0, True, np.inf, "s"),
+    "noise_tau": (0.0, True, 1e6, "s"), "max_int": (0.0, True, np.inf, "s"),
+    "slip_tol": (0.0, True, np.inf, "m/s"), "slip_window": (0.0, True, 10.0, "s"),
+}
+#: the parameters counted in samples (integers)
+_COUNTS = ("alpha", "beta", "reset_hold", "backtrack")
+
+
+def _domain_text(name: str) -> str:
+    """``name``'s domain as text: ``in (0, 10] m``, ``an integer >= 0 samples``."""
+    lo, lo_open, hi, unit = _DOMAINS[name]
+    unit = f" {unit}" if unit else ""
+    if name in _COUNTS or name == "N":
+        return (f"an integer >= {lo}{unit}" if hi == np.inf
+                else f"an integer in [{lo}, {hi}]{unit}")
+    if hi == np.inf:
+        return f"{'>' if lo_open else '>='} {lo:g}{unit} (inf: never)"
+    return f"in {'(' if lo_open else '['}{lo:g}, {hi:g}]{unit}"
+
+
 @dataclass(frozen=True)
 class Config:
     """Parameters of Algorithms 1 and 2 and of the uncertainty model.
@@ -90,36 +128,41 @@ class Config:
     slip_window: float = 0.5
 
     def __post_init__(self) -> None:
-        # the thresholds eps1, eps2, slip_tol, max_int and the time constants may be inf
-        # ("never"); a length, a window, a standard deviation or vy0 that is inf or NaN made
-        # Vx, Vy or their std inf or NaN, and an inf or NaN count failed in int()
-        finite = ("r", "L1", "dt", "window", "window_d", "kappa", "mu", "slip_window",
-                  "slip_sd", "acc_bias_sd", "gyro_bias_sd", "vy0")
-        for name in finite:
-            if not np.isfinite(getattr(self, name)):
-                raise ParameterError(f"algebraic: {name} must be finite, got "
-                                     f"{getattr(self, name)}")
-        for name in ("r", "L1", "dt", "window", "window_d", "eps1", "eps2", "handover_tau",
-                     "noise_tau", "max_int", "slip_tol", "slip_window"):
-            if not getattr(self, name) > 0:
-                raise ParameterError(f"algebraic: {name} must be > 0, got {getattr(self, name)}")
-        for name in ("eps_k", "slip_sd", "acc_bias_sd", "gyro_bias_sd", "reset_eps_x",
-                     "reset_eps_y"):
-            if not getattr(self, name) >= 0:
-                raise ParameterError(f"algebraic: {name} must be >= 0, got {getattr(self, name)}")
-        for name in ("alpha", "beta", "reset_hold", "backtrack"):
+        # each parameter's domain, one line naming it and its range: an absurd gain or window
+        # (-p L1=1e9, -p window=1e9) was accepted silently, or failed deep inside (a 745 GiB
+        # filter kernel). The thresholds eps1, eps2, slip_tol, max_int, handover_tau and the
+        # reset thresholds may be inf ("never"); lengths, windows, sds and vy0 may not (inf or
+        # NaN made Vx, Vy or their std inf or NaN)
+        for name, (lo, lo_open, hi, _unit) in _DOMAINS.items():
             v = getattr(self, name)
             if v is None and name == "backtrack":
                 continue
-            if not (np.isfinite(v) and int(v) == v and v >= 0):
-                raise ParameterError(f"algebraic: {name} must be an integer >= 0, got {v}")
+            ok = isinstance(v, (int, float, np.integer, np.floating)) and not np.isnan(v) and (
+                v > lo if lo_open else v >= lo) and v <= hi
+            if ok and name in _COUNTS:
+                ok = int(v) == v
+            if not ok:
+                raise ParameterError(f"algebraic: {name} must be {_domain_text(name)}, got {v}")
+        if self.noise_tau < self.dt:  # running-mean weight dt / noise_tau above 1 oscillates
+            raise ParameterError(f"algebraic: noise_tau must be >= Ts = {self.dt:g} s, got "
+                                 f"{self.noise_tau}")
+        horizon = int(_MAX_HOLD_S / self.dt)
+        for name in _COUNTS:  # a hold or backtrack over a minute made a buffer of that length
+            v = getattr(self, name)
+            if v is not None and v > max(horizon, 1):
+                raise ParameterError(f"algebraic: {name} must be at most {horizon} samples "
+                                     f"({_MAX_HOLD_S:g} s at Ts = {self.dt:g} s), got {v}")
         if self.detect not in ("window", "seed"):
             raise ParameterError(f"algebraic: detect must be 'window' or 'seed', got "
                                  f"{self.detect!r}")
         if not (isinstance(self.N, (int, np.integer)) and self.N >= 1):  # numpy's degree
             raise ParameterError(
                 f"algebraic: N must be an integer >= 1 (derivatives are needed), got {self.N}")
-        self.filters()  # validates the windows against N
+        try:
+            self.filters()  # validates the windows against N
+        except ParameterError as exc:
+            raise ParameterError(f"algebraic: window = {self.window:g} s / window_d = "
+                                 f"{self.window_d:g} s at Ts = {self.dt:g} s: {exc}") from None
 
     @property
     def k_window(self) -> int:
