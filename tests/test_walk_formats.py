@@ -217,3 +217,15 @@ def test_sensorlogger_note_names_only_the_files_there(tmp_path):
     rec = io.read(tmp_path)
     np.testing.assert_allclose(rec["lin_az"], AY, atol=1e-12)
     assert any("Accelerometer.csv (without gravity) as lin_ax" in n for n in rec.notes)
+
+
+def test_excel_sep_line_names_the_delimiter(tmp_path):
+    f = tmp_path / "x.csv"
+    f.write_text("sep=;\nt;ax;ay\n0;1,5;2\n0.01;2;3\n")  # ',' is no delimiter here
+    assert io.detect_format(f) == "csv"
+    with pytest.raises(ReaderError, match=r"line 3, column 'ax': '1,5' is not a number"):
+        io.read(f)
+    f.write_text("sep=;\nt;ax;ay\n0;1.5;2\n0.01;2;3\n")
+    rec = io.read(f)
+    np.testing.assert_array_equal(rec["ax"], [1.5, 2.0])
+    assert any("'sep=;'" in n for n in rec.notes)

@@ -190,7 +190,7 @@ def _first_line(p: Path) -> str:
     import gzip
     import zlib
 
-    from vibrospeed.io._csv import is_gzip
+    from vibrospeed.io._csv import excel_sep, is_gzip
 
     try:
         with (gzip.open(p, "rt", encoding="utf-8", errors="replace", newline="") if is_gzip(p)
@@ -199,7 +199,7 @@ def _first_line(p: Path) -> str:
                 line = fh.readline()
                 if not line:
                     return ""
-                if line.strip():
+                if line.strip() and excel_sep(line.lstrip("\ufeff")) is None:
                     return line.lstrip("\ufeff").strip()
     except (OSError, EOFError, zlib.error):
         return ""

@@ -107,6 +107,12 @@ def sniff_delimiter(line: str) -> str:
     return next(d for d in (",", ";", "\t") if counts[d] == best)
 
 
+def excel_sep(line: str) -> str | None:
+    """The delimiter an Excel ``sep=;`` first line names (one character), else None."""
+    s = line.strip()
+    return s[4] if len(s) == 5 and s[:4].lower() == "sep=" and s[4] not in "\"'" else None
+
+
 def _undecodable_line(fh: TextIO) -> int | None:
     """1-based line of the first bytes of ``fh`` that are not UTF-8, read again from the start.
 
@@ -168,6 +174,7 @@ class CsvTable:
         self._peeked: list[str] = []  # lines read after the header, fed to the row reader
         line_no = 0
         first = ""
+        sep = None
         try:
             while True:
                 first = fh.readline()
@@ -175,6 +182,11 @@ class CsvTable:
                 if line_no == 1 and first.startswith("\ufeff"):
                     first = first[1:]
                     self.notes.append("UTF-8 byte-order mark skipped")
+                if sep is None and excel_sep(first) is not None:
+                    sep = excel_sep(first)
+                    self.notes.append(f"Excel 'sep={sep}' line {line_no} read: fields "
+                                      f"separated by {sep!r}")
+                    continue
                 if not first or first.strip():
                     break
         except UnicodeDecodeError as exc:
@@ -184,7 +196,7 @@ class CsvTable:
             raise ReaderError(source, "empty file (no header row)")
         if first.endswith("\r\n"):
             self.notes.append("CRLF line endings")
-        self.delimiter = delimiter or sniff_delimiter(first)
+        self.delimiter = delimiter or sep or sniff_delimiter(first)
         try:
             header = next(csv.reader([first], delimiter=self.delimiter))
         except csv.Error as exc:
