@@ -56,3 +56,24 @@ def test_causal_aided_ekf_distance_matches_the_ticks_over_stops():
     d = np.trapezoid(np.nan_to_num(np.asarray(t.speed)), t.t)
     assert abs(d / d_ticks - 1) < 0.06
     assert any("stops held 2 s" in n for n in t.notes)
+
+
+def test_search_range_from_zero_gets_the_stops_of_the_lowest_edge():
+    # omega_min = 0 is a valid grid range; the detector's 0 Hz high-pass failed with
+    # "highpass cut-off 0.0 Hz must lie in (0, 50) Hz", a parameter nobody set
+    from vibrospeed.estimators import get
+    from vibrospeed.signal import standstill as ss
+
+    rec = simulate("stop_and_go", seed=1, duration=25)
+    X = np.column_stack([rec[c] for c in ("ay", "ax", "az")])
+    dt = 1.0 / rec.fs
+    for causal in (False, True):
+        np.testing.assert_array_equal(ss.standstill(X, dt, (0.0, 90.0), causal=causal),
+                                      ss.standstill(X, dt, (ss.BAND_LO_MIN, 90.0),
+                                                    causal=causal))
+    assert ss.stream_plan(dt, (0.0, 90.0)).band == (ss.BAND_LO_MIN, 90.0)
+    t = get("grid").estimate(rec, params={"omega_min": 0, "omega_max": 30})
+    still = np.asarray(t.extras["standstill"]) > 0.5
+    stop = (rec.t > 17.0) & (rec.t < 19.0)  # inside the stop 16.4-19.4 s
+    assert still[stop].all() and not still[(rec.t > 6) & (rec.t < 14)].any()
+    assert np.all(np.asarray(t.omega)[still] == 0.0)

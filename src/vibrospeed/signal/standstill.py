@@ -63,10 +63,23 @@ FLOOR_Q = 0.01
 CAUSAL_DWELL_S = 1.5
 #: s, causal: frames seen before any decision (the floor needs a history)
 CAUSAL_WARMUP_S = 10.0
+#: rad/s, the band's lower edge where the search band starts at or below 0 (``omega_min = 0``,
+#: which the grid trackers and the paper's RBPMF accept): the broadband level's high-pass and
+#: the body-motion band need an edge above 0 Hz. The aided tracker's default edge
+#: (:data:`vibrospeed.estimators.aiding.BROADBAND_LO`).
+BAND_LO_MIN = 2.0
 #: log10-level histogram (causal): 1e-7 .. 1e3 in 0.02 decades
 _LOG_LO, _LOG_HI, _BINS = -7.0, 3.0, 500
 _WIDTH = (_LOG_HI - _LOG_LO) / _BINS
 _CENTRES = _LOG_LO + _WIDTH * (np.arange(_BINS) + 0.5)
+
+
+def _band(band: tuple[float, float]) -> tuple[float, float]:
+    """``band`` with a lower edge at or below 0 raised to :data:`BAND_LO_MIN` (at most half
+    the upper edge): a 0 Hz high-pass failed with an error naming a cut-off the user never
+    set."""
+    lo, hi = float(band[0]), float(band[1])
+    return (lo if lo > 0 else min(BAND_LO_MIN, 0.5 * hi)), hi
 
 
 def broadband_level(x: np.ndarray, dt: float, band: tuple[float, float], *,
@@ -226,6 +239,7 @@ def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *, causal: b
     first sees the motion.
     """
     x = np.asarray(x, dtype=np.float64)
+    band = _band(band)
     if x.ndim == 2:
         return np.logical_and.reduce([
             _standstill_axis(x[:, j], dt, band, causal=causal, frame_s=frame_s, hop_s=hop_s,
@@ -318,6 +332,7 @@ def stream_plan(dt: float, band: tuple[float, float]) -> StreamPlan:
     ``band`` (rad/s)."""
     from vibrospeed.signal import prefilter as pf
 
+    band = _band(band)
     fs = 1.0 / dt
     lo_hz = band[0] / (2 * np.pi)
     hp = pf.butter_sos("highpass", min(pf.RANGE_HP * lo_hz, 0.45 * fs), fs, 4)
