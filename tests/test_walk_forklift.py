@@ -77,3 +77,14 @@ def test_search_range_from_zero_gets_the_stops_of_the_lowest_edge():
     stop = (rec.t > 17.0) & (rec.t < 19.0)  # inside the stop 16.4-19.4 s
     assert still[stop].all() and not still[(rec.t > 6) & (rec.t < 14)].any()
     assert np.all(np.asarray(t.omega)[still] == 0.0)
+
+
+@pytest.mark.parametrize("rng", [{"omega_min": 30, "omega_max": 2}, {"omega_min": -1},
+                                 {"omega_min": float("nan")}])
+def test_aided_ekf_refuses_a_range_it_cannot_search(rng):
+    # omega_min 30 > omega_max 2 ran and reported 1 m of a 48 m drive; -1 and NaN were taken
+    from vibrospeed.errors import ParameterError
+
+    rec = simulate("stop_and_go", seed=1, duration=5)
+    with pytest.raises(ParameterError, match=r"needs 0 <= omega_min <= omega_max < inf"):
+        aided.estimate(rec, params={"tracker": "ekf", **rng})

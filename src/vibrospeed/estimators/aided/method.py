@@ -147,6 +147,13 @@ def estimate(
     defaults["dt"] = dt
     model = config_from_params(HarmonicModel, model_kw, **defaults)
     config = config_from_params(Config, cfg_kw, model=model, wheel_radius=float(r))
+    if om_min is not None and not (0 <= om_min < np.inf and (
+            config.omega_max is None or om_min <= config.omega_max)):
+        # a range upside down ran and reported a standing vehicle (omega_min 30, omega_max 2:
+        # 1 m of a 48 m drive); NaN, inf and negative were dropped without a word
+        top = "unset" if config.omega_max is None else f"{config.omega_max:g}"
+        raise ParameterError(f"aided (tracker=ekf) needs 0 <= omega_min <= omega_max < inf "
+                             f"rad/s, got [{om_min:g}, {top}]")
     src = recording.source or "recording"
     nyq_note = None
     if config.omega_max is not None and om_min is not None \
