@@ -229,3 +229,18 @@ def test_excel_sep_line_names_the_delimiter(tmp_path):
     rec = io.read(f)
     np.testing.assert_array_equal(rec["ax"], [1.5, 2.0])
     assert any("'sep=;'" in n for n in rec.notes)
+
+
+def test_windows_export_in_cp1252(tmp_path):
+    f, m = tmp_path / "win.csv", tmp_path / "map.toml"
+    f.write_bytes("Zeit;ax [m/s²]\r\n0;1,25\r\n0,01;-2\r\n".encode("cp1252"))
+    with pytest.raises(ReaderError, match=r"line 1: not UTF-8 text .*encoding = \"cp1252\""):
+        io.read(f, columns="t=Zeit")
+    m.write_text('delimiter = ";"\ndecimal = ","\nencoding = "cp1252"\n'
+                 '[columns]\nt = "Zeit"\nax = "ax [m/s²]"\n', encoding="utf-8")
+    rec = io.read(f, mapping_file=m)
+    np.testing.assert_array_equal(rec["ax"], [1.25, -2.0])
+    np.testing.assert_array_equal(ChunkedRecording(f, mapping_file=m).read()["ax"], rec["ax"])
+    m.write_text('encoding = "hex"\n[columns]\nt = "Zeit"\n')
+    with pytest.raises(ParameterError, match="unknown encoding 'hex'"):
+        io.read(f, mapping_file=m)

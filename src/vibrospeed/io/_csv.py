@@ -73,15 +73,15 @@ def is_gzip(path: str | os.PathLike[str]) -> bool:
 
 
 @contextlib.contextmanager
-def open_text(path: str | os.PathLike[str]) -> Iterator[TextIO]:
-    """Open a text file for :class:`CsvTable` (UTF-8, newlines untranslated); a gzip file is
-    decompressed on the fly, and a damaged or truncated one is a one-line :class:`ReaderError`
-    wherever in the file the damage is found."""
+def open_text(path: str | os.PathLike[str], encoding: str = "utf-8") -> Iterator[TextIO]:
+    """Open a text file for :class:`CsvTable` (UTF-8 unless told, newlines untranslated); a
+    gzip file is decompressed on the fly, and a damaged or truncated one is a one-line
+    :class:`ReaderError` wherever in the file the damage is found."""
     p = check_file(path)
     gz = is_gzip(p)
     try:
-        fh = gzip.open(p, "rt", encoding="utf-8", newline="") if gz \
-            else open(p, encoding="utf-8", newline="")
+        fh = gzip.open(p, "rt", encoding=encoding, newline="") if gz \
+            else open(p, encoding=encoding, newline="")
     except OSError as exc:
         raise ReaderError(p, f"cannot open ({exc.strerror})") from None
     with fh:
@@ -113,6 +113,17 @@ def excel_sep(line: str) -> str | None:
     return s[4] if len(s) == 5 and s[:4].lower() == "sep=" and s[4] not in "\"'" else None
 
 
+def _not_text(fh: TextIO, source: str, exc: UnicodeDecodeError) -> ReaderError:
+    """The error for bytes ``fh``'s encoding cannot decode, with its line; for UTF-8, how to
+    read a Windows / Excel export (cp1252, Latin-1)."""
+    enc = getattr(fh, "encoding", None) or "utf-8"
+    utf8 = enc.lower().replace("-", "").replace("_", "") in ("utf8", "utf8sig")
+    hint = (": a Windows or Excel export? save it as UTF-8, or read it through a --mapping "
+            "TOML file with encoding = \"cp1252\"" if utf8 else "")
+    return ReaderError(source, f"not {'UTF-8' if utf8 else enc} text ({exc.reason}){hint}",
+                       row=_undecodable_line(fh))
+
+
 def _undecodable_line(fh: TextIO) -> int | None:
     """1-based line of the first bytes of ``fh`` that are not UTF-8, read again from the start.
 
@@ -120,13 +131,14 @@ def _undecodable_line(fh: TextIO) -> int | None:
     being parsed when the error is raised is not the one that holds the bytes (it said line 0
     for a bad byte in the first block). ``None`` where the stream cannot be read again."""
     raw = getattr(fh, "buffer", None)
+    enc = getattr(fh, "encoding", None) or "utf-8"
     try:
         raw.seek(0)
     except (AttributeError, OSError, ValueError):
         return None
     for line, chunk in enumerate(iter(raw.readline, b""), start=1):
         try:
-            chunk.decode("utf-8")
+            chunk.decode(enc)
         except UnicodeDecodeError:
             return line
     return None
@@ -190,8 +202,7 @@ class CsvTable:
                 if not first or first.strip():
                     break
         except UnicodeDecodeError as exc:
-            raise ReaderError(source, f"not UTF-8 text ({exc.reason})",
-                              row=_undecodable_line(fh)) from None
+            raise _not_text(fh, source, exc) from None
         if not first.strip():
             raise ReaderError(source, "empty file (no header row)")
         if first.endswith("\r\n"):
@@ -225,8 +236,7 @@ class CsvTable:
                 if not line or line.strip():
                     break
         except UnicodeDecodeError as exc:
-            raise ReaderError(self.source, f"not UTF-8 text ({exc.reason})",
-                              row=_undecodable_line(self._fh)) from None
+            raise _not_text(self._fh, self.source, exc) from None
         if not line.strip() or '"' in line and line.count('"') % 2:
             return  # no row, or a quoted field running on over lines: no units row
         try:
@@ -315,9 +325,7 @@ class CsvTable:
                     self.source, f"malformed CSV ({exc})", row=base + reader.line_num
                 ) from None
             except UnicodeDecodeError as exc:
-                raise ReaderError(
-                    self.source, f"not UTF-8 text ({exc.reason})", row=_undecodable_line(self._fh)
-                ) from None
+                raise _not_text(self._fh, self.source, exc) from None
             if len(row) != ncols:
                 if not any(c.strip() for c in row):
                     blank += 1

@@ -212,7 +212,7 @@ class ChunkedRecording:
             self._srcs = list(dict.fromkeys(sp.column for sp in spec.values()))
             next(iter_columns(p, self._srcs, batch_rows=1), None)  # columns found and numeric
         else:
-            with open_text(p) as fh:
+            with open_text(p, opts.get("encoding", "utf-8")) as fh:
                 tab = CsvTable(fh, str(p), delimiter=opts.get("delimiter"),
                                decimal=opts.get("decimal", "."), unit_name=unit_name,
                                dates=date_columns(spec))
@@ -293,7 +293,7 @@ class ChunkedRecording:
                           for raw in iter_columns(p, self._srcs, batch_rows=self.chunk_rows)
                           if raw[self._srcs[0]].size)
             else:
-                fh = stack.enter_context(open_text(p))
+                fh = stack.enter_context(open_text(p, self._opts.get("encoding", "utf-8")))
                 tab = CsvTable(fh, str(p), delimiter=self._opts.get("delimiter"),
                                decimal=self._opts.get("decimal", "."), unit_name=unit_name,
                                dates=self._dates)

@@ -13,6 +13,7 @@ or in a small TOML file (:func:`load_mapping`)::
     rate = 198.4          # Hz; only for files without a time column: t = i / rate
     delimiter = ","       # optional; sniffed from the header otherwise
     decimal = "."         # optional decimal mark
+    encoding = "utf-8"    # optional text encoding (e.g. "cp1252" for a Windows Excel export)
     [columns]
     ay = "acc_y"                                        # plain column, already SI
     t  = { column = "time", unit = "ms" }
@@ -25,6 +26,8 @@ harm).
 
 from __future__ import annotations
 
+import codecs
+import io
 import math
 import os
 import tomllib
@@ -253,7 +256,7 @@ def declared_units(spec: dict[str, ColumnSpec], units_row: dict[str, str],
 
 def load_mapping(path: str | os.PathLike[str]) -> tuple[dict[str, ColumnSpec], dict[str, Any]]:
     """Read a TOML mapping file; returns ``(columns, options)`` with options among ``rate``,
-    ``delimiter``, ``decimal``."""
+    ``delimiter``, ``decimal``, ``encoding``."""
     p = Path(path)
     if not p.is_file():
         raise ReaderError(p, "mapping file not found")
@@ -283,7 +286,7 @@ def load_mapping(path: str | os.PathLike[str]) -> tuple[dict[str, ColumnSpec], d
             None if unit is None else _check_unit(str(unit), where),
         )
     opts = {}
-    unknown = set(doc) - {"columns", "rate", "delimiter", "decimal"}
+    unknown = set(doc) - {"columns", "rate", "delimiter", "decimal", "encoding"}
     if unknown:
         raise ParameterError(f"{p}: unknown key(s) {', '.join(sorted(unknown))}")
     if "rate" in doc:
@@ -293,6 +296,14 @@ def load_mapping(path: str | os.PathLike[str]) -> tuple[dict[str, ColumnSpec], d
             if not isinstance(doc[k], str) or len(doc[k]) != 1:
                 raise ParameterError(f"{p}: {k} must be one character")
             opts[k] = doc[k]
+    if "encoding" in doc:
+        try:
+            codecs.lookup(str(doc["encoding"]))
+            io.TextIOWrapper(io.BytesIO(), encoding=str(doc["encoding"]))  # a text encoding
+        except LookupError:
+            raise ParameterError(f"{p}: unknown encoding '{doc['encoding']}' (e.g. utf-8, "
+                                 "cp1252, latin-1)") from None
+        opts["encoding"] = str(doc["encoding"])
     return out, opts
 
 
@@ -347,7 +358,7 @@ def read_mapped(
             raise ReaderError(p, "no data rows")
         notes = unit_notes
     else:
-        with open_text(p) as fh:
+        with open_text(p, opts.get("encoding", "utf-8")) as fh:
             tab = CsvTable(
                 fh, str(p), delimiter=opts.get("delimiter"), decimal=opts.get("decimal", "."),
                 unit_name=unit_name, dates=date_columns(spec),
