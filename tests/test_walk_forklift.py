@@ -88,3 +88,31 @@ def test_aided_ekf_refuses_a_range_it_cannot_search(rng):
     rec = simulate("stop_and_go", seed=1, duration=5)
     with pytest.raises(ParameterError, match=r"needs 0 <= omega_min <= omega_max < inf"):
         aided.estimate(rec, params={"tracker": "ekf", **rng})
+
+
+def test_aided_ekf_step_equals_run_with_stops_comb_and_gain():
+    # the inputs the default EKF path feeds (broadband stops, comb candidates, a running
+    # gain), which the thesis-test step == run check does not pass
+    from vibrospeed.estimators.aided import Config, init, run, step
+
+    rng = np.random.default_rng(4)
+    n = 600
+    t = np.arange(n) * 0.01
+    w = np.where(t < 2.0, 0.0, np.minimum(4.0 * (t - 2.0), 10.0))  # stand, push, cruise
+    th = np.cumsum(w) * 0.01
+    y = np.where(w > 0, 0.2 * np.cos(th) + 0.1 * np.cos(2 * th), 0.0) + rng.normal(0, 0.005, n)
+    u = np.gradient(w * 0.08, 0.01) + 0.05 + rng.normal(0, 0.01, n)
+    still = (t < 1.8).astype(float)
+    comb = np.full(n, np.nan)
+    comb[400::25] = 9.0  # candidates that disagree with omega: fixes after two in a row
+    gain = 1.0 + 0.5 * np.sin(t)
+    cfg = Config(standstill="broadband")
+    res = run(cfg, y, u, gain=gain, still=still, comb=comb)
+    st = init(cfg)
+    for k in range(n):
+        st, est = step(cfg, st, y[k], u[k], gain=gain[k], still=still[k], comb=comb[k])
+        assert (est.omega, est.omega_std, est.standstill) == \
+            (res.omega[k], res.omega_std[k], float(res.standstill[k]))
+    np.testing.assert_array_equal(st.x, res.final.x)
+    assert res.standstill[:180].all() and not res.standstill[200:].any()
+    assert np.all(res.omega[:180] < 0.1)
