@@ -1,6 +1,8 @@
 """Walkthrough of the algebraic Vx / Vy estimator as a tyre / ABS tester: parameter domains,
 the thesis' low-pass table, a motor-speed "wheel" on an RC car."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy import signal as sps
@@ -8,6 +10,8 @@ from scipy import signal as sps
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import algebraic as A
 from vibrospeed.signal import prefilter as pf
+from vibrospeed.sim import vehicle as sim
+from vibrospeed.types import WHEEL_CHANNELS, Recording
 
 
 # -- parameter domains ------------------------------------------------------------------------
@@ -55,3 +59,53 @@ def test_thesis_lowpass_table_is_table_3_1():
         lp = pf.design("thesis-hplp", 100.0, M=M)[-1:]
         _, h = sps.sosfreqz(lp, worN=[wc], fs=2 * np.pi * 100.0)
         assert abs(h[0]) == pytest.approx(1 / np.sqrt(2), rel=0.02)
+
+
+# -- a slip episode longer than any tyre slips -------------------------------------------------
+F1TENTH_DS1 = Path(__file__).resolve().parents[2] / "shared/datasets/f1tenth_frictionmaps/DS1"
+
+
+def _noisy_rc_car(n=1500, dt=1 / 30, sd=4.0, seed=0):
+    """A tiny car at a steady 2 m/s (r = 0.05 m) with a vibrating accelerometer (sd 4 m/s^2):
+    the F1/10 case in 50 s."""
+    rng = np.random.default_rng(seed)
+    t = dt * np.arange(n)
+    w = np.full(n, 2.0 / 0.05)
+    ch = {"gz": np.zeros(n), "ax": sd * rng.standard_normal(n), "ay": sd * rng.standard_normal(n),
+          **{c: w for c in WHEEL_CHANNELS}}
+    return Recording(t, ch, wheel_radius=0.05, meta={"L1": 0.16})
+
+
+def test_long_slip_episode_is_noted_and_max_int_bounds_it():
+    rec = _noisy_rc_car()
+    tr = A.estimate(rec)
+    slip = tr.extras["slip_mode"]
+    assert slip.mean() > 0.9  # the noise alone keeps the wheels "slipping"
+    note = [n for n in tr.notes if "slip episode" in n]
+    assert len(note) == 1 and "-p max_int=0.5 -p eps_k=3" in note[0]
+    err = np.sqrt(np.mean((tr.speed - 2.0) ** 2))
+    capped = A.estimate(rec, params={"max_int": 0.5, "eps_k": 3})
+    assert not [n for n in capped.notes if "slip episode" in n]
+    assert np.sqrt(np.mean((capped.speed - 2.0) ** 2)) < min(0.5, err / 3)
+
+
+def test_simulated_braking_gets_no_slip_note():
+    rec = sim.simulate(sim.Config(mu=0.5), np.random.default_rng(0), name="braking")
+    tr = A.estimate(rec)
+    assert 0.3 < tr.extras["slip_mode"].mean()  # it does slip, in episodes of seconds
+    assert not [n for n in tr.notes if "slip episode" in n]
+
+
+@pytest.mark.skipif(not F1TENTH_DS1.is_dir(), reason="../shared/datasets not present")
+def test_f1tenth_ds1_the_minus_28_ms_is_one_39_s_slip_episode():
+    from vibrospeed import io
+
+    rec = io.read(F1TENTH_DS1)
+    tr = A.estimate(rec)
+    assert tr.speed.min() == pytest.approx(-28.6, abs=0.1)
+    assert tr.extras["slip_mode"].mean() > 0.97
+    assert any("one slip episode lasted 39" in n for n in tr.notes)
+    capped = A.estimate(rec, params={"max_int": 0.5, "eps_k": 3})
+    ok = np.isfinite(rec["speed_true"])
+    rmse = np.sqrt(np.mean((capped.speed[ok] - rec["speed_true"][ok]) ** 2))
+    assert rmse == pytest.approx(0.88, abs=0.02)

@@ -15,6 +15,33 @@ from vibrospeed.estimators.algebraic.filter import run
 from vibrospeed.estimators.common import check_time
 from vibrospeed.types import WHEEL_CHANNELS, Recording, Track, check_wheel_radius
 
+#: s, a slip episode longer than this gets a note: no tyre slips that long (a stop from 35 m/s
+#: at 0.3 g takes 12 s); the longest in 200 drives of the simulated family is 8.4 s, on the
+#: F1/10 RC car's five runs 39-115 s (docs/algebraic.md, Limits)
+SLIP_NOTE_S = 20.0
+
+
+def _longest_slip(slip: np.ndarray, t: np.ndarray) -> float:
+    """s, the longest run of samples in slip mode."""
+    on = np.nan_to_num(slip) > 0.5
+    d = np.diff(np.concatenate([[0], on.astype(np.int8), [0]]))
+    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1
+    return float(np.max(t[ends] - t[starts])) if starts.size else 0.0
+
+
+def _slip_note(longest: float, out: np.ndarray, cfg: Config) -> str:
+    """The note for a drive integrated for longer than any tyre slips: where the filtered
+    accelerometer noise moves the dead-reckoned speed by more than ``slip_tol`` in a
+    ``slip_window`` (the F1/10 RC car: sd 3.7 m/s^2 after the 0.1 s filter, 98-100 % of its
+    samples in slip mode, Vx off by 9-143 m/s RMSE), the wheels are never trusted again and
+    Vx is the integral of that noise; ``max_int`` caps each episode."""
+    slip = np.nan_to_num(out[:, OUTPUTS.index("slip_mode")]) > 0.5
+    sd = float(np.nanstd(out[:, OUTPUTS.index("ax")]))
+    return (f"algebraic: one slip episode lasted {longest:.3g} s ({slip.mean():.0%} of the "
+            f"samples in slip mode; filtered a_x sd {sd:.2g} m/s^2 against slip_tol "
+            f"{cfg.slip_tol:g} m/s in {cfg.slip_window:g} s): Vx is integrated acceleration "
+            "and may drift far; on noisy sensors cap the episodes: -p max_int=0.5 -p eps_k=3")
+
 
 def _uniform_grid(recording: Recording) -> tuple[np.ndarray, bool]:
     t = recording.t
@@ -80,6 +107,9 @@ def estimate(
     _, out = run(cfg, np.stack(cols, axis=1))
     notes = [f"algebraic: r = {cfg.r:g} m, L1 = {cfg.L1:g} m, Ts = {dt * 1e3:.4g} ms, windows "
              f"{cfg.window:g} / {cfg.window_d:g} s, N = {cfg.N}"]
+    longest = _longest_slip(out[:, OUTPUTS.index("slip_mode")], tg)
+    if longest > SLIP_NOTE_S and not np.isfinite(cfg.max_int):
+        notes.append(_slip_note(longest, out, cfg))
     if resampled:
         notes.append(f"non-uniform time line resampled to {dt * 1e3:.4g} ms and back (linear)")
         out = np.stack([_interp_finite(recording.t, tg, out[:, j]) for j in range(out.shape[1])],
