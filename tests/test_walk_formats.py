@@ -244,3 +244,16 @@ def test_windows_export_in_cp1252(tmp_path):
     m.write_text('encoding = "hex"\n[columns]\nt = "Zeit"\n')
     with pytest.raises(ParameterError, match="unknown encoding 'hex'"):
         io.read(f, mapping_file=m)
+
+
+def test_excel_unicode_text_and_binary_files_are_named_as_such(tmp_path):
+    f, m = tmp_path / "u16.txt", tmp_path / "map.toml"
+    f.write_bytes("Zeit\tax\r\n0\t1,5\r\n0,01\t-2\r\n".encode("utf-16"))  # with its BOM
+    with pytest.raises(ReaderError, match=r"UTF-16 text .*encoding = \"utf-16\""):
+        io.read(f, columns="t=Zeit,ax=ax")
+    m.write_text('decimal = ","\nencoding = "utf-16"\n[columns]\nt = "Zeit"\nax = "ax"\n')
+    np.testing.assert_array_equal(io.read(f, mapping_file=m)["ax"], [1.5, -2.0])
+    b = tmp_path / "x.csv"
+    b.write_bytes(b"PAR1" + bytes(range(256)) * 4)  # NUL and bytes no text decodes
+    with pytest.raises(ReaderError, match=r"x.csv: a binary file, not CSV text"):
+        io.read(b, "csv")

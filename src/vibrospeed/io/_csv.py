@@ -117,6 +117,17 @@ def _not_text(fh: TextIO, source: str, exc: UnicodeDecodeError) -> ReaderError:
     """The error for bytes ``fh``'s encoding cannot decode, with its line; for UTF-8, how to
     read a Windows / Excel export (cp1252, Latin-1)."""
     enc = getattr(fh, "encoding", None) or "utf-8"
+    head = b""
+    with contextlib.suppress(AttributeError, OSError, ValueError):
+        fh.buffer.seek(0)
+        head = fh.buffer.read(4096)
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        return ReaderError(source, "UTF-16 text (Excel's 'Unicode Text' export): save it as "
+                                   "UTF-8, or read it through a --mapping TOML file with "
+                                   "encoding = \"utf-16\"")
+    if b"\0" in head:  # no text encoding writes NUL bytes in a CSV: Parquet, zip, MP4, ...
+        return ReaderError(source, "a binary file, not CSV text: give its --format, or none "
+                                   "to detect it")
     utf8 = enc.lower().replace("-", "").replace("_", "") in ("utf8", "utf8sig")
     hint = (": a Windows or Excel export? save it as UTF-8, or read it through a --mapping "
             "TOML file with encoding = \"cp1252\"" if utf8 else "")
