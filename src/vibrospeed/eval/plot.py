@@ -10,6 +10,7 @@ stretches without an estimate (NaN) are shaded, so none of them reads as a measu
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import matplotlib
 
@@ -33,6 +34,24 @@ LONG_LOG_S = 1800.0
 
 #: z-order: GPS fixes under the band's edge lines, the estimate over them, the truth on top
 _Z_GPS, _Z_EST, _Z_TRUTH = 1.5, 2.5, 3.0
+
+
+class Spectrum(NamedTuple):
+    """A spectrogram computed elsewhere, drawn by :func:`track_figure` in place of its own: the
+    streamed estimate's (:class:`vibrospeed.estimators.grid.stream.StreamPlot`, built block by
+    block in bounded memory), so a long log's figure is this module's figure."""
+
+    t: np.ndarray  #: (frames,) s, centre of each window
+    omega: np.ndarray  #: (bins,) rad/s
+    power: np.ndarray  #: (bins, frames) power density
+    label: str  #: what the panel's y label says of it, e.g. "STFT 3 s, every 0.75 s"
+
+
+def spectrogram_top(fs: float, harmonics: int, top: float | None) -> float:
+    """The spectrogram's height in rad/s: 1.2 ``harmonics`` times the band's highest edge
+    ``top`` (60 rad/s where there is none), at least 30 rad/s, at most Nyquist."""
+    top = top if top is not None and np.isfinite(top) else 60.0
+    return float(min(np.pi * fs, max(30.0, 1.2 * harmonics * top)))
 
 
 def check_drawable(track: Track | None, name: str = "estimate") -> None:
@@ -120,15 +139,18 @@ def plot_gps(ax, recording: Recording, track: Track | None, scale: float, label:
 
 
 def _spectrogram_panel(ax, recording: Recording, axis: str, window_s: float,
-                       omega_max: float) -> None:
-    w = stft_window(recording, window_s)
-    sg = spectrogram(recording.channel(axis), recording.fs, window_s=w, t0=recording.t[0],
-                     omega_max=omega_max)
-    db = 10 * np.log10(sg.power + 1e-20)
+                       omega_max: float, spectrum: Spectrum | None = None) -> None:
+    if spectrum is None:
+        w = stft_window(recording, window_s)
+        sg = spectrogram(recording.channel(axis), recording.fs, window_s=w, t0=recording.t[0],
+                         omega_max=omega_max)
+        spectrum = Spectrum(sg.t, sg.omega, sg.power, f"STFT {w:.3g} s")
+    keep = np.asarray(spectrum.omega) <= omega_max
+    db = 10 * np.log10(np.asarray(spectrum.power)[keep] + 1e-20)
     vmax = np.percentile(db, 99.5)
-    ax.pcolormesh(sg.t, sg.omega, db, shading="auto", cmap="magma", vmin=vmax - 45, vmax=vmax,
-                  rasterized=True)
-    ax.set_ylabel(f"{axis}: omega [rad/s]\n(STFT {w:.3g} s, 45 dB)")
+    ax.pcolormesh(spectrum.t, np.asarray(spectrum.omega)[keep], db, shading="auto",
+                  cmap="magma", vmin=vmax - 45, vmax=vmax, rasterized=True)
+    ax.set_ylabel(f"{axis}: omega [rad/s]\n({spectrum.label}, 45 dB)")
     ax.set_ylim(0, omega_max)
 
 
@@ -153,8 +175,10 @@ def track_figure(
     title: str | None = None,
     posterior: np.ndarray | None = None,
     grid: np.ndarray | None = None,
+    spectrum: Spectrum | None = None,
 ):
-    """The figure of :func:`plot_track` (not written; the caller closes it)."""
+    """The figure of :func:`plot_track` (not written; the caller closes it); ``spectrum``: a
+    spectrogram computed elsewhere (a streamed log's) drawn instead of the recording's."""
     check_drawable(track)
     speed_only = (track is not None and not np.isfinite(track.omega).any()
                   and np.isfinite(track.speed).any())
@@ -162,18 +186,18 @@ def track_figure(
         # GPS fusion / algebraic without a wheel radius, or fuse (speed coloured by its
         # source): lower panel in m/s
         return _speed_figure(recording, track, axis=axis, truth=truth, window_s=window_s,
-                             title=title)
+                             title=title, spectrum=spectrum)
     if track is not None and isinstance(track.params.get("M"), int):
         harmonics = track.params["M"]
     drawn = 1 if recording.duration > LONG_LOG_S else harmonics
     fs = recording.fs
     if omega_max is None:
         have = track is not None and np.isfinite(track.omega_hi).any()
-        top = np.nanmax(track.omega_hi) if have else 60.0
-        omega_max = float(min(np.pi * fs, max(30.0, 1.2 * harmonics * top)))
+        omega_max = spectrogram_top(fs, harmonics,
+                                    float(np.nanmax(track.omega_hi)) if have else None)
     fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(12.5, 7), sharex=True,
                                    gridspec_kw={"height_ratios": [3, 2]})
-    _spectrogram_panel(ax0, recording, axis, window_s, omega_max)
+    _spectrogram_panel(ax0, recording, axis, window_s, omega_max, spectrum)
     t_truth, om_truth = _truth_omega(recording, truth, track)
     if track is not None and posterior is not None and grid is not None:
         post = np.asarray(posterior, dtype=np.float64)
@@ -257,7 +281,7 @@ SOURCE_COLOURS = {0: ("inertial", "tab:red"), 1: ("gps", "tab:blue"),
 
 
 def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recording | None,
-                  window_s: float, title: str | None):
+                  window_s: float, title: str | None, spectrum: Spectrum | None = None):
     """Spectrogram of ``axis`` (with omega where the track has it) over a speed panel (m/s):
     estimate, band, truth, GPS fixes."""
     fs = recording.fs
@@ -266,7 +290,7 @@ def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recor
     omega_max = float(min(np.pi * fs, max(300.0, 1.5 * top)))
     fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(12.5, 7), sharex=True,
                                    gridspec_kw={"height_ratios": [2, 3]})
-    _spectrogram_panel(ax0, recording, axis, window_s, omega_max)
+    _spectrogram_panel(ax0, recording, axis, window_s, omega_max, spectrum)
     if have_omega:  # fuse: its speed / learned radius over the wheel line
         ax0.plot(track.t, track.omega, color="cyan", lw=0.8, alpha=0.9, zorder=_Z_EST,
                  path_effects=_OUTLINE,

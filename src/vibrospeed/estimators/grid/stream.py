@@ -272,7 +272,7 @@ class StreamPlot:
     def __init__(self, rec, channel: str, n: int, window_s: float = 3.0, batch: int = 256):
         from vibrospeed.signal.dsp import get_window
 
-        self.channel, self.source = channel, rec.source
+        self.channel, self.source, self.rec = channel, rec.source, rec  # rec: kept by the caller
         x = rec.channel(channel)
         fs = 1.0 / rec.dt
         nper = int(max(1, min(x.size, max(16, round(window_s * fs)))))
@@ -294,6 +294,7 @@ class StreamPlot:
         self.t = rec.t[0] + (starts + nper / 2) / fs
         self.omega = 2 * np.pi * np.fft.rfftfreq(nper, 1.0 / fs)
         self.hop_s = hop / fs
+        self.window_s = nper / fs
         self.fs = fs
         self.k = max(1, -(-n // PLOT_POINTS))
         self._done = 0
@@ -306,9 +307,11 @@ class StreamPlot:
         first = (-self._done) % self.k
         sel = slice(first, m, self.k)
         sig = track.extras.get("has_signal")
+        still = track.extras.get("standstill")
         self._parts.append(tuple(np.array(v[sel], dtype=np.float64) for v in (
             track.t, track.omega, track.omega_lo, track.omega_hi,
-            sig if sig is not None else np.ones(m))))
+            sig if sig is not None else np.ones(m),
+            still if still is not None else np.full(m, np.nan))))
         hi = np.asarray(track.omega_hi)
         if np.isfinite(hi).any():
             self.top = max(self.top, float(np.nanmax(hi)))
@@ -316,55 +319,27 @@ class StreamPlot:
 
     def draw(self, path, *, level: float, method: str, M: int,
              wheel_radius: float | None) -> None:
-        """The figure: spectrogram with the estimate's harmonics over it; below, the estimate
-        and its band (dimmed where the tracker sees no line); written atomically."""
-        import matplotlib
+        """The figure of :func:`vibrospeed.eval.plot.track_figure` (the whole-log plot's: legends
+        beside the axes, standstills and NaN stretches shaded, GPS under the estimate where the
+        recording has it) from the kept samples and this spectrogram; written atomically."""
+        from vibrospeed.eval.plot import Spectrum, plot_track, spectrogram_top
+        from vibrospeed.types import Track
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        from vibrospeed.io.atomic import atomic_path
-
-        t, om, lo, hi, sig = (np.concatenate([p[i] for p in self._parts]) if self._parts
-                              else np.empty(0) for i in range(5))
-        top = self.top if np.isfinite(self.top) else 60.0
-        omega_max = float(min(np.pi * self.fs, max(30.0, 1.2 * M * top)))
-        keep = self.omega <= omega_max
-        fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(11, 7), sharex=True,
-                                       gridspec_kw={"height_ratios": [3, 2]})
-        db = 10 * np.log10(self.power[keep] + 1e-20)
-        vmax = np.percentile(db, 99.5)
-        ax0.pcolormesh(self.t, self.omega[keep], db, shading="auto", cmap="magma",
-                       vmin=vmax - 45, vmax=vmax)
-        ax0.set_ylabel(f"{self.channel}: omega [rad/s]")
-        ax0.set_ylim(0, omega_max)
-        on = sig > 0.5
-        for m in range(1, M + 1):
-            ax0.plot(t, m * np.where(on, om, np.nan), color="cyan", lw=0.8, alpha=0.9,
-                     label="estimate x m" if m == 1 else None)
-        ax1.fill_between(t, lo, hi, color="tab:blue", alpha=0.25, lw=0,
-                         label=f"{level:.0%} band")
-        ax1.plot(t, np.where(on, np.nan, om), color="tab:blue", lw=0.6, alpha=0.35,
-                 label="estimate, no line seen")
-        ax1.plot(t, np.where(on, om, np.nan), color="tab:blue", lw=1.0,
-                 label=f"estimate ({method})")
-        ax0.legend(loc="upper right", fontsize=8)
-        ax1.set_ylabel("omega [rad/s]")
-        ax1.set_xlabel("t [s]")
-        ax1.legend(loc="upper right", fontsize=8)
-        ax1.grid(alpha=0.3)
-        if wheel_radius:
-            r = wheel_radius
-            sec = ax1.secondary_yaxis("right", functions=(lambda w: w * r, lambda v: v / r))
-            sec.set_ylabel("speed [m/s]")
-        ax0.set_title(f"{self.source or 'recording'} (streamed: spectrogram every "
-                      f"{self.hop_s:.3g} s, estimate every {self.k} samples)")
-        fig.tight_layout()
-        out = Path(path)
-        with atomic_path(out) as tmp:
-            fig.savefig(tmp, dpi=110, format=out.suffix.lstrip(".") or "png",
-                        bbox_inches="tight")
-        plt.close(fig)
+        t, om, lo, hi, sig, still = (np.concatenate([p[i] for p in self._parts])
+                                     if self._parts else np.empty(0) for i in range(6))
+        extras = {"has_signal": sig}
+        if np.isfinite(still).any():  # the blocks flag standstills
+            extras["standstill"] = np.nan_to_num(still)
+        track = Track.from_omega(t, om, np.full(t.size, np.nan), lo=lo, hi=hi, level=level,
+                                 wheel_radius=wheel_radius, method=method, params={"M": M},
+                                 extras=extras)
+        spectrum = Spectrum(self.t, self.omega, self.power, f"STFT {self.window_s:.3g} s every "
+                            f"{self.hop_s:.3g} s")
+        plot_track(path, self.rec, track, axis=self.channel, spectrum=spectrum,
+                   omega_max=spectrogram_top(self.fs, M, self.top if np.isfinite(self.top)
+                                             else None),
+                   title=f"{self.source or 'recording'} (streamed: spectrogram every "
+                         f"{self.hop_s:.3g} s, estimate every {self.k} samples)")
 
 
 class _Bar:
