@@ -103,7 +103,42 @@ def run(
         from vibrospeed.eval.report import write_index
 
         write_index(out / "index.html", df, title=f"vibrospeed batch: {len(df)} recordings")
+    else:
+        gone = remove_stale_pages(
+            out, [j for j in jobs_list if rows[j["output"]]["status"] == "ok"], tag)
+        if gone:  # a page that vanishes unannounced reads as a bug
+            print(f"note: removed {len(gone)} page(s) of an earlier run with --report that "
+                  f"showed replaced estimates ({', '.join(p.name for p in gone[:3])}"
+                  f"{', ...' if len(gone) > 3 else ''}); --report writes them again",
+                  file=sys.stderr)
     return df
+
+
+#: the start of the title :func:`run` gives ``index.html``: a page with it is a batch's own
+INDEX_TITLE = "<title>vibrospeed batch"
+
+
+def remove_stale_pages(out: Path, estimated: list[dict[str, Any]], tag: str) -> list[Path]:
+    """Without ``--report``: remove an earlier run's ``index.html`` (its table is the old
+    summary, now contradicting ``summary.csv``) and the report page of every recording
+    estimated again (it shows the replaced estimate). Pages of skipped recordings still match
+    their estimate and stay; an ``index.html`` that is not a batch's own is left alone.
+    Returns the removed paths."""
+    removed = []
+    index = out / "index.html"
+    try:
+        ours = INDEX_TITLE in index.read_text(encoding="utf-8", errors="replace")[:4096]
+    except OSError:
+        ours = False
+    pages = [Path(j["output"][: -len(".csv")] + ".html") for j in estimated
+             if j["output"].endswith(f"_{tag}.csv")]
+    for p in ([index] if ours else []) + pages:
+        try:
+            p.unlink()
+        except FileNotFoundError:
+            continue
+        removed.append(p)
+    return removed
 
 
 def write_summary(df, outdir: Path) -> list[Path]:

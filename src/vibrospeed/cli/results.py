@@ -20,7 +20,6 @@ from vibrospeed.cli.options import (
     FormatOpt,
     InputArg,
     MappingOpt,
-    MethodOpt,
     ParamOpt,
     PresetOpt,
     RadiusOpt,
@@ -29,6 +28,12 @@ from vibrospeed.cli.options import (
     at_least,
 )
 from vibrospeed.errors import ParameterError
+
+#: ``--truth-channel`` of ``evaluate`` and ``report``: one option, so both name and explain it alike
+TruthChannelOpt = Annotated[str | None, typer.Option(
+    help="the truth file's channel to compare with: omega_true or speed_true (default: "
+         "whichever it has), or a speed in m/s such as gps_speed (a phone drive against "
+         "its own GPS; no truth between fixes more than 2 s apart)")]
 
 
 @_friendly
@@ -40,7 +45,10 @@ def report(
                             "with --method and -p")] = None,
     truth: Annotated[Path | None, typer.Option(help="truth recording (default: the input's "
                      "omega_true / speed_true if any)")] = None,
-    method: MethodOpt = "grid",
+    truth_channel: TruthChannelOpt = None,
+    method: Annotated[str | None, typer.Option("--method", "-m", help="estimator without "
+                      "--estimate (see `vibrospeed methods`); default as `estimate`: fuse "
+                      "where the recording has GPS speed and ax, else grid")] = None,
     axis: AxisOpt = None,
     wheel_radius: RadiusOpt = None,
     preset: PresetOpt = None,
@@ -61,6 +69,8 @@ def report(
       vibrospeed report drive.csv --estimate est.csv -o drive.html
 
       vibrospeed report drive.csv -p omega_min=2 -p omega_max=30 -o drive.html
+
+      vibrospeed report phone_drive --truth-channel gps_speed -o phone.html
     """
     import tempfile
 
@@ -71,12 +81,15 @@ def report(
     _check_output(output)
     if estimate_csv is not None:
         given = [flag for flag, v in (("-p", param), ("--preset", preset),
-                                      ("--wheel-radius", wheel_radius)) if v]
+                                      ("--wheel-radius", wheel_radius), ("--method", method))
+                 if v]
         if given:  # they make an estimate; one given would silently do nothing
             raise ParameterError(f"{', '.join(given)} with --estimate: they set how the "
                                  "recording is estimated, and --estimate gives the estimate; "
                                  "leave out one or the other")
     ref = io.read(truth) if truth else None
+    if ref is not None and truth_channel is not None:
+        ref.require(truth_channel)  # before estimating: a typo is an error in a second
     if estimate_csv is not None:
         rec = _load(input, fmt, columns, mapping, rate, sort)
         track = io.read_track(estimate_csv)
@@ -86,18 +99,42 @@ def report(
         used_axis = axis or meta.get("axis")
         grids: dict = {}
     else:
+        method, read = _report_method(input, method, preset, param, fmt, columns, mapping, rate,
+                                      sort)
         opts = vb.EstimateOptions(method=method, params=_params(method, preset, param),
                                   axis=axis,
                                   wheel_radius=wheel_radius, fmt=fmt, columns=columns,
                                   mapping=mapping, rate=rate, sort=sort)
         with tempfile.TemporaryDirectory(prefix="vibrospeed-") as d:
             est = vb.estimate_recording(input, Path(d) / "estimate.csv", opts,
-                                        keep_posterior=True, progress=sys.stderr.isatty())
+                                        keep_posterior=True, progress=sys.stderr.isatty(),
+                                        recording=read)
         rec, track, used_axis, grids = est.recording, est.track, est.axis, est.grids
     write_report(output, rec, track, axis=vb.vibration_channel(rec, used_axis), truth=ref,
+                 truth_channel=truth_channel,
                  posterior=grids.get("posterior"), grid=grids.get("grid"),
                  title=input.name or str(input), input_path=input, estimate_path=estimate_csv)
     err.print(f"wrote {output}", markup=False, soft_wrap=True)  # a path is text, not markup
+
+
+def _report_method(input: Path, method: str | None, preset, param, fmt, columns, mapping, rate,
+                   sort):
+    """The method ``report`` estimates with: ``method`` where given, else the one ``vibrospeed
+    estimate`` would choose (fuse with GPS speed, it says so; else grid), so the page shows
+    the estimate the user gets from ``estimate``. Above the streaming threshold ``estimate``
+    runs grid in blocks, so the page does too, and a note says why. Returns the method and the
+    recording where choosing read it (else None)."""
+    if method is not None:
+        return method, None
+    from vibrospeed.cli.estimate import _default_method
+
+    chosen, rec, streamed = _default_method(
+        input, radius_from=None, preset=preset, param=param, grid_only=False, plot=False,
+        fmt=fmt, columns=columns, mapping=mapping, rate=rate, sort=sort, topic=None)
+    if streamed and streamed[1]:  # GPS speed on a long log: estimate keeps grid there
+        err.print(f"note: method {chosen}, as `vibrospeed estimate` for this log: "
+                  + "; ".join(streamed[1]), markup=False, soft_wrap=True)
+    return chosen, rec
 
 
 def _sidecar(estimate_csv: Path) -> dict:
@@ -132,10 +169,7 @@ def evaluate(
     estimate_csv: Annotated[Path, typer.Argument(help="estimate written by `estimate`")],
     truth: Annotated[Path, typer.Option(help="recording with omega_true or speed_true")],
     truth_format: Annotated[str, typer.Option(help="format of the truth file")] = "auto",
-    truth_channel: Annotated[str | None, typer.Option(
-        help="the truth file's channel to compare with: omega_true or speed_true (default: "
-             "whichever it has), or a speed in m/s such as gps_speed (a phone drive against "
-             "its own GPS; no truth between fixes more than 2 s apart)")] = None,
+    truth_channel: TruthChannelOpt = None,
     min_omega: Annotated[float, typer.Option(help="truth below this (rad/s) = standing, "
                          "excluded (speeds compared in m/s, an estimate or truth without a "
                          "wheel radius: below 0.3 m/s)",

@@ -146,21 +146,28 @@ def _table(rows: Sequence[tuple[str, str]]) -> str:
     return f"<table>{body}</table>"
 
 
-def _truth_rows(track: Track, rec: Recording, truth: Recording | None) -> list[tuple[str, str]]:
+def _truth_rows(track: Track, rec: Recording, truth: Recording | None,
+                truth_channel: str | None = None) -> list[tuple[str, str]]:
+    """The summary's rows against the truth (``truth``, else the recording): ``truth_channel``
+    as ``vibrospeed evaluate --truth-channel`` (``gps_speed``: the drive against its own GPS);
+    a channel asked for and missing is the caller's one-line error, any other failure a row."""
     ref = truth if truth is not None else rec
-    if not ({"omega_true", "speed_true"} & set(ref.channels)):
+    if truth_channel is not None:
+        ref.require(truth_channel)  # asked for: missing or all NaN is an error, not a row
+    elif not ({"omega_true", "speed_true"} & set(ref.channels)):
         return []
     from vibrospeed.eval.metrics import evaluate
 
     try:
-        m = evaluate(track, ref)
+        m = evaluate(track, ref, truth_channel=truth_channel)
     except Exception as exc:  # noqa: BLE001 - the comparison is a bonus, never a reason to fail
         return [("against the truth", f"not compared: {exc}")]
     if m.n == 0:  # a row of dashes would read as a missing number, not as no overlap
         return [("against the truth", f"not compared: no moving truth sample ({ref.t[0]:g}-"
                  f"{ref.t[-1]:g} s) where the estimate ({track.t[0]:g}-{track.t[-1]:g} s) "
                  "has a value")]
-    rows = [("RMSE against the truth", _num(m.rmse, ".3f", m.unit)),
+    rows = [("truth channel", truth_channel)] if truth_channel else []
+    rows += [("RMSE against the truth", _num(m.rmse, ".3f", m.unit)),
             ("bias against the truth", _num(m.bias, "+.3f", m.unit)),
             (f"coverage of the {m.level:.0%} band", _num(100 * m.coverage, ".1f", "%"))]
     if m.unit != "m/s":
@@ -180,8 +187,11 @@ def render_report(
     input_path: str | os.PathLike[str] | None = None,
     estimate_path: str | os.PathLike[str] | None = None,
     recording_notes: Sequence[str] | None = None,
+    truth_channel: str | None = None,
 ) -> str:
-    """The HTML text of a drive's report (see :func:`write_report`)."""
+    """The HTML text of a drive's report (see :func:`write_report`); ``truth_channel``: the
+    channel of ``truth`` (or of the recording) the estimate is scored against, as ``vibrospeed
+    evaluate --truth-channel`` (default ``omega_true`` / ``speed_true``)."""
     from vibrospeed import __version__
     from vibrospeed.eval.metrics import track_summary
     from vibrospeed.eval.plot import check_drawable
@@ -216,7 +226,7 @@ def render_report(
         rows.append(("fitted wheel radius", _num(s["fitted_radius"], ".4g", "m")))
     if estimate_path:
         rows.append(("estimate file", os.fspath(estimate_path)))
-    rows += _truth_rows(track, rec, truth)
+    rows += _truth_rows(track, rec, truth, truth_channel)
     spec = _spectrogram_uri(rec, track, axis, truth, posterior, grid, title)
     speed = _speed_uri(rec, track, truth)
     sig = track.extras.get("has_signal")
