@@ -160,3 +160,30 @@ def test_streamed_plot_draws_through_track_figure(monkeypatch):
         assert ax0.collections[0].get_array().size == sp.power[sp.omega <= ax0.get_ylim()[1]].size
     finally:
         plt.close(fig)
+
+
+# ---- walk: the report's speed plot of a fuse drive -------------------------------------------
+def test_report_speed_plot_of_fuse_is_by_source_not_dimmed(monkeypatch):
+    """A fuse track resting on GPS with no wheel line (a phone drive): the speed plot colours
+    the estimate by source (the GPS stretch is 70 % of the samples, drawn in the GPS colour
+    where it is, NaN elsewhere), nothing is dimmed as "no line seen", and there is no "wheel
+    line seen" entry for a line never seen."""
+    from vibrospeed.eval import report
+
+    rec = _phone()
+    n = len(rec)
+    src = np.where(np.arange(n) < 0.3 * n, 0.0, 1.0)  # inertial, then GPS
+    tr = Track.from_speed(rec.t, np.full(n, 9.0), np.full(n, 0.2), wheel_radius=R,
+                          method="fuse", extras={"source": src, "has_signal": np.zeros(n)})
+    figs = []
+    monkeypatch.setattr(report, "_fig_uri", lambda fig: figs.append(fig) or "")
+    report._speed_uri(rec, tr, None)
+    ax = figs[0].axes[0]
+    try:
+        labels = [x.get_text() for x in ax.get_legend().get_texts()]
+        assert "fuse: gps" in labels and "fuse: inertial" in labels
+        assert "wheel line seen" not in labels and "estimate, no line seen" not in labels
+        gps = next(ln for ln in ax.lines if ln.get_label() == "fuse: gps")
+        assert np.isfinite(gps.get_ydata()).mean() == pytest.approx(0.7, abs=1e-9)
+    finally:
+        plt.close(figs[0])

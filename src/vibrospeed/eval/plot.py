@@ -280,6 +280,17 @@ SOURCE_COLOURS = {0: ("inertial", "tab:red"), 1: ("gps", "tab:blue"),
                   2: ("vibration", "tab:green"), 3: ("standstill", "tab:gray")}
 
 
+def plot_sources(ax, track: Track, y: np.ndarray) -> None:
+    """``y`` (the track's speed or omega) coloured by the ``source`` each sample rests on
+    (fuse: inertial, GPS, vibration, standstill), one line per source present."""
+    src = np.asarray(track.extras["source"], float)
+    for code, (name, colour) in SOURCE_COLOURS.items():
+        sel = src == code
+        if sel.any():
+            ax.plot(track.t, np.where(sel, y, np.nan), color=colour, lw=1.2, zorder=_Z_EST,
+                    label=f"{track.method}: {name}")
+
+
 def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recording | None,
                   window_s: float, title: str | None, spectrum: Spectrum | None = None):
     """Spectrogram of ``axis`` (with omega where the track has it) over a speed panel (m/s):
@@ -304,12 +315,7 @@ def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recor
     ax1.fill_between(track.t, track.speed_lo, track.speed_hi, color="tab:blue", alpha=0.25,
                      lw=0, label=f"{track.level:.0%} band")
     if "source" in track.extras:  # fuse: what each sample's speed rests on
-        src = np.asarray(track.extras["source"], float)
-        for code, (name, colour) in SOURCE_COLOURS.items():
-            sel = src == code
-            if sel.any():
-                ax1.plot(track.t, np.where(sel, track.speed, np.nan), color=colour, lw=1.2,
-                         zorder=_Z_EST, label=f"{track.method}: {name}")
+        plot_sources(ax1, track, track.speed)
     else:
         ax1.plot(track.t, track.speed, color="tab:blue", lw=1.0, zorder=_Z_EST,
                  label=f"estimate ({track.method})")

@@ -96,8 +96,10 @@ def _spectrogram_uri(rec: Recording, track: Track, axis: str, truth: Recording |
 def _speed_uri(rec: Recording, track: Track, truth: Recording | None) -> str:
     """Speed (m/s; omega in rad/s without a wheel radius) against time, with the band, the
     truth and GPS (under the estimate; fixes the method ignores marked), the stretches with a
-    wheel line, detected standstills and NaN stretches shaded; the legend beside the plot."""
-    from vibrospeed.eval.plot import legend_outside, plot_gps, shade_stretches
+    wheel line, detected standstills and NaN stretches shaded; the legend beside the plot. The
+    estimate is dimmed where no line is seen, or, for fuse, coloured by what each sample rests
+    on (its GPS-borne speed is measured though no line is seen)."""
+    from vibrospeed.eval.plot import legend_outside, plot_gps, plot_sources, shade_stretches
 
     r = track.wheel_radius
     as_speed = np.isfinite(track.speed).any()
@@ -106,7 +108,8 @@ def _speed_uri(rec: Recording, track: Track, truth: Recording | None) -> str:
     unit = "m/s" if as_speed else "rad/s"
     fig, ax = plt.subplots(figsize=(12.5, 3.6))
     sig = track.extras.get("has_signal")
-    if sig is not None:  # one artist however many stretches (a 2 h log has hundreds)
+    if sig is not None and np.any(np.asarray(sig, dtype=np.float64) > 0.5):
+        # one artist however many stretches (a 2 h log has hundreds); none seen: no entry
         ax.fill_between(track.t, 0, 1, where=np.asarray(sig, dtype=np.float64) > 0.5,
                         transform=ax.get_xaxis_transform(), color="tab:green", alpha=0.12,
                         lw=0, step="mid", label="wheel line seen")
@@ -115,7 +118,9 @@ def _speed_uri(rec: Recording, track: Track, truth: Recording | None) -> str:
         ax.fill_between(track.t, lo, hi, color="tab:blue", alpha=0.25, lw=0,
                         label=f"{track.level:.0%} band")
     label = f"estimate ({track.method or '?'})"
-    if sig is not None:  # dim the estimate where the method sees no line
+    if "source" in track.extras:  # fuse: a speed from GPS without a wheel line is measured
+        plot_sources(ax, track, y)
+    elif sig is not None:  # dim the estimate where the method sees no line
         seen = np.asarray(sig, dtype=np.float64) > 0.5
         ax.plot(track.t, np.where(seen, np.nan, y), color="tab:blue", lw=0.6, alpha=0.35,
                 zorder=2.5, label="estimate, no line seen")
