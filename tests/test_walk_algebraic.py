@@ -109,3 +109,44 @@ def test_f1tenth_ds1_the_minus_28_ms_is_one_39_s_slip_episode():
     ok = np.isfinite(rec["speed_true"])
     rmse = np.sqrt(np.mean((capped.speed[ok] - rec["speed_true"][ok]) ** 2))
     assert rmse == pytest.approx(0.88, abs=0.02)
+
+
+# -- the vehicle manoeuvres from `vibrospeed simulate` -----------------------------------------
+def test_vehicle_scenarios_are_the_python_api_drives():
+    from vibrospeed import sim as scen
+
+    a = scen.simulate("vehicle_braking", seed=1, **{"vehicle.mu": "0.5"})
+    b = sim.simulate(sim.Config(mu=0.5), np.random.default_rng(1), name="braking")
+    assert set(a.channels) == set(b.channels)
+    for c in b.channels:
+        np.testing.assert_array_equal(a[c], b[c])
+    assert a.meta["L1"] == 1.2 and a.wheel_radius == 0.31 and a.meta["car"]["mu"] == 0.5
+    r = scen.simulate("vehicle_random", seed=3)
+    np.testing.assert_array_equal(r["speed_true"], sim.simulate_random(3)["speed_true"])
+    short = scen.simulate("vehicle_braking", seed=1, duration=5, fs=50)
+    assert len(short) == 250 and short.t[-1] == pytest.approx(5.0)
+    with pytest.raises(ParameterError, match="fs must be in"):
+        scen.simulate("vehicle_braking", fs=0.5)
+
+
+def test_cli_braking_scenario_estimate_and_evaluate(tmp_path):
+    """simulate -> estimate -m algebraic (L1 and r from the sidecar) -> Vx RMSE: the default
+    and the paper preset on the braking at mu 0.5, seed 1 (0.089 and 0.72 m/s by hand), both
+    well below the plain wheel speed's ~2 m/s."""
+    from typer.testing import CliRunner
+
+    from vibrospeed import io
+    from vibrospeed.cli.app import app
+
+    run = CliRunner().invoke
+    drive, est = tmp_path / "b.csv", tmp_path / "e.csv"
+    res = run(app, ["simulate", "--scenario", "vehicle_braking", "--seed", "1",
+                    "--set", "vehicle.mu=0.5", "-o", str(drive)])
+    assert res.exit_code == 0, res.output
+    truth = io.read(drive)
+    for preset, want in ((None, 0.089), ("paper", 0.719)):
+        args = ["estimate", str(drive), "-m", "algebraic", "-o", str(est)]
+        res = run(app, args + (["--preset", preset] if preset else []))
+        assert res.exit_code == 0, res.output
+        rmse = np.sqrt(np.mean((io.read_track(est).speed - truth["speed_true"]) ** 2))
+        assert rmse == pytest.approx(want, abs=0.01), preset

@@ -89,6 +89,7 @@ def describe() -> dict[str, str]:
 
 # scenarios of other modules register themselves on import
 from vibrospeed.sim import aided as _aided  # noqa: E402,F401
+from vibrospeed.sim.vehicle import scenarios as _vehicle  # noqa: E402,F401
 
 
 def _gps_knob(build, name: str, value):
