@@ -2,6 +2,7 @@
 the samples where they were put."""
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -163,3 +164,15 @@ def test_mask_flagged_sets_exactly_the_spikes_to_nan():
     np.testing.assert_array_equal(out["az"], rec["az"])
     assert out.notes == ["kept", "quality: channel 'ay': 4 flagged sample(s) set to NaN"]
     assert not np.isnan(rec["ay"]).any()  # the input is not changed
+
+
+@pytest.mark.parametrize("f_hz", [0.5, 3.0, 10.0, 25.0, 40.0])
+def test_a_smooth_noise_free_wave_has_no_spikes_and_its_spikes_are_found(f_hz):
+    # on a noise-free sine the 7-sample running median follows the flanks, so its residual's
+    # robust scale fell to the resolution and the crests were flagged (800 of 2000 at 10 Hz)
+    t = np.arange(2000) / 100.0
+    x = np.sin(2 * np.pi * f_hz * t) + 9.81 + 0.5 * t
+    assert not (ql.channel_quality(x, 100.0).flags & ql.SPIKE).any()
+    x[[500, 1200]] += [12.0, -10.0]
+    np.testing.assert_array_equal(positions(ql.channel_quality(x, 100.0).flags, ql.SPIKE),
+                                  [500, 1200])

@@ -18,7 +18,10 @@ as if they were vibration. Three tests, per channel, each on the samples themsel
   robust local scale: 1.4826 times the median of ``|x - med_7|`` over blocks of
   :data:`SCALE_S` s, the largest of a block and its two neighbours (so a quiet block next to a
   loud one does not flag the loud one's edge), floored at the channel's resolution (smallest
-  non-zero step). Runs of more than :data:`SPIKE_MAX` flagged samples are not spikes (a bump,
+  non-zero step); and ``|x - med_7(x)| > SPREAD_K * s_d`` with ``s_d`` the same block scale of
+  the first difference of ``x`` (a smooth wave's crests, which the running median cuts, are
+  not spikes: on a noise-free stretch ``s`` falls to the resolution, ``s_d`` does not). Runs
+  of more than :data:`SPIKE_MAX` flagged samples are not spikes (a bump,
   a step) and are left alone. Saturated and stuck samples are not also spikes.
 
 Bits of the ``quality`` column (0 = good; flags OR-ed):
@@ -53,6 +56,8 @@ STUCK_S = 0.25
 STUCK_MIN = 8
 SPIKE_K = 8.0
 SPIKE_MAX = 3
+#: a spike also exceeds this many times the robust scale of the channel's first difference
+SPREAD_K = 2.0
 SCALE_S = 5.0
 _MED = 7
 
@@ -134,9 +139,16 @@ def channel_quality(x: np.ndarray, fs: float, name: str = "") -> ChannelQuality:
     xf = np.where(fin, x, 0.0)
     med = median_filter(xf, _MED)
     r = np.where(fin, x - med, np.nan)
-    s = np.maximum(_scale(r, max(_MED, int(round(SCALE_S * fs)))), _resolution(x))
+    block = max(_MED, int(round(SCALE_S * fs)))
+    s = np.maximum(_scale(r, block), _resolution(x))
+    # the signal's own spread: on a smooth, noise-free stretch the running median follows
+    # the signal and ``s`` collapses to the resolution, so a wave's crests would stand out
+    d = np.full(n, np.nan)
+    d[1:] = np.diff(np.where(fin, x, np.nan))
+    spread = _scale(d, block)
     with np.errstate(invalid="ignore"):
-        cand = fin & (np.abs(r) > SPIKE_K * s) & (s > 0) & ~sat
+        cand = (fin & (np.abs(r) > SPIKE_K * s) & (np.abs(r) > SPREAD_K * spread) & (s > 0)
+                & ~sat)
     if stuck_runs:
         cand &= (flags & STUCK) == 0
     if cand.any():
