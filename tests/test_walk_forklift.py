@@ -47,15 +47,22 @@ def test_settled_offset_skips_the_start_a_late_stop_flag_holds():
 def test_causal_aided_ekf_distance_matches_the_ticks_over_stops():
     # stop_and_go seed 1, 40 s: two stops after the causal detector's 10 s warm-up. The
     # running a_x offset took in each start the stop flag still covered (+0.2 m/s^2 too
-    # high), so the filter read the cruise as braking: -31 % of the ticks' distance
+    # high), so the filter read the cruise as braking: -31 % of the ticks' distance, within
+    # tolerance on 36 % of the moving time; and the flag held omega at 0 through the start
+    # (with the offset fixed: 71 %). Now 87 %, +6 % (the stops' first seconds, before the
+    # causal detector declares them, are the tracker's guess)
     rec = simulate("stop_and_go", seed=1, duration=40)
     tr = truth_from_recording(rec)
     d_ticks = np.trapezoid(tr["speed_true"], tr.t)
     assert d_ticks == pytest.approx(np.trapezoid(rec["speed_true"], rec.t), rel=0.01)
     t = aided.estimate(rec, params={"tracker": "ekf", "causal": True})
     d = np.trapezoid(np.nan_to_num(np.asarray(t.speed)), t.t)
-    assert abs(d / d_ticks - 1) < 0.06
+    assert abs(d / d_ticks - 1) < 0.10
+    om, true = np.asarray(t.omega), rec["omega_true"]
+    mv = true > 0.5
+    assert np.mean(np.abs(om[mv] - true[mv]) <= np.maximum(0.1 * true[mv], 0.4)) > 0.8
     assert any("stops held 2 s" in n for n in t.notes)
+    assert t.params["release_on_accel"] is True
 
 
 def test_search_range_from_zero_gets_the_stops_of_the_lowest_edge():
@@ -116,3 +123,24 @@ def test_aided_ekf_step_equals_run_with_stops_comb_and_gain():
     np.testing.assert_array_equal(st.x, res.final.x)
     assert res.standstill[:180].all() and not res.standstill[200:].any()
     assert np.all(res.omega[:180] < 0.1)
+
+
+def test_release_on_accel_integrates_a_start_the_stop_flag_still_covers():
+    # standing 2 s, then a push at 0.5 m/s^2 for 1 s that the (causal) flag still covers:
+    # released, omega follows the integral of a_x / r (0.5 / 0.08 * 1 s = 6.25 rad/s)
+    from vibrospeed.estimators.aided import Config, run
+
+    dt, r = 0.01, 0.08
+    n = 300
+    t = np.arange(n) * dt
+    u = np.where(t >= 2.0, 0.5, 0.0)
+    y = np.zeros(n)  # no vibration: the acceleration alone
+    still = np.ones(n)
+    held = run(Config(standstill="broadband", wheel_radius=r), y, u, still=still)
+    rel = run(Config(standstill="broadband", wheel_radius=r, release_on_accel=True), y, u,
+              still=still)
+    assert held.omega[-1] < 0.05 and held.standstill[-1]
+    # the mode detector needs its 0.2 s window (boost of eq. 3.15 catches up on its start)
+    assert rel.omega[-1] == pytest.approx(0.5 / r * (t[-1] + dt - 2.0), rel=0.05)
+    assert not rel.standstill[-1] and rel.standstill[150]
+    np.testing.assert_array_equal(rel.omega[:200], held.omega[:200])

@@ -52,6 +52,12 @@ class Config:
         In seconds, so a 400 Hz log looks at the same 0.2 s: 20 samples there (0.05 s) read a
         slow wheel's vibration as flat, i.e. standstill while driving.
     r_ss : variance of the virtual standstill measurement omega = 0 (thesis: 1).
+    release_on_accel : with ``standstill='broadband'``, a sample the mode detector puts in
+        acceleration mode is moving even where ``still`` says standing (the acceleration is
+        integrated). For causal stop flags, which reach 1-1.7 s into the start
+        (:func:`estimate` sets it with ``causal=True``); the whole-log flags end 0.5 s before
+        the motion, and there an offset while standing that differs from stop to stop (a ramp)
+        would release stops.
     cusum_sigma : residual level (m/s^2) separating quiet from moving; cusum_nu, cusum_h :
         drift (``inf``: no alarm) and threshold of the CUSUM on ``eps = 1 - (e / sigma)^2``;
         the standstill flag is held for :func:`vibrospeed.signal.detectors.cusum_hold` samples
@@ -92,6 +98,7 @@ class Config:
     ss_window: float = det.WINDOW_S
     ss_mu: float = det.WINDOW_MU
     r_ss: float = 1.0
+    release_on_accel: bool = False
     cusum_sigma: float = 0.015
     cusum_nu: float = 0.5
     cusum_h: float = 10.0

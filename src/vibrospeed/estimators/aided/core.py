@@ -40,7 +40,7 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, still, comb, wbuf, wpc, wflag, c
     """One sample in place. ``still``: the external standstill flag (> 0.5 standing; read with
     ``ss_kind`` 3); ``comb``: the comb's omega candidate (NaN: none this sample), a fix when
     omega has disagreed with it by more than ``fp[18]`` (relative) ``fp[17]`` candidates in a
-    row. ``flags`` int: [boost_on, aid_always, cusum_hold];
+    row. ``flags`` int: [boost_on, aid_always, cusum_hold, release_on_accel];
     ``fp``: [T, q_om, q_om_acc, q_amp, r, r_wheel, q_b, om_max, ss_mu, r_ss, c_sigma, c_nu,
     c_h, mode_mu, line_min, line_tau, line_omega_min]; ``line`` [power, count, known]."""
     T = fp[0]
@@ -59,6 +59,11 @@ def _aided_step(x, P, y, u, gain, ref, ref_var, still, comb, wbuf, wpc, wflag, c
     if ss_kind == 1:
         ss = _window_core(wbuf, wpc, wflag, y, fp[8])
     ext = ss_kind == 3 and still > 0.5  # NaN: no decision, moving
+    if ext and acc and flags[3] == 1:
+        # release_on_accel: the stop flag reaches into the start (the causal detector lets go
+        # 1-1.7 s after the vehicle moves off); a speed change read by the mode detector
+        # (a_x less its offset while standing) ends the stop, and the start is integrated
+        ext = False
     if ext:
         # a vehicle whose broadband vibration sits at its floor stands: what the mode detector
         # reads then is the accelerometer's offset, not a speed change

@@ -79,7 +79,8 @@ def _args(config: Config) -> tuple:
                    config.comb_rel, m.p0_amp])
     boost_on = 1 if (config.boost and not config.aid_always) else 0
     flags = np.array([boost_on, 1 if config.aid_always else 0,
-                      det.cusum_hold(config.cusum_threshold, config.cusum_nu)], dtype=np.int64)
+                      det.cusum_hold(config.cusum_threshold, config.cusum_nu),
+                      1 if config.release_on_accel else 0], dtype=np.int64)
     return (m.M, STANDSTILL_KINDS[config.standstill], float(config.mode_len), flags, fp)
 
 

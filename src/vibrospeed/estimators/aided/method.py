@@ -135,6 +135,8 @@ def estimate(
                               "accel_offset")
     om_min = parse_number(cfg_kw.pop("omega_min", None), "omega_min", optional=True)
     cfg_kw.setdefault("standstill", "broadband")
+    # the causal stop flags reach into the start: the acceleration ends them (Config)
+    cfg_kw.setdefault("release_on_accel", causal)
     cfg_kw_comb = cfg_kw.pop("comb", True)
     comb_clarity = parse_number(cfg_kw.pop("comb_clarity", 3.0), "comb_clarity")
     dt = check_uniform(recording)
@@ -232,7 +234,8 @@ def estimate(
     )
     out_params = {**model.to_dict(), **{k: getattr(config, k) for k in (
         "omega0", "p0_omega", "amp0", "q_bias", "p0_bias", "q_omega_accel", "standstill",
-        "ss_window", "ss_mu", "r_ss", "cusum_sigma", "cusum_nu", "cusum_h", "cusum_fs",
+        "ss_window", "ss_mu", "r_ss", "release_on_accel", "cusum_sigma", "cusum_nu", "cusum_h",
+        "cusum_fs",
         "mode_window", "mode_mu", "boost", "aid_always", "line_min", "line_tau",
         "line_omega_min", "init_ref")},
         "ss_n": config.ss_len, "mode_n": config.mode_len,
