@@ -173,6 +173,6 @@ def test_a_smooth_noise_free_wave_has_no_spikes_and_its_spikes_are_found(f_hz):
     t = np.arange(2000) / 100.0
     x = np.sin(2 * np.pi * f_hz * t) + 9.81 + 0.5 * t
     assert not (ql.channel_quality(x, 100.0).flags & ql.SPIKE).any()
-    x[[500, 1200]] += [12.0, -10.0]
+    x[[500, 1200]] += [15.0, -15.0]
     np.testing.assert_array_equal(positions(ql.channel_quality(x, 100.0).flags, ql.SPIKE),
                                   [500, 1200])
