@@ -187,3 +187,22 @@ def test_report_speed_plot_of_fuse_is_by_source_not_dimmed(monkeypatch):
         assert np.isfinite(gps.get_ydata()).mean() == pytest.approx(0.7, abs=1e-9)
     finally:
         plt.close(figs[0])
+
+
+# ---- walk: plot draws the axis the estimate used ---------------------------------------------
+def test_plot_defaults_to_the_estimates_axis(tmp_path, monkeypatch):
+    """``vibrospeed plot --estimate`` of an estimate made on z (a kart's ``--axis z``) draws
+    the spectrogram of az, as ``report`` does (it drew ay, a channel the estimate never read);
+    ``--axis`` given still wins."""
+    rec = _phone(gps=False)
+    rec = Recording(rec.t, {**rec.channels, "az": rec.channel("ay")}, source="k.csv")
+    io.write(rec, tmp_path / "k.csv")
+    tr = Track.from_omega(rec.t, np.full(len(rec), 30.0), np.ones(len(rec)), method="grid")
+    io.write_track(tr, tmp_path / "est.csv", meta={"axis": "z"}, input_path=tmp_path / "k.csv")
+    drawn = []
+    monkeypatch.setattr(plot, "plot_track", lambda path, r, t, **kw: drawn.append(kw["axis"]))
+    for extra in ([], ["--axis", "x"]):
+        res = run("plot", tmp_path / "k.csv", "--estimate", tmp_path / "est.csv",
+                  "-o", tmp_path / "p.png", *extra)
+        assert res.exit_code == 0, res.output
+    assert drawn == ["az", "ax"]

@@ -249,7 +249,9 @@ def plot(
                             "draw over the spectrogram")] = None,
     truth: Annotated[Path | None, typer.Option(help="truth recording (default: the input's "
                      "omega_true if any)")] = None,
-    axis: Annotated[str, typer.Option(help="channel or axis for the spectrogram")] = "y",
+    axis: Annotated[str | None, typer.Option(help="channel or axis for the spectrogram "
+                    "(default: the axis the estimate used, from its .json sidecar, else y)")]
+    = None,
     harmonics: Annotated[int, typer.Option(help="harmonics of the estimate to draw (1 = the "
                          "wheel line alone)", callback=at_least("harmonics", lo=1,
                                                                strict=False))] = 3,
@@ -275,9 +277,14 @@ def plot(
     rec = _load(input, fmt, columns, mapping, rate, sort)
     track = io.read_track(estimate_csv) if estimate_csv else None
     if estimate_csv is not None:
-        _check_same_input(estimate_csv, _sidecar(estimate_csv), input,
-                          hint="an estimate of this one")
+        side = _sidecar(estimate_csv)
+        _check_same_input(estimate_csv, side, input, hint="an estimate of this one")
+        if axis is None:  # the spectrogram the estimate was made from, as report draws it
+            from vibrospeed.batch import vibration_channel
+
+            used = (side.get("meta") or {}).get("axis")
+            axis = vibration_channel(rec, used if isinstance(used, str) else None)
     ref = io.read(truth) if truth else None
-    plot_track(output, rec, track, axis=axis_channel(axis), truth=ref, harmonics=harmonics,
-               window_s=window)
+    plot_track(output, rec, track, axis=axis_channel(axis or "y"), truth=ref,
+               harmonics=harmonics, window_s=window)
     err.print(f"wrote {output}", markup=False, soft_wrap=True)  # a path is text, not markup
