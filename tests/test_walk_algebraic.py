@@ -150,3 +150,18 @@ def test_cli_braking_scenario_estimate_and_evaluate(tmp_path):
         assert res.exit_code == 0, res.output
         rmse = np.sqrt(np.mean((io.read_track(est).speed - truth["speed_true"]) ** 2))
         assert rmse == pytest.approx(want, abs=0.01), preset
+
+
+def test_wheel_radius_given_twice():
+    """``-p r`` beside ``--wheel-radius`` ran the filter on ``-p r`` while the Track converted
+    with the other (speed at 0.5 m, omega = speed / 0.3 m); two different values are refused,
+    one value either way gives one estimate."""
+    rec = sim.simulate(sim.Config(mu=0.5), np.random.default_rng(1), name="braking")
+    with pytest.raises(ParameterError, match=r"wheel radius is given twice, --wheel-radius 0.3 m "
+                                             r"and -p r=0.5"):
+        A.estimate(rec, wheel_radius=0.3, params={"r": "0.5"})
+    a = A.estimate(rec, wheel_radius=0.3, params={"r": 0.3})
+    b = A.estimate(rec, params={"r": "0.3"})
+    assert a.params["r"] == b.params["r"] == a.wheel_radius == 0.3
+    np.testing.assert_array_equal(a.speed, b.speed)
+    np.testing.assert_allclose(a.omega, a.speed / 0.3)

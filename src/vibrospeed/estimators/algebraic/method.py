@@ -82,7 +82,13 @@ def estimate(
     params = dict(params or {})
     recording.require("gz", "ax", "ay", *WHEEL_CHANNELS)
     r = check_wheel_radius(wheel_radius) if wheel_radius else None
-    r = r or parse_number(params.pop("r", None), "r", optional=True) or recording.wheel_radius
+    # -p r is the same radius: popped whichever is given (left in params it replaced the
+    # argument's in the filter while the Track converted with the argument's)
+    r_param = parse_number(params.pop("r", None), "r", optional=True)
+    if r and r_param and r_param != r:
+        raise ParameterError(f"{src}: the wheel radius is given twice, --wheel-radius {r:g} m "
+                             f"and -p r={r_param:g}: give one")
+    r = r or r_param or recording.wheel_radius
     r = r or recording.meta.get("wheel_radius")
     if not r:
         raise ParameterError(f"{src}: the algebraic method needs the wheel radius (--wheel-radius)")
