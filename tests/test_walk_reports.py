@@ -206,3 +206,23 @@ def test_plot_defaults_to_the_estimates_axis(tmp_path, monkeypatch):
                   "-o", tmp_path / "p.png", *extra)
         assert res.exit_code == 0, res.output
     assert drawn == ["az", "ax"]
+
+
+# ---- walk: a truth channel that is not a speed; a phone drive without --truth-channel ------
+def test_truth_channel_mistakes_are_one_line(tmp_path):
+    """``report --truth-channel gps_sats`` (a count, not m/s) is refused in one line, not a
+    page with a "not compared" row; ``evaluate`` against a phone drive with GPS speed and no
+    omega_true / speed_true says to give ``--truth-channel gps_speed``."""
+    rec = _phone()
+    rec.units["gps_sats"] = "1"
+    io.write(rec, tmp_path / "phone.csv")
+    tr = Track.from_speed(rec.t, np.full(len(rec), 9.5), np.full(len(rec), 0.2),
+                          wheel_radius=R, method="test")
+    io.write_track(tr, tmp_path / "est.csv", input_path=tmp_path / "phone.csv")
+    line = one_line_error(run("report", tmp_path / "phone.csv", "--estimate",
+                              tmp_path / "est.csv", "--truth-channel", "gps_sats",
+                              "-o", tmp_path / "p.html"))
+    assert "'gps_sats'" in line and "not a speed" in line
+    assert not (tmp_path / "p.html").exists()
+    line = one_line_error(run("evaluate", tmp_path / "est.csv", "--truth", tmp_path / "phone.csv"))
+    assert "--truth-channel gps_speed" in line

@@ -198,6 +198,10 @@ def evaluate(
     _check_output(json_out, "--json")
     track = io.read_track(estimate_csv)
     ref = io.read(truth, truth_format)
+    if truth_channel is None and not ({"omega_true", "speed_true"} & set(ref.channels)) \
+            and "gps_speed" in ref.channels:  # a phone drive: its GPS is the truth it has
+        raise ParameterError(f"{truth}: no omega_true or speed_true to compare against; it has "
+                             "GPS speed: --truth-channel gps_speed to score against that")
     m = ev(track, ref, min_omega=min_omega, warmup=warmup, truth_channel=truth_channel)
     if m.n == 0:  # a table of NaN with exit status 0 read as a result
         # the truth's moving threshold in its unit (evaluate compares speeds at 0.3 m/s)

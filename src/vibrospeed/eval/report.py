@@ -155,7 +155,8 @@ def _truth_rows(track: Track, rec: Recording, truth: Recording | None,
                 truth_channel: str | None = None) -> list[tuple[str, str]]:
     """The summary's rows against the truth (``truth``, else the recording): ``truth_channel``
     as ``vibrospeed evaluate --truth-channel`` (``gps_speed``: the drive against its own GPS);
-    a channel asked for and missing is the caller's one-line error, any other failure a row."""
+    a channel asked for that is missing or not a speed is the caller's one-line error; without
+    one asked for, a failure is a row."""
     ref = truth if truth is not None else rec
     if truth_channel is not None:
         ref.require(truth_channel)  # asked for: missing or all NaN is an error, not a row
@@ -166,6 +167,8 @@ def _truth_rows(track: Track, rec: Recording, truth: Recording | None,
     try:
         m = evaluate(track, ref, truth_channel=truth_channel)
     except Exception as exc:  # noqa: BLE001 - the comparison is a bonus, never a reason to fail
+        if truth_channel is not None:  # asked for: a page without it would hide the mistake
+            raise
         return [("against the truth", f"not compared: {exc}")]
     if m.n == 0:  # a row of dashes would read as a missing number, not as no overlap
         return [("against the truth", f"not compared: no moving truth sample ({ref.t[0]:g}-"
