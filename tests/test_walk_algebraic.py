@@ -27,7 +27,8 @@ from vibrospeed.types import WHEEL_CHANNELS, Recording
     ("noise_tau", 1e-9, r"noise_tau must be >= Ts = 0.01 s"),
     ("vy0", 1e9, r"vy0 must be in \[-100, 100\] m/s"),
     ("slip_sd", 2.0, r"slip_sd must be in \[0, 1\]"),
-    ("eps_k", -1.0, r"eps_k must be in \[0, 100\]"),
+    ("eps_k", -1.0, r"eps_k must be >= 0 \(inf: never\)"),
+    ("beta", float("inf"), r"beta must be an integer >= 0 samples"),
     ("L1", float("nan"), r"L1 must be in \(0, 10\] m, got nan"),
     ("eps1", 0.0, r"eps1 must be > 0 m/s\^2 \(inf: never\)"),
 ])

@@ -40,7 +40,7 @@ _DOMAINS = {
     "eps2": (0.0, True, np.inf, "rad/s"), "beta": (0, False, np.inf, "samples"),
     "reset_eps_x": (0.0, False, np.inf, "m/s^2"), "reset_eps_y": (0.0, False, np.inf, "m/s^2"),
     "reset_hold": (0, False, np.inf, "samples"), "vy0": (-100.0, False, 100.0, "m/s"),
-    "backtrack": (0, False, np.inf, "samples"), "eps_k": (0.0, False, 100.0, ""),
+    "backtrack": (0, False, np.inf, "samples"), "eps_k": (0.0, False, np.inf, ""),
     "slip_sd": (0.0, False, 1.0, ""), "acc_bias_sd": (0.0, False, 10.0, "m/s^2"),
     "gyro_bias_sd": (0.0, False, 1.0, "rad/s"), "handover_tau": (0.0, True, np.inf, "s"),
     "noise_tau": (0.0, True, 1e6, "s"), "max_int": (0.0, True, np.inf, "s"),
@@ -140,7 +140,7 @@ class Config:
             ok = isinstance(v, (int, float, np.integer, np.floating)) and not np.isnan(v) and (
                 v > lo if lo_open else v >= lo) and v <= hi
             if ok and name in _COUNTS:
-                ok = int(v) == v
+                ok = bool(np.isfinite(v)) and int(v) == v
             if not ok:
                 raise ParameterError(f"algebraic: {name} must be {_domain_text(name)}, got {v}")
         if self.noise_tau < self.dt:  # running-mean weight dt / noise_tau above 1 oscillates
