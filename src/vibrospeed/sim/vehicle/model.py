@@ -50,7 +50,27 @@ WHEELS = ("fl", "fr", "rl", "rr")
 
 @dataclass(frozen=True)
 class Config:
-    """Vehicle, tyre, integration and sensor parameters (defaults: a mid-size sedan)."""
+    """Vehicle, tyre, integration and sensor parameters (defaults: a mid-size sedan).
+
+    m : kg, mass.  Iz : kg m^2, yaw inertia.
+    L1, L2 : m, centre of gravity to the front / rear axle.
+    track : m, track width.  h_cg : m, height of the centre of gravity.
+    R : m, wheel radius.  Iw : kg m^2 per wheel (wheel and its share of the drive line).
+    mu : road friction coefficient (seed: 0.5 / 0.7 / 0.9).
+    B, B_rear : magic-formula stiffness factor of the front / rear tyres (rear stiffer per
+        unit load: an understeering car).
+    C : magic-formula shape factor.
+    tyre : "magic" (falls off to about 0.7 mu past the peak) or "brush" (saturates).
+    implicit_wheels : the tyre force on the wheel linearly implicit (stiff tyres).
+    CdA : m^2, drag area (air density 1.2).  v_eps : m/s, slip regularisation at low speed.
+    tau_load : s, lag of the load-transfer accelerations.
+    drive_front, brake_front : share of the drive / brake torque on the front axle.
+    abs_slip : |slip| above which ABS / traction control cuts the torque (<= 0: off).
+    abs_rate : 1/s, rate of the torque factor of ABS / traction control.
+    dt : s, output sample period.  substeps : integration sub-steps per sample.
+    sd_gz, sd_acc, sd_omega : white sensor noise sds, rad/s, m/s^2, rad/s.
+    bias_gz, bias_ax, bias_ay : constant sensor biases, rad/s, m/s^2, m/s^2.
+    """
 
     m: float = 1500.0  # kg
     Iz: float = 2500.0  # kg m^2
