@@ -11,7 +11,8 @@ shaking and its narrow idle lines. Per accelerometer axis:
    The median ignores narrow lines (the engine idling, a wheel harmonic);
 2. and a *body-motion level*: the axis low-passed below the wheel's band (at most
    ``MOTION_HI_HZ``), over ``MOTION_FRAME_S`` s, the RMS of its residual from a straight line
-   (so the end of a braking, a step, does not read as motion);
+   (so the end of a braking, a step, does not read as motion); only where that band reaches
+   ``MOTION_MIN_HI_HZ`` (a car's range: a slow vehicle's wheel band starts in it);
 3. each level's *floor* is the 1 % quantile over the frames; a frame is standing when both
    levels are within ``NEAR_FLOOR`` / ``MOTION_NEAR`` of their floors, provided the median
    frame's broadband level is at least ``MIN_CONTRAST`` above its floor (a log without a stop
@@ -54,6 +55,10 @@ MIN_STOP_S = 2.0
 #: over ``MOTION_FRAME_S`` s; a standing vehicle neither turns nor brakes nor pitches
 MOTION_LO_HZ = 0.2
 MOTION_HI_HZ = 2.0
+#: Hz, the body-motion level is used only where its band reaches this high below the wheel's
+#: band (``omega_min`` >= ~9 rad/s with the ``range`` pre-filter's corner): a narrower band
+#: holds little but the tail of a braking and kept short stops from being declared
+MOTION_MIN_HI_HZ = 1.0
 MOTION_FRAME_S = 2.0
 #: ... and its body-motion level within this factor of its floor
 MOTION_NEAR = 3.0
@@ -249,6 +254,15 @@ def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *, causal: b
                             edge_s=edge_s)
 
 
+def _motion_upper(lo_hz: float) -> float:
+    """Hz, the body-motion band's upper edge below a search band starting at ``lo_hz``; 0 where
+    it would not reach :data:`MOTION_MIN_HI_HZ` (no body-motion test)."""
+    from vibrospeed.signal.prefilter import RANGE_HP
+
+    upper = min(RANGE_HP * lo_hz, MOTION_HI_HZ)
+    return upper if upper >= MOTION_MIN_HI_HZ else 0.0
+
+
 def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s, edge_s):
     from vibrospeed.signal import prefilter as pf
 
@@ -260,8 +274,8 @@ def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s, edge_s):
     if ends.size == 0:
         return np.zeros(n, bool)
     still = classify(level, causal=causal)
-    upper = min(pf.RANGE_HP * lo_hz, MOTION_HI_HZ)
-    if upper >= 1.5 * MOTION_LO_HZ:  # the body motion has room below the band
+    upper = _motion_upper(lo_hz)
+    if upper:  # the body motion has room below the band
         L = max(8, int(round(frame_s / dt)))
         ref = ends if causal else np.minimum(ends - L // 2 + int(round(MOTION_FRAME_S / 2 / dt)),
                                              n - 1)
@@ -336,8 +350,8 @@ def stream_plan(dt: float, band: tuple[float, float]) -> StreamPlan:
     fs = 1.0 / dt
     lo_hz = band[0] / (2 * np.pi)
     hp = pf.butter_sos("highpass", min(pf.RANGE_HP * lo_hz, 0.45 * fs), fs, 4)
-    upper = min(pf.RANGE_HP * lo_hz, MOTION_HI_HZ)
-    lp = pf.butter_sos("lowpass", upper, fs, 2) if upper >= 1.5 * MOTION_LO_HZ else None
+    upper = _motion_upper(lo_hz)
+    lp = pf.butter_sos("lowpass", upper, fs, 2) if upper else None
     L = max(8, int(round(FRAME_S / dt)))
     f = 2 * np.pi * np.fft.rfftfreq(L, dt)  # the bins broadband_level reads
     sel = (f >= band[0]) & (f <= min(band[1], np.pi / dt))
