@@ -29,7 +29,6 @@ from vibrospeed.config import is_count
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.types import Estimate, Recording, Track
 
-
 #: the paper's batch in seconds (200 samples at 100 Hz, paper IV-B)
 BATCH_S = 2.0
 
