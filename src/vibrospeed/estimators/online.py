@@ -8,7 +8,8 @@ the causal grid tracker), so a tracker tuned offline behaves the same on a devic
 the only mutable thing here; its ``state`` is a tuple of the stages' immutable states and can be
 saved and restored. With ``standstill`` it also runs the causal standstill detector
 (:func:`vibrospeed.signal.standstill.stream_step`) that ``estimate()`` applies after the causal
-grid tracker, so the stops are those of the batch run too (omega and its band 0 there).
+grid tracker, so the stops are those of the batch run too (omega and its band 0 there). With
+``wheel_radius`` it converts omega to speed as the batch Track does (``speed = r * omega``).
 """
 
 from __future__ import annotations
@@ -60,6 +61,11 @@ class OnlineTracker:
         grid (whose causal ``estimate()`` applies the same detector) and rbpmf (whose
         ``estimate()`` has no stops: these are added). The ``state`` then has a third part,
         the detectors' states.
+    wheel_radius : m, as the batch ``estimate(..., wheel_radius=)`` takes it: ``speed``,
+        ``speed_std`` and the extras ``speed_lo``, ``speed_hi`` (the speed band) are then r
+        times omega, its std and its band, the numbers of the batch Track's speed columns
+        (:meth:`vibrospeed.types.Track.from_omega`); None (default): the estimator's own
+        ``speed`` (NaN for the wheel trackers: they measure omega only).
 
     Examples
     --------
@@ -84,7 +90,11 @@ class OnlineTracker:
         target_rms: float | None = None,
         level: float | None = None,
         standstill: int = 0,
+        wheel_radius: float | None = None,
     ) -> None:
+        from vibrospeed.types import check_wheel_radius
+
+        self.wheel_radius = check_wheel_radius(wheel_radius)  # a bad one: one line, here
         model, pre, tau, target, omega_range = _pipeline_of(config)
         self.estimator = estimator
         self.config = config
@@ -132,7 +142,8 @@ class OnlineTracker:
             st, y = self._front(front[0], float(sample))  # one axis: no arrays
             es, est = self.estimator.step(self.config, es, y)
             self.state = ((st,), es) + self.state[2:]
-            return self._stops(est, (sample,), others) if self.n_still else est
+            est = self._stops(est, (sample,), others) if self.n_still else est
+            return self._speed(est) if self.wheel_radius else est
         xs = np.atleast_1d(np.asarray(sample, dtype=np.float64))
         if xs.size != self.n_axes:
             raise ValueError(f"expected {self.n_axes} sample(s) per update, got {xs.size}")
@@ -140,7 +151,16 @@ class OnlineTracker:
         ys = [y for _, y in out]
         es, est = self.estimator.step(self.config, es, ys[0] if self.n_axes == 1 else ys)
         self.state = (tuple(st for st, _ in out), es) + self.state[2:]
-        return self._stops(est, xs, others) if self.n_still else est
+        est = self._stops(est, xs, others) if self.n_still else est
+        return self._speed(est) if self.wheel_radius else est
+
+    def _speed(self, est: Any) -> Any:
+        """``est`` with speed, its std and band (extras ``speed_lo``, ``speed_hi``) r times
+        omega's, as :meth:`vibrospeed.types.Track.from_omega` computes the batch columns."""
+        r = self.wheel_radius
+        return est._replace(speed=r * est.omega, speed_std=r * est.omega_std,
+                            extras={**est.extras, "speed_lo": r * est.omega_lo,
+                                    "speed_hi": r * est.omega_hi})
 
     def _stops(self, est: Any, xs, others) -> Any:
         """``est`` with the standstill detectors' decision at this sample (as
