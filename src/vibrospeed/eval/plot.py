@@ -176,9 +176,12 @@ def track_figure(
     posterior: np.ndarray | None = None,
     grid: np.ndarray | None = None,
     spectrum: Spectrum | None = None,
+    gps: Recording | None = None,
 ):
     """The figure of :func:`plot_track` (not written; the caller closes it); ``spectrum``: a
-    spectrogram computed elsewhere (a streamed log's) drawn instead of the recording's."""
+    spectrogram computed elsewhere (a streamed log's) drawn instead of the recording's;
+    ``gps``: the GPS channels (``gps_speed``, ``gps_sats``) on their own time line, drawn
+    instead of the recording's (a streamed log keeps its fixes only)."""
     check_drawable(track)
     speed_only = (track is not None and not np.isfinite(track.omega).any()
                   and np.isfinite(track.speed).any())
@@ -186,7 +189,7 @@ def track_figure(
         # GPS fusion / algebraic without a wheel radius, or fuse (speed coloured by its
         # source): lower panel in m/s
         return _speed_figure(recording, track, axis=axis, truth=truth, window_s=window_s,
-                             title=title, spectrum=spectrum)
+                             title=title, spectrum=spectrum, gps=gps)
     if track is not None and isinstance(track.params.get("M"), int):
         harmonics = track.params["M"]
     drawn = 1 if recording.duration > LONG_LOG_S else harmonics
@@ -236,7 +239,7 @@ def track_figure(
         ax1.plot(t_truth, om_truth, color="k", lw=0.9, ls="--", zorder=_Z_TRUTH, label="truth")
     radius = track.wheel_radius if track is not None else None
     if radius:
-        plot_gps(ax1, recording, track, 1.0 / radius, "GPS speed / r")
+        plot_gps(ax1, recording if gps is None else gps, track, 1.0 / radius, "GPS speed / r")
         sec = ax1.secondary_yaxis("right", functions=(lambda w: w * radius,
                                                       lambda v: v / radius))
         sec.set_ylabel("speed [m/s]")
@@ -292,7 +295,8 @@ def plot_sources(ax, track: Track, y: np.ndarray) -> None:
 
 
 def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recording | None,
-                  window_s: float, title: str | None, spectrum: Spectrum | None = None):
+                  window_s: float, title: str | None, spectrum: Spectrum | None = None,
+                  gps: Recording | None = None):
     """Spectrogram of ``axis`` (with omega where the track has it) over a speed panel (m/s):
     estimate, band, truth, GPS fixes."""
     fs = recording.fs
@@ -323,7 +327,7 @@ def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recor
     if "speed_true" in tr.channels:
         ax1.plot(tr.t, tr.channel("speed_true"), color="k", lw=0.9, ls="--", zorder=_Z_TRUTH,
                  label="truth")
-    plot_gps(ax1, recording, track, 1.0, "GPS speed")
+    plot_gps(ax1, recording if gps is None else gps, track, 1.0, "GPS speed")
     legend_outside(ax0)
     legend_outside(ax1)
     ax1.set_ylabel("speed [m/s]")

@@ -1,14 +1,16 @@
 """``vibrospeed estimate`` on a long log: read in chunks, estimate in blocks, write as it goes.
 
 Above :data:`STREAM_ROWS` rows a recording estimated with the grid tracker (offline ``fb``,
-fixed-lag ``lag`` or causal ``none``; no fit, no plot) takes this path instead of the whole-log
-one (:func:`vibrospeed.batch.estimate_recording`) when it is a canonical CSV or Parquet file or
-a CSV read through a column mapping (``--columns``, ``--mapping``, ``--rate``):
+fixed-lag ``lag`` or causal ``none``; no fit; with or without a plot) takes this path instead
+of the whole-log one (:func:`vibrospeed.batch.estimate_recording`) when it is a canonical CSV
+or Parquet file or a CSV read through a column mapping (``--columns``, ``--mapping``,
+``--rate``):
 
 1. the file is read ``chunk_rows`` rows at a time (:class:`vibrospeed.io.chunks.ChunkedRecording`,
    the same values, notes and errors as the whole-file reader), keeping the time line and the
-   accelerometer channels only (the grid tracker, its standstill detector and the quality flags
-   use nothing else); non-uniform time stamps are resampled as the whole-log path does;
+   accelerometer channels (the grid tracker, its standstill detector and the quality flags
+   use nothing else) and, for the plot, the GPS speed fixes and the truth in bounded memory
+   (:class:`Overlay`); non-uniform time stamps are resampled as the whole-log path does;
 2. the estimate runs block by block (:class:`vibrospeed.estimators.grid.blocks.Blocks`), and
    each block's rows (with the ``quality`` column) are appended to a temporary file beside the
    output, renamed to the output at the end (atomic: an interrupted run leaves the old output),
@@ -39,6 +41,8 @@ CHUNK_ROWS = 65_536
 PLOT_FRAMES = 3000
 PLOT_POINTS = 20_000
 _CHANNELS = ("ax", "ay", "az")
+#: the truth channels the plot draws (as :func:`vibrospeed.eval.plot.track_figure` reads them)
+_TRUTH = ("omega_true", "speed_true")
 
 
 def count_rows(path: str | os.PathLike[str], fmt: str = "auto") -> int | None:
@@ -122,12 +126,15 @@ class Streamed:
 
 def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
                        chunk_rows: int = CHUNK_ROWS, rows: int | None = None,
-                       columns: str | None = None, mapping=None, rate: float | None = None):
+                       columns: str | None = None, mapping=None, rate: float | None = None,
+                       overlay: Overlay | None = None):
     """The recording's time line and accelerometer channels (and ``axis``'s channel), read in
-    chunks (``columns``, ``mapping``, ``rate``: through a column mapping); the whole-file
-    reader's notes, time-base notes included; non-uniform time stamps resampled to the median
-    rate as the whole-log path does. ``rows``: the file's row count where known (else counted
-    here), the size of the arrays the chunks are copied into."""
+    chunks (``columns``, ``mapping``, ``rate``: through a column mapping); the notes of the
+    CLI's whole-file reading (:func:`vibrospeed.batch.load_recording`: time-base notes and an
+    unread ``<file>.json`` included); non-uniform time stamps resampled to the median rate as
+    the whole-log path does. ``rows``: the file's row count where known (else counted here),
+    the size of the arrays the chunks are copied into. ``overlay``: handed every chunk (the
+    plot's GPS fixes and truth, :class:`Overlay`)."""
     from vibrospeed.estimators.common import axis_channel
     from vibrospeed.io import timebase
     from vibrospeed.io.chunks import ChunkedRecording
@@ -143,6 +150,8 @@ def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
     out = {c: np.empty(size) for c in keep}
     n = 0
     for chunk in src:
+        if overlay is not None:
+            overlay.add(chunk)
         m = len(chunk)
         if n + m > size:
             size = max(2 * size, n + m)
@@ -158,7 +167,78 @@ def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
                     source=str(Path(path)), wheel_radius=src.wheel_radius, notes=list(src.notes),
                     meta=dict(src.meta), **kw)
     rec.notes.extend(timebase.describe_timebase(rec))  # as the whole-file readers end
+    if fmt in ("auto", "csv") and not _mapped(columns, mapping, rate):
+        from vibrospeed.batch.single import unread_sidecar_note
+
+        said = unread_sidecar_note(path)  # as load_recording adds it, before resampling
+        if said:
+            rec.notes.append(said)
     return timebase.as_uniform(rec)
+
+
+class Overlay:
+    """What the streamed plot draws over the estimate besides the accelerometer, kept as the
+    chunks pass in bounded memory: the GPS speed fixes as (t, value) pairs (the finite
+    ``gps_speed`` cells, with ``gps_sats`` at those rows where the file has it; at most
+    ``2 * max_fixes``: past that every other kept fix is dropped and then only every 2nd,
+    4th, ... further fix is kept, so the kept fixes stay evenly spread over the log) and the
+    truth channels (``omega_true``, ``speed_true``) every ``k``-th row. A log with fewer
+    fixes and ``k = 1`` keeps all of them: the whole-log plot's overlays."""
+
+    def __init__(self, k: int = 1, max_fixes: int = PLOT_POINTS):
+        self.k = max(1, int(k))
+        self.max_fixes = max(1, int(max_fixes))
+        self.stride = 1  # of the fixes seen: fix number i is kept where i % stride == 0
+        self._seen = 0
+        self._row = 0
+        self._gps: list[np.ndarray] = []  # (3, m) blocks: t, speed, satellites (NaN: none)
+        self._truth: dict[str, list[np.ndarray]] = {}
+        self._truth_t: list[np.ndarray] = []
+        self.has_gps = self.has_sats = False
+
+    def add(self, chunk) -> None:
+        """Keep ``chunk``'s fixes and truth (the chunks in file order)."""
+        ch = chunk.channels
+        m = len(chunk)
+        if "gps_speed" in ch:
+            self.has_gps = True
+            self.has_sats = self.has_sats or "gps_sats" in ch
+            g = ch["gps_speed"]
+            at = np.flatnonzero(np.isfinite(g))
+            sel = at[(self._seen + np.arange(at.size)) % self.stride == 0]
+            self._seen += at.size
+            sats = ch["gps_sats"][sel] if "gps_sats" in ch else np.full(sel.size, np.nan)
+            self._gps.append(np.array([chunk.t[sel], g[sel], sats], dtype=np.float64))
+            while sum(b.shape[1] for b in self._gps) > 2 * self.max_fixes:
+                self._gps = [np.concatenate(self._gps, axis=1)[:, ::2]]
+                self.stride *= 2
+        have = [c for c in _TRUTH if c in ch]
+        if have:
+            sel = slice((-self._row) % self.k, m, self.k)
+            self._truth_t.append(np.array(chunk.t[sel], dtype=np.float64))
+            for c in have:
+                self._truth.setdefault(c, []).append(np.array(ch[c][sel], dtype=np.float64))
+        self._row += m
+
+    def gps(self):
+        """The kept fixes as a :class:`~vibrospeed.types.Recording` (``gps_speed`` and, where
+        the file has it, ``gps_sats``) on their own time line, None without a GPS channel."""
+        from vibrospeed.types import Recording
+
+        if not self.has_gps:
+            return None
+        t, v, sats = (np.concatenate(self._gps, axis=1) if self._gps else np.empty((3, 0)))
+        ch = {"gps_speed": v, **({"gps_sats": sats} if self.has_sats else {})}
+        return Recording(t, ch)
+
+    def truth(self):
+        """The kept truth rows as a :class:`~vibrospeed.types.Recording`, None without any."""
+        from vibrospeed.types import Recording
+
+        if not self._truth:
+            return None
+        return Recording(np.concatenate(self._truth_t),
+                         {c: np.concatenate(v) for c, v in self._truth.items()})
 
 
 def _release_reader_memory() -> None:
@@ -195,8 +275,13 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     from vibrospeed.signal.quality import flags_at, recording_quality
 
     check_wheel_radius(wheel_radius)  # before anything is read or written
+    overlay = None
+    if plot is not None:  # the GPS fixes and the truth, kept as the chunks pass
+        if rows is None:
+            rows = count_rows(input_path, "mapped" if _mapped(columns, mapping, rate) else fmt)
+        overlay = Overlay(-(-(rows or 1) // PLOT_POINTS))
     rec = read_accelerometer(input_path, fmt, axis=axis, chunk_rows=chunk_rows, rows=rows,
-                             columns=columns, mapping=mapping, rate=rate)
+                             columns=columns, mapping=mapping, rate=rate, overlay=overlay)
     axis, axis_note = only_axis(rec, axis)
     use_axis = axis or "y"
     # the quality flags first (their temporaries are the largest per sample), then the estimate
@@ -219,7 +304,7 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     drawing = None
     if plot is not None:  # the whole-log plot's channel: the axis used, else the first one
         drawing = StreamPlot(rec, ch if ch in rec.channels else next(iter(rec.channels)),
-                             len(rec))
+                             len(rec), overlay=overlay)
     out = Path(output)
     with bar, atomic_path(out) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
         w = csv.writer(fh, lineterminator="\n")
@@ -265,14 +350,17 @@ class StreamPlot:
     every 0.25 window (the whole-log plot's hop) or, on a long log, further apart, computed a
     batch of frames at a time. :meth:`add` keeps every k-th sample of each block's estimate,
     band and ``has_signal`` (at most :data:`PLOT_POINTS` points) and the largest upper band
-    edge (which sets the spectrogram's height, as in the whole-log plot). No posterior image,
-    no truth or GPS overlay: the streamed reader keeps the accelerometer only.
+    edge (which sets the spectrogram's height, as in the whole-log plot). ``overlay``: the GPS
+    fixes and truth kept while reading (:class:`Overlay`), drawn as the whole-log plot draws
+    the recording's. No posterior image (the blocks do not keep it).
     """
 
-    def __init__(self, rec, channel: str, n: int, window_s: float = 3.0, batch: int = 256):
+    def __init__(self, rec, channel: str, n: int, window_s: float = 3.0, batch: int = 256,
+                 overlay: Overlay | None = None):
         from vibrospeed.signal.dsp import get_window
 
         self.channel, self.source, self.rec = channel, rec.source, rec  # rec: kept by the caller
+        self.overlay = overlay
         x = rec.channel(channel)
         fs = 1.0 / rec.dt
         nper = int(max(1, min(x.size, max(16, round(window_s * fs)))))
@@ -335,7 +423,10 @@ class StreamPlot:
                                  extras=extras)
         spectrum = Spectrum(self.t, self.omega, self.power, f"STFT {self.window_s:.3g} s every "
                             f"{self.hop_s:.3g} s")
+        over = self.overlay
         plot_track(path, self.rec, track, axis=self.channel, spectrum=spectrum,
+                   truth=over.truth() if over is not None else None,
+                   gps=over.gps() if over is not None else None,
                    omega_max=spectrogram_top(self.fs, M, self.top if np.isfinite(self.top)
                                              else None),
                    title=f"{self.source or 'recording'} (streamed: spectrogram every "
