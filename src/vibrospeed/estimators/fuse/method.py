@@ -32,6 +32,7 @@ from vibrospeed.estimators.fuse.config import (
     IR,
     IV,
     SOURCES,
+    SRC_STANDSTILL,
     SRC_VIBRATION,
     TRACKER_DEFAULTS,
     Config,
@@ -155,8 +156,9 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     Columns: speed and its band (from the fused std); omega = speed / learned radius where
     the radius is known at the end (relative std below ``octave_rel``; else empty, with a
     note); extras ``source`` (:data:`SOURCES` codes), ``radius``, ``radius_std``, ``offset``,
-    ``harmonic`` (k of the wheel-frequency update) and the tracker's ``omega_vib``,
-    ``has_signal``, ``standstill``. The
+    ``harmonic`` (k of the wheel-frequency update), ``standstill`` (1 where fuse took a stop
+    from all evidence: ``source`` 3) and the tracker's ``omega_vib``, ``has_signal`` and
+    ``standstill_vib`` (its own stop detector, which GPS may have vetoed). The
     learned radius and its std (the filter's at the end of the log) are in
     ``params["learned_radius"]``, ``params["learned_radius_std"]`` (the JSON sidecar).
     """
@@ -215,7 +217,19 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         raise ParameterError(f"{name}: radius prior {r0:.4g} m is outside radius_min.."
                              f"radius_max ({cfg.radius_min:g}-{cfg.radius_max:g} m), where fuse "
                              "reads wheel lines (-p radius_min= / radius_max= to widen it)")
-    # 1. the vibration tracker (offline smoothed / online causal)
+    # 1. the vibration tracker (offline smoothed / online causal); none on a log too slow to
+    # carry a wheel line in the tracker's default range (GPS and the accelerometer still fuse)
+    slow = _too_slow(recording, rest) if vibration is None else None
+    if slow is not None:
+        if not has_gps:
+            raise ParameterError(f"{name}: {slow} and the recording has no GPS speed: fuse "
+                                 "would integrate the accelerometer alone")
+        notes.append(f"{slow}: fuse runs on GPS and the accelerometer, its vibration part off "
+                     "(no wheel line, no stop evidence from vibration)")
+        cfg = replace(cfg, vib_measure="mode")
+        nan = np.full(len(recording), np.nan)
+        vibration = Track.from_omega(recording.t, nan, nan, method="none",
+                                     extras={"has_signal": np.zeros(len(recording))})
     tparams = {**TRACKER_DEFAULTS, **rest}
     if online:
         tparams["smooth"] = "none"
@@ -258,7 +272,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     # where the vibration axis has no sample the tracker only predicts (its line there is its
     # past, or offline its interpolation between both sides, not a measurement): no line, no
     # stop evidence
-    seen = np.isfinite(recording.channel(axis_channel(axis)))
+    seen = np.isfinite(recording.channel(axis_channel(axis))) if slow is None else line
     line, still, soft = line & seen, still & seen, soft & seen
     # 2. fusion samples (ends, above)
     arrays = {
@@ -315,10 +329,11 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
                          f"none fits the radius {r0:.4f} m with the accelerometer's speed "
                          "(a radius of another vehicle or mount?): the speed is the "
                          "accelerometer's integral")
-    notes.append(f"learned wheel radius {r_fin:.4f} +- {rs_fin:.4f} m"
-                 + ("" if has_gps else " (no GPS: the prior, kept)"))
+    if slow is None:  # with the vibration off there is no radius to learn
+        notes.append(f"learned wheel radius {r_fin:.4f} +- {rs_fin:.4f} m"
+                     + ("" if has_gps else " (no GPS: the prior, kept)"))
     known = rs_fin < cfg.octave_rel * r_fin
-    if not known:
+    if not known and slow is None:
         notes.append("the wheel radius is not known (no wheel line while GPS was good): omega "
                      "is left empty; the vibration tracker's own omega is omega_vib")
     pdict = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(cfg).items()}
@@ -333,8 +348,12 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         "radius_std": back(rrs), "offset": back(off), "harmonic": o.harmonic[blk],
         "omega_vib": vib.omega, "has_signal": claim.astype(np.float64),
     }
+    # the stop fuse took from all evidence (source 3): the tracker's own detector (vibration
+    # and body motion at their floors) also fires in a smooth cruise that GPS says is moving,
+    # and a standstill column of 1 beside a speed of 7.7 m/s read as a fuse decision
+    extras["standstill"] = (o.source == SRC_STANDSTILL).astype(np.float64)[blk]
     if "standstill" in vib.extras:
-        extras["standstill"] = np.asarray(vib.extras["standstill"], dtype=np.float64)
+        extras["standstill_vib"] = np.asarray(vib.extras["standstill"], dtype=np.float64)
     if return_posterior and "posterior" in vib.extras:  # the vibration tracker's omega posterior
         extras["posterior"] = vib.extras["posterior"]
         for key in ("grid", "posterior_index"):
@@ -343,6 +362,26 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     return Track.from_speed(t, speed, speed_std, wheel_radius=r_fin if known else None,
                             method="fuse",
                             params=pdict, extras=extras, notes=[*vib.notes, *notes])
+
+
+def _too_slow(recording: Recording, rest: dict) -> str | None:
+    """Why the recording's rate carries no wheel line in the grid tracker's default range
+    (its fundamental needs ``fs > omega_max / pi``; a 16.7 Hz phone log does not reach a
+    car's 120 rad/s), or None where it does or where ``omega_max`` was given (then the
+    tracker's own error tells what was asked for)."""
+    from vibrospeed.estimators.grid.config import Config as GridConfig
+
+    if "omega_max" in rest:
+        return None
+    fs = recording.fs
+    om_max = float(GridConfig.omega_max)
+    if om_max < math.pi * fs:
+        return None
+    lower = math.floor(math.pi * fs) - 1
+    hint = (f"; -p omega_max={lower} tracks the lines below it" if
+            lower > float(rest.get("omega_min", GridConfig.omega_min)) else "")
+    return (f"sample rate {fs:.4g} Hz is too low for a wheel line up to {om_max:.4g} rad/s "
+            f"(the fundamental needs fs > {om_max / math.pi:.4g} Hz{hint})")
 
 
 #: the share of the radius prior within which the lines seen with GPS must place the radius
