@@ -172,15 +172,19 @@ def expand_inputs(items: Iterable[str | os.PathLike[str]], *,
 
 
 def _stem(p: Path) -> str:
-    name = p.name if p.is_dir() else p.stem
+    """The output base name of input ``p``: a folder's name, a file's name without its suffix
+    and without a compression suffix before it (``a.csv.gz`` -> ``a``, as ``a.csv``)."""
+    from vibrospeed.io.canonical import uncompressed
+
+    name = p.name if p.is_dir() else uncompressed(p).stem
     safe = "".join(c if c.isalnum() or c in "-_.+" else "_" for c in name).strip(".")
     return safe or "recording"
 
 
 def output_names(inputs: Sequence[str | os.PathLike[str]]) -> list[str]:
-    """A unique output base name per input: its file name without suffix (folder name for a
-    folder); inputs that share one get ``-<8 hex digits of their absolute path>`` added, so a
-    name stays the same from one run to the next."""
+    """A unique output base name per input: its file name without suffix (and without ``.gz``,
+    :func:`_stem`; a folder's name for a folder); inputs that share one get ``-<8 hex digits of
+    their absolute path>`` added, so a name stays the same from one run to the next."""
     stems = [_stem(Path(p)) for p in inputs]
     count: dict[str, int] = {}
     for s in stems:

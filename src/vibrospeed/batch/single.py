@@ -197,13 +197,13 @@ def read_with(path: str | os.PathLike[str], options: EstimateOptions) -> list[Pa
     a canonical CSV's ``<path>.json`` (units, wheel radius) and event files
     (``drive.wss_ticks.csv``), an AndroSensor trip's ``gps.<trip>.csv``, the ``--mapping``
     file. A folder's own files are in its checksum already."""
-    from vibrospeed.io.canonical import _event_sidecars
+    from vibrospeed.io.canonical import event_sidecars, sidecar_json
 
     p = Path(path)
     out: list[Path] = []
-    if p.is_file():
-        out.append(Path(f"{p}.json"))
-        out.extend(sorted(_event_sidecars(p).values()))
+    if p.is_file():  # drive.csv.gz: drive.csv's sidecars, as the reader takes them
+        out.append(sidecar_json(p))
+        out.extend(sorted(event_sidecars(p).values()))
         if "accel" in p.name:
             out.append(p.with_name(p.name.replace("accel", "gps", 1)))
     if options.mapping is not None:

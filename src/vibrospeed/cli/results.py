@@ -170,6 +170,10 @@ def evaluate(
     truth: Annotated[Path, typer.Option(help="recording with omega_true or speed_true")],
     truth_format: Annotated[str, typer.Option(help="format of the truth file")] = "auto",
     truth_channel: TruthChannelOpt = None,
+    truth_columns: Annotated[str | None, typer.Option(
+        help="column mapping of a truth file in another CSV layout, as --columns of "
+             "`estimate` (e.g. t=t_video_s,gps_speed=gps_speed2d_mps, then --truth-channel "
+             "gps_speed; or speed_true=COLUMN)")] = None,
     min_omega: Annotated[float, typer.Option(help="truth below this (rad/s) = standing, "
                          "excluded (speeds compared in m/s, an estimate or truth without a "
                          "wheel radius: below 0.3 m/s)",
@@ -182,13 +186,18 @@ def evaluate(
     = None,
 ) -> None:
     """Compare an estimate with ground truth: RMSE (thesis eq. 3.18, truth linearly
-    interpolated, moving samples only), bias, relative error, band coverage, harmonic errors.
+    interpolated, moving samples only), bias, relative error, band coverage, harmonic errors;
+    the lateral velocity Vy (RMSE, MAE, bias, correlation) where the estimate has ``vy``
+    (algebraic) and the truth ``vy_true``.
 
     Examples:
 
       vibrospeed evaluate est.csv --truth drive.csv
 
       vibrospeed evaluate phone_est.csv --truth phone_drive --truth-channel gps_speed
+
+      vibrospeed evaluate kart_est.csv --truth GX030410_gps_speed.csv --truth-columns
+      t=t_video_s,gps_speed=gps_speed2d_mps --truth-channel gps_speed
     """
     from vibrospeed import io
     from vibrospeed.eval.metrics import evaluate as ev
@@ -197,7 +206,7 @@ def evaluate(
 
     _check_output(json_out, "--json")
     track = io.read_track(estimate_csv)
-    ref = io.read(truth, truth_format)
+    ref = io.read(truth, truth_format, columns=truth_columns)
     if truth_channel is None and not ({"omega_true", "speed_true"} & set(ref.channels)) \
             and "gps_speed" in ref.channels:  # a phone drive: its GPS is the truth it has
         raise ParameterError(f"{truth}: no omega_true or speed_true to compare against; it has "
@@ -237,6 +246,13 @@ def evaluate(
                      ("  band coverage there", f"{m.coverage_claimed:.1%}", "")]
     if m.rmse_speed == m.rmse_speed and m.unit != "m/s":
         rows.append(("RMSE speed", f"{m.rmse_speed:.3f}", "m/s"))
+    if m.vy_n:  # the estimate has a lateral velocity and the truth vy_true
+        rows += [("lateral velocity Vy: samples", f"{m.vy_n}", ""),
+                 ("  Vy RMSE", f"{m.vy_rmse:.3f}", "m/s"),
+                 ("  Vy MAE", f"{m.vy_mae:.3f}", "m/s"),
+                 ("  Vy bias", f"{m.vy_bias:+.3f}", "m/s"),
+                 ("  Vy correlation", f"{m.vy_corr:.3f}" if m.vy_corr == m.vy_corr
+                  else "n/a (constant)", "")]
     for row in rows:
         tab.add_row(*row)
     out.print(tab)

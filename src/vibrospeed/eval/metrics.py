@@ -39,6 +39,11 @@ class Metrics:
     rmse_claimed: float = float("nan")  # RMSE where the tracker claims a signal
     ok_claimed: float = float("nan")  # ok share where the tracker claims a signal
     coverage_claimed: float = float("nan")  # band coverage where the tracker claims a signal
+    vy_n: int = 0  # moving samples with both an estimated ``vy`` and a truth ``vy_true``
+    vy_rmse: float = float("nan")  # lateral velocity (m/s) against vy_true, over those samples
+    vy_mae: float = float("nan")
+    vy_bias: float = float("nan")  # mean(vy - vy_true)
+    vy_corr: float = float("nan")  # Pearson correlation of vy with vy_true (NaN if one is flat)
 
     def to_dict(self) -> dict:
         """Plain dict (for JSON)."""
@@ -100,6 +105,7 @@ def compare(
     ok_rel: float = 0.10,
     truth_max_gap: float | None = None,
     truth_speed_values: np.ndarray | None = None,
+    truth_vy_values: np.ndarray | None = None,
 ) -> Metrics:
     """Metrics of ``track`` against truth samples ``(truth_t, truth_omega_values)`` (rad/s).
 
@@ -112,6 +118,9 @@ def compare(
     (:func:`interp_truth`). ``truth_speed_values`` (m/s, at ``truth_t``): ``rmse_speed`` is the
     track's ``speed`` against them (its own radius may differ from the truth's: a learned or
     wrong one); without them it is the omega error times the track's radius.
+    ``truth_vy_values`` (m/s, at ``truth_t``): where the track has a lateral velocity
+    (``extras['vy']``, the algebraic method), the ``vy_*`` fields score it over the moving
+    samples where both are finite (a vehicle tester's Vy figures beside the Vx ones).
     """
     w = interp_truth(np.asarray(truth_t, float), np.asarray(truth_omega_values, float), track.t,
                      truth_max_gap)
@@ -140,6 +149,11 @@ def compare(
         ev = ev[np.isfinite(ev)]
         rmse_v = float(np.sqrt(np.mean(ev**2))) if ev.size else float("nan")
     ok = np.abs(e) <= np.maximum(ok_abs, ok_rel * wt)
+    lateral = {}
+    if truth_vy_values is not None and "vy" in track.extras:
+        lateral = _vy_metrics(np.asarray(track.extras["vy"], float), interp_truth(
+            np.asarray(truth_t, float), np.asarray(truth_vy_values, float), track.t,
+            truth_max_gap), moving)
     claimed = {}
     if "has_signal" in track.extras:
         c = np.asarray(track.extras["has_signal"], float)[moving] > 0.5
@@ -162,7 +176,23 @@ def compare(
         rmse_speed=rmse_v,
         ok_share=float(ok.mean()),
         **claimed,
+        **lateral,
     )
+
+
+def _vy_metrics(vy: np.ndarray, vy_true: np.ndarray, moving: np.ndarray) -> dict[str, Any]:
+    """The ``vy_*`` fields of :class:`Metrics`: the estimate's lateral velocity against the
+    truth's (both m/s, on the estimate's time line) over the ``moving`` samples where both are
+    finite; none such: no fields (``vy_n`` stays 0)."""
+    both = moving & np.isfinite(vy) & np.isfinite(vy_true)
+    if not both.any():
+        return {}
+    est, ref = vy[both], vy_true[both]
+    e = est - ref
+    flat = np.ptp(est) == 0 or np.ptp(ref) == 0  # a constant series has no correlation
+    corr = float("nan") if flat or e.size < 2 else float(np.corrcoef(est, ref)[0, 1])
+    return dict(vy_n=int(e.size), vy_rmse=float(np.sqrt(np.mean(e**2))),
+                vy_mae=float(np.mean(np.abs(e))), vy_bias=float(np.mean(e)), vy_corr=corr)
 
 
 def evaluate(track: Track, truth: Recording, *, min_speed: float = 0.3,
@@ -173,8 +203,11 @@ def evaluate(track: Track, truth: Recording, *, min_speed: float = 0.3,
     compared as speeds (m/s; ``min_speed`` m/s marks standstill), reported with ``unit="m/s"``.
     ``truth_channel``: another channel of ``truth`` holding the speed in m/s (``gps_speed``: a
     phone drive scored against its GPS), used as ``speed_true``, not interpolated across gaps
-    over :data:`TRUTH_GAP_S` between its finite samples (its fixes).
+    over :data:`TRUTH_GAP_S` between its finite samples (its fixes). Where the truth has
+    ``vy_true`` and the estimate a lateral velocity ``vy``, the ``vy_*`` fields score it.
     """
+    if "vy_true" in truth.channels:  # kept whatever channel the speed is scored against
+        kw.setdefault("truth_vy_values", truth.channel("vy_true"))
     measured = truth_channel is not None and truth_channel not in ("omega_true", "speed_true")
     src = truth.source or "truth"
     if truth_channel is not None:
@@ -188,6 +221,11 @@ def evaluate(track: Track, truth: Recording, *, min_speed: float = 0.3,
                           wheel_radius=truth.wheel_radius, source=truth.source)
     if measured:  # a measured speed: compared as speeds where the estimate has one
         kw.setdefault("truth_max_gap", TRUTH_GAP_S)
+        if not np.isfinite(track.speed).any() and not (track.wheel_radius
+                                                       or truth.wheel_radius):
+            raise InputError(f"{src}: truth channel '{truth_channel}' is a speed (m/s) and the "
+                             "estimate has omega only (rad/s, no wheel radius): estimate "
+                             "with --wheel-radius to compare them")
     if "speed_true" not in truth.channels and "omega_true" in truth.channels \
             and truth.wheel_radius:  # the truth's speed through its own wheel
         truth = Recording(truth.t, {**truth.channels, "speed_true":
@@ -205,7 +243,9 @@ def evaluate(track: Track, truth: Recording, *, min_speed: float = 0.3,
             and "speed_true" in truth.channels:
         as_speed = Track(track.t, track.speed, track.speed_std, track.speed_lo, track.speed_hi,
                          track.speed, track.speed_std, track.speed_lo, track.speed_hi,
-                         level=track.level, wheel_radius=1.0)
+                         level=track.level, wheel_radius=1.0,
+                         extras={k: track.extras[k] for k in ("vy", "has_signal")
+                                 if k in track.extras})  # scored as on the omega path
         kw.pop("min_omega", None)
         m = compare(as_speed, truth.t, truth.channel("speed_true"), min_omega=min_speed, **kw)
         return replace(m, unit="m/s")

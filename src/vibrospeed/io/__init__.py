@@ -206,6 +206,89 @@ def _first_line(p: Path) -> str:
     return ""
 
 
+_TABLE_SUFFIXES = (".csv", ".tsv", ".csv.gz", ".tsv.gz")
+
+
+def _header(q: Path) -> list[str]:
+    """The column names of a delimited text file's first line (``[]`` if none)."""
+    from vibrospeed.io._csv import sniff_delimiter
+
+    first = _first_line(q)
+    return [h.strip().strip('"').strip() for h in first.split(sniff_delimiter(first))] \
+        if first else []
+
+
+def _is_time_column(name: str) -> bool:
+    low = name.lower()
+    return low in ("t", "ts") or "time" in low or low.startswith("t_")
+
+
+def mapping_example(header: Sequence[str]) -> str:
+    """A ``--columns`` mapping for a CSV with these column names, to show in an error: a time
+    column (``t``, ``*time*``, ``t_*``) as ``t``, one named for a speed or velocity as
+    ``gps_speed``, the first three others as ``ax ay az`` (one alone as ``ay``), and
+    ``--rate HZ`` where there is no time column; quoted for a shell where a name needs it, and
+    a generic example where the names are not printable column names (a binary file)."""
+    head = [h for h in header if h]
+    if not head or not all(h.isprintable() and len(h) <= 40 and not set(h) & set(',=*:"')
+                           for h in head):  # a binary file's "header": a generic example
+        return "--columns t=time,ay=acc_y"
+    time = next((h for h in head if _is_time_column(h)), None)
+    speed = next((h for h in head if h != time and ("speed" in h.lower()
+                                                     or "vel" in h.lower())), None)
+    values = [h for h in head if h not in (time, speed)][:3]
+    names = ("ax", "ay", "az") if len(values) > 1 else ("ay",)
+    items = ([f"t={time}"] if time else []) + [f"{ch}={col}" for ch, col in zip(
+        names, values, strict=False)] + ([f"gps_speed={speed}"] if speed else [])
+    cols = ",".join(items)
+    cols = f'"{cols}"' if any(c.isspace() or c in "()[]'&;|<>$`\\" for c in cols) else cols
+    return f"--columns {cols}" + ("" if time else " --rate HZ")
+
+
+def folder_hint(folder: str | os.PathLike[str]) -> str:
+    """What to say about a folder that no reader takes as one recording (empty: nothing to add,
+    the caller's own message): where files in it are recordings (canonical CSVs, AndroSensor
+    trips, GoPro clips, ...), to give one of them or ``vibrospeed batch``; where it holds CSV
+    files of another layout (the GoPro kart's ``GX030410_accl_raw.csv`` and
+    ``GX030410_gps_speed.csv``), to give one file with a column mapping built from its header
+    (one named for an accelerometer, ``acc*``, else the first), then the files with their
+    headers."""
+    from vibrospeed.io._common import NOT_RECORDING_SUFFIXES
+    from vibrospeed.io._csv import _short
+    from vibrospeed.io.androsensor import accel_of
+    from vibrospeed.io.canonical import is_event_sidecar
+
+    d = Path(folder)
+    try:
+        files = sorted(q for q in d.iterdir() if not q.name.startswith(".") and q.is_file()
+                       and q.suffix.lower() not in NOT_RECORDING_SUFFIXES)
+    except OSError:
+        return ""
+    found = []
+    for q in files:
+        if is_event_sidecar(q) or accel_of(q) is not None:  # a part of a recording beside it
+            continue
+        try:
+            _detect_format(q, mapping=False, inside=False)
+        except (ReaderError, OSError):
+            continue
+        found.append(q.name)
+    if found:
+        shown = ", ".join(found[:4]) + (", ..." if len(found) > 4 else "")
+        return (f"a folder of {len(found)} recording(s) ({shown}), not one itself: give one "
+                "of them, or `vibrospeed batch` for all")
+    tables = [q for q in files if q.name.lower().endswith(_TABLE_SUFFIXES)]
+    if not tables:
+        return ""
+    heads = {q: _header(q) for q in tables}
+    pick = next((q for q in tables if "acc" in q.name.lower()), tables[0])
+    listed = "; ".join(f"{q.name} ({_short(','.join(heads[q]), 40)})" for q in tables[:4])
+    more = f"; ... ({len(tables)} CSV files)" if len(tables) > 4 else ""
+    return (f"a folder of CSV files, not a recording format vibrospeed reads as one: give one "
+            f"file with a column mapping, e.g. {pick} {mapping_example(heads[pick])} "
+            f"(units ':g', scales '*K': docs/formats.md); it holds {listed}{more}")
+
+
 def _recording_subfolders(folder: Path) -> list[Path]:
     """The subfolders of ``folder`` (one level, hidden ones left out) that are recordings."""
     out = []
@@ -252,6 +335,9 @@ def _detect_format(p: Path, *, mapping: bool, inside: bool) -> str:
             shown = ", ".join(q.name for q in inner[:4]) + (", ..." if len(inner) > 4 else "")
             raise ReaderError(p, f"a folder of {len(inner)} recordings ({shown}), not one: give "
                                  "one of them, or `vibrospeed batch` for all")
+        hint = folder_hint(p)
+        if hint:
+            raise ReaderError(p, hint)
         raise ReaderError(p, "unknown format: a folder that is not a phyphox export "
                              f"(no Accelerometer.csv); give --format ({', '.join(FORMATS)})")
     if p.stat().st_size == 0:
@@ -281,7 +367,7 @@ def _detect_format(p: Path, *, mapping: bool, inside: bool) -> str:
     raise ReaderError(
         p,
         f"unknown format (header starts '{_short(first, 40)}'): give --format "
-        f"({', '.join(FORMATS)}) or a column mapping such as --columns t=time,ay=acc_y",
+        f"({', '.join(FORMATS)}) or a column mapping such as {mapping_example(head)}",
         row=1,
     )
 

@@ -53,8 +53,10 @@ def check_file(path: str | os.PathLike[str]) -> Path:
     p = Path(path)
     if not p.exists():
         raise ReaderError(p, not_found(p))
-    if p.is_dir():
-        raise ReaderError(p, "is a folder, not a file")
+    if p.is_dir():  # a folder of CSV files: which one to give, with what mapping
+        from vibrospeed.io import folder_hint
+
+        raise ReaderError(p, folder_hint(p) or "is a folder, not a file")
     if p.stat().st_size == 0:
         raise ReaderError(p, "empty file")
     return p

@@ -8,6 +8,9 @@ Layout of a recording written to ``drive.csv``::
     drive.wss_ticks.csv     t                     one sidecar per event stream, one time per row
     drive.csv.json          {"kind": "recording"} units, wheel radius, axes, notes, metadata
 
+A gzip-compressed ``drive.csv.gz`` (``gzip drive.csv``) keeps the sidecars of ``drive.csv``:
+``drive.csv.json`` (or ``drive.csv.gz.json``) and ``drive.<name>.csv`` (:func:`uncompressed`).
+
 Floats are written with ``repr`` (shortest string that reads back to the same float64), so a
 write/read round trip is exact. Sidecars are optional when reading: a plain CSV with a ``t``
 column is a valid recording. Every file is written atomically.
@@ -30,10 +33,42 @@ from vibrospeed.io._csv import CsvTable, _short, nan_notes, open_text
 from vibrospeed.io.atomic import atomic_path, atomic_write_text
 from vibrospeed.types import CHANNEL_UNITS, Recording
 
-__all__ = ["event_path", "is_canonical_header", "is_event_sidecar", "read_csv", "write_csv"]
+__all__ = ["event_path", "event_sidecars", "is_canonical_header", "is_event_sidecar", "read_csv",
+           "sidecar_json", "uncompressed", "write_csv"]
 
 _EVENT_NAME = re.compile(r"^[A-Za-z0-9_\-]+$")
 _ROWS_PER_WRITE = 20000
+
+
+#: name endings of a compressed file (gzip, the one the readers decompress), left off for its
+#: sidecars' names and a batch's output name
+COMPRESSED_SUFFIXES = (".gz", ".gzip")
+
+
+def uncompressed(path: str | os.PathLike[str]) -> Path:
+    """``path`` without a compression suffix (``drive.csv.gz`` -> ``drive.csv``; others as
+    they are): the name its sidecars and event files go by, as ``gzip drive.csv`` leaves
+    ``drive.csv.json`` and ``drive.wss_ticks.csv`` beside it."""
+    p = Path(path)
+    for suf in COMPRESSED_SUFFIXES:
+        if p.name.lower().endswith(suf) and len(p.name) > len(suf):
+            return p.with_name(p.name[: -len(suf)])
+    return p
+
+
+def sidecar_json(path: str | os.PathLike[str]) -> Path:
+    """The metadata sidecar of a canonical CSV: ``<path>.json``; for ``drive.csv.gz`` that one
+    where it exists, else ``drive.csv.json`` (the sidecar of the file before compression)."""
+    p = Path(path)
+    own = Path(f"{p}.json")
+    base = uncompressed(p)
+    return own if base == p or own.is_file() else Path(f"{base}.json")
+
+
+def event_sidecars(path: str | os.PathLike[str]) -> dict[str, Path]:
+    """The event files of a canonical CSV, ``<stem>.<name>.csv`` with the header ``t`` alone
+    (those of ``drive.csv`` for ``drive.csv.gz``)."""
+    return _event_sidecars(uncompressed(path))
 
 
 def event_path(path: str | os.PathLike[str], name: str) -> Path:
@@ -44,14 +79,15 @@ def event_path(path: str | os.PathLike[str], name: str) -> Path:
 
 def is_event_sidecar(path: str | os.PathLike[str]) -> bool:
     """True for an event stream of a canonical recording, not a recording of its own:
-    ``<stem>.<name>.csv`` (``name`` as :func:`write_csv` allows, no dot) beside ``<stem>.csv``,
+    ``<stem>.<name>.csv`` (``name`` as :func:`write_csv` allows, no dot) beside ``<stem>.csv``
+    (or ``<stem>.csv.gz``),
     with the header ``t`` alone (as :func:`read_events` finds them). ``drive.2024-05-01.csv``
     beside ``drive.csv`` is a drive; ``trip.v2.wss_ticks.csv`` is ``trip.v2.csv``'s ticks."""
     q = Path(path)
     head, dot, name = q.stem.rpartition(".")
     if not dot or q.suffix != ".csv" or not _EVENT_NAME.match(name):
         return False
-    if not q.with_name(f"{head}.csv").is_file():
+    if not any(q.with_name(f"{head}.csv{z}").is_file() for z in ("", *COMPRESSED_SUFFIXES)):
         return False
     try:
         with open(q, encoding="utf-8-sig", newline="") as fh:
@@ -143,7 +179,7 @@ def write_csv(rec: Recording, path: str | os.PathLike[str]) -> None:
 
 
 def _read_sidecar_json(p: Path) -> dict[str, Any]:
-    q = Path(f"{p}.json")
+    q = sidecar_json(p)
     if not q.is_file():
         return {}
     try:
@@ -158,7 +194,7 @@ def _read_sidecar_json(p: Path) -> dict[str, Any]:
 def read_events(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     """Event streams from the ``<stem>.<name>.csv`` sidecars of ``path`` (empty if none)."""
     events = {}
-    for name, q in sorted(_event_sidecars(Path(path)).items()):
+    for name, q in sorted(event_sidecars(path).items()):
         with open_text(q) as fh:
             tab = CsvTable(fh, str(q), delimiter=",")
             cols, lines = tab.read(["t"], allow_empty=True)
