@@ -430,7 +430,8 @@ class StreamPlot:
                    omega_max=spectrogram_top(self.fs, M, self.top if np.isfinite(self.top)
                                              else None),
                    title=f"{self.source or 'recording'} (streamed: spectrogram every "
-                         f"{self.hop_s:.3g} s, estimate every {self.k} samples)")
+                         f"{self.hop_s:.3g} s, estimate "
+                         f"{'every sample' if self.k == 1 else f'every {self.k} samples'})")
 
 
 class _Bar:
