@@ -72,7 +72,7 @@ def _one_line(text: str) -> str:
 def _small_blocks(m):
     m.setattr(stream, "STREAM_ROWS", 1000)
     m.setattr(stream, "CHUNK_ROWS", 777)
-    m.setattr(blocks, "BLOCK_S", 20.0)
+    m.setattr(blocks, "BLOCK_S", 10.0)
     m.setattr(blocks, "LOOKAHEAD_S", 100.0)
 
 
@@ -104,7 +104,7 @@ def test_streamed_plot_and_notes_are_the_whole_logs(tmp_path, monkeypatch):
     with the whole-log plot's values, the unread sidecar is noted in the same place among the
     recording's notes (stderr and the output's sidecar), the estimate is the whole log's byte
     for byte."""
-    rec = sim.simulate("car", seed=2, duration=25)
+    rec = sim.simulate("car", seed=2, duration=20)
     sats = rec["gps_sats"].copy()
     fixes = np.flatnonzero(np.isfinite(rec["gps_speed"]))
     sats[fixes[5:9]] = 0.0  # a tunnel: fixes without satellites, drawn as ignored
@@ -170,3 +170,38 @@ def test_overlay_bounds_the_gps_fixes_and_decimates_the_truth():
     np.testing.assert_array_equal(tr.t, t[::7])
     np.testing.assert_array_equal(tr["omega_true"], truth[::7])
     assert stream.Overlay().gps() is None and stream.Overlay().truth() is None
+
+
+def test_an_interrupted_streamed_estimate_never_leaves_a_stale_sidecar(tmp_path, monkeypatch):
+    """Ctrl-C while the blocks are written: the earlier CSV and sidecar stay, as a pair, no
+    temporary file; Ctrl-C after the CSV is in place, before its sidecar is: the CSV stands
+    without one (``io.write_track``'s rule), not beside the earlier run's options."""
+    from vibrospeed.io import atomic
+    from vibrospeed.types import Recording
+
+    rec = sim.simulate("car", seed=2, duration=15)
+    path = tmp_path / "drive.parquet"
+    io.write(Recording(rec.t, {c: rec[c] for c in ("ax", "ay", "az")}), path)
+    out = tmp_path / "o.csv"
+    kw = {"block_s": 10.0, "chunk_rows": 700}
+    stream.estimate_file(path, out, params={"smooth": "none"}, **kw)
+    before = out.read_bytes(), (tmp_path / "o.csv.json").read_bytes()
+    assert json.loads(before[1])["params"]["smooth"] == "none"
+
+    def stop(track):
+        if track.t[0] > 0:  # the second block
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        stream.estimate_file(path, out, params={}, on_block=stop, **kw)
+    assert (out.read_bytes(), (tmp_path / "o.csv.json").read_bytes()) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["drive.parquet", "o.csv",
+                                                          "o.csv.json"]
+
+    def interrupted(p, text, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(atomic, "atomic_write_text", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        stream.estimate_file(path, out, params={}, **kw)
+    assert out.read_bytes() != before[0] and not (tmp_path / "o.csv.json").exists()

@@ -266,6 +266,7 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     Track as it is written, in order (the CLI's summary numbers,
     :class:`vibrospeed.eval.metrics.SummaryAccumulator`)."""
     from vibrospeed import __version__
+    from vibrospeed.errors import ParameterError
     from vibrospeed.estimators.common import axis_channel, only_axis
     from vibrospeed.estimators.grid import blocks as _blocks
     from vibrospeed.io._common import jsonable, sha256_path
@@ -323,18 +324,25 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
                 on_block(track)
             if drawing is not None:
                 drawing.add(track)
-    all_notes = [*blk.notes, *q_notes]
-    side_meta = {"version": __version__, "axis": use_axis, "recording_notes": rec.notes,
-                 **(meta or {})}
-    side_params = jsonable(blk.params)
-    side = {
-        "kind": "track", "method": "grid", "params": side_params, "level": blk.level,
-        "wheel_radius": blk.wheel_radius, "version": __version__,
-        "input": os.fspath(input_path), "input_sha256": sha256_path(input_path),
-        "columns": names or list(TRACK_COLUMNS), "notes": all_notes,
-        "meta": jsonable(side_meta),
-    }
-    atomic_write_text(Path(f"{out}.json"), json.dumps(side, indent=1, allow_nan=False) + "\n")
+        all_notes = [*blk.notes, *q_notes]
+        side_meta = {"version": __version__, "axis": use_axis, "recording_notes": rec.notes,
+                     **(meta or {})}
+        side_params = jsonable(blk.params)
+        side = {
+            "kind": "track", "method": "grid", "params": side_params, "level": blk.level,
+            "wheel_radius": blk.wheel_radius, "version": __version__,
+            "input": os.fspath(input_path), "input_sha256": sha256_path(input_path),
+            "columns": names or list(TRACK_COLUMNS), "notes": all_notes,
+            "meta": jsonable(side_meta),
+        }
+        try:  # the sidecar's text before the CSV is renamed, as write_track does
+            text = json.dumps(side, indent=1, allow_nan=False) + "\n"
+        except ValueError as exc:
+            raise ParameterError(f"{out}.json: cannot write the sidecar: {exc}") from None
+        # the older sidecar goes before the CSV is replaced (io.write_track's rule): stopped
+        # in between (Ctrl-C), the new CSV stands without one, never beside the old options'
+        Path(f"{out}.json").unlink(missing_ok=True)
+    atomic_write_text(Path(f"{out}.json"), text)
     if drawing is not None:
         drawing.draw(plot, level=blk.level, method="grid", M=int(blk.params["M"]),
                      wheel_radius=blk.wheel_radius)
