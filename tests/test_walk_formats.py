@@ -257,3 +257,15 @@ def test_excel_unicode_text_and_binary_files_are_named_as_such(tmp_path):
     b.write_bytes(b"PAR1" + bytes(range(256)) * 4)  # NUL and bytes no text decodes
     with pytest.raises(ReaderError, match=r"x.csv: a binary file, not CSV text"):
         io.read(b, "csv")
+
+
+def test_a_decimal_comma_through_columns_gets_the_hint(tmp_path):
+    # the t column may hold ISO times through a mapping, whose error had lost the comma hint
+    p = tmp_path / "eu.csv"
+    p.write_text("t;ax;ay;az\n0,00;0,1;0,2;9,8\n0,01;0,1;0,3;9,8\n")
+    with pytest.raises(ReaderError) as err:
+        read_mapped(p, columns="t=t,ax=ax,ay=ay,az=az")
+    assert str(err.value) == (f"{p}, line 2, column 't': '0,00' is neither a number nor an "
+                              "ISO-8601 time (e.g. 2024-05-01T12:00:00.250Z) (a decimal comma? "
+                              "read the file through a --mapping TOML file with decimal = \",\", "
+                              "see docs/formats.md)")

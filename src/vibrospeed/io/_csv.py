@@ -420,7 +420,8 @@ class CsvTable:
                     pd.to_datetime([c], format="ISO8601", utc=True)
                 except (ValueError, OverflowError, TypeError):
                     raise ReaderError(self.source, f"'{_short(c)}' is neither a number nor an "
-                                      "ISO-8601 time (e.g. 2024-05-01T12:00:00.250Z)",
+                                      "ISO-8601 time (e.g. 2024-05-01T12:00:00.250Z)"
+                                      + self._comma_hint(c),
                                       row=int(lines[k]), column=name) from None
             raise  # pragma: no cover - every cell parsed alone
         out = np.full(len(cells), np.nan)
