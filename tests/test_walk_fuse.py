@@ -72,3 +72,25 @@ def test_a_log_too_slow_for_a_wheel_line_fuses_gps_and_the_accelerometer():
     # an omega_max the rate cannot carry, asked for: the tracker's error stands
     with pytest.raises(ParameterError, match="lower omega_max"):
         fuse.estimate(rec, params={"omega_max": 100.0})
+
+
+def test_a_lateral_accel_axis_is_noted_with_the_axis_that_follows_gps():
+    """A phone lying flat (phyphox: y forward) under fuse's default accel_axis=x: the Hungary
+    drive rsq_q3_00 left its 1 Hz GPS by up to 11.7 m/s, without a word. The speed changes
+    of x hardly correlate with the GPS speed's, those of y do: a note names y."""
+    rng = np.random.default_rng(3)
+    fs = 50.0
+    t = np.arange(0.0, 80.0, 1.0 / fs)
+    v = 10.0 + 3.0 * np.sin(2 * np.pi * t / 20.0)
+    along = np.gradient(v, t)
+    g = np.full(t.size, np.nan)
+    g[::int(fs)] = v[::int(fs)]
+    rec = Recording(t, {"ax": 0.3 * rng.normal(size=t.size), "ay": along + 0.3 * rng.normal(
+        size=t.size), "az": 9.81 + 0.3 * rng.normal(size=t.size), "gps_speed": g}, source="flat")
+    vib = Track.from_omega(t, np.zeros(t.size), np.full(t.size, 5.0), method="grid",
+                           extras={"has_signal": np.zeros(t.size)})
+    notes = fuse.estimate(rec, vibration=vib).notes
+    hint = [n for n in notes if "hardly follow" in n]
+    assert len(hint) == 1 and "'ax'" in hint[0] and "-p accel_axis=ay " in hint[0]
+    assert not any("hardly follow" in n for n in fuse.estimate(
+        rec, vibration=vib, params={"accel_axis": "y"}).notes)

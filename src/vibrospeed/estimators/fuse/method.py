@@ -292,6 +292,9 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
                      f"GPS speed's (correlation {corr:.2f} over {nwin} windows of "
                      f"{SIGN_WINDOW:g} s): the accelerometer looks mounted backwards; "
                      f"-p accel_axis={other} reads it the right way round")
+    elif corr < WEAK_CORR:
+        gv = np.where(cfg.valid_fixes(g, s), g, np.nan)[ends]
+        notes.extend(_better_axis(recording, ends, gv, acc_ch, acc_spec, corr, nwin))
     grid = None
     if want_post:
         arrays["posterior"], grid = _posterior_rows(vib, ends, name)
@@ -440,6 +443,37 @@ def suits(recording: Recording, accel_axis: str = "x") -> bool:
 SIGN_WINDOW = 5.0
 #: the correlation at or below which the accelerometer is taken to point backwards
 SIGN_CORR = -0.5
+
+
+#: below this correlation of the speed changes (:func:`accel_gps_correlation`) the axis hardly
+#: follows the GPS speed: on the Hungary phone drives the longitudinal ``ay`` gives 0.24-0.88,
+#: the lateral ``ax`` (fuse's default) -0.45-0.34, the kart's tilted GoPro -0.49
+WEAK_CORR = 0.5
+#: how much better another axis must follow the GPS speed to be named
+BETTER_BY = 0.3
+
+
+def _better_axis(recording: Recording, ends: np.ndarray, gps: np.ndarray, acc_ch: str,
+                 acc_spec: str, corr: float, nwin: int) -> list[str]:
+    """A note where the accelerometer axis ``acc_spec`` hardly follows the GPS speed (its
+    correlation ``corr`` below :data:`WEAK_CORR`) and another of ``ax``, ``ay``, ``az`` (either
+    sign) follows it at :data:`WEAK_CORR` or more and :data:`BETTER_BY` better: a phone lying
+    flat has its longitudinal axis in ``y``, not fuse's default ``x``, and with a lateral axis
+    the fused speed left a 1 Hz GPS by up to 11.7 m/s (Hungary drive rsq_q3_00)."""
+    t = recording.t[ends]
+    best, spec = -math.inf, ""
+    for ch in ("ax", "ay", "az"):
+        if ch == acc_ch or ch not in recording:
+            continue
+        c, _ = accel_gps_correlation(t, _block_mean(recording.channel(ch), ends), gps)
+        if math.isfinite(c) and abs(c) > best:
+            best, spec = abs(c), ("-" if c < 0 else "") + ch
+    if not (best >= WEAK_CORR and best >= corr + BETTER_BY):
+        return []
+    return [f"the speed changes integrated from '{acc_spec}' hardly follow the GPS speed's "
+            f"(correlation {corr:.2f} over {nwin} windows of {SIGN_WINDOW:g} s), those of "
+            f"'{spec}' do ({best:.2f}): is '{acc_spec}' the longitudinal axis? -p "
+            f"accel_axis={spec} if '{spec}' points forward"]
 
 
 def accel_gps_correlation(t: np.ndarray, accel: np.ndarray, gps: np.ndarray,
