@@ -122,8 +122,8 @@ def test_unread_sidecar_is_a_note(tmp_path, side, why):
 
 # ---- 4. the streamed figure is the whole-log figure ------------------------------------------
 def test_streamed_plot_draws_through_track_figure(monkeypatch):
-    """StreamPlot.draw goes through :func:`plot.track_figure`: legends beside the axes, the
-    blocks' standstills shaded with their share (25.0 % of the kept samples here), GPS under
+    """plot_streamed(StreamPlot) goes through :func:`plot.track_figure`: legends beside the axes,
+    the blocks' standstills shaded with their share (25.0 % of the kept samples here), GPS under
     the estimate where the recording has it, and its own spectrogram drawn."""
     from vibrospeed.estimators.grid import stream
 
@@ -141,7 +141,8 @@ def test_streamed_plot_draws_through_track_figure(monkeypatch):
         figs.append(plot.track_figure(recording, track, **kw))
 
     monkeypatch.setattr(plot, "plot_track", keep)
-    sp.draw("x.png", level=0.98, method="grid", M=2, wheel_radius=R)
+    sp.finish(level=0.98, method="grid", M=2, wheel_radius=R)
+    plot.plot_streamed("x.png", sp)
     fig = figs[0]
     try:
         ax0, ax1 = fig.axes[:2]

@@ -154,42 +154,10 @@ def load_recording(path: str | os.PathLike[str], fmt: str = "auto", columns: str
     rec = io.read(path, fmt, columns=columns, mapping_file=mapping, rate=rate, sort=sort,
                   topic=topic)
     if fmt in ("auto", "csv") and columns is None and mapping is None and rate is None:
-        said = unread_sidecar_note(path)
+        said = io.unread_sidecar_note(path)
         if said:
             rec.notes.append(said)
     return timebase.as_uniform(rec) if uniform else rec
-
-
-def unread_sidecar_note(path: str | os.PathLike[str]) -> str | None:
-    """A note where a canonical CSV's ``<path>.json`` is there but not read: the reader takes
-    only a sidecar with ``"kind": "recording"`` (what ``vibrospeed simulate`` and
-    ``vibrospeed.io.write`` write), and one a user wrote by hand without it (a wheel radius for
-    a batch's drive) would otherwise be ignored without a word. None where there is none, it
-    is read, or the file is not a canonical CSV."""
-    import json
-
-    from vibrospeed import io
-
-    q = Path(f"{path}.json")
-    if not q.is_file():
-        return None
-    try:
-        side = json.loads(q.read_text(encoding="utf-8-sig"))
-    except (OSError, ValueError):
-        return None  # the reader names an unreadable sidecar itself
-    if isinstance(side, dict) and side.get("kind") == "recording":
-        return None
-    try:
-        if io.detect_format(path) != "csv":
-            return None
-    except Exception:  # noqa: BLE001 - it was read, so a format was found; this is a note
-        return None
-    kind = side.get("kind") if isinstance(side, dict) else None
-    why = (f'its "kind" is {json.dumps(kind)}' if kind is not None
-           else 'it has no "kind": "recording"' if isinstance(side, dict)
-           else "it is not a JSON object")
-    return (f'{q.name}: not read ({why}): add "kind": "recording" for its wheel_radius, units, '
-            "axes and notes to be used")
 
 
 def read_with(path: str | os.PathLike[str], options: EstimateOptions) -> list[Path]:

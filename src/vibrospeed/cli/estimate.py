@@ -238,7 +238,7 @@ def estimate(
                                       wheel_radius=wheel_radius, fmt=fmt,
                                       meta={"preset": preset}, progress=sys.stderr.isatty(),
                                       rows=streamed[0], notes=streamed[1], columns=columns,
-                                      mapping=mapping, rate=rate, plot=plot,
+                                      mapping=mapping, rate=rate, plot=plot is not None,
                                       on_block=summary.add)
             said = range_note(method, opts.params, st.params, st.wheel_radius)
             for note in st.recording_notes + st.notes + ([said] if said else []):
@@ -252,6 +252,9 @@ def estimate(
             err.print(summary_line(summary.result(), gps_unread=unread), markup=False,
                       soft_wrap=True)
             if plot is not None:
+                from vibrospeed.eval.plot import plot_streamed
+
+                plot_streamed(plot, st.drawing)
                 err.print(f"wrote {plot} (decimated spectrogram, no posterior image)",
                           markup=False, soft_wrap=True)
             return

@@ -250,6 +250,24 @@ def track_figure(
     return fig
 
 
+def plot_streamed(path: str | Path, drawing) -> Path:
+    """The figure of a streamed estimate (:class:`vibrospeed.estimators.grid.stream.StreamPlot`,
+    its kept samples and decimated spectrogram) as :func:`plot_track` draws a whole log's:
+    legends beside the axes, standstills and NaN stretches shaded, GPS under the estimate and
+    the truth where the reading kept them; written atomically."""
+    sp, over = drawing, drawing.overlay
+    spectrum = Spectrum(sp.t, sp.omega, sp.power, f"STFT {sp.window_s:.3g} s every "
+                        f"{sp.hop_s:.3g} s")
+    every = "every sample" if sp.k == 1 else f"every {sp.k} samples"
+    return plot_track(path, sp.rec, sp.track(), axis=sp.channel, spectrum=spectrum,
+                      truth=over.truth() if over is not None else None,
+                      gps=over.gps() if over is not None else None,
+                      omega_max=spectrogram_top(sp.fs, sp.M, sp.top if np.isfinite(sp.top)
+                                                else None),
+                      title=f"{sp.source or 'recording'} (streamed: spectrogram every "
+                            f"{sp.hop_s:.3g} s, estimate {every})")
+
+
 def plot_track(path: str | Path, recording: Recording, track: Track | None = None,
                **kw) -> Path:
     """Spectrogram (dB) of channel ``axis`` with the track's omega, band and harmonics over it.

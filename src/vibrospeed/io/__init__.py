@@ -49,6 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from vibrospeed.errors import ParameterError, ReaderError
+from vibrospeed.io import _csv
 from vibrospeed.io.atomic import atomic_path, atomic_write_bytes, atomic_write_text
 from vibrospeed.io.mapped import ColumnSpec, load_mapping, parse_mapping
 from vibrospeed.io.timebase import (
@@ -81,6 +82,7 @@ __all__ = [
     "register_format",
     "resample_uniform",
     "sort_dedup",
+    "unread_sidecar_note",
     "split_at_gaps",
     "write",
     "write_track",
@@ -287,6 +289,39 @@ def folder_hint(folder: str | os.PathLike[str]) -> str:
     return (f"a folder of CSV files, not a recording format vibrospeed reads as one: give one "
             f"file with a column mapping, e.g. {pick} {mapping_example(heads[pick])} "
             f"(units ':g', scales '*K': docs/formats.md); it holds {listed}{more}")
+
+
+_csv.folder_hint = folder_hint  # check_file's message for a folder given as a file
+
+
+def unread_sidecar_note(path: str | os.PathLike[str]) -> str | None:
+    """A note where a canonical CSV's ``<path>.json`` is there but not read: the reader takes
+    only a sidecar with ``"kind": "recording"`` (what ``vibrospeed simulate`` and
+    ``vibrospeed.io.write`` write), and one a user wrote by hand without it (a wheel radius for
+    a batch's drive) would otherwise be ignored without a word. None where there is none, it
+    is read, or the file is not a canonical CSV."""
+    import json
+
+    q = Path(f"{path}.json")
+    if not q.is_file():
+        return None
+    try:
+        side = json.loads(q.read_text(encoding="utf-8-sig"))
+    except (OSError, ValueError):
+        return None  # the reader names an unreadable sidecar itself
+    if isinstance(side, dict) and side.get("kind") == "recording":
+        return None
+    try:
+        if detect_format(path) != "csv":
+            return None
+    except Exception:  # noqa: BLE001 - it was read, so a format was found; this is a note
+        return None
+    kind = side.get("kind") if isinstance(side, dict) else None
+    why = (f'its "kind" is {json.dumps(kind)}' if kind is not None
+           else 'it has no "kind": "recording"' if isinstance(side, dict)
+           else "it is not a JSON object")
+    return (f'{q.name}: not read ({why}): add "kind": "recording" for its wheel_radius, units, '
+            "axes and notes to be used")
 
 
 def _recording_subfolders(folder: Path) -> list[Path]:

@@ -48,15 +48,18 @@ def not_found(p: Path) -> str:
     return f"broken symbolic link (to '{_short(target, 60)}': missing, or a link loop)"
 
 
+#: what to say about a folder given where a file is read (``vibrospeed.io.folder_hint``, set by
+#: the package, which imports this module: no import cycle); None: nothing more to say
+folder_hint: Callable[[Path], str] | None = None
+
+
 def check_file(path: str | os.PathLike[str]) -> Path:
     """``path`` as a Path; :class:`ReaderError` if it is missing, a folder or empty."""
     p = Path(path)
     if not p.exists():
         raise ReaderError(p, not_found(p))
     if p.is_dir():  # a folder of CSV files: which one to give, with what mapping
-        from vibrospeed.io import folder_hint
-
-        raise ReaderError(p, folder_hint(p) or "is a folder, not a file")
+        raise ReaderError(p, (folder_hint(p) if folder_hint else "") or "is a folder, not a file")
     if p.stat().st_size == 0:
         raise ReaderError(p, "empty file")
     return p

@@ -122,6 +122,9 @@ class Streamed:
     axis: str | None
     params: dict[str, Any] = field(default_factory=dict)
     wheel_radius: float | None = None
+    #: with ``plot``: the decimated spectrogram and estimate, drawn by
+    #: :func:`vibrospeed.eval.plot.plot_streamed`
+    drawing: StreamPlot | None = None
 
 
 def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
@@ -168,7 +171,7 @@ def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
                     meta=dict(src.meta), **kw)
     rec.notes.extend(timebase.describe_timebase(rec))  # as the whole-file readers end
     if fmt in ("auto", "csv") and not _mapped(columns, mapping, rate):
-        from vibrospeed.batch.single import unread_sidecar_note
+        from vibrospeed.io import unread_sidecar_note
 
         said = unread_sidecar_note(path)  # as load_recording adds it, before resampling
         if said:
@@ -256,13 +259,15 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
                   block_s: float | None = None, lookahead_s: float | None = None,
                   chunk_rows: int = CHUNK_ROWS, rows: int | None = None,
                   columns: str | None = None, mapping=None, rate: float | None = None,
-                  notes: list[str] | None = None, plot=None, on_block=None) -> Streamed:
+                  notes: list[str] | None = None, plot: bool = False,
+                  on_block=None) -> Streamed:
     """Estimate ``input_path`` with the grid tracker block by block and write ``output`` (CSV)
     and ``output.json`` as ``vibrospeed estimate`` does (module docstring). ``rows``: the
     file's row count from :func:`stream_rows` (not counted again); ``columns``, ``mapping``,
     ``rate``: a column mapping; ``notes``: notes put before the estimate's (the sidecar's and
-    the returned ones); ``plot``: also a PNG of a decimated spectrogram with the estimate
-    (:class:`StreamPlot`), written after the sidecar; ``on_block``: called with each block's
+    the returned ones); ``plot``: also keep a decimated spectrogram with the estimate
+    (:class:`StreamPlot`, returned as ``drawing``, for
+    :func:`vibrospeed.eval.plot.plot_streamed`); ``on_block``: called with each block's
     Track as it is written, in order (the CLI's summary numbers,
     :class:`vibrospeed.eval.metrics.SummaryAccumulator`)."""
     from vibrospeed import __version__
@@ -277,7 +282,7 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
 
     check_wheel_radius(wheel_radius)  # before anything is read or written
     overlay = None
-    if plot is not None:  # the GPS fixes and the truth, kept as the chunks pass
+    if plot:  # the GPS fixes and the truth, kept as the chunks pass
         if rows is None:
             rows = count_rows(input_path, "mapped" if _mapped(columns, mapping, rate) else fmt)
         overlay = Overlay(-(-(rows or 1) // PLOT_POINTS))
@@ -303,7 +308,7 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     names: list[str] | None = None
     n_out = 0
     drawing = None
-    if plot is not None:  # the whole-log plot's channel: the axis used, else the first one
+    if plot:  # the whole-log plot's channel: the axis used, else the first one
         drawing = StreamPlot(rec, ch if ch in rec.channels else next(iter(rec.channels)),
                              len(rec), overlay=overlay)
     out = Path(output)
@@ -344,9 +349,10 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
         Path(f"{out}.json").unlink(missing_ok=True)
     atomic_write_text(Path(f"{out}.json"), text)
     if drawing is not None:
-        drawing.draw(plot, level=blk.level, method="grid", M=int(blk.params["M"]),
-                     wheel_radius=blk.wheel_radius)
-    return Streamed(n_out, list(rec.notes), all_notes, use_axis, side_params, blk.wheel_radius)
+        drawing.finish(level=blk.level, method="grid", M=int(blk.params["M"]),
+                       wheel_radius=blk.wheel_radius)
+    return Streamed(n_out, list(rec.notes), all_notes, use_axis, side_params, blk.wheel_radius,
+                    drawing)
 
 
 class StreamPlot:
@@ -413,12 +419,15 @@ class StreamPlot:
             self.top = max(self.top, float(np.nanmax(hi)))
         self._done += m
 
-    def draw(self, path, *, level: float, method: str, M: int,
-             wheel_radius: float | None) -> None:
-        """The figure of :func:`vibrospeed.eval.plot.track_figure` (the whole-log plot's: legends
-        beside the axes, standstills and NaN stretches shaded, GPS under the estimate where the
-        recording has it) from the kept samples and this spectrogram; written atomically."""
-        from vibrospeed.eval.plot import Spectrum, plot_track, spectrogram_top
+    def finish(self, *, level: float, method: str, M: int,
+               wheel_radius: float | None) -> None:
+        """Set what the estimate ran with: the band's level, the method, its harmonics and
+        wheel radius (the figure's legend, harmonics and speed axis)."""
+        self.level, self.method, self.M, self.wheel_radius = level, method, M, wheel_radius
+
+    def track(self):
+        """The kept samples as a :class:`vibrospeed.types.Track` (after :meth:`finish`): omega,
+        its band, ``has_signal`` and the blocks' ``standstill`` where they flag one."""
         from vibrospeed.types import Track
 
         t, om, lo, hi, sig, still = (np.concatenate([p[i] for p in self._parts])
@@ -426,20 +435,9 @@ class StreamPlot:
         extras = {"has_signal": sig}
         if np.isfinite(still).any():  # the blocks flag standstills
             extras["standstill"] = np.nan_to_num(still)
-        track = Track.from_omega(t, om, np.full(t.size, np.nan), lo=lo, hi=hi, level=level,
-                                 wheel_radius=wheel_radius, method=method, params={"M": M},
-                                 extras=extras)
-        spectrum = Spectrum(self.t, self.omega, self.power, f"STFT {self.window_s:.3g} s every "
-                            f"{self.hop_s:.3g} s")
-        over = self.overlay
-        plot_track(path, self.rec, track, axis=self.channel, spectrum=spectrum,
-                   truth=over.truth() if over is not None else None,
-                   gps=over.gps() if over is not None else None,
-                   omega_max=spectrogram_top(self.fs, M, self.top if np.isfinite(self.top)
-                                             else None),
-                   title=f"{self.source or 'recording'} (streamed: spectrogram every "
-                         f"{self.hop_s:.3g} s, estimate "
-                         f"{'every sample' if self.k == 1 else f'every {self.k} samples'})")
+        return Track.from_omega(t, om, np.full(t.size, np.nan), lo=lo, hi=hi, level=self.level,
+                                wheel_radius=self.wheel_radius, method=self.method,
+                                params={"M": self.M}, extras=extras)
 
 
 class _Bar:
