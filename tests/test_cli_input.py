@@ -572,17 +572,20 @@ def test_an_aided_ekf_name_with_the_ekf_tracker_still_runs(logs, tmp_path):
 def test_info_on_a_slow_phone_log_says_the_omega_max_that_grid_and_fuse_need(tmp_path):
     """A 35 Hz phone log with GPS: info said "fuse ... estimate's default for such a log" while
     estimate then refused the default 120 rad/s ("too low for omega up to 120 rad/s"). It now
-    names the limit, pi fs, and estimate takes an omega_max just below it and refuses one just
-    above (the grid tracker's own test)."""
+    names the limit, pi fs; the default fuse runs without its vibration part, and an
+    omega_max just below the limit is taken, one just above refused (the grid tracker's own
+    test)."""
     log = tmp_path / "slow.csv"
     assert _run("simulate", "--scenario", "car", "--duration", 20, "--fs", 35,
                 "-o", log).exit_code == 0
     fs = io.read(log).fs
     top = np.pi * fs
     feed = _can_feed(_run("info", log))
-    assert f"grid and fuse need -p omega_max below {top:.0f} rad/s at this rate (default 120)" \
-        in feed
-    assert f"estimate's default for such a log, with -p omega_max below {top:.0f} rad/s)" in feed
+    assert f"grid needs -p omega_max below {top:.0f} rad/s at this rate (default 120)" in feed
+    assert (f"estimate's default for such a log; at this rate without its vibration part unless "
+            f"-p omega_max is below {top:.0f} rad/s)") in feed
+    res = _run("estimate", log, "-o", tmp_path / "default.csv")  # fuse, vibration off
+    assert res.exit_code == 0 and "vibration part off" in " ".join(res.output.split())
     assert "refused" not in _run("estimate", log, "-p", f"omega_max={top - 1:.1f}",
                                  "-o", tmp_path / "ok.csv").output
     assert (tmp_path / "ok.csv").exists()

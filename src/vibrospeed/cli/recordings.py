@@ -187,10 +187,11 @@ def info(
     ch = set(rec.channels)
     uses = []
     # the grid tracker (grid's default, fuse's vibration) needs omega_max below pi fs (its
-    # refusal in estimators.grid.app); at a phone's 16 Hz its default 120 rad/s is refused
+    # refusal in estimators.grid.app); at a phone's 16 Hz its default 120 rad/s is refused,
+    # and fuse then runs without its vibration part
     grid_max = float(estimators.get("grid").Config().tracker.omega_max)
     fund = np.pi * rec.fs
-    grid_need = (f"; grid and fuse need -p omega_max below {fund:.0f} rad/s at this rate "
+    grid_need = (f"; grid needs -p omega_max below {fund:.0f} rad/s at this rate "
                  f"(default {grid_max:.0f})" if fund <= grid_max else "")
     if ch & {"ax", "ay", "az"}:
         top = np.pi * rec.fs / 2  # highest omega with M = 2 harmonics below Nyquist
@@ -205,8 +206,8 @@ def info(
         uses.append("gps-riss")
     if fuse.suits(rec):  # the estimator's own test, as `estimate` uses to choose its method
         uses.append("fuse (vibration + acceleration + GPS speed; estimate's default for such "
-                    "a log" + (f", with -p omega_max below {fund:.0f} rad/s" if grid_need else "")
-                    + ")")
+                    "a log" + (f"; at this rate without its vibration part unless -p omega_max "
+                               f"is below {fund:.0f} rad/s" if grid_need else "") + ")")
     elif "ax" in ch:
         uses.append("fuse (with --wheel-radius or --radius-from: no GPS speed fix)")
     if {"gz", "ax", "ay"} <= ch and all(f"wheel_omega_{w}" in ch for w in ("fl", "fr", "rl", "rr")):
