@@ -205,3 +205,24 @@ def test_an_interrupted_streamed_estimate_never_leaves_a_stale_sidecar(tmp_path,
     with pytest.raises(KeyboardInterrupt):
         stream.estimate_file(path, out, params={}, **kw)
     assert out.read_bytes() != before[0] and not (tmp_path / "o.csv.json").exists()
+
+
+def test_ctrl_c_while_drawing_leaves_no_earlier_figure_beside_the_new_csv(tmp_path, monkeypatch):
+    from vibrospeed.eval import plot
+
+    log = tmp_path / "cart.csv"
+    io.write(sim.simulate("cart", seed=1, duration=12), log)
+    out, png = tmp_path / "e.csv", tmp_path / "e.png"
+    args = ["estimate", str(log), "-p", "omega_min=2", "-p", "omega_max=30", "-o", str(out),
+            "--plot", str(png)]
+    runner = CliRunner()
+    assert runner.invoke(app, args).exit_code == 0 and png.exists()
+    old_csv = out.read_bytes()
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plot, "plot_track", interrupted)
+    res = runner.invoke(app, [*args, "-p", "smooth=none"])
+    assert isinstance(res.exception, KeyboardInterrupt) or res.exit_code == 130
+    assert out.read_bytes() != old_csv and not png.exists()

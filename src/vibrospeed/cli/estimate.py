@@ -240,6 +240,7 @@ def estimate(
                                       rows=streamed[0], notes=streamed[1], columns=columns,
                                       mapping=mapping, rate=rate, plot=plot is not None,
                                       on_block=summary.add)
+            _drop_stale(plot)
             said = range_note(method, opts.params, st.params, st.wheel_radius)
             for note in st.recording_notes + st.notes + ([said] if said else []):
                 err.print(f"note: {note}", markup=False)  # [ms] is a unit here
@@ -261,6 +262,7 @@ def estimate(
         est = estimate_recording(input, output, opts, progress=sys.stderr.isatty(),
                                  keep_posterior=plot is not None, meta={"preset": preset},
                                  recording=rec)
+        _drop_stale(plot)
     except ParameterError as exc:
         raise _unknown_hint(method, exc) from None
     rec, track = est.recording, est.track
@@ -282,6 +284,13 @@ def estimate(
         plot_track(plot, rec, track, axis=vibration_channel(rec, est.axis),
                    posterior=est.grids.get("posterior"), grid=est.grids.get("grid"))
         err.print(f"wrote {plot}", markup=False, soft_wrap=True)
+
+
+def _drop_stale(plot: Path | None) -> None:
+    """The earlier run's figure goes once the new estimate is written: stopped (Ctrl-C) while
+    the new one is drawn, it would stand beside the new CSV as if it showed it."""
+    if plot is not None:
+        Path(plot).unlink(missing_ok=True)
 
 
 def _percent(share: float) -> str:
