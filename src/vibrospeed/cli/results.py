@@ -196,8 +196,8 @@ def evaluate(
 
       vibrospeed evaluate phone_est.csv --truth phone_drive --truth-channel gps_speed
 
-      vibrospeed evaluate kart_est.csv --truth GX030410_gps_speed.csv --truth-columns
-      t=t_video_s,gps_speed=gps_speed2d_mps --truth-channel gps_speed
+      vibrospeed evaluate kart_est.csv --truth GX030410_gps_speed.csv
+      --truth-columns t=t_video_s,gps_speed=gps_speed2d_mps --truth-channel gps_speed
     """
     from vibrospeed import io
     from vibrospeed.eval.metrics import evaluate as ev
