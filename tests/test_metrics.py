@@ -24,6 +24,20 @@ def test_rmse_bias_against_linear_interpolated_truth():
     assert m.rmse_speed == pytest.approx(0.5 * np.sqrt(5))
     # band +-2.326 std: the +1 errors are covered, the -3 are not
     assert m.coverage == pytest.approx(0.5)
+    rel = np.where(np.arange(t.size) % 2 == 0, 1.0, 3.0) / (10 + t)
+    assert m.rel_error == pytest.approx(rel.mean())
+    assert m.rel_error_median == pytest.approx(np.median(rel))
+
+
+def test_median_relative_error_is_not_ruled_by_the_slow_samples():
+    # 95 samples within 1 % at 20 rad/s, 5 at 1.5 rad/s guessed at 15: the mean relative error
+    # is 45.9 %, the typical one 1 %
+    t = np.arange(100.0)
+    truth = np.where(t < 95, 20.0, 1.5)
+    est = np.where(t < 95, 20.2, 15.0)
+    m = compare(_track(t, est), t, truth)
+    assert m.rel_error == pytest.approx((95 * 0.01 + 5 * 9.0) / 100)
+    assert m.rel_error_median == pytest.approx(0.01)
 
 
 def test_standstill_and_warmup_excluded():

@@ -186,7 +186,7 @@ def evaluate(
     = None,
 ) -> None:
     """Compare an estimate with ground truth: RMSE (thesis eq. 3.18, truth linearly
-    interpolated, moving samples only), bias, relative error, band coverage, harmonic errors;
+    interpolated, moving samples only), bias, relative error (median and mean), band coverage, harmonic errors;
     the lateral velocity Vy (RMSE, MAE, bias, correlation) where the estimate has ``vy``
     (algebraic) and the truth ``vy_true``.
 
@@ -230,7 +230,8 @@ def evaluate(
         ("RMSE", f"{m.rmse:.3f}", m.unit),
         ("MAE", f"{m.mae:.3f}", m.unit),
         ("bias", f"{m.bias:+.3f}", m.unit),
-        ("relative error", f"{m.rel_error:.1%}", ""),
+        ("relative error: median", f"{m.rel_error_median:.1%}", ""),
+        ("relative error: mean", f"{m.rel_error:.1%}", ""),
         (f"coverage of the {m.level:.0%} band",
          f"{m.coverage:.1%}" if m.coverage == m.coverage else "n/a (no band)", ""),
     ]

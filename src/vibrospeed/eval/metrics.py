@@ -44,6 +44,9 @@ class Metrics:
     vy_mae: float = float("nan")
     vy_bias: float = float("nan")  # mean(vy - vy_true)
     vy_corr: float = float("nan")  # Pearson correlation of vy with vy_true (NaN if one is flat)
+    #: median(|error| / truth): the typical relative error (the mean is ruled by a few samples
+    #: near the truth's floor, where a guess off by a few rad/s is off by several hundred %)
+    rel_error_median: float = float("nan")
 
     def to_dict(self) -> dict:
         """Plain dict (for JSON)."""
@@ -169,6 +172,7 @@ def compare(
         mae=float(np.mean(np.abs(e))),
         bias=float(np.mean(e)),
         rel_error=float(np.mean(np.abs(e) / wt)),
+        rel_error_median=float(np.median(np.abs(e) / wt)),
         coverage=cov,
         level=track.level,
         half_share=half,
