@@ -226,3 +226,16 @@ def test_ctrl_c_while_drawing_leaves_no_earlier_figure_beside_the_new_csv(tmp_pa
     res = runner.invoke(app, [*args, "-p", "smooth=none"])
     assert isinstance(res.exception, KeyboardInterrupt) or res.exit_code == 130
     assert out.read_bytes() != old_csv and not png.exists()
+
+
+def test_reading_a_long_log_reports_its_progress(tmp_path):
+    # the bar started with the blocks: a day-long CSV was read for minutes without one
+    rec = sim.simulate("cart", seed=2, duration=12)
+    path = tmp_path / "drive.csv"
+    io.write(rec, path)
+    seen = []
+    got = stream.read_accelerometer(path, chunk_rows=500,
+                                    progress=lambda done, total: seen.append((done, total)))
+    assert [d for d, _ in seen] == [*range(500, len(rec), 500), len(rec)]
+    assert all(total == len(rec) for _, total in seen)
+    np.testing.assert_array_equal(got["ay"], rec["ay"])

@@ -130,14 +130,15 @@ class Streamed:
 def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
                        chunk_rows: int = CHUNK_ROWS, rows: int | None = None,
                        columns: str | None = None, mapping=None, rate: float | None = None,
-                       overlay: Overlay | None = None):
+                       overlay: Overlay | None = None, progress=None):
     """The recording's time line and accelerometer channels (and ``axis``'s channel), read in
     chunks (``columns``, ``mapping``, ``rate``: through a column mapping); the notes of the
     CLI's whole-file reading (:func:`vibrospeed.batch.load_recording`: time-base notes and an
     unread ``<file>.json`` included); non-uniform time stamps resampled to the median rate as
     the whole-log path does. ``rows``: the file's row count where known (else counted here),
     the size of the arrays the chunks are copied into. ``overlay``: handed every chunk (the
-    plot's GPS fixes and truth, :class:`Overlay`)."""
+    plot's GPS fixes and truth, :class:`Overlay`). ``progress``: called ``(rows read, rows)``
+    after each chunk."""
     from vibrospeed.estimators.common import axis_channel
     from vibrospeed.io import timebase
     from vibrospeed.io.chunks import ChunkedRecording
@@ -162,6 +163,8 @@ def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
         for c in keep:
             out[c][n:n + m] = chunk.t if c == "t" else chunk.channels[c]
         n += m
+        if progress is not None:
+            progress(n, max(size, n))
     _release_reader_memory()
     t = out.pop("t")[:n]
     ch = {c: v[:n] for c, v in out.items()}
@@ -286,8 +289,10 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
         if rows is None:
             rows = count_rows(input_path, "mapped" if _mapped(columns, mapping, rate) else fmt)
         overlay = Overlay(-(-(rows or 1) // PLOT_POINTS))
-    rec = read_accelerometer(input_path, fmt, axis=axis, chunk_rows=chunk_rows, rows=rows,
-                             columns=columns, mapping=mapping, rate=rate, overlay=overlay)
+    with _Bar(progress, "reading") as reading:
+        rec = read_accelerometer(input_path, fmt, axis=axis, chunk_rows=chunk_rows, rows=rows,
+                                 columns=columns, mapping=mapping, rate=rate, overlay=overlay,
+                                 progress=reading.update)
     axis, axis_note = only_axis(rec, axis)
     use_axis = axis or "y"
     # the quality flags first (their temporaries are the largest per sample), then the estimate
@@ -299,7 +304,7 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     flags = qs[use_q].flags if use_q is not None else None
     del qs
     kw = {k: v for k, v in (("block_s", block_s), ("lookahead_s", lookahead_s)) if v is not None}
-    bar = _Bar(progress)
+    bar = _Bar(progress, "grid, in blocks")
     blk = _blocks.Blocks(rec, axis=use_axis, wheel_radius=wheel_radius, params=dict(params),
                          progress=bar.update, **kw)
     if axis_note:
@@ -441,10 +446,11 @@ class StreamPlot:
 
 
 class _Bar:
-    """A transient rich progress bar over the samples, on stderr (when ``on``)."""
+    """A transient rich progress bar over the samples (``what`` they go through), on stderr
+    (when ``on``)."""
 
-    def __init__(self, on: bool):
-        self.on = on
+    def __init__(self, on: bool, what: str):
+        self.on, self.what = on, what
         self._bar = None
         self._task = None
 
@@ -455,7 +461,7 @@ class _Bar:
 
             self._bar = Progress(console=Console(stderr=True), transient=True)
             self._bar.__enter__()
-            self._task = self._bar.add_task("grid, in blocks", total=None)
+            self._task = self._bar.add_task(self.what, total=None)
         return self
 
     def update(self, done: int, total: int) -> None:
