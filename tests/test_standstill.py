@@ -121,3 +121,56 @@ def test_a_slow_vehicles_short_stops_whatever_its_range_floor(omega_min):
     assert np.mean(still[truth]) > 0.9
     assert ss._motion_upper(omega_min / (2 * np.pi)) == 0.0
     assert ss._motion_upper(10.0 / (2 * np.pi)) > 1.0  # a car's range keeps the test
+
+
+@pytest.mark.parametrize("band", [(10.0, 300.0), (10.0, 30.0)])  # 46 bins, 3 bins
+def test_level_is_the_median_power_of_each_frame(band):
+    """broadband_level against a frame-by-frame reference written from its definition (Hann
+    window, amplitude scale 2 |X| / sum(w), np.median over the band's bins; a frame less than
+    half finite has none), for an even and an odd count of bins."""
+    rng = np.random.default_rng(3)
+    x = rng.normal(0, 0.02, 2000)
+    x[300:360] = np.nan  # 60 of a frame's 100 samples missing: no level
+    x[900:920] = np.nan  # 20 missing: counted as 0
+    ends, lev = ss.broadband_level(x, DT, band)
+    w = np.hanning(100)
+    f = 2 * np.pi * np.fft.rfftfreq(100, DT)
+    sel = (f >= band[0]) & (f <= band[1])
+    want = []
+    for e in ends:
+        fr = x[e - 99 : e + 1]
+        if np.isfinite(fr).sum() < 50:
+            want.append(np.nan)
+            continue
+        fr = np.where(np.isfinite(fr), fr, 0.0)
+        X = np.fft.rfft((fr - fr.mean()) * w)
+        want.append(2 * np.sqrt(np.median(np.abs(X[sel]) ** 2)) / w.sum())
+    assert sel.sum() % 2 == (band[1] < 100)
+    assert np.isnan(want).sum() == 2  # the frames starting at 2.75 and 3.0 s
+    np.testing.assert_allclose(lev, want, rtol=1e-12)
+
+
+def test_stream_step_with_the_body_motion_is_the_causal_run():
+    """A car's band (body-motion level in use): one sample at a time, the causal batch run's
+    decisions, which the body-motion level changes on this drive."""
+    from vibrospeed import sim
+
+    x = sim.simulate("stop_and_go", seed=2, duration=60)["ay"].copy()
+    x[1000:1030] = np.nan
+    x[2600:2900] = np.nan
+    band = (15.0, 300.0)
+    ref = ss.standstill(x, DT, band, causal=True)
+    plan = ss.stream_plan(DT, band)
+    assert plan.lp_sos is not None and 0.03 < ref.mean() < 0.3
+    st = ss.stream_init(plan)
+    got = np.zeros(x.size, bool)
+    for i, v in enumerate(x):
+        st, got[i] = ss.stream_step(plan, st, v)
+    np.testing.assert_array_equal(got, ref)
+    hp, _ = ss._filters(DT, band)
+    from vibrospeed.signal import prefilter as pf
+
+    ends, lev = ss.broadband_level(pf.apply(hp, x), DT, band)
+    without = ss.classify(lev, causal=True)  # the broadband level alone, before the dwell
+    assert without[np.searchsorted(ends, np.flatnonzero(ref))].all()
+    assert np.sum(without) > 2 * np.sum(ref[ends])

@@ -24,7 +24,10 @@ the whole log; gaps under 1 s inside a stop are closed and standing runs shorter
 (``causal=True``, what a device can do) the quantiles are over the frames seen so far (a
 histogram of log-levels, after ``CAUSAL_WARMUP_S`` s) and a stop is declared after
 ``CAUSAL_DWELL_S`` s of standing frames, so a decision never uses later data, and a stop before
-the first motion, with nothing to compare it with, is not recognised.
+the first motion, with nothing to compare it with, is not recognised. The batch causal run and the
+streaming detector (:func:`stream_step`) share the per-frame code: a frame's broadband level
+(``_frame_levels``) and its decision with the dwell (the compiled ``_frame_step``), so a change of
+the rule is made once.
 
 The constants are chosen on the randomised family (``simulate("random")``, with an idling
 engine's broadband shaking) and checked on the real phone drives of ``hungary_car_phyphox``, whose
@@ -41,6 +44,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
+
+from vibrospeed.signal import prefilter as pf
 
 FRAME_S = 1.0
 HOP_S = 0.25
@@ -77,6 +82,8 @@ BAND_LO_MIN = 2.0
 _LOG_LO, _LOG_HI, _BINS = -7.0, 3.0, 500
 _WIDTH = (_LOG_HI - _LOG_LO) / _BINS
 _CENTRES = _LOG_LO + _WIDTH * (np.arange(_BINS) + 0.5)
+#: the body-motion level needs no contrast to its floor (its near-floor test is the rule)
+_MOTION_CONTRAST = 1.0
 
 
 def _band(band: tuple[float, float]) -> tuple[float, float]:
@@ -85,6 +92,47 @@ def _band(band: tuple[float, float]) -> tuple[float, float]:
     set."""
     lo, hi = float(band[0]), float(band[1])
     return (lo if lo > 0 else min(BAND_LO_MIN, 0.5 * hi)), hi
+
+
+def _samples(seconds: float, dt: float, least: int) -> int:
+    """``seconds`` in samples of period ``dt``, at least ``least``: the broadband frame (8), its
+    hop (1) and the body-motion window (3)."""
+    return max(least, int(round(seconds / dt)))
+
+
+def _band_bins(L: int, dt: float, band: tuple[float, float]) -> np.ndarray:
+    """The rfft bins of an ``L``-sample frame the broadband level reads: those in ``band``
+    (rad/s, clipped to Nyquist), or the three around its lower edge where the band is narrower
+    than the frame's resolution."""
+    f = 2 * np.pi * np.fft.rfftfreq(L, dt)
+    lo, hi = band
+    sel = (f >= lo) & (f <= min(hi, np.pi / dt))
+    if sel.sum() < 3:
+        k = int(np.argmin(np.abs(f - lo)))
+        sel = np.zeros_like(sel)
+        sel[max(0, k - 1) : k + 2] = True
+    return sel
+
+
+def _frame_levels(frames: np.ndarray, win: np.ndarray, sel: np.ndarray) -> np.ndarray:
+    """Broadband level of each frame (row of ``frames``, NaN = missing): the per-frame rule
+    that :func:`broadband_level` and :func:`stream_step` share. NaN samples count as 0; a
+    frame with fewer than half its samples finite gets NaN."""
+    L = frames.shape[1]
+    fin = np.isfinite(frames)
+    good = 2 * np.count_nonzero(fin, axis=1) >= L
+    frames = np.where(fin, frames, 0.0)
+    frames = frames - frames.sum(axis=1, keepdims=True) / L  # the mean, without np.mean's cost
+    X = np.fft.rfft(frames * win, axis=1)
+    # the median power over the bins: np.median's value (the middle one, or the mean of the two
+    # middle ones; NaN if any is) at a fraction of its per-call cost, which the streaming
+    # step pays per frame
+    P = np.sort(np.abs(X[:, sel]) ** 2, axis=1)
+    h = P.shape[1] // 2
+    med = P[:, h] if P.shape[1] % 2 else (P[:, h - 1] + P[:, h]) / 2
+    level = 2.0 * np.sqrt(med) / win.sum()
+    level[~good | np.isnan(P[:, -1])] = np.nan
+    return level
 
 
 def broadband_level(x: np.ndarray, dt: float, band: tuple[float, float], *,
@@ -97,74 +145,124 @@ def broadband_level(x: np.ndarray, dt: float, band: tuple[float, float], *,
     """
     x = np.asarray(x, dtype=np.float64)
     n = x.size
-    L = max(8, int(round(frame_s / dt)))
-    hop = max(1, int(round(hop_s / dt)))
+    L, hop = _samples(frame_s, dt, 8), _samples(hop_s, dt, 1)
     if n < L:
         return np.zeros(0, np.int64), np.zeros(0)
     starts = np.arange(0, n - L + 1, hop)
-    fin = np.isfinite(x)
-    frames = np.lib.stride_tricks.sliding_window_view(np.where(fin, x, 0.0), L)[starts]
-    good = np.lib.stride_tricks.sliding_window_view(fin, L)[starts].mean(axis=1) >= 0.5
-    w = np.hanning(L)
-    frames = frames - frames.mean(axis=1, keepdims=True)
-    X = np.fft.rfft(frames * w, axis=1)
-    f = 2 * np.pi * np.fft.rfftfreq(L, dt)
-    lo, hi = band
-    sel = (f >= lo) & (f <= min(hi, np.pi / dt))
-    if sel.sum() < 3:  # a band narrower than the frame's resolution: the bins around it
-        k = int(np.argmin(np.abs(f - lo)))
-        sel = np.zeros_like(sel)
-        sel[max(0, k - 1) : k + 2] = True
-    P = np.abs(X[:, sel]) ** 2
-    level = 2.0 * np.sqrt(np.median(P, axis=1)) / w.sum()
-    level[~good] = np.nan
-    return starts + L - 1, level
+    frames = np.lib.stride_tricks.sliding_window_view(x, L)[starts]
+    return starts + L - 1, _frame_levels(frames, np.hanning(L), _band_bins(L, dt, band))
+
+
+def _log_level(level: np.ndarray) -> np.ndarray:
+    """log10 of the levels, NaN where there is none (NaN or not above 0)."""
+    level = np.asarray(level, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(level > 0, np.log10(level), np.nan)
 
 
 @njit(cache=True)
-def _hist_quantile(hist, centres, total, q):
-    """The ``q`` quantile of a histogram (bin centre)."""
-    target = q * total
+def _hist_quantiles(hist, centres, total, q):
+    """``(q quantile, median)`` of a histogram (bin centres), in one scan of its cumulative
+    counts (the same sums as one scan per quantile)."""
+    t1, t2 = q * total, 0.5 * total
+    lo, hi = min(t1, t2), max(t1, t2)
+    n = hist.size
+    a = b = n - 1
     acc = 0.0
-    for i in range(hist.size):
+    for i in range(n):
         acc += hist[i]
-        if acc >= target:
-            return centres[i]
-    return centres[-1]
+        if acc >= lo and a == n - 1:
+            a = i
+        if acc >= hi:
+            b = i
+            break
+    return (centres[a], centres[b]) if t1 <= t2 else (centres[b], centres[a])
+
+
+class _Rule(NamedTuple):
+    """The causal rule's constants (:func:`_rule`), one argument of the compiled frame step:
+    log10 contrast and near-floor factors of the broadband (``b``) and body-motion (``m``)
+    levels, whether the body motion is used, frames before a decision, the floor quantile,
+    frames of dwell, and the log10-level histogram's lower edge and bin width (its bin centres
+    are the step's own argument)."""
+
+    lcb: float
+    lnb: float
+    lcm: float
+    lnm: float
+    motion: bool
+    warmup: int
+    q: float
+    dwell: int
+    lo: float
+    width: float
+
+
+def _rule(*, motion: bool, dwell: int, min_contrast: float | None = None,
+          near_floor: float | None = None) -> _Rule:
+    """The module's causal constants as read now (a benchmark may override them);
+    ``min_contrast`` / ``near_floor`` of the broadband level (default the module's)."""
+    min_contrast = MIN_CONTRAST if min_contrast is None else min_contrast
+    near_floor = NEAR_FLOOR if near_floor is None else near_floor
+    return _Rule(float(np.log10(min_contrast)), float(np.log10(near_floor)),
+                 float(np.log10(_MOTION_CONTRAST)), float(np.log10(MOTION_NEAR)), bool(motion),
+                 int(round(CAUSAL_WARMUP_S / HOP_S)), float(FLOOR_Q), max(int(dwell), 0),
+                 float(_LOG_LO), float(_WIDTH))
 
 
 @njit(cache=True)
-def _causal(loglev, centres, lo, width, q, log_contrast, log_near, min_frames):
-    hist = np.zeros(centres.size)
-    out = np.zeros(loglev.size, np.bool_)
-    total = 0.0
-    last = False
-    for i in range(loglev.size):
-        lg = loglev[i]
-        if np.isfinite(lg):
-            k = min(max(int((lg - lo) / width), 0), centres.size - 1)
-            hist[k] += 1.0
-            total += 1.0
-            if total >= min_frames:
-                floor = _hist_quantile(hist, centres, total, q)
-                med = _hist_quantile(hist, centres, total, 0.5)
-                last = med - floor >= log_contrast and lg < floor + log_near
-        out[i] = last
+def _level_step(hist, total, last, k, lg, lc, ln, rule, centres):
+    """Level ``k`` (0 broadband, 1 body motion) of one frame, log10 ``lg`` (NaN: none, repeat
+    the last decision): into its histogram, then standing when the median is ``lc`` above the
+    floor quantile and ``lg`` within ``ln`` of it, once ``rule.warmup`` frames are seen."""
+    if np.isfinite(lg):
+        b = min(max(int((lg - rule.lo) / rule.width), 0), centres.size - 1)
+        hist[k, b] += 1.0
+        total[k] += 1.0
+        if total[k] >= rule.warmup:
+            floor, med = _hist_quantiles(hist[k], centres, total[k], rule.q)
+            last[k] = med - floor >= lc and lg < floor + ln
+    return last[k]
+
+
+@njit(cache=True)
+def _frame_step(hist, total, last, run, lgb, lgm, rule, centres):
+    """One frame of the causal detector, the one implementation of its rule (the batch
+    :func:`_causal` and the streaming :func:`stream_step` both run it): both levels' decisions
+    (``hist`` (2, bins), ``total`` (2,), ``last`` (2,) updated in place), then the dwell.
+    Returns ``(run, still)``: the run of standing frames and whether a stop is declared."""
+    still = _level_step(hist, total, last, 0, lgb, rule.lcb, rule.lnb, rule, centres)
+    if rule.motion:
+        still = _level_step(hist, total, last, 1, lgm, rule.lcm, rule.lnm, rule,
+                            centres) and still
+    run = run + 1 if still else 0
+    return run, run > rule.dwell
+
+
+@njit(cache=True)
+def _causal(lgb, lgm, rule, centres):
+    """:func:`_frame_step` over the frames' log-levels from nothing seen."""
+    hist = np.zeros((2, centres.size))
+    total = np.zeros(2)
+    last = np.zeros(2, np.bool_)
+    out = np.zeros(lgb.size, np.bool_)
+    run = 0
+    for i in range(lgb.size):
+        run, out[i] = _frame_step(hist, total, last, run, lgb[i], lgm[i], rule, centres)
     return out
 
 
 def classify(level: np.ndarray, *, causal: bool = False, min_contrast: float | None = None,
              near_floor: float | None = None) -> np.ndarray:
-    """Standing (bool) per frame from the frames' broadband levels (module docstring)."""
+    """Standing (bool) per frame from the frames' broadband levels (module docstring); causally
+    without the dwell."""
+    lg = _log_level(level)
+    if causal:
+        return _causal(lg, lg, _rule(motion=False, dwell=0, min_contrast=min_contrast,
+                                     near_floor=near_floor), _CENTRES)
     min_contrast = MIN_CONTRAST if min_contrast is None else min_contrast
     near_floor = NEAR_FLOOR if near_floor is None else near_floor
-    level = np.asarray(level, dtype=np.float64)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lg = np.where(level > 0, np.log10(level), np.nan)
     lc, ln = np.log10(min_contrast), np.log10(near_floor)
-    if causal:
-        return _causal(lg, _CENTRES, _LOG_LO, _WIDTH, FLOOR_Q, lc, ln,
-                       int(round(CAUSAL_WARMUP_S / HOP_S)))
     fin = np.isfinite(lg)
     out = np.zeros(lg.size, bool)
     if fin.sum() >= 4:
@@ -186,28 +284,28 @@ def _drop_short(flags: np.ndarray, k: int) -> np.ndarray:
     return out
 
 
+def _line_terms(ok: np.ndarray, y: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(6, m): the terms ``(1, y, y^2, t, t^2, t y)`` whose sums over a window
+    :func:`line_residual` reads (``ok``: 1 where the sample is valid, ``y`` and ``t`` 0 where
+    not)."""
+    return np.stack([ok, y, y * y, t, t * t, t * y])
+
+
 def motion_level(x: np.ndarray, dt: float, ends: np.ndarray, upper_hz: float, *,
                  frame_s: float = MOTION_FRAME_S) -> np.ndarray:
     """Body-motion level per frame: ``x`` low-passed below ``upper_hz`` (the vehicle's motion
     and manoeuvres, below the wheel's band), over ``frame_s`` s ending at each of ``ends``, the
     RMS of its residual from a straight line (a step such as the end of a braking is a line
     within a few frames and does not read as motion)."""
-    from vibrospeed.signal import prefilter as pf
-
     x = np.asarray(x, dtype=np.float64)
     fin = np.isfinite(x)
     y = pf.apply(pf.butter_sos("lowpass", upper_hz, 1.0 / dt, 2), np.where(fin, x, np.nan))
     ok = np.isfinite(y)
     y0 = np.where(ok, y - np.nanmean(y) if ok.any() else 0.0, 0.0)
-    t = np.arange(x.size, dtype=np.float64)
-    t0 = np.where(ok, t, 0.0)
-
-    def csum(v):
-        return np.concatenate(([0.0], np.cumsum(v)))
-
-    sums = np.stack([csum(ok.astype(float)), csum(y0), csum(y0 * y0), csum(t0), csum(t0 * t0),
-                     csum(t0 * y0)])
-    L = max(3, int(round(frame_s / dt)))
+    t0 = np.where(ok, np.arange(x.size, dtype=np.float64), 0.0)
+    sums = np.zeros((6, x.size + 1))
+    np.cumsum(_line_terms(ok.astype(float), y0, t0), axis=1, out=sums[:, 1:])
+    L = _samples(frame_s, dt, 3)
     a = np.maximum(ends + 1 - L, 0)
     return line_residual(sums[:, ends + 1], sums[:, a], L)
 
@@ -257,45 +355,47 @@ def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *, causal: b
 def _motion_upper(lo_hz: float) -> float:
     """Hz, the body-motion band's upper edge below a search band starting at ``lo_hz``; 0 where
     it would not reach :data:`MOTION_MIN_HI_HZ` (no body-motion test)."""
-    from vibrospeed.signal.prefilter import RANGE_HP
-
-    upper = min(RANGE_HP * lo_hz, MOTION_HI_HZ)
+    upper = min(pf.RANGE_HP * lo_hz, MOTION_HI_HZ)
     return upper if upper >= MOTION_MIN_HI_HZ else 0.0
 
 
-def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s, edge_s):
-    from vibrospeed.signal import prefilter as pf
-
-    n = x.size
+def _filters(dt: float, band: tuple[float, float]) -> tuple[np.ndarray, float]:
+    """The broadband level's high-pass (sos) for ``band`` (rad/s, lower edge above 0) at
+    sample period ``dt``, and the body-motion band's upper edge in Hz (0: none)."""
     fs = 1.0 / dt
     lo_hz = band[0] / (2 * np.pi)
     hp = pf.butter_sos("highpass", min(pf.RANGE_HP * lo_hz, 0.45 * fs), fs, 4)
+    return hp, _motion_upper(lo_hz)
+
+
+def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s, edge_s):
+    n = x.size
+    hp, upper = _filters(dt, band)
     ends, level = broadband_level(pf.apply(hp, x), dt, band, frame_s=frame_s, hop_s=hop_s)
     if ends.size == 0:
         return np.zeros(n, bool)
-    still = classify(level, causal=causal)
-    upper = _motion_upper(lo_hz)
+    L = _samples(frame_s, dt, 8)
+    motion = None
     if upper:  # the body motion has room below the band
-        L = max(8, int(round(frame_s / dt)))
         ref = ends if causal else np.minimum(ends - L // 2 + int(round(MOTION_FRAME_S / 2 / dt)),
                                              n - 1)
         motion = motion_level(x, dt, ref, upper)
-        still &= classify(motion, causal=causal, min_contrast=1.0, near_floor=MOTION_NEAR)
-    if not causal and MIN_STOP_S > 0:  # close gaps < 1 s within a stop, then drop short runs
+    if causal:  # a stop is declared after CAUSAL_DWELL_S s of standing frames
+        lgb = _log_level(level)
+        rule = _rule(motion=motion is not None, dwell=int(round(CAUSAL_DWELL_S / hop_s)))
+        still = _causal(lgb, lgb if motion is None else _log_level(motion), rule, _CENTRES)
+        j = np.searchsorted(ends, np.arange(n), side="right") - 1
+        return np.where(j >= 0, still[np.maximum(j, 0)], False)
+    still = classify(level)
+    if motion is not None:
+        still &= classify(motion, min_contrast=_MOTION_CONTRAST, near_floor=MOTION_NEAR)
+    if MIN_STOP_S > 0:  # close gaps < 1 s within a stop, then drop short runs
         still = ~_drop_short(~still, int(round(1.0 / hop_s)))
         still = _drop_short(still, int(round(MIN_STOP_S / hop_s)))
         e = int(round(edge_s / hop_s))
         if e > 0:
             run = np.convolve(still.astype(np.int64), np.ones(2 * e + 1, np.int64), "same")
             still = run == 2 * e + 1
-    d = int(round(CAUSAL_DWELL_S / hop_s))
-    if causal and d > 0:  # a stop is declared after CAUSAL_DWELL_S s of standing frames
-        run = np.convolve(still.astype(np.int64), np.ones(d + 1, np.int64))[: still.size]
-        still = run == d + 1
-    if causal:
-        j = np.searchsorted(ends, np.arange(n), side="right") - 1
-        return np.where(j >= 0, still[np.maximum(j, 0)], False)
-    L = max(8, int(round(frame_s / dt)))
     centres = ends - L // 2
     j = np.clip(np.searchsorted(centres, np.arange(n)), 0, centres.size - 1)
     jm = np.maximum(j - 1, 0)
@@ -328,7 +428,7 @@ class StreamState(NamedTuple):
 
 class StreamPlan(NamedTuple):
     """What :func:`stream_step` needs besides the state: sample period, search band (rad/s),
-    frame and hop lengths in samples, the filters, whether the body motion is used."""
+    frame and hop lengths in samples, the filters, the frame's window and bins, the rule."""
 
     dt: float
     band: tuple[float, float]
@@ -339,65 +439,39 @@ class StreamPlan(NamedTuple):
     lp_sos: np.ndarray | None
     win: np.ndarray
     sel: np.ndarray
+    rule: _Rule
 
 
 def stream_plan(dt: float, band: tuple[float, float]) -> StreamPlan:
     """The constants of :func:`standstill` (``causal=True``) at sample period ``dt`` for
     ``band`` (rad/s)."""
-    from vibrospeed.signal import prefilter as pf
-
     band = _band(band)
-    fs = 1.0 / dt
-    lo_hz = band[0] / (2 * np.pi)
-    hp = pf.butter_sos("highpass", min(pf.RANGE_HP * lo_hz, 0.45 * fs), fs, 4)
-    upper = _motion_upper(lo_hz)
-    lp = pf.butter_sos("lowpass", upper, fs, 2) if upper else None
-    L = max(8, int(round(FRAME_S / dt)))
-    f = 2 * np.pi * np.fft.rfftfreq(L, dt)  # the bins broadband_level reads
-    sel = (f >= band[0]) & (f <= min(band[1], np.pi / dt))
-    if sel.sum() < 3:
-        k = int(np.argmin(np.abs(f - band[0])))
-        sel = np.zeros_like(sel)
-        sel[max(0, k - 1) : k + 2] = True
-    return StreamPlan(float(dt), (float(band[0]), float(band[1])), L,
-                      max(1, int(round(HOP_S / dt))), max(3, int(round(MOTION_FRAME_S / dt))),
-                      hp, lp, np.hanning(L), sel)
-
-
-def _frame_level(plan: StreamPlan, x: np.ndarray) -> float:
-    """:func:`broadband_level` of the one frame ``x`` (``plan.L`` samples), the same
-    operations without its framing."""
-    fin = np.isfinite(x)
-    if not fin.mean() >= 0.5:
-        return np.nan
-    fr = np.where(fin, x, 0.0)
-    X = np.fft.rfft((fr - fr.mean()) * plan.win)
-    return float(2.0 * np.sqrt(np.median(np.abs(X[plan.sel]) ** 2)) / plan.win.sum())
+    hp, upper = _filters(dt, band)
+    lp = pf.butter_sos("lowpass", upper, 1.0 / dt, 2) if upper else None
+    L = _samples(FRAME_S, dt, 8)
+    return StreamPlan(float(dt), (float(band[0]), float(band[1])), L, _samples(HOP_S, dt, 1),
+                      _samples(MOTION_FRAME_S, dt, 3),
+                      hp, lp, np.hanning(L), _band_bins(L, dt, band),
+                      _rule(motion=upper > 0, dwell=int(round(CAUSAL_DWELL_S / HOP_S))))
 
 
 def stream_init(plan: StreamPlan) -> StreamState:
     """Nothing seen: not standing."""
-    from vibrospeed.signal import prefilter as pf
-
     return StreamState(pf.init(plan.hp_sos), None if plan.lp_sos is None
                        else pf.init(plan.lp_sos), np.full(plan.L, np.nan),
                        np.full(plan.Lm, np.nan), 0, np.zeros((2, _BINS)), np.zeros(2),
                        np.zeros(2, np.bool_), 0, False)
 
 
-
-def _stream_classify(hist, total, last, k, level, min_contrast, near_floor) -> None:
-    """One frame of ``_causal`` for level ``k`` (0 broadband, 1 body motion), in place."""
-    if not level > 0:  # NaN or no level: repeat the last decision
-        return
-    lg = float(np.log10(level))
-    hist[k, min(max(int((lg - _LOG_LO) / _WIDTH), 0), _BINS - 1)] += 1.0
-    total[k] += 1.0
-    if total[k] >= int(round(CAUSAL_WARMUP_S / HOP_S)):
-        floor = _hist_quantile(hist[k], _CENTRES, total[k], FLOOR_Q)
-        med = _hist_quantile(hist[k], _CENTRES, total[k], 0.5)
-        last[k] = (med - floor >= np.log10(min_contrast)
-                   and lg < floor + np.log10(near_floor))
+def _window_motion(w: np.ndarray, Lm: int) -> float:
+    """:func:`motion_level` of the one window ``w`` (the low-passed samples so far, at most
+    ``Lm``): its sums made directly (a device has no whole log's running sums)."""
+    ok = np.isfinite(w)
+    y = w[ok]
+    y = y - y.sum() / y.size if y.size else y  # the mean, without np.mean's cost
+    t = np.arange(w.size, dtype=np.float64)[ok]
+    sums = _line_terms(np.ones(y.size), y, t).sum(axis=1)[:, None]
+    return float(line_residual(sums, np.zeros_like(sums), Lm)[0])
 
 
 def stream_step(plan: StreamPlan, state: StreamState, x: float) -> tuple[StreamState, bool]:
@@ -405,8 +479,6 @@ def stream_step(plan: StreamPlan, state: StreamState, x: float) -> tuple[StreamS
     :func:`standstill` (``causal=True``) gives it for the samples so far. Why: a device has
     no whole log; the detector keeps one frame of samples, one body-motion window and two
     level histograms (bounded memory). ``state`` is left as it is."""
-    from vibrospeed.signal import prefilter as pf
-
     i = state.count
     hs, h = pf.step(plan.hp_sos, state.hp_state, x)
     hp = state.hp.copy()
@@ -421,21 +493,13 @@ def stream_step(plan: StreamPlan, state: StreamState, x: float) -> tuple[StreamS
     if i >= plan.L - 1 and (i - plan.L + 1) % plan.hop == 0:  # a frame ends here
         hist, total, last = hist.copy(), total.copy(), last.copy()
         p = (i + 1) % plan.L
-        lev = _frame_level(plan, np.concatenate((hp[p:], hp[:p])))
-        _stream_classify(hist, total, last, 0, lev, MIN_CONTRAST, NEAR_FLOOR)
-        frame = bool(last[0])
+        lev = [_frame_levels(np.concatenate((hp[p:], hp[:p]))[None], plan.win, plan.sel)[0],
+               np.nan]
         if plan.lp_sos is not None:
             p = (i + 1) % plan.Lm
-            w = np.concatenate((lp[p:], lp[:p]))[max(0, plan.Lm - 1 - i):]  # up to Lm so far
-            ok = np.isfinite(w)
-            t = np.arange(w.size, dtype=np.float64)[ok]
-            y = w[ok] - (np.mean(w[ok]) if ok.any() else 0.0)
-            sums = np.array([ok.sum(), y.sum(), (y * y).sum(), t.sum(), (t * t).sum(),
-                             (t * y).sum()], dtype=np.float64)[:, None]
-            motion = float(line_residual(sums, np.zeros_like(sums), plan.Lm)[0])
-            _stream_classify(hist, total, last, 1, motion, 1.0, MOTION_NEAR)
-            frame = frame and bool(last[1])
-        d = int(round(CAUSAL_DWELL_S / HOP_S))
-        run = run + 1 if frame else 0
-        still = run >= d + 1
+            lev[1] = _window_motion(np.concatenate((lp[p:], lp[:p]))[max(0, plan.Lm - 1 - i):],
+                                    plan.Lm)  # up to Lm samples so far
+        lgb, lgm = _log_level(lev)
+        run, still = _frame_step(hist, total, last, run, lgb, lgm, plan.rule, _CENTRES)
+        still = bool(still)
     return StreamState(hs, ls, hp, lp, i + 1, hist, total, last, run, still), still
