@@ -29,6 +29,28 @@ def test_check_increasing_names_first_bad_row():
     check_increasing(np.array([0.0, 1e-9, 5.0]), "ok")
 
 
+@pytest.mark.parametrize(("t", "what"), [
+    ([0.0, 0.1, 0.1, 0.3], "api, sample 2: time 0.1 s repeats the previous sample"),
+    ([0.0, 0.1, 0.05, 0.3], "api, sample 2: time goes backwards (0.05 s after 0.1 s)"),
+    ([0.0, 0.1, np.nan, 0.3], "api, sample 2: time is nan (not a number)")])
+def test_one_time_line_check_names_the_repair_its_caller_has(t, what):
+    """The estimators' check_time and resample_uniform are check_increasing naming
+    sort_dedup (a Recording built in Python); a reader names its sort option."""
+    from vibrospeed.estimators.common import check_time
+
+    rec = Recording(t=np.array(t), channels={"ay": np.zeros(4)}, source="api")
+    api = "; vibrospeed.io.sort_dedup sorts, de-duplicates and drops rows without a time"
+    for call in (check_time, resample_uniform):
+        with pytest.raises(InputError) as err:
+            call(rec)
+        assert str(err.value) == what + api
+    with pytest.raises(ReaderError) as err:
+        check_increasing(np.array(t), "x.csv", rows=np.arange(4) + 2)
+    assert str(err.value).endswith("; --sort (sort=True in Python) sorts, de-duplicates and "
+                                   "drops rows without a time")
+    assert "x.csv, line 4, column 't'" in str(err.value)
+
+
 def test_sort_dedup_keeps_first_of_repeats_and_notes():
     t = np.array([0.2, 0.0, 0.1, 0.1, np.nan, 0.3])
     x = np.array([2.0, 0.0, 1.0, 9.0, 7.0, 3.0])

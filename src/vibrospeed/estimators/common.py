@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 
 from vibrospeed.errors import InputError, ParameterError
-from vibrospeed.io.timebase import check_nyquist
+from vibrospeed.io.timebase import API_FIX, check_increasing, check_nyquist
 from vibrospeed.signal import prefilter as pf
 from vibrospeed.signal.normalize import running_rms_normalize
 from vibrospeed.types import Recording
@@ -72,19 +72,9 @@ def check_time(recording: Recording) -> None:
     """:class:`InputError` naming the first bad sample unless the time line is finite and
     strictly increasing (a Recording's contract, which its constructor does not check: one
     built through the API with a NaN, repeated or reversed time failed inside NumPy or was
-    estimated as if uniform). :func:`vibrospeed.io.sort_dedup` sorts and cleans one."""
-    t = recording.t
-    src = recording.source or "recording"
-    bad = np.flatnonzero(~np.isfinite(t))
-    if bad.size:
-        raise InputError(f"{src}: time t is {t[bad[0]]} at sample {bad[0]}; clean the time line "
-                         "first (vibrospeed.io.sort_dedup drops such rows)")
-    back = np.flatnonzero(np.diff(t) <= 0)
-    if back.size:
-        i = int(back[0]) + 1
-        raise InputError(f"{src}: time line is not strictly increasing at sample {i} (t = "
-                         f"{t[i]:.6g} s after {t[i - 1]:.6g} s); sort it first "
-                         "(vibrospeed.io.sort_dedup)")
+    estimated as if uniform): :func:`vibrospeed.io.timebase.check_increasing`, naming
+    :func:`vibrospeed.io.sort_dedup` as the repair."""
+    check_increasing(recording.t, recording.source or "recording", fix=API_FIX)
 
 
 def check_uniform(recording: Recording) -> float:

@@ -46,8 +46,17 @@ __all__ = [
 SPARSE_CHANNELS = frozenset({"gps_speed", "gps_sats", "gps_hacc", "gps_lat", "gps_lon", "gps_alt"})
 
 
-def check_increasing(t: np.ndarray, source: str = "", *, rows: np.ndarray | None = None) -> None:
-    """Raise unless ``t`` is finite and strictly increasing.
+#: the repair a time-line error of :func:`check_increasing` names: a reader's sort option, or
+#: for a Recording built in Python (no reader), :func:`sort_dedup`
+READER_FIX = "--sort (sort=True in Python) sorts, de-duplicates and drops rows without a time"
+API_FIX = "vibrospeed.io.sort_dedup sorts, de-duplicates and drops rows without a time"
+
+
+def check_increasing(t: np.ndarray, source: str = "", *, rows: np.ndarray | None = None,
+                     fix: str = READER_FIX) -> None:
+    """Raise unless ``t`` is finite and strictly increasing: the one check of a time line (the
+    readers, :func:`resample_uniform`, the estimators through
+    :func:`vibrospeed.estimators.common.check_time`).
 
     Parameters
     ----------
@@ -55,6 +64,7 @@ def check_increasing(t: np.ndarray, source: str = "", *, rows: np.ndarray | None
     source : file or recording name used in the message
     rows : (n,) optional 1-based file line number of each sample; when given a
         :class:`ReaderError` names the line, otherwise an :class:`InputError` names the sample.
+    fix : the repair the message ends with (default :data:`READER_FIX`)
     """
     t = np.asarray(t, dtype=np.float64)
     name = str(source) or "recording"
@@ -68,13 +78,10 @@ def check_increasing(t: np.ndarray, source: str = "", *, rows: np.ndarray | None
     if not np.isfinite(now):
         msg = f"time is {now} (not a number)"
     elif now == prev:
-        msg = (f"time {now!r} s repeats the previous sample (--sort, or sort=True in Python, "
-               "de-duplicates)")
+        msg = f"time {now!r} s repeats the previous sample"
     else:
-        msg = (
-            f"time goes backwards ({now!r} s after {prev!r} s); "
-            "--sort (sort=True in Python) sorts and de-duplicates"
-        )
+        msg = f"time goes backwards ({now!r} s after {prev!r} s)"
+    msg = f"{msg}; {fix}"
     if rows is not None:
         raise ReaderError(name, msg, row=int(rows[i]), column="t")
     raise InputError(f"{name}, sample {i}: {msg}")
@@ -283,7 +290,7 @@ def resample_uniform(
     name = rec.source or "recording"
     if rec.t.size < 2:
         raise InputError(f"{name}: need at least 2 samples to resample")
-    check_increasing(rec.t, name)
+    check_increasing(rec.t, name, fix=API_FIX)
     dt_med = float(np.median(np.diff(rec.t)))
     fs = 1.0 / dt_med if fs is None else float(fs)
     if not np.isfinite(fs) or fs <= 0:
