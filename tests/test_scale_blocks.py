@@ -193,6 +193,13 @@ def test_standstill_in_pieces_is_the_detector(monkeypatch, causal):
             assert np.array_equal(got, want), (scen, seed, ch)
             found += int(want.sum())
     assert found > 0  # the drives have stops
+    # a slow vehicle's range: no body-motion test (the pieces kept the old 0.3 Hz rule, and
+    # disagreed with the detector for a range floor of 2.7-9 rad/s)
+    rec = sim.simulate("stop_and_go", seed=1, duration=60)
+    for band in ((5.0, 90.0), (2.0, 90.0)):
+        want = ss.standstill(rec["ay"], rec.dt, band, causal=causal)
+        assert want.any() and np.array_equal(
+            blocks.standstill(rec["ay"], rec.dt, band, causal=causal), want), band
 
 
 def test_motion_level_in_pieces_bitwise(monkeypatch):

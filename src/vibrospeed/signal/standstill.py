@@ -372,35 +372,62 @@ def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s, edge_s):
     n = x.size
     hp, upper = _filters(dt, band)
     ends, level = broadband_level(pf.apply(hp, x), dt, band, frame_s=frame_s, hop_s=hop_s)
+    motion = None
+    if upper and ends.size:  # the body motion has room below the band
+        L = _samples(frame_s, dt, 8)
+        motion = motion_level(x, dt, motion_ends(ends, L, n, dt, causal=causal), upper)
+    return decide(ends, level, motion, n, dt, causal=causal, frame_s=frame_s, hop_s=hop_s,
+                  edge_s=edge_s)
+
+
+def motion_ends(ends: np.ndarray, L: int, n: int, dt: float, *, causal: bool) -> np.ndarray:
+    """Last sample of each frame's body-motion window: the frame's own end causally, else the
+    window centred on the frame (frames of ``L`` samples ending at ``ends``, ``n`` samples)."""
+    if causal:
+        return ends
+    return np.minimum(ends - L // 2 + int(round(MOTION_FRAME_S / 2 / dt)), n - 1)
+
+
+def decide(ends: np.ndarray, level: np.ndarray, motion: np.ndarray | None, n: int, dt: float,
+           *, causal: bool, frame_s: float = FRAME_S, hop_s: float = HOP_S,
+           edge_s: float = 0.0, piece: int | None = None) -> np.ndarray:
+    """Standing (bool) per sample of ``n`` from the frames' broadband ``level`` and body
+    ``motion`` (None: no body-motion test), frames ending at sample ``ends`` (module
+    docstring): causally the dwell, offline the gap closing, the short runs dropped and
+    ``edge_s``; each sample takes the decision of its frame (causal: the last ended; offline:
+    the nearest centre), ``piece`` samples at a time (bounded temporaries, same result)."""
     if ends.size == 0:
         return np.zeros(n, bool)
     L = _samples(frame_s, dt, 8)
-    motion = None
-    if upper:  # the body motion has room below the band
-        ref = ends if causal else np.minimum(ends - L // 2 + int(round(MOTION_FRAME_S / 2 / dt)),
-                                             n - 1)
-        motion = motion_level(x, dt, ref, upper)
     if causal:  # a stop is declared after CAUSAL_DWELL_S s of standing frames
         lgb = _log_level(level)
         rule = _rule(motion=motion is not None, dwell=int(round(CAUSAL_DWELL_S / hop_s)))
         still = _causal(lgb, lgb if motion is None else _log_level(motion), rule, _CENTRES)
-        j = np.searchsorted(ends, np.arange(n), side="right") - 1
-        return np.where(j >= 0, still[np.maximum(j, 0)], False)
-    still = classify(level)
-    if motion is not None:
-        still &= classify(motion, min_contrast=_MOTION_CONTRAST, near_floor=MOTION_NEAR)
-    if MIN_STOP_S > 0:  # close gaps < 1 s within a stop, then drop short runs
-        still = ~_drop_short(~still, int(round(1.0 / hop_s)))
-        still = _drop_short(still, int(round(MIN_STOP_S / hop_s)))
-        e = int(round(edge_s / hop_s))
-        if e > 0:
-            run = np.convolve(still.astype(np.int64), np.ones(2 * e + 1, np.int64), "same")
-            still = run == 2 * e + 1
+    else:
+        still = classify(level)
+        if motion is not None:
+            still &= classify(motion, min_contrast=_MOTION_CONTRAST, near_floor=MOTION_NEAR)
+        if MIN_STOP_S > 0:  # close gaps < 1 s within a stop, then drop short runs
+            still = ~_drop_short(~still, int(round(1.0 / hop_s)))
+            still = _drop_short(still, int(round(MIN_STOP_S / hop_s)))
+            e = int(round(edge_s / hop_s))
+            if e > 0:
+                run = np.convolve(still.astype(np.int64), np.ones(2 * e + 1, np.int64), "same")
+                still = run == 2 * e + 1
+    out = np.empty(n, bool)
     centres = ends - L // 2
-    j = np.clip(np.searchsorted(centres, np.arange(n)), 0, centres.size - 1)
-    jm = np.maximum(j - 1, 0)
-    nearer = np.abs(centres[jm] - np.arange(n)) < np.abs(centres[j] - np.arange(n))
-    return still[np.where(nearer, jm, j)]
+    step = piece or max(n, 1)
+    for p0 in range(0, n, step):
+        i = np.arange(p0, min(p0 + step, n))
+        if causal:
+            j = np.searchsorted(ends, i, side="right") - 1
+            out[i] = np.where(j >= 0, still[np.maximum(j, 0)], False)
+        else:
+            j = np.clip(np.searchsorted(centres, i), 0, centres.size - 1)
+            jm = np.maximum(j - 1, 0)
+            nearer = np.abs(centres[jm] - i) < np.abs(centres[j] - i)
+            out[i] = still[np.where(nearer, jm, j)]
+    return out
 
 
 # ------------------------------------------------------------------------------------------

@@ -376,9 +376,8 @@ def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *,
 
     x = np.asarray(x, dtype=np.float64)
     n = x.size
-    fs = 1.0 / dt
-    lo_hz = band[0] / (2 * np.pi)
-    hp = pf.butter_sos("highpass", min(pf.RANGE_HP * lo_hz, 0.45 * fs), fs, 4)
+    band = ss._band(band)
+    hp, upper = ss._filters(dt, band)
     xh = pf.apply(hp, x)
     L = max(8, int(round(ss.FRAME_S / dt)))
     hop = max(1, int(round(ss.HOP_S / dt)))
@@ -391,31 +390,7 @@ def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *,
                            dt, band)[1]
         for i in range(0, starts.size, _PIECE_FRAMES)])
     del xh
-    still = ss.classify(level, causal=causal)
-    upper = min(pf.RANGE_HP * lo_hz, ss.MOTION_HI_HZ)
-    if upper >= 1.5 * ss.MOTION_LO_HZ:
-        ref = ends if causal else np.minimum(
-            ends - L // 2 + int(round(ss.MOTION_FRAME_S / 2 / dt)), n - 1)
-        motion = _motion_level(x, dt, ref, upper)
-        still &= ss.classify(motion, causal=causal, min_contrast=1.0,
-                             near_floor=ss.MOTION_NEAR)
-    if not causal and ss.MIN_STOP_S > 0:
-        still = ~ss._drop_short(~still, int(round(1.0 / ss.HOP_S)))
-        still = ss._drop_short(still, int(round(ss.MIN_STOP_S / ss.HOP_S)))
-    d = int(round(ss.CAUSAL_DWELL_S / ss.HOP_S))
-    if causal and d > 0:
-        run = np.convolve(still.astype(np.int64), np.ones(d + 1, np.int64))[: still.size]
-        still = run == d + 1
-    out = np.empty(n, bool)
-    centres = ends - L // 2
-    for p0 in range(0, n, _PIECE):
-        i = np.arange(p0, min(p0 + _PIECE, n))
-        if causal:
-            j = np.searchsorted(ends, i, side="right") - 1
-            out[i] = np.where(j >= 0, still[np.maximum(j, 0)], False)
-        else:
-            j = np.clip(np.searchsorted(centres, i), 0, centres.size - 1)
-            jm = np.maximum(j - 1, 0)
-            nearer = np.abs(centres[jm] - i) < np.abs(centres[j] - i)
-            out[i] = still[np.where(nearer, jm, j)]
-    return out
+    motion = None
+    if upper:
+        motion = _motion_level(x, dt, ss.motion_ends(ends, L, n, dt, causal=causal), upper)
+    return ss.decide(ends, level, motion, n, dt, causal=causal, piece=_PIECE)
