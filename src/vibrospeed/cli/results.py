@@ -186,7 +186,8 @@ def evaluate(
     = None,
 ) -> None:
     """Compare an estimate with ground truth: RMSE (thesis eq. 3.18, truth linearly
-    interpolated, moving samples only), bias, relative error (median and mean), band coverage, harmonic errors;
+    interpolated, moving samples only), bias, relative error (median and mean), band coverage,
+    harmonic errors;
     the lateral velocity Vy (RMSE, MAE, bias, correlation) where the estimate has ``vy``
     (algebraic) and the truth ``vy_true``.
 
