@@ -94,3 +94,9 @@ PresetOpt = Annotated[str | None, typer.Option("--preset", help=_preset_help())]
 ParamOpt = Annotated[list[str] | None, typer.Option("--param", "-p", help="estimator parameter "
                      "NAME=VALUE (repeatable; lists by comma, e.g. -p comb_rates=-0.1,0.1); "
                      "`vibrospeed methods` lists each method's parameters")]
+
+#: ``--truth-channel`` of ``evaluate`` and ``report``: one option, so both name and explain it alike
+TruthChannelOpt = Annotated[str | None, typer.Option(
+    help="the truth file's channel to compare with: omega_true or speed_true (default: "
+         "whichever it has), or a speed in m/s such as gps_speed (a phone drive against "
+         "its own GPS; no truth between fixes more than 2 s apart)")]

@@ -25,15 +25,10 @@ from vibrospeed.cli.options import (
     RadiusOpt,
     RateOpt,
     SortOpt,
+    TruthChannelOpt,
     at_least,
 )
 from vibrospeed.errors import ParameterError
-
-#: ``--truth-channel`` of ``evaluate`` and ``report``: one option, so both name and explain it alike
-TruthChannelOpt = Annotated[str | None, typer.Option(
-    help="the truth file's channel to compare with: omega_true or speed_true (default: "
-         "whichever it has), or a speed in m/s such as gps_speed (a phone drive against "
-         "its own GPS; no truth between fixes more than 2 s apart)")]
 
 
 @_friendly
@@ -187,9 +182,8 @@ def evaluate(
 ) -> None:
     """Compare an estimate with ground truth: RMSE (thesis eq. 3.18, truth linearly
     interpolated, moving samples only), bias, relative error (median and mean), band coverage,
-    harmonic errors;
-    the lateral velocity Vy (RMSE, MAE, bias, correlation) where the estimate has ``vy``
-    (algebraic) and the truth ``vy_true``.
+    harmonic errors; the lateral velocity Vy (RMSE, MAE, bias, correlation) where the estimate
+    has ``vy`` (algebraic) and the truth ``vy_true``.
 
     Examples:
 
