@@ -61,11 +61,8 @@ def _build(name: str):
         else:
             car = dataclasses.replace(cfg.vehicle, dt=1.0 / (cfg.fs or 100.0))
             rec = simulate(car, rng, name=name)
-            if cfg.duration is not None:
-                keep = rec.t <= cfg.duration + 1e-9
-                rec = Recording(rec.t[keep], {k: v[keep] for k, v in rec.channels.items()},
-                                source=rec.source, wheel_radius=rec.wheel_radius,
-                                notes=rec.notes, meta=rec.meta)
+            if cfg.duration is not None:  # the sample at t = duration kept
+                rec = rec.slice_time(None, cfg.duration + 1e-9)
         # arrays per sample (slip, controls, true omegas) stay in the Python API's meta
         rec.meta = {k: v for k, v in rec.meta.items() if not isinstance(v, np.ndarray)}
         rec.meta["manoeuvre"] = name
