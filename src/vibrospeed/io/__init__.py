@@ -52,6 +52,7 @@ from vibrospeed.errors import ParameterError, ReaderError
 from vibrospeed.io import _csv
 from vibrospeed.io.atomic import atomic_path, atomic_write_bytes, atomic_write_text
 from vibrospeed.io.mapped import ColumnSpec, load_mapping, parse_mapping
+from vibrospeed.io.parquet import is_parquet
 from vibrospeed.io.timebase import (
     check_increasing,
     check_nyquist,
@@ -379,7 +380,7 @@ def _detect_format(p: Path, *, mapping: bool, inside: bool) -> str:
         raise ReaderError(p, "empty file")
     with open(p, "rb") as fh:
         magic = fh.read(4)
-    if magic == b"PAR1" or p.suffix.lower() in (".parquet", ".pq"):
+    if is_parquet(p) or p.suffix.lower() in (".parquet", ".pq"):
         return "parquet"
     if zipfile.is_zipfile(p):
         raise ReaderError(p, "unknown format: a zip file without Accelerometer.csv")
