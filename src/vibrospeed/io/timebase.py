@@ -26,6 +26,7 @@ from vibrospeed.types import Recording
 
 __all__ = [
     "SPARSE_CHANNELS",
+    "check_fundamental",
     "check_increasing",
     "check_nyquist",
     "describe_timebase",
@@ -396,6 +397,22 @@ def split_at_gaps(rec: Recording, min_gap: float) -> list[Recording]:
             )
         )
     return pieces
+
+
+def check_fundamental(fs: float, omega_max: float, source: str = "") -> None:
+    """Raise :class:`ParameterError` unless the fundamental up to ``omega_max`` (rad/s) is
+    below Nyquist at sample rate ``fs`` (Hz): ``omega_max < pi fs``.
+
+    The harmonic trackers may let the higher harmonics alias (the rotation model describes the
+    folded lines), but a fundamental above Nyquist is no wheel line at all; :func:`check_nyquist`
+    is the stricter check for all M harmonics."""
+    if omega_max >= np.pi * fs:
+        where = f"{source}: " if source else ""
+        raise ParameterError(
+            f"{where}sample rate {fs:.4g} Hz is too low for omega up to omega_max = "
+            f"{omega_max:.4g} rad/s (the fundamental needs fs > {omega_max / np.pi:.4g} Hz); "
+            f"lower omega_max below {np.pi * fs:.4g} rad/s"
+        )
 
 
 def check_nyquist(fs: float, M: int, omega_max: float, source: str = "") -> None:

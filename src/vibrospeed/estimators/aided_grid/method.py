@@ -26,6 +26,7 @@ from vibrospeed.estimators.aiding import (
     standstill_offset,
 )
 from vibrospeed.estimators.grid.method import CLAIM_LEVEL, GRID_DEFAULTS, q_omega_for
+from vibrospeed.io.timebase import check_fundamental
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Track, check_wheel_radius
 
@@ -192,9 +193,7 @@ def estimate(
         mdef["dt"] = dt
         model = config_from_params(HarmonicModel, model_kw, **mdef)
         tracker = config_from_params(rbpmf.Config, tr_kw, model=model, **tdef)
-        if tracker.omega_max >= np.pi / dt:
-            raise ParameterError(f"{src}: omega_max {tracker.omega_max:g} rad/s needs fs > "
-                                 f"{tracker.omega_max / np.pi:.4g} Hz (lower omega_max)")
+        check_fundamental(1.0 / dt, tracker.omega_max, src)
         y = _vibration(recording, vib_name, tracker, lp, dt)
         notes = [f"pre-filter '{tracker.prefilter}' on '{vib_name}' at fs = {1 / dt:.4g} Hz"]
         if tracker.scaling == "rms":

@@ -8,11 +8,11 @@ import numpy as np
 import vibrospeed.estimators.grid.fit as _fit
 import vibrospeed.estimators.grid.smoother as grid_smoother
 from vibrospeed.config import config_from_params
-from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import scaling as _scaling
 from vibrospeed.estimators.grid.config import Config
 from vibrospeed.estimators.grid.filter import Result, concat, init, run
 from vibrospeed.estimators.grid.kernel import check_grid_spacing
+from vibrospeed.io.timebase import check_fundamental
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Recording, Track
 
@@ -38,11 +38,7 @@ def prepare(recording: Recording, axis: str, config_cls, params: dict | None, de
     src = recording.source or "recording"
     om_max = float(probe.omega_max)
     M = probe.model.M
-    if om_max >= np.pi * fs:
-        raise ParameterError(
-            f"{src}: sample rate {fs:.4g} Hz is too low for omega up to {om_max:.4g} rad/s "
-            f"(the fundamental needs fs > {om_max / np.pi:.4g} Hz; lower omega_max)"
-        )
+    check_fundamental(fs, om_max, src)
     if probe.nyquist == "error":
         check_nyquist(fs, M, om_max, src)
     elif M * om_max >= np.pi * fs:
