@@ -69,6 +69,19 @@ def stft_window(recording: Recording, window_s: float) -> float:
     return float(min(window_s, max(0.25, recording.duration / 8.0)))
 
 
+#: (rate, floor) of the jumps :func:`plot_estimate` breaks: for omega in rad/s^2 and rad/s (50
+#: rad/s^2 is past a car's braking on its wheels), for speed in m/s^2 and m/s (the same at a
+#: 0.3 m wheel: 15 m/s^2, 1.5 g), so a speed panel breaks what the omega panel breaks
+_JUMPS = {"omega": (50.0, 2.0), "speed": (15.0, 0.6)}
+
+
+def _jump_at(t: np.ndarray, y: np.ndarray, rate: float, floor: float) -> np.ndarray:
+    """Indices before which ``y`` jumps by more than ``max(floor, rate dt)`` (NaN never does)."""
+    with np.errstate(invalid="ignore"):
+        hop = np.abs(np.diff(y)) > np.maximum(floor, rate * np.diff(t))
+    return np.flatnonzero(hop) + 1
+
+
 def break_jumps(t: np.ndarray, y: np.ndarray, *, rate: float = 50.0,
                 floor: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
     """``t``, ``y`` with a NaN put between samples where ``y`` jumps by more than
@@ -78,9 +91,7 @@ def break_jumps(t: np.ndarray, y: np.ndarray, *, rate: float = 50.0,
     y = np.asarray(y, dtype=np.float64)
     if len(y) < 2:
         return t, y
-    with np.errstate(invalid="ignore"):
-        hop = np.abs(np.diff(y)) > np.maximum(floor, rate * np.diff(t))
-    at = np.flatnonzero(hop) + 1
+    at = _jump_at(t, y, rate, floor)
     return np.insert(t, at, np.nan), np.insert(y, at, np.nan)
 
 
@@ -220,18 +231,7 @@ def track_figure(
                      path_effects=_OUTLINE,
                      label=(f"estimate x m, m = 1..{drawn}" if drawn > 1 else "estimate")
                      if m == 1 else None)
-        ax1.fill_between(track.t, track.omega_lo, track.omega_hi, color="tab:blue", alpha=0.25,
-                         lw=0, label=f"{track.level:.0%} band")
-        if "has_signal" in track.extras:  # dim the estimate where the tracker sees no line
-            sig = np.asarray(track.extras["has_signal"], float) > 0.5
-            ax1.plot(*break_jumps(track.t, np.where(sig, np.nan, track.omega)),
-                     color="tab:blue", lw=0.6, alpha=0.35, zorder=_Z_EST,
-                     label="estimate, no line seen")
-            ax1.plot(*break_jumps(track.t, np.where(sig, track.omega, np.nan)),
-                     color="tab:blue", lw=1.0, zorder=_Z_EST, label=f"estimate ({track.method})")
-        else:
-            ax1.plot(*break_jumps(track.t, track.omega), color="tab:blue", lw=1.0,
-                     zorder=_Z_EST, label=f"estimate ({track.method})")
+        plot_estimate(ax1, track, "omega")
     if om_truth is not None:
         ax0.plot(t_truth, om_truth, color="lime", lw=0.8, ls="--", zorder=_Z_TRUTH,
                  path_effects=_OUTLINE,
@@ -301,15 +301,43 @@ SOURCE_COLOURS = {0: ("inertial", "tab:red"), 1: ("gps", "tab:blue"),
                   2: ("vibration", "tab:green"), 3: ("standstill", "tab:gray")}
 
 
-def plot_sources(ax, track: Track, y: np.ndarray) -> None:
-    """``y`` (the track's speed or omega) coloured by the ``source`` each sample rests on
-    (fuse: inertial, GPS, vibration, standstill), one line per source present."""
-    src = np.asarray(track.extras["source"], float)
-    for code, (name, colour) in SOURCE_COLOURS.items():
-        sel = src == code
-        if sel.any():
-            ax.plot(track.t, np.where(sel, y, np.nan), color=colour, lw=1.2, zorder=_Z_EST,
-                    label=f"{track.method}: {name}")
+def plot_estimate(ax, track: Track, quantity: str = "omega", *,
+                  label: str | None = None) -> None:
+    """The track's ``quantity`` ("omega" or "speed") with its band on ``ax``, as every estimate
+    panel draws it (the figure's lower panel, the report's speed panel), so they show the same:
+    the band where it has values; the estimate dimmed where the tracker sees no line
+    (``has_signal`` <= 0.5: there it is the prior carried on, not a measurement) or, for fuse
+    (``source``), coloured by what each sample rests on (inertial, GPS, vibration, standstill:
+    a GPS-borne speed is measured though no line is seen); jumps (:data:`_JUMPS`) broken, so a
+    hop or a standstill's drop to 0 is not joined by a stroke. ``label``: the full line's legend
+    entry (default ``estimate (method)``)."""
+    if quantity not in _JUMPS:
+        raise ValueError(f"quantity {quantity!r}: not one of {sorted(_JUMPS)}")
+    t = np.asarray(track.t, dtype=np.float64)
+    y, lo, hi = (np.asarray(getattr(track, quantity + k), dtype=np.float64)
+                 for k in ("", "_lo", "_hi"))
+    if np.isfinite(lo).any() and np.isfinite(hi).any():  # an empty band is no band
+        ax.fill_between(t, lo, hi, color="tab:blue", alpha=0.25, lw=0,
+                        label=f"{track.level:.0%} band")
+    at = _jump_at(t, y, *_JUMPS[quantity])
+    tj = np.insert(t, at, np.nan)
+
+    def draw(sel: np.ndarray, **kw) -> None:
+        ax.plot(tj, np.insert(np.where(sel, y, np.nan), at, np.nan), zorder=_Z_EST, **kw)
+
+    label = label or f"estimate ({track.method or '?'})"
+    if "source" in track.extras:
+        src = np.asarray(track.extras["source"], dtype=np.float64)
+        for code, (name, colour) in SOURCE_COLOURS.items():
+            if (src == code).any():
+                draw(src == code, color=colour, lw=1.2, label=f"{track.method}: {name}")
+    elif "has_signal" in track.extras:
+        seen = np.asarray(track.extras["has_signal"], dtype=np.float64) > 0.5
+        if not seen.all():
+            draw(~seen, color="tab:blue", lw=0.6, alpha=0.35, label="estimate, no line seen")
+        draw(seen, color="tab:blue", lw=1.0, label=label)
+    else:
+        draw(np.ones(t.size, dtype=bool), color="tab:blue", lw=1.0, label=label)
 
 
 def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recording | None,
@@ -334,13 +362,7 @@ def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recor
                      path_effects=_OUTLINE,
                      label="truth")
     shade_stretches(ax1, track, track.speed)
-    ax1.fill_between(track.t, track.speed_lo, track.speed_hi, color="tab:blue", alpha=0.25,
-                     lw=0, label=f"{track.level:.0%} band")
-    if "source" in track.extras:  # fuse: what each sample's speed rests on
-        plot_sources(ax1, track, track.speed)
-    else:
-        ax1.plot(track.t, track.speed, color="tab:blue", lw=1.0, zorder=_Z_EST,
-                 label=f"estimate ({track.method})")
+    plot_estimate(ax1, track, "speed")
     tr = truth if truth is not None else recording
     if "speed_true" in tr.channels:
         ax1.plot(tr.t, tr.channel("speed_true"), color="k", lw=0.9, ls="--", zorder=_Z_TRUTH,

@@ -97,14 +97,12 @@ def _speed_uri(rec: Recording, track: Track, truth: Recording | None) -> str:
     """Speed (m/s; omega in rad/s without a wheel radius) against time, with the band, the
     truth and GPS (under the estimate; fixes the method ignores marked), the stretches with a
     wheel line, detected standstills and NaN stretches shaded; the legend beside the plot. The
-    estimate is dimmed where no line is seen, or, for fuse, coloured by what each sample rests
-    on (its GPS-borne speed is measured though no line is seen)."""
-    from vibrospeed.eval.plot import legend_outside, plot_gps, plot_sources, shade_stretches
+    estimate and its band are :func:`vibrospeed.eval.plot.plot_estimate`'s, as in the figure."""
+    from vibrospeed.eval.plot import legend_outside, plot_estimate, plot_gps, shade_stretches
 
     r = track.wheel_radius
     as_speed = np.isfinite(track.speed).any()
-    y, lo, hi = ((track.speed, track.speed_lo, track.speed_hi) if as_speed
-                 else (track.omega, track.omega_lo, track.omega_hi))
+    y = track.speed if as_speed else track.omega
     unit = "m/s" if as_speed else "rad/s"
     fig, ax = plt.subplots(figsize=(12.5, 3.6))
     sig = track.extras.get("has_signal")
@@ -114,20 +112,7 @@ def _speed_uri(rec: Recording, track: Track, truth: Recording | None) -> str:
                         transform=ax.get_xaxis_transform(), color="tab:green", alpha=0.12,
                         lw=0, step="mid", label="wheel line seen")
     shade_stretches(ax, track, y)
-    if np.isfinite(lo).any() and np.isfinite(hi).any():
-        ax.fill_between(track.t, lo, hi, color="tab:blue", alpha=0.25, lw=0,
-                        label=f"{track.level:.0%} band")
-    label = f"estimate ({track.method or '?'})"
-    if "source" in track.extras:  # fuse: a speed from GPS without a wheel line is measured
-        plot_sources(ax, track, y)
-    elif sig is not None:  # dim the estimate where the method sees no line
-        seen = np.asarray(sig, dtype=np.float64) > 0.5
-        ax.plot(track.t, np.where(seen, np.nan, y), color="tab:blue", lw=0.6, alpha=0.35,
-                zorder=2.5, label="estimate, no line seen")
-        ax.plot(track.t, np.where(seen, y, np.nan), color="tab:blue", lw=1.0, zorder=2.5,
-                label=label)
-    else:
-        ax.plot(track.t, y, color="tab:blue", lw=1.0, zorder=2.5, label=label)
+    plot_estimate(ax, track, "speed" if as_speed else "omega")
     scale = 1.0 if as_speed else (1.0 / r if r else None)
     if scale is not None:
         plot_gps(ax, rec, track, scale, "GPS speed" + ("" if as_speed else " / r"))
