@@ -174,6 +174,9 @@ class CsvTable:
         ``unit_name(cell)`` returns the unit's name, None for no unit
     dates : columns that may hold ISO-8601 time stamps instead of numbers (read as seconds
         since 1970-01-01 UTC; a time without an offset is taken as UTC)
+    dayfirst : how those columns' slash dates (``03/12/2026 14:05:01.250``) are read: True
+        day first (``dd/mm/yyyy hh:mm:ss[.fff]``), False month first; None refuses them (which
+        one is meant cannot be told from a date such as 03/12)
 
     Attributes
     ----------
@@ -191,10 +194,12 @@ class CsvTable:
         decimal: str = ".",
         unit_name: Callable[[str], str | None] | None = None,
         dates: Sequence[str] = (),
+        dayfirst: bool | None = None,
     ) -> None:
         self.source = source
         self.decimal = decimal
         self.dates = frozenset(dates)
+        self.dayfirst = dayfirst
         self.notes: list[str] = []
         self.units: dict[str, str] = {}
         self.units_line: int | None = None
@@ -412,6 +417,8 @@ class CsvTable:
 
         na = np.array([c.strip().lower() in NA_STRINGS for c in cells])
         text = [c.strip() for c in cells]
+        if "/" in next(c for c, m in zip(text, na, strict=True) if not m):
+            return self._slash_seconds(text, na, lines, name)
         try:
             stamps = pd.to_datetime([c for c, m in zip(text, na, strict=True) if not m],
                                     format="ISO8601", utc=True)
@@ -431,6 +438,52 @@ class CsvTable:
         out[~na] = stamps.as_unit("ns").asi8 * 1e-9
         note = (f"column '{name}': ISO-8601 time stamps read as seconds since 1970-01-01 UTC "
                 "(a time without an offset taken as UTC)")
+        if note not in self.notes:
+            self.notes.append(note)
+        return out
+
+    def _slash_seconds(self, text: list[str], na: np.ndarray, lines: np.ndarray,
+                       name: str) -> np.ndarray:
+        """Slash dates ``dd/mm/yyyy hh:mm:ss[.fff]`` (``mm/dd/...`` with ``dayfirst=False``) as
+        float64 seconds since 1970-01-01 UTC, taken as UTC (NA cells NaN). Without
+        ``dayfirst`` the first date is a :class:`ReaderError`: a day above 12 asks for
+        ``dayfirst = true``, an ambiguous one (03/12) for either."""
+        import pandas as pd
+
+        if self.dayfirst is None:
+            k = int(np.flatnonzero(~na)[0])
+            first = text[k].split("/", 1)[0]
+            if first.isdigit() and int(first) > 12:
+                what = (f"'{_short(text[k])}' is a day-first date ({first} is no month): give "
+                        "dayfirst = true in the mapping file")
+            else:
+                what = (f"'{_short(text[k])}' is a slash date, day or month first?: give "
+                        "dayfirst = true (dd/mm/yyyy) or dayfirst = false (mm/dd/yyyy) in the "
+                        "mapping file")
+            raise ReaderError(self.source, what, row=int(lines[k]), column=name)
+        said = "dd/mm/yyyy" if self.dayfirst else "mm/dd/yyyy"
+        fmt = f"{'%d/%m' if self.dayfirst else '%m/%d'}/%Y %H:%M:%S.%f"
+        # the fraction is optional in the file, not in the format: ".0" where a cell has none
+        cells = [c if "." in c else c + ".0" for c, m in zip(text, na, strict=True) if not m]
+        try:
+            stamps = pd.to_datetime(cells, format=fmt, utc=True)
+        except (ValueError, OverflowError, TypeError):
+            for k, c in enumerate(text):
+                if na[k]:
+                    continue
+                try:
+                    pd.to_datetime([c if "." in c else c + ".0"], format=fmt, utc=True)
+                except (ValueError, OverflowError, TypeError):
+                    raise ReaderError(self.source, f"'{_short(c)}' is not a {said} "
+                                      f"hh:mm:ss[.fff] time (dayfirst = "
+                                      f"{str(self.dayfirst).lower()})",
+                                      row=int(lines[k]), column=name) from None
+            raise  # pragma: no cover - every cell parsed alone
+        out = np.full(len(text), np.nan)
+        out[~na] = stamps.as_unit("ns").asi8 * 1e-9
+        said = "dd/mm/yyyy" if self.dayfirst else "mm/dd/yyyy"
+        note = (f"column '{name}': {said} dates read as seconds since 1970-01-01 UTC (taken as "
+                "UTC)")
         if note not in self.notes:
             self.notes.append(note)
         return out

@@ -166,70 +166,30 @@ class ChunkedRecording:
 
     def _mapped_header(self, p: Path) -> None:
         """The mapping checked as :func:`vibrospeed.io.mapped.read_mapped` checks it (the same
-        messages, in the same order), the header read and every mapped column found."""
-        import math
-
-        from vibrospeed.io.mapped import (
-            UNITS,
-            _check_channel_unit,
-            _check_suffixes,
-            date_columns,
-            declared_units,
-            load_mapping,
-            mapping_text,
-            parse_mapping,
-            unit_name,
-        )
-        from vibrospeed.types import CHANNEL_UNITS
-
-        spec: dict[str, Any] = {}
-        opts: dict[str, Any] = {}
-        if self.mapping_file is not None:
-            spec, opts = load_mapping(self.mapping_file)
-        if self.columns is not None:
-            spec.update(parse_mapping(self.columns) if isinstance(self.columns, str)
-                        else dict(self.columns))
-        if not spec:
-            raise ParameterError(f"{p}: a column mapping is needed (e.g. --columns "
-                                 "t=time,ay=acc_y)")
-        rate = self.rate if self.rate is not None else opts.get("rate")
-        if "t" in spec and rate is not None:
-            raise ParameterError(f"{p}: give either a time column 't' or a sample rate, not both")
-        if "t" not in spec:
-            if rate is None:
-                raise ParameterError(f"{p}: no time column mapped; map one (t=COLUMN) or give "
-                                     "the sample rate (rate=Hz)")
-            if not (math.isfinite(rate) and rate > 0):
-                raise ParameterError(f"{p}: sample rate must be positive, got {rate}")
-        for name, sp in spec.items():
-            if sp.unit is not None:
-                _check_channel_unit(name, sp.unit, str(p))
+        :func:`~vibrospeed.io.mapped.resolve_mapping`), the header read and every mapped column
+        found."""
+        from vibrospeed.io.mapped import mapping_text, resolve_mapping, si_units
         from vibrospeed.io.parquet import is_parquet, iter_columns
 
+        setup = resolve_mapping(p, columns=self.columns, mapping_file=self.mapping_file,
+                                rate=self.rate)
         self._parquet = is_parquet(p)
         if self._parquet:  # a Parquet table with its own column names, as read_mapped reads it
-            spec, self._unit_notes = declared_units(spec, {}, None, str(p))
-            self._srcs = list(dict.fromkeys(sp.column for sp in spec.values()))
+            spec, self._unit_notes, self._srcs = setup.columns_for(None)
             next(iter_columns(p, self._srcs, batch_rows=1), None)  # columns found and numeric
         else:
-            with open_text(p, opts.get("encoding", "utf-8")) as fh:
-                tab = CsvTable(fh, str(p), delimiter=opts.get("delimiter"),
-                               decimal=opts.get("decimal", "."), unit_name=unit_name,
-                               dates=date_columns(spec))
-                self._dates = tuple(tab.dates)
-                _check_suffixes(spec, tab.header, str(p))
-                spec, self._unit_notes = declared_units(spec, tab.units, tab.units_line, str(p))
-                self._srcs = list(dict.fromkeys(sp.column for sp in spec.values()))
+            with setup.open_table() as fh:
+                tab = setup.table(fh)
+                spec, self._unit_notes, self._srcs = setup.columns_for(tab)
                 for c in self._srcs:
                     tab.index(c)  # a missing column: the whole-file reader's error, before rows
-        self._spec, self._opts, self._rate = spec, opts, rate
+        self._setup, self._spec, self._rate = setup, spec, setup.rate
         self.channels = [k for k in spec if k != "t"]
-        self.units = {k: UNITS[sp.unit][1] if sp.unit else CHANNEL_UNITS.get(k, "")
-                      for k, sp in spec.items() if k != "t"}
-        self.meta = {"mapping": {k: sp._asdict() for k, sp in spec.items()}, "rate": rate}
+        self.units = {k: u for k, u in si_units(spec).items() if k != "t"}
+        self.meta = {"mapping": {k: sp._asdict() for k, sp in spec.items()}, "rate": setup.rate}
         self._tail_notes = [f"columns mapped: {mapping_text(spec)}"]
         if "t" not in spec:
-            self._tail_notes.append(f"no time column: t = i / {rate:g} Hz")
+            self._tail_notes.append(f"no time column: t = i / {setup.rate:g} Hz")
 
     def _side(self, side: dict[str, Any]) -> None:
         units = side.get("units") if isinstance(side.get("units"), dict) else {}
@@ -280,7 +240,7 @@ class ChunkedRecording:
             raise ReaderError(p, "no data rows")
 
     def _raw_mapped(self, p: Path):
-        from vibrospeed.io.mapped import unit_name
+        from vibrospeed.io.mapped import to_si
 
         spec, tcol = self._spec, (self._spec["t"].column if "t" in self._spec else None)
         start = 0
@@ -293,20 +253,12 @@ class ChunkedRecording:
                           for raw in iter_columns(p, self._srcs, batch_rows=self.chunk_rows)
                           if raw[self._srcs[0]].size)
             else:
-                fh = stack.enter_context(open_text(p, self._opts.get("encoding", "utf-8")))
-                tab = CsvTable(fh, str(p), delimiter=self._opts.get("delimiter"),
-                               decimal=self._opts.get("decimal", "."), unit_name=unit_name,
-                               dates=self._dates)
+                tab = self._setup.table(stack.enter_context(self._setup.open_table()))
                 tab.notes.extend(self._unit_notes)
                 notes = tab.notes
                 chunks = tab.iter_chunks(self._srcs, chunk_rows=self.chunk_rows)
             for raw, lines in chunks:
-                chans = {}
-                for name, sp in spec.items():
-                    x = raw[sp.column]
-                    if sp.scale != 1.0 or sp.offset != 0.0 or sp.unit is not None:
-                        x = (x * sp.scale + sp.offset) * sp.factor()
-                    chans[name] = x
+                chans = to_si(spec, raw)
                 # t = i / rate: the same float64 division of the same integers as the whole file
                 t = chans.pop("t") if tcol is not None else \
                     np.arange(start, start + lines.size) / self._rate

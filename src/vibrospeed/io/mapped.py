@@ -14,6 +14,8 @@ or in a small TOML file (:func:`load_mapping`)::
     delimiter = ","       # optional; sniffed from the header otherwise
     decimal = "."         # optional decimal mark
     encoding = "utf-8"    # optional text encoding (e.g. "cp1252" for a Windows Excel export)
+    dayfirst = true       # optional: a time column of dates 03/12/2026 14:05:01.250 is day first
+                          # (false: month first); without it such dates are refused
     [columns]
     ay = "acc_y"                                        # plain column, already SI
     t  = { column = "time", unit = "ms" }
@@ -27,12 +29,14 @@ harm).
 from __future__ import annotations
 
 import codecs
+import contextlib
 import io
 import math
 import os
 import tomllib
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, TextIO
 
 import numpy as np
 
@@ -42,7 +46,8 @@ from vibrospeed.io._csv import CsvTable, nan_notes, open_text
 from vibrospeed.io.parquet import is_parquet, iter_columns
 from vibrospeed.types import CHANNEL_UNITS, Recording
 
-__all__ = ["UNITS", "ColumnSpec", "load_mapping", "parse_mapping", "read_mapped"]
+__all__ = ["UNITS", "ColumnSpec", "MappedSetup", "load_mapping", "parse_mapping", "read_mapped",
+           "resolve_mapping"]
 
 #: unit name -> (factor to SI, SI unit)
 UNITS: dict[str, tuple[float, str]] = {
@@ -256,7 +261,7 @@ def declared_units(spec: dict[str, ColumnSpec], units_row: dict[str, str],
 
 def load_mapping(path: str | os.PathLike[str]) -> tuple[dict[str, ColumnSpec], dict[str, Any]]:
     """Read a TOML mapping file; returns ``(columns, options)`` with options among ``rate``,
-    ``delimiter``, ``decimal``, ``encoding``."""
+    ``delimiter``, ``decimal``, ``encoding``, ``dayfirst``."""
     p = Path(path)
     if not p.is_file():
         raise ReaderError(p, "mapping file not found")
@@ -286,7 +291,7 @@ def load_mapping(path: str | os.PathLike[str]) -> tuple[dict[str, ColumnSpec], d
             None if unit is None else _check_unit(str(unit), where),
         )
     opts = {}
-    unknown = set(doc) - {"columns", "rate", "delimiter", "decimal", "encoding"}
+    unknown = set(doc) - {"columns", "rate", "delimiter", "decimal", "encoding", "dayfirst"}
     if unknown:
         raise ParameterError(f"{p}: unknown key(s) {', '.join(sorted(unknown))}")
     if "rate" in doc:
@@ -296,6 +301,10 @@ def load_mapping(path: str | os.PathLike[str]) -> tuple[dict[str, ColumnSpec], d
             if not isinstance(doc[k], str) or len(doc[k]) != 1:
                 raise ParameterError(f"{p}: {k} must be one character")
             opts[k] = doc[k]
+    if "dayfirst" in doc:
+        if not isinstance(doc["dayfirst"], bool):
+            raise ParameterError(f"{p}: dayfirst must be true or false, got {doc['dayfirst']!r}")
+        opts["dayfirst"] = doc["dayfirst"]
     if "encoding" in doc:
         try:
             codecs.lookup(str(doc["encoding"]))
@@ -305,6 +314,99 @@ def load_mapping(path: str | os.PathLike[str]) -> tuple[dict[str, ColumnSpec], d
                                  "cp1252, latin-1)") from None
         opts["encoding"] = str(doc["encoding"])
     return out, opts
+
+
+@dataclass(frozen=True)
+class MappedSetup:
+    """A column mapping resolved for one file (:func:`resolve_mapping`): the channels' column
+    specs, the text options (``delimiter``, ``decimal``, ``encoding``, ``dayfirst``) and the
+    sample rate (None with a time column). Shared by :func:`read_mapped` and the chunked
+    reader (:class:`vibrospeed.io.chunks.ChunkedRecording`), so that both check a mapping by
+    the same rules, with the same words, in the same order."""
+
+    source: Path
+    spec: dict[str, ColumnSpec]
+    opts: dict[str, Any]
+    rate: float | None
+
+    def table(self, fh: TextIO) -> CsvTable:
+        """The CSV table of the open text ``fh`` read with the mapping's options."""
+        return CsvTable(fh, str(self.source), delimiter=self.opts.get("delimiter"),
+                        decimal=self.opts.get("decimal", "."), unit_name=unit_name,
+                        dates=date_columns(self.spec), dayfirst=self.opts.get("dayfirst"))
+
+    def open_table(self) -> contextlib.AbstractContextManager[TextIO]:
+        """The file opened as text in the mapping's encoding (for :meth:`table`)."""
+        return open_text(self.source, self.opts.get("encoding", "utf-8"))
+
+    def columns_for(self, tab: CsvTable | None) -> tuple[dict[str, ColumnSpec], list[str],
+                                                           list[str]]:
+        """``(spec, notes, source columns)`` for the file's header (``tab``; None for a
+        Parquet table): a ``:SUFFIX`` that is no unit refused, the units the file declares
+        filled in (:func:`declared_units`), each source column once."""
+        if tab is None:
+            spec, notes = declared_units(self.spec, {}, None, str(self.source))
+        else:
+            _check_suffixes(self.spec, tab.header, str(self.source))
+            spec, notes = declared_units(self.spec, tab.units, tab.units_line, str(self.source))
+        return spec, notes, list(dict.fromkeys(s.column for s in spec.values()))
+
+
+def resolve_mapping(
+    path: str | os.PathLike[str],
+    *,
+    columns: str | dict[str, ColumnSpec] | None = None,
+    mapping_file: str | os.PathLike[str] | None = None,
+    rate: float | None = None,
+) -> MappedSetup:
+    """The mapping for ``path``: the TOML ``mapping_file``'s columns and options, ``columns``
+    items over them, ``rate`` over the file's; a :class:`ParameterError` naming ``path`` for
+    no mapping, a time column beside a rate, neither, a rate that is not positive, or a unit of
+    another quantity than its channel's (before the file is opened)."""
+    p = Path(path)
+    spec: dict[str, ColumnSpec] = {}
+    opts: dict[str, Any] = {}
+    if mapping_file is not None:
+        spec, opts = load_mapping(mapping_file)
+    if columns is not None:
+        spec.update(parse_mapping(columns) if isinstance(columns, str) else dict(columns))
+    if not spec:
+        raise ParameterError(f"{p}: a column mapping is needed (e.g. --columns t=time,ay=acc_y)")
+    if rate is None:
+        rate = opts.pop("rate", None)
+    else:
+        opts.pop("rate", None)
+    if "t" in spec and rate is not None:
+        raise ParameterError(f"{p}: give either a time column 't' or a sample rate, not both")
+    if "t" not in spec:
+        if rate is None:
+            raise ParameterError(
+                f"{p}: no time column mapped; map one (t=COLUMN) or give the sample rate (rate=Hz)"
+            )
+        if not (math.isfinite(rate) and rate > 0):
+            raise ParameterError(f"{p}: sample rate must be positive, got {rate}")
+    for name, s in spec.items():
+        if s.unit is not None:
+            _check_channel_unit(name, s.unit, str(p))
+    return MappedSetup(p, spec, opts, rate)
+
+
+def to_si(spec: dict[str, ColumnSpec], raw: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Each channel's column brought to SI, ``(raw * scale + offset) * factor`` (a column
+    without scale, offset or unit as it is: the same float64 values in every reader)."""
+    out = {}
+    for name, s in spec.items():
+        x = raw[s.column]
+        if s.scale != 1.0 or s.offset != 0.0 or s.unit is not None:
+            x = (x * s.scale + s.offset) * s.factor()
+        out[name] = x
+    return out
+
+
+def si_units(spec: dict[str, ColumnSpec]) -> dict[str, str]:
+    """Each channel's SI unit: its mapped unit's, else the channel's canonical unit."""
+    return {name: UNITS[s.unit][1] if s.unit else CHANNEL_UNITS.get(name, "")
+            for name, s in spec.items()}
 
 
 def read_mapped(
@@ -324,61 +426,27 @@ def read_mapped(
     rate : Hz; required when no ``t`` column is mapped, then ``t = i / rate`` (i = 0, 1, ...)
     sort : sort by time and drop repeated timestamps instead of refusing them
     """
-    p = Path(path)
-    spec: dict[str, ColumnSpec] = {}
-    opts: dict[str, Any] = {}
-    if mapping_file is not None:
-        spec, opts = load_mapping(mapping_file)
-    if columns is not None:
-        spec.update(parse_mapping(columns) if isinstance(columns, str) else dict(columns))
-    if not spec:
-        raise ParameterError(f"{p}: a column mapping is needed (e.g. --columns t=time,ay=acc_y)")
-    if rate is None:
-        rate = opts.get("rate")
-    if "t" in spec and rate is not None:
-        raise ParameterError(f"{p}: give either a time column 't' or a sample rate, not both")
-    if "t" not in spec:
-        if rate is None:
-            raise ParameterError(
-                f"{p}: no time column mapped; map one (t=COLUMN) or give the sample rate (rate=Hz)"
-            )
-        if not (math.isfinite(rate) and rate > 0):
-            raise ParameterError(f"{p}: sample rate must be positive, got {rate}")
-    for name, s in spec.items():
-        if s.unit is not None:
-            _check_channel_unit(name, s.unit, str(p))
+    setup = resolve_mapping(path, columns=columns, mapping_file=mapping_file, rate=rate)
+    p, rate = setup.source, setup.rate
     if is_parquet(p):  # a Parquet table with its own column names
-        spec, unit_notes = declared_units(spec, {}, None, str(p))
-        srcs = list(dict.fromkeys(s.column for s in spec.values()))
+        spec, notes, srcs = setup.columns_for(None)
         parts = list(iter_columns(p, srcs))
         raw = {c: np.concatenate([b[c] for b in parts]) if parts else np.empty(0)
                for c in srcs}
         lines = np.arange(1, raw[srcs[0]].size + 1)
         if lines.size == 0:
             raise ReaderError(p, "no data rows")
-        notes = unit_notes
     else:
-        with open_text(p, opts.get("encoding", "utf-8")) as fh:
-            tab = CsvTable(
-                fh, str(p), delimiter=opts.get("delimiter"), decimal=opts.get("decimal", "."),
-                unit_name=unit_name, dates=date_columns(spec),
-            )
-            _check_suffixes(spec, tab.header, str(p))
-            spec, unit_notes = declared_units(spec, tab.units, tab.units_line, str(p))
+        with setup.open_table() as fh:
+            tab = setup.table(fh)
+            spec, unit_notes, srcs = setup.columns_for(tab)
             tab.notes.extend(unit_notes)
-            srcs = list(dict.fromkeys(s.column for s in spec.values()))
             raw, lines = tab.read(srcs)
         notes = list(tab.notes)
     tcol = spec["t"].column if "t" in spec else None
     notes.extend(nan_notes({c: x for c, x in raw.items() if c != tcol}, str(p)))
-    chans: dict[str, np.ndarray] = {}
-    units: dict[str, str] = {}
-    for name, s in spec.items():
-        x = raw[s.column]
-        if s.scale != 1.0 or s.offset != 0.0 or s.unit is not None:
-            x = (x * s.scale + s.offset) * s.factor()
-        chans[name] = x
-        units[name] = UNITS[s.unit][1] if s.unit else CHANNEL_UNITS.get(name, "")
+    chans = to_si(spec, raw)
+    units = si_units(spec)
     notes.append(f"columns mapped: {mapping_text(spec)}")
     if "t" in chans:
         t = chans.pop("t")
