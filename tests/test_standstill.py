@@ -174,3 +174,74 @@ def test_stream_step_with_the_body_motion_is_the_causal_run():
     without = ss.classify(lev, causal=True)  # the broadband level alone, before the dwell
     assert without[np.searchsorted(ends, np.flatnonzero(ref))].all()
     assert np.sum(without) > 2 * np.sum(ref[ends])
+
+
+@settings(max_examples=60, deadline=None)
+@given(flags=st.lists(st.booleans(), min_size=0, max_size=60), dwell=st.integers(0, 8),
+       ahead=st.integers(0, 10))
+def test_lag_dwell_is_the_run_seen_up_to_the_look_ahead(flags, dwell, ahead):
+    f = np.array(flags, dtype=bool)
+    want = np.zeros(f.size, bool)
+    for i in range(f.size):  # brute force: the run through i, cut at i + ahead
+        if f[i]:
+            a = i
+            while a > 0 and f[a - 1]:
+                a -= 1
+            b = i
+            while b + 1 < min(f.size, i + ahead + 1) and f[b + 1]:
+                b += 1
+            want[i] = b - a + 1 > dwell
+    np.testing.assert_array_equal(ss._lag_dwell(f, dwell, ahead), want)
+    if ahead == 0:  # no look-ahead: the causal dwell (a run of more than dwell frames so far)
+        run = 0
+        for i in range(f.size):
+            run = run + 1 if f[i] else 0
+            assert want[i] == (run > dwell)
+
+
+@settings(max_examples=12, deadline=None)
+@given(cut=st.integers(min_value=3000, max_value=15000), seed=st.integers(0, 100),
+       lag=st.sampled_from([0.3, 1.0, 2.0, 3.3]))
+def test_lagged_decisions_use_no_data_beyond_the_lag(cut, seed, lag):
+    rng = np.random.default_rng(seed)
+    x, _ = drive(rng, [1] * 60 + [0] * 20 + [1] * 70)
+    whole = ss.standstill(x, DT, (1.0, 300.0), causal=True, lag=lag)  # body motion tested
+    part = ss.standstill(x[:cut], DT, (1.0, 300.0), causal=True, lag=lag)
+    known = cut - int(np.floor(lag * FS + 1e-9))
+    np.testing.assert_array_equal(whole[:known], part[:known])
+
+
+def test_a_lag_declares_the_stops_sooner_and_releases_them_sooner():
+    rng = np.random.default_rng(2)
+    pattern = [0] * 8 + [1] * 40 + [0] * 10 + [1] * 60 + [0] * 6 + [1] * 30
+    x, truth = drive(rng, pattern, line=0.05)
+    for band in ((10.0, 300.0), (1.0, 300.0)):  # without and with the body-motion test
+        causal = ss.standstill(x, DT, band, causal=True)
+        np.testing.assert_array_equal(ss.standstill(x, DT, band, causal=True, lag=0.0), causal)
+        prev = causal
+        for lag in (1.0, 2.0, 3.0):
+            got = ss.standstill(x, DT, band, causal=True, lag=lag)
+            assert got[truth].mean() >= prev[truth].mean()
+            assert got[~truth].mean() <= prev[~truth].mean()
+            prev = got
+        # each later stop found from at most ~2.5 s (the trailing frames) into it
+        for a, b in ((48, 58), (118, 124)):
+            first = a + np.argmax(prev[int(a * FS): int(b * FS)]) * DT
+            assert prev[int(a * FS): int(b * FS)].any() and first - a < 2.6
+        assert not prev[~truth].any()
+
+
+def test_the_fixed_lag_grid_decides_stops_with_its_own_delay():
+    from vibrospeed.estimators import get
+    from vibrospeed.sim import simulate
+
+    rec = simulate("stop_and_go", seed=1, duration=40)
+    params = {"omega_min": 2, "omega_max": 30, "smooth": "lag", "lag": 2.0}
+    track = get("grid").estimate(rec, params=params)
+    X = np.column_stack([rec["ay"], rec["ax"], rec["az"]])
+    want = ss.standstill(X, 1.0 / rec.fs, (2.0, 90.0), causal=True, lag=2.0)
+    np.testing.assert_array_equal(track.extras["standstill"] > 0.5, want)
+    assert want.any() and not np.array_equal(
+        want, ss.standstill(X, 1.0 / rec.fs, (2.0, 90.0)))  # not the whole-log decision
+    assert np.all(track.omega[want] == 0.0)
+    assert any("causal, 2 s lag detector" in n for n in track.notes)

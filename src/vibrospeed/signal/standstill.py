@@ -274,6 +274,43 @@ def classify(level: np.ndarray, *, causal: bool = False, min_contrast: float | N
     return np.where(idx >= 0, out[np.maximum(idx, 0)], False)
 
 
+class _LagPlan(NamedTuple):
+    """Where a delay of ``lag`` s goes (samples ``shift`` and ``extra``, frames ``ahead``):
+    the frame deciding a sample ends up to ``shift`` after it (centred on it at most), its
+    body-motion window ``extra`` past the frame's end (centred on the frame at most), the
+    dwell sees ``ahead`` frames past it; together at most ``lag`` s past the sample."""
+
+    shift: int
+    extra: int
+    ahead: int
+
+
+def _lag_plan(lag: float, dt: float, frame_s: float, hop_s: float, motion: bool) -> _LagPlan:
+    """:class:`_LagPlan` for a detector with (``motion``) or without the body-motion test."""
+    within = max(int(np.floor(lag / dt + 1e-9)), 0)  # samples of look-ahead
+    L, Lm = _samples(frame_s, dt, 8), _samples(MOTION_FRAME_S, dt, 3)
+    shift = min(within, L // 2)
+    extra = min(within - shift, max(Lm // 2 - L // 2, 0)) if motion else 0
+    return _LagPlan(shift, extra, (within - shift - extra) // _samples(hop_s, dt, 1))
+
+
+def _lag_dwell(flags: np.ndarray, dwell: int, ahead: int) -> np.ndarray:
+    """The causal dwell with ``ahead`` frames of look-ahead: frame ``i`` is declared standing
+    where it stands and its run of standing ``flags`` up to frame ``i + ahead`` holds more
+    than ``dwell`` frames (``ahead = 0``: the causal rule, a run ending at ``i``)."""
+    if not flags.any():
+        return np.zeros(flags.size, bool)
+    f = flags.astype(np.int8)
+    edges = np.diff(np.concatenate(([0], f, [0])))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)  # [start, stop)
+    idx = np.arange(flags.size)
+    k = np.searchsorted(starts, idx, side="right") - 1  # the run that may hold frame i
+    k0 = np.maximum(k, 0)
+    inside = flags & (k >= 0)
+    seen = np.minimum(stops[k0] - 1, idx + ahead) - starts[k0] + 1
+    return inside & (seen > dwell)
+
+
 def _drop_short(flags: np.ndarray, k: int) -> np.ndarray:
     """``flags`` with runs of True shorter than ``k`` set False."""
     out = flags.copy()
@@ -328,7 +365,7 @@ def line_residual(end: np.ndarray, start: np.ndarray, L: int) -> np.ndarray:
 
 
 def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *, causal: bool = False,
-               frame_s: float = FRAME_S, hop_s: float = HOP_S,
+               lag: float = 0.0, frame_s: float = FRAME_S, hop_s: float = HOP_S,
                edge_s: float = 0.0) -> np.ndarray:
     """Standing (bool) per sample of the raw accelerometer axis ``x`` (n,), or of several axes
     ``x`` (n, A): standing where every axis says so (module docstring).
@@ -336,6 +373,8 @@ def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *, causal: b
     ``band``: the tracker's search band in rad/s (lowest fundamental .. highest harmonic).
     Offline each frame decides for the samples around its centre (nearest frame centre);
     causally a frame's decision holds from its last sample to the next frame's.
+    ``lag`` (s, causal): the decisions of a device that may wait ``lag`` s (the fixed-lag
+    smoother's): each sample's uses data at most ``lag`` s after it (:func:`decide`).
     ``edge_s`` (offline): each standing run is shortened by this much at both ends. A per-sample
     label needs none; a filter that *holds* its state at zero while standing (the aided
     tracker) needs its stops to end before the vehicle moves off, not with the frame that
@@ -345,10 +384,10 @@ def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *, causal: b
     band = _band(band)
     if x.ndim == 2:
         return np.logical_and.reduce([
-            _standstill_axis(x[:, j], dt, band, causal=causal, frame_s=frame_s, hop_s=hop_s,
-                             edge_s=edge_s)
+            _standstill_axis(x[:, j], dt, band, causal=causal, lag=lag, frame_s=frame_s,
+                             hop_s=hop_s, edge_s=edge_s)
             for j in range(x.shape[1])])
-    return _standstill_axis(x, dt, band, causal=causal, frame_s=frame_s, hop_s=hop_s,
+    return _standstill_axis(x, dt, band, causal=causal, lag=lag, frame_s=frame_s, hop_s=hop_s,
                             edge_s=edge_s)
 
 
@@ -368,41 +407,63 @@ def _filters(dt: float, band: tuple[float, float]) -> tuple[np.ndarray, float]:
     return hp, _motion_upper(lo_hz)
 
 
-def _standstill_axis(x, dt, band, *, causal, frame_s, hop_s, edge_s):
+def _standstill_axis(x, dt, band, *, causal, lag, frame_s, hop_s, edge_s):
     n = x.size
     hp, upper = _filters(dt, band)
     ends, level = broadband_level(pf.apply(hp, x), dt, band, frame_s=frame_s, hop_s=hop_s)
     motion = None
     if upper and ends.size:  # the body motion has room below the band
         L = _samples(frame_s, dt, 8)
-        motion = motion_level(x, dt, motion_ends(ends, L, n, dt, causal=causal), upper)
-    return decide(ends, level, motion, n, dt, causal=causal, frame_s=frame_s, hop_s=hop_s,
-                  edge_s=edge_s)
+        motion = motion_level(x, dt, motion_ends(ends, L, n, dt, causal=causal, lag=lag),
+                              upper)
+    return decide(ends, level, motion, n, dt, causal=causal, lag=lag, frame_s=frame_s,
+                  hop_s=hop_s, edge_s=edge_s)
 
 
-def motion_ends(ends: np.ndarray, L: int, n: int, dt: float, *, causal: bool) -> np.ndarray:
-    """Last sample of each frame's body-motion window: the frame's own end causally, else the
-    window centred on the frame (frames of ``L`` samples ending at ``ends``, ``n`` samples)."""
+def motion_ends(ends: np.ndarray, L: int, n: int, dt: float, *, causal: bool,
+                lag: float = 0.0) -> np.ndarray:
+    """Last sample of each frame's body-motion window: the frame's own end causally (with a
+    ``lag``, as far past it as the lag allows, up to centred on the frame: :func:`_lag_plan`),
+    else the window centred on the frame (frames of ``L`` samples ending at ``ends``, ``n``
+    samples)."""
     if causal:
+        if lag > 0:
+            return np.minimum(ends + _lag_plan(lag, dt, L * dt, HOP_S, True).extra, n - 1)
         return ends
     return np.minimum(ends - L // 2 + int(round(MOTION_FRAME_S / 2 / dt)), n - 1)
 
 
 def decide(ends: np.ndarray, level: np.ndarray, motion: np.ndarray | None, n: int, dt: float,
-           *, causal: bool, frame_s: float = FRAME_S, hop_s: float = HOP_S,
+           *, causal: bool, lag: float = 0.0, frame_s: float = FRAME_S, hop_s: float = HOP_S,
            edge_s: float = 0.0, piece: int | None = None) -> np.ndarray:
     """Standing (bool) per sample of ``n`` from the frames' broadband ``level`` and body
     ``motion`` (None: no body-motion test), frames ending at sample ``ends`` (module
     docstring): causally the dwell, offline the gap closing, the short runs dropped and
     ``edge_s``; each sample takes the decision of its frame (causal: the last ended; offline:
-    the nearest centre), ``piece`` samples at a time (bounded temporaries, same result)."""
+    the nearest centre), ``piece`` samples at a time (bounded temporaries, same result).
+
+    ``lag`` (s, causal) lets each sample's decision see ``lag`` s past it, as a device that
+    waits that long before it reports: the frame that decides a sample may end up to
+    ``min(lag, frame / 2)`` after it (the frame centred on it at most), and the dwell counts
+    a run's standing frames up to the rest of the lag after that frame (:func:`_lag_dwell`),
+    so a stop is declared from its first standing frame once the lag holds the dwell. Each
+    frame's own decision stays the causal one (its floor from the frames before it)."""
     if ends.size == 0:
         return np.zeros(n, bool)
     L = _samples(frame_s, dt, 8)
+    shift = 0
     if causal:  # a stop is declared after CAUSAL_DWELL_S s of standing frames
         lgb = _log_level(level)
-        rule = _rule(motion=motion is not None, dwell=int(round(CAUSAL_DWELL_S / hop_s)))
-        still = _causal(lgb, lgb if motion is None else _log_level(motion), rule, _CENTRES)
+        dwell = int(round(CAUSAL_DWELL_S / hop_s))
+        lgm = lgb if motion is None else _log_level(motion)
+        if lag > 0:
+            plan = _lag_plan(lag, dt, frame_s, hop_s, motion is not None)
+            shift = plan.shift
+            flags = _causal(lgb, lgm, _rule(motion=motion is not None, dwell=0), _CENTRES)
+            still = _lag_dwell(flags, dwell, plan.ahead)
+        else:
+            rule = _rule(motion=motion is not None, dwell=dwell)
+            still = _causal(lgb, lgm, rule, _CENTRES)
     else:
         still = classify(level)
         if motion is not None:
@@ -420,7 +481,7 @@ def decide(ends: np.ndarray, level: np.ndarray, motion: np.ndarray | None, n: in
     for p0 in range(0, n, step):
         i = np.arange(p0, min(p0 + step, n))
         if causal:
-            j = np.searchsorted(ends, i, side="right") - 1
+            j = np.searchsorted(ends, i + shift, side="right") - 1
             out[i] = np.where(j >= 0, still[np.maximum(j, 0)], False)
         else:
             j = np.clip(np.searchsorted(centres, i), 0, centres.size - 1)

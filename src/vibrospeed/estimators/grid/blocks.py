@@ -220,11 +220,13 @@ class Blocks:
                         if c != ax and c in rec and np.isfinite(rec.channel(c)).any()]
         # per axis (standing where every axis says so, as ss.standstill of the (n, A) array),
         # each axis in pieces: the same decision, smaller temporaries
-        still = standstill(rec.channel(chans[0]), tr.model.dt, band,
-                           causal=tr.smooth == "none")
+        causal, lag = tr.smooth != "fb", self.params.get("lag", tr.lag) if tr.smooth == "lag" \
+            else 0.0
+        still = standstill(rec.channel(chans[0]), tr.model.dt, band, causal=causal, lag=lag)
         for c in chans[1:]:
-            still &= standstill(rec.channel(c), tr.model.dt, band, causal=tr.smooth == "none")
+            still &= standstill(rec.channel(c), tr.model.dt, band, causal=causal, lag=lag)
         self._still_chans = chans
+        self._still_detector = _method.detector_name(causal, lag)
         return still
 
     def __len__(self) -> int:
@@ -305,11 +307,10 @@ class Blocks:
             yield track
         share = self.still.mean() if n else 0.0
         if self.still.any():
-            causal = cfg.smooth == "none"
             self.notes.append(
                 f"standstill on {100 * share:.1f} % of the samples (vibration and body motion "
                 f"at their floors on {', '.join(self._still_chans)}; "
-                f"{'causal' if causal else 'whole-log'} detector): omega = 0 there")
+                f"{self._still_detector} detector): omega = 0 there")
 
     def track(self) -> Track:
         """The blocks put together in one Track (for tests and comparisons)."""
@@ -364,7 +365,7 @@ def _motion_level(x: np.ndarray, dt: float, ends: np.ndarray, upper_hz: float) -
 
 
 def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *,
-               causal: bool = False) -> np.ndarray:
+               causal: bool = False, lag: float = 0.0) -> np.ndarray:
     """:func:`vibrospeed.signal.standstill.standstill` of one axis ``x`` (n,), the same
     decision, in bounded temporaries: the frames' broadband levels a ``_PIECE_FRAMES`` batch at
     a time (each frame's level is its own), the body-motion level by :func:`_motion_level`, the
@@ -392,5 +393,6 @@ def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *,
     del xh
     motion = None
     if upper:
-        motion = _motion_level(x, dt, ss.motion_ends(ends, L, n, dt, causal=causal), upper)
-    return ss.decide(ends, level, motion, n, dt, causal=causal, piece=_PIECE)
+        motion = _motion_level(x, dt, ss.motion_ends(ends, L, n, dt, causal=causal, lag=lag),
+                               upper)
+    return ss.decide(ends, level, motion, n, dt, causal=causal, lag=lag, piece=_PIECE)

@@ -490,7 +490,9 @@ def estimate(
                    wheel_radius=wheel_radius, progress=progress,
                    return_posterior=return_posterior, method="grid", extra=(idx, vals),
                    extra_params=comb)
-    return with_standstill(tr, recording, axis, config, causal=config.tracker.smooth == "none")
+    return with_standstill(tr, recording, axis, config, causal=config.tracker.smooth != "fb",
+                           lag=comb.get("lag", config.tracker.lag)
+                           if config.tracker.smooth == "lag" else 0.0)
 
 
 def apply_standstill(track: Track, still: np.ndarray) -> None:
@@ -505,12 +507,21 @@ def apply_standstill(track: Track, still: np.ndarray) -> None:
         track.extras["has_signal"][still] = 0.0
 
 
+def detector_name(causal: bool, lag: float) -> str:
+    """How the stops were decided, for the notes."""
+    if not causal:
+        return "whole-log"
+    return f"causal, {lag:g} s lag" if lag > 0 else "causal"
+
+
 def with_standstill(track: Track, recording: Recording, axis: str, config: Config, *,
-                    causal: bool) -> Track:
+                    causal: bool, lag: float = 0.0) -> Track:
     """``track`` with the vehicle's stops: where the broadband vibration and the body motion
     sit at their floors on the tracked axis and on every other accelerometer axis of the
     recording (:mod:`vibrospeed.signal.standstill`), omega and its band are 0, ``has_signal``
-    0 and the extra ``standstill`` 1; causal filters use the causal detector. The tracker's
+    0 and the extra ``standstill`` 1; causal filters use the causal detector, the fixed-lag
+    smoother the causal one with the same delay (``lag`` s: each decision uses data at most
+    that far after its sample). The tracker's
     "no line" state is not asked: an idling engine's orders 1 and 2 make a comb at a
     standstill, and where the vibration misleads (a slow roll near the floor) the comb is as
     weak."""
@@ -524,11 +535,11 @@ def with_standstill(track: Track, recording: Recording, axis: str, config: Confi
                                     if c != axis_channel(axis) and c in recording
                                     and np.isfinite(recording.channel(c)).any()]
     X = np.column_stack([recording.channel(c) for c in chans])
-    still = ss.standstill(X, tr.model.dt, band, causal=causal)
+    still = ss.standstill(X, tr.model.dt, band, causal=causal, lag=lag)
     apply_standstill(track, still)
     if still.any():
         share = still.mean()
         track.notes.append(f"standstill on {100 * share:.1f} % of the samples (vibration and "
                            f"body motion at their floors on {', '.join(chans)}; "
-                           f"{'causal' if causal else 'whole-log'} detector): omega = 0 there")
+                           f"{detector_name(causal, lag)} detector): omega = 0 there")
     return track
