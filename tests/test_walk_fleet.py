@@ -177,8 +177,8 @@ def test_batch_refuses_a_unit_of_the_wrong_quantity_before_it_starts(tmp_path):
     src.write_text("ms,acc,yaw\n" + "".join(f"{10 * i},0.1,2\n" for i in range(100)))
     out = tmp_path / "out"
     bad = [
-        (dict(columns="t=ms:ms,ay=acc:m/s"), r"^--columns: column mapping 'ay': unit 'm/s'"),
-        (dict(columns="t=ms:ms,gz=yaw:deg"), r"^--columns: column mapping 'gz': unit 'deg' "
+        (dict(columns="t=ms:ms,ay=acc:m/s"), r"^column mapping 'ay': unit 'm/s'"),
+        (dict(columns="t=ms:ms,gz=yaw:deg"), r"^column mapping 'gz': unit 'deg' "
                                              r"gives rad, but gz is in rad/s"),
         (dict(columns="t=ms:ms,ay=acc:g", rate=100.0), "time column 't' or a sample rate"),
     ]

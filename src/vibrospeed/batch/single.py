@@ -84,31 +84,27 @@ class EstimateOptions:
 
     def check_reading(self) -> None:
         """Refuse reading options that no recording could satisfy, before any is read: a format
-        name that is not one, a ``columns`` mapping that does not parse or gives a channel a
-        unit of another quantity (``ay=acc:m/s``), a ``mapping`` file that is missing, not a
-        mapping or does so, a time column beside a sample rate. A batch calls it first, so
-        such a mistake is one error instead of one error row per recording."""
+        name that is not one, a ``columns`` mapping or a ``mapping`` file that does not parse,
+        and, where every recording is read through the mapping, the mapped reader's own rules
+        (:func:`vibrospeed.io.mapped.mapping_options`: a unit of another quantity, a time column
+        beside a sample rate, neither, ...) in its words, without the file name that
+        ``vibrospeed estimate`` puts first (the options are at fault, not one recording). A
+        batch calls it first, so such a mistake is one error instead of one error row per
+        recording."""
         from vibrospeed import io
+        from vibrospeed.io.mapped import mapping_options
 
         if self.fmt != "auto" and self.fmt not in io.FORMATS:
             raise ParameterError(f"unknown format '{self.fmt}' (choose from: auto, "
                                  f"{', '.join(io.FORMATS)})")
-        from vibrospeed.io.mapped import _check_channel_unit
-
-        spec, opts = io.load_mapping(self.mapping) if self.mapping is not None else ({}, {})
-        given = [(str(self.mapping), spec)]
+        given = self.columns is not None or self.mapping is not None or self.rate is not None
+        if self.fmt == "mapped" or (self.fmt == "auto" and given):  # io.read: all mapped
+            mapping_options(self.columns, self.mapping, self.rate)
+            return
+        if self.mapping is not None:  # another format's reader refuses them, each recording
+            io.load_mapping(self.mapping)
         if self.columns is not None:
-            given.append(("--columns", io.parse_mapping(self.columns)))
-        if self.fmt not in ("auto", "mapped"):
-            return  # another format's reader: its own rules
-        for where, cols in given:  # a unit of another quantity than the channel's
-            for name, col in cols.items():
-                if col.unit is not None:
-                    _check_channel_unit(name, col.unit, where)
-            spec = {**spec, **cols}
-        if "t" in spec and (self.rate if self.rate is not None else opts.get("rate")) is not None:
-            raise ParameterError("give either a time column 't' or a sample rate (--rate, or "
-                                 "rate in the mapping file), not both")
+            io.parse_mapping(self.columns)
 
     def to_json(self) -> dict[str, Any]:
         """Plain JSON form, as stored in a batch output's sidecar (``meta.options``)."""

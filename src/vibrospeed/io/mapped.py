@@ -46,8 +46,8 @@ from vibrospeed.io._csv import CsvTable, nan_notes, open_text
 from vibrospeed.io.parquet import is_parquet, iter_columns
 from vibrospeed.types import CHANNEL_UNITS, Recording
 
-__all__ = ["UNITS", "ColumnSpec", "MappedSetup", "load_mapping", "parse_mapping", "read_mapped",
-           "resolve_mapping"]
+__all__ = ["UNITS", "ColumnSpec", "MappedSetup", "load_mapping", "mapping_options",
+           "parse_mapping", "read_mapped", "resolve_mapping"]
 
 #: unit name -> (factor to SI, SI unit)
 UNITS: dict[str, tuple[float, str]] = {
@@ -121,7 +121,12 @@ def _check_unit(unit: str, where: str) -> str:
     return unit
 
 
-def _check_channel_unit(name: str, unit: str, source: str) -> None:
+def _at(source: str | None, text: str) -> str:
+    """``text`` prefixed with ``source: `` (the file or option at fault), or as it is."""
+    return text if source is None else f"{source}: {text}"
+
+
+def _check_channel_unit(name: str, unit: str, source: str | None) -> None:
     """Refuse an unknown unit, or one of another quantity than channel ``name``'s SI unit
     (``ax=acc:m/s`` for m/s^2, ``gz=yaw:deg`` for deg/s, ``t=time:g``): its factor would be
     applied and the channel labelled with the wrong unit. Raw ``counts`` / ``1`` go with any
@@ -133,8 +138,8 @@ def _check_channel_unit(name: str, unit: str, source: str) -> None:
     if want is None or have in (want, "1"):
         return
     fits = ", ".join(u for u, (_, si) in UNITS.items() if si == want)
-    raise ParameterError(f"{source}: column mapping '{name}': unit '{unit}' gives {have}, "
-                         f"but {name} is in {want} (units for it: {fits}, or counts)")
+    raise ParameterError(_at(source, f"column mapping '{name}': unit '{unit}' gives {have}, "
+                                     f"but {name} is in {want} (units for it: {fits}, or counts)"))
 
 
 def _finite(x: Any, what: str, where: str) -> float:
@@ -284,11 +289,14 @@ def load_mapping(path: str | os.PathLike[str]) -> tuple[dict[str, ColumnSpec], d
         if unknown:
             raise ParameterError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
         unit = spec.get("unit")
+        if unit is not None:  # a unit of another quantity: the mistake is this file's
+            unit = _check_unit(str(unit), where)
+            _check_channel_unit(name, unit, str(p))
         out[name] = ColumnSpec(
             spec["column"],
             _finite(spec.get("scale", 1.0), "scale", where),
             _finite(spec.get("offset", 0.0), "offset", where),
-            None if unit is None else _check_unit(str(unit), where),
+            unit,
         )
     opts = {}
     unknown = set(doc) - {"columns", "rate", "delimiter", "decimal", "encoding", "dayfirst"}
@@ -352,18 +360,19 @@ class MappedSetup:
         return spec, notes, list(dict.fromkeys(s.column for s in spec.values()))
 
 
-def resolve_mapping(
-    path: str | os.PathLike[str],
-    *,
+def mapping_options(
     columns: str | dict[str, ColumnSpec] | None = None,
     mapping_file: str | os.PathLike[str] | None = None,
     rate: float | None = None,
-) -> MappedSetup:
-    """The mapping for ``path``: the TOML ``mapping_file``'s columns and options, ``columns``
-    items over them, ``rate`` over the file's; a :class:`ParameterError` naming ``path`` for
-    no mapping, a time column beside a rate, neither, a rate that is not positive, or a unit of
-    another quantity than its channel's (before the file is opened)."""
-    p = Path(path)
+    *,
+    source: str | None = None,
+) -> tuple[dict[str, ColumnSpec], dict[str, Any], float | None]:
+    """The rules of a mapping that need no data file: ``(spec, options, rate)`` from the TOML
+    ``mapping_file``'s columns and options, ``columns`` items over them, ``rate`` over the
+    file's; a :class:`ParameterError` for no mapping, a time column beside a rate, neither, a
+    rate that is not positive, or a unit of another quantity than its channel's. ``source``
+    (the data file) starts each such message; a batch checks its options with none, before
+    any recording is read (:meth:`vibrospeed.batch.EstimateOptions.check_reading`)."""
     spec: dict[str, ColumnSpec] = {}
     opts: dict[str, Any] = {}
     if mapping_file is not None:
@@ -371,24 +380,38 @@ def resolve_mapping(
     if columns is not None:
         spec.update(parse_mapping(columns) if isinstance(columns, str) else dict(columns))
     if not spec:
-        raise ParameterError(f"{p}: a column mapping is needed (e.g. --columns t=time,ay=acc_y)")
+        raise ParameterError(_at(source, "a column mapping is needed (e.g. --columns "
+                                         "t=time,ay=acc_y)"))
     if rate is None:
         rate = opts.pop("rate", None)
     else:
         opts.pop("rate", None)
     if "t" in spec and rate is not None:
-        raise ParameterError(f"{p}: give either a time column 't' or a sample rate, not both")
+        raise ParameterError(_at(source, "give either a time column 't' or a sample rate, "
+                                         "not both"))
     if "t" not in spec:
         if rate is None:
-            raise ParameterError(
-                f"{p}: no time column mapped; map one (t=COLUMN) or give the sample rate (rate=Hz)"
-            )
+            raise ParameterError(_at(source, "no time column mapped; map one (t=COLUMN) or "
+                                             "give the sample rate (rate=Hz)"))
         if not (math.isfinite(rate) and rate > 0):
-            raise ParameterError(f"{p}: sample rate must be positive, got {rate}")
+            raise ParameterError(_at(source, f"sample rate must be positive, got {rate}"))
     for name, s in spec.items():
         if s.unit is not None:
-            _check_channel_unit(name, s.unit, str(p))
-    return MappedSetup(p, spec, opts, rate)
+            _check_channel_unit(name, s.unit, source)
+    return spec, opts, rate
+
+
+def resolve_mapping(
+    path: str | os.PathLike[str],
+    *,
+    columns: str | dict[str, ColumnSpec] | None = None,
+    mapping_file: str | os.PathLike[str] | None = None,
+    rate: float | None = None,
+) -> MappedSetup:
+    """The mapping for ``path`` (:func:`mapping_options`, its messages naming ``path``),
+    checked before the file is opened."""
+    p = Path(path)
+    return MappedSetup(p, *mapping_options(columns, mapping_file, rate, source=str(p)))
 
 
 def to_si(spec: dict[str, ColumnSpec], raw: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
