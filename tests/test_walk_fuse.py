@@ -55,7 +55,8 @@ def test_a_log_too_slow_for_a_wheel_line_fuses_gps_and_the_accelerometer():
 
     rec = _drive(fs=50.0 / 3.0)
     tr = fuse.estimate(rec)
-    assert any("16.67 Hz is too low for a wheel line" in n and "vibration part off" in n
+    assert any("16.67 Hz is too low for omega up to omega_max = 120 rad/s" in n
+               and "vibration part off" in n
                and "omega_max=51" in n for n in tr.notes)
     assert not any("learned wheel radius" in n or "omega is left empty" in n for n in tr.notes)
     assert np.all(tr.extras["has_signal"] == 0) and np.all(np.isnan(tr.extras["omega_vib"]))

@@ -27,6 +27,7 @@ from vibrospeed.types import Recording
 __all__ = [
     "SPARSE_CHANNELS",
     "check_fundamental",
+    "fundamental_shortfall",
     "check_increasing",
     "check_nyquist",
     "describe_timebase",
@@ -399,6 +400,18 @@ def split_at_gaps(rec: Recording, min_gap: float) -> list[Recording]:
     return pieces
 
 
+def fundamental_shortfall(fs: float, omega_max: float, hint: str = "") -> str | None:
+    """Why sample rate ``fs`` (Hz) carries no fundamental up to ``omega_max`` (rad/s), in one
+    sentence (``hint``, what to do, closes its parenthesis), or None where ``omega_max < pi
+    fs``. The one wording of :func:`check_fundamental`'s error and of fuse's note where a log
+    is too slow for the grid tracker's default range."""
+    if not omega_max >= np.pi * fs:
+        return None
+    more = f"; {hint}" if hint else ""
+    return (f"sample rate {fs:.4g} Hz is too low for omega up to omega_max = {omega_max:.4g} "
+            f"rad/s (the fundamental needs fs > {omega_max / np.pi:.4g} Hz{more})")
+
+
 def check_fundamental(fs: float, omega_max: float, source: str = "") -> None:
     """Raise :class:`ParameterError` unless the fundamental up to ``omega_max`` (rad/s) is
     below Nyquist at sample rate ``fs`` (Hz): ``omega_max < pi fs``.
@@ -406,13 +419,10 @@ def check_fundamental(fs: float, omega_max: float, source: str = "") -> None:
     The harmonic trackers may let the higher harmonics alias (the rotation model describes the
     folded lines), but a fundamental above Nyquist is no wheel line at all; :func:`check_nyquist`
     is the stricter check for all M harmonics."""
-    if omega_max >= np.pi * fs:
+    said = fundamental_shortfall(fs, omega_max)
+    if said is not None:
         where = f"{source}: " if source else ""
-        raise ParameterError(
-            f"{where}sample rate {fs:.4g} Hz is too low for omega up to omega_max = "
-            f"{omega_max:.4g} rad/s (the fundamental needs fs > {omega_max / np.pi:.4g} Hz); "
-            f"lower omega_max below {np.pi * fs:.4g} rad/s"
-        )
+        raise ParameterError(f"{where}{said}; lower omega_max below {np.pi * fs:.4g} rad/s")
 
 
 def check_nyquist(fs: float, M: int, omega_max: float, source: str = "") -> None:

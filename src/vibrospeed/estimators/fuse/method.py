@@ -369,22 +369,20 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
 
 def _too_slow(recording: Recording, rest: dict) -> str | None:
     """Why the recording's rate carries no wheel line in the grid tracker's default range
-    (its fundamental needs ``fs > omega_max / pi``; a 16.7 Hz phone log does not reach a
-    car's 120 rad/s), or None where it does or where ``omega_max`` was given (then the
-    tracker's own error tells what was asked for)."""
+    (:func:`vibrospeed.io.timebase.fundamental_shortfall`: a 16.7 Hz phone log does not reach
+    a car's 120 rad/s), with the ``-p omega_max`` that would track the lines below it, or None
+    where it does or where ``omega_max`` was given (then the tracker's own error tells what
+    was asked for)."""
     from vibrospeed.estimators.grid.config import Config as GridConfig
+    from vibrospeed.io.timebase import fundamental_shortfall
 
     if "omega_max" in rest:
         return None
     fs = recording.fs
-    om_max = float(GridConfig.omega_max)
-    if om_max < math.pi * fs:
-        return None
     lower = math.floor(math.pi * fs) - 1
-    hint = (f"; -p omega_max={lower} tracks the lines below it" if
+    hint = (f"-p omega_max={lower} tracks the lines below it" if
             lower > float(rest.get("omega_min", GridConfig.omega_min)) else "")
-    return (f"sample rate {fs:.4g} Hz is too low for a wheel line up to {om_max:.4g} rad/s "
-            f"(the fundamental needs fs > {om_max / math.pi:.4g} Hz{hint})")
+    return fundamental_shortfall(fs, float(GridConfig.omega_max), hint)
 
 
 #: the share of the radius prior within which the lines seen with GPS must place the radius
