@@ -4,30 +4,33 @@
 axis, run the method, write the estimate CSV and its JSON sidecar); :func:`run` does it for many
 recordings, each in its own task, and returns the summary table (one row per recording):
 
-=================  ==========================================================================
-``file``           the recording (file, folder or zip) as given or found
-``output``         its estimate CSV (``<name>_<method>.csv`` + ``.json``) in the output folder
-``format``         the format it was read as
-``duration_s``     its length in s
-``method``         the estimator
-``signal_share``   share of samples where the method saw a wheel line (``has_signal``; empty
-                   for methods without it)
-``median_speed``   median of the speed estimate in m/s (empty without a wheel radius)
-``median_omega``   median of omega in rad/s
-``distance_m``     integral of the speed over time in m; these three are empty where the
-                   method says where it sees a line and nothing of the moving drive rests on
-                   a measurement (:func:`drive_summary`)
-``distance_lo_m``  the same integral of the speed band's lower / upper edge (``speed_lo``,
-``distance_hi_m``  ``speed_hi``): the distance if every sample sat at that edge of its band
-``fitted_radius``  wheel radius in m fitted by the method (only present when a method gives one)
-``status``         ``ok``, ``skipped`` (an up-to-date output was there) or ``error``
-``error``          one line saying what went wrong
-``note``           why numbers are empty (no wheel line or GPS while moving), and the note
-                   ``vibrospeed estimate`` prints where the default wheel speed range was
-                   searched (:func:`vibrospeed.estimators.params.range_note`), else empty
-``wall_s``         seconds spent on this recording
-``report``         its HTML report (only with ``report=True``)
-=================  ==========================================================================
+=====================  ======================================================================
+``file``               the recording (file, folder or zip) as given or found
+``output``             its estimate CSV (``<name>_<method>.csv`` + ``.json``) in the output folder
+``format``             the format it was read as
+``duration_s``         its length in s
+``method``             the estimator
+``signal_share``       share of samples where the method saw a wheel line (``has_signal``; empty
+                       for methods without it)
+``median_speed``       median of the speed estimate in m/s (empty without a wheel radius)
+``median_omega``       median of omega in rad/s
+``distance_m``         integral of the speed over time in m; these three are empty where the
+                       method says where it sees a line and nothing of the moving drive rests on
+                       a measurement (:func:`drive_summary`)
+``distance_lo_m``      the same integral of the speed band's lower / upper edge (``speed_lo``,
+``distance_hi_m``      ``speed_hi``): the distance if every sample sat at that edge of its band
+``fitted_radius``      wheel radius in m that the method fitted on this drive: ``fuse``'s learned
+                       radius where the drive taught it (a wheel line while GPS was good; empty
+                       where it kept its prior), :func:`vibrospeed.eval.metrics.radius_fit`
+``fitted_radius_std``  its std in m; these two are present only when some row has a value
+``status``             ``ok``, ``skipped`` (an up-to-date output was there) or ``error``
+``error``              one line saying what went wrong
+``note``               why numbers are empty (no wheel line or GPS while moving), and the note
+                       ``vibrospeed estimate`` prints where the default wheel speed range was
+                       searched (:func:`vibrospeed.estimators.params.range_note`), else empty
+``wall_s``             seconds spent on this recording
+``report``             its HTML report (only with ``report=True``)
+=====================  ======================================================================
 
 A recording is skipped when its estimate and sidecar exist and the sidecar records the same
 method, options, vibrospeed version and input checksum (SHA-256 of the file or the folder's

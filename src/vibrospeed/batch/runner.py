@@ -15,11 +15,12 @@ from vibrospeed.batch.inputs import expand_inputs, output_names
 from vibrospeed.batch.pool import _dask_client, _run_all
 from vibrospeed.batch.single import EstimateOptions
 
-#: Summary columns in order; ``fitted_radius`` and ``report`` appear only when they have values.
+#: Summary columns in order; ``fitted_radius``, ``fitted_radius_std`` and ``report`` appear only
+#: when some row has a value.
 SUMMARY_COLUMNS = (
     "file", "output", "format", "duration_s", "method", "signal_share", "median_speed",
-    "median_omega", "distance_m", "distance_lo_m", "distance_hi_m", "fitted_radius", "status",
-    "error", "note", "wall_s", "report",
+    "median_omega", "distance_m", "distance_lo_m", "distance_hi_m", "fitted_radius",
+    "fitted_radius_std", "status", "error", "note", "wall_s", "report",
 )
 
 
@@ -89,8 +90,8 @@ def run(
     table = [rows[j["output"]] for j in jobs_list]
     df = pd.DataFrame(table, columns=list(SUMMARY_COLUMNS))
     df["file"] = df["file"].astype(str)
-    if not df["fitted_radius"].notna().any():
-        df = df.drop(columns="fitted_radius")
+    df = df.drop(columns=[c for c in ("fitted_radius", "fitted_radius_std")
+                          if not df[c].notna().any()])
     if not report:
         df = df.drop(columns="report")
     else:

@@ -275,18 +275,62 @@ def time_to_lock(
 
 # -- summary numbers of one track (batch summaries, reports) ---------------------------------
 def fitted_radius(track) -> float:
-    """A wheel radius in m that the method fitted, if it reports one: ``params['fitted_radius']``
-    or the last finite value of a per-sample ``wheel_radius_fit`` column; else NaN."""
-    r = track.params.get("fitted_radius") if isinstance(track.params, dict) else None
-    if isinstance(r, (int, float)) and math.isfinite(r):
-        return float(r)
+    """The wheel radius in m that the method fitted on this drive, else NaN
+    (:func:`radius_fit`'s radius)."""
+    return radius_fit(track)[0]
+
+
+def radius_fit(track) -> tuple[float, float]:
+    """``(radius, std)`` in m of a wheel radius that the method fitted on this drive: NaN, NaN
+    where it fitted none (the std NaN where the method gives none). The sources, first found:
+
+    - ``params['fitted_radius']`` (with ``params['fitted_radius_std']``);
+    - the last finite value of a per-sample ``wheel_radius_fit`` column;
+    - ``fuse``'s learned radius (``params['learned_radius']``, ``['learned_radius_std']``)
+      where :func:`fuse_radius_learned` says this drive taught it.
+    """
+    par = track.params if isinstance(track.params, dict) else {}
+    r = par.get("fitted_radius")
+    if _finite(r):
+        s = par.get("fitted_radius_std")
+        return float(r), float(s) if _finite(s) else math.nan
     col = track.extras.get("wheel_radius_fit")
     if col is not None:
         x = np.asarray(col, dtype=np.float64)
         x = x[np.isfinite(x)]
         if x.size:
-            return float(x[-1])
-    return math.nan
+            return float(x[-1]), math.nan
+    if fuse_radius_learned(par):
+        return float(par["learned_radius"]), float(par["learned_radius_std"])
+    return math.nan, math.nan
+
+
+def _finite(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def fuse_radius_learned(params: dict) -> bool:
+    """Whether a ``fuse`` estimate's parameters (its sidecar's ``params``) hold a radius this
+    drive learned: fuse's own test of a known radius (std below ``octave_rel`` of it, the test
+    that gives the estimate its omega column) and, where a prior was given (``radius_prior``
+    ``[r0, std0]``: ``radius_from`` or a wheel radius), a std below the prior's. A drive that
+    saw no wheel line while GPS was good keeps its prior: with the default prior (std 0.15 m)
+    the radius is not known; with a given one it is, but it is that drive's input, not what
+    it measured (without GPS the filter's std stays at the prior's or grows)."""
+    r, s = params.get("learned_radius"), params.get("learned_radius_std")
+    if not (_finite(r) and _finite(s) and r > 0):
+        return False
+    rel = params.get("octave_rel")
+    if not _finite(rel):
+        from vibrospeed.estimators.fuse.config import Config
+
+        rel = Config.octave_rel
+    if not s < rel * r:
+        return False
+    prior = params.get("radius_prior")
+    if isinstance(prior, (list, tuple)) and len(prior) == 2 and _finite(prior[1]):
+        return s < prior[1]
+    return True
 
 
 #: what ``fuse``'s ``source`` column's values 0-3 mean (:mod:`vibrospeed.estimators.fuse`)
@@ -323,7 +367,8 @@ def evidence(track) -> tuple[np.ndarray, np.ndarray] | None:
 def track_summary(track) -> dict[str, Any]:
     """The summary numbers of a track, the same for a batch row and a drive report:
     ``signal_share``, ``median_speed``, ``median_omega``, ``distance_m``, ``distance_lo_m``,
-    ``distance_hi_m``, ``fitted_radius`` (NaN where they do not apply), ``source_shares``
+    ``distance_hi_m``, ``fitted_radius`` and ``fitted_radius_std`` (:func:`radius_fit`; NaN
+    where they do not apply), ``source_shares``
     (``fuse``: the share of the samples whose speed rests on each of :data:`SOURCE_NAMES`;
     empty for other methods) and ``note``.
     ``distance_lo_m`` / ``distance_hi_m`` integrate the band's edges (``speed_lo``,
@@ -369,7 +414,7 @@ class SummaryAccumulator:
         self.dist = np.zeros(3)  # the trapezoids of speed, speed_lo, speed_hi
         self.dist_ok = np.zeros(3, bool)
         self.last: tuple[float, np.ndarray] | None = None
-        self.radius = math.nan
+        self.radius = (math.nan, math.nan)  # the last piece's radius_fit that has one
 
     def add(self, track) -> None:
         t = np.asarray(track.t, dtype=np.float64)
@@ -406,9 +451,9 @@ class SummaryAccumulator:
                     self.dist_ok[i] = True
         if t.size:
             self.last = (float(t[-1]), V[:, -1].copy())
-        r = fitted_radius(track)
-        if math.isfinite(r):
-            self.radius = r
+        fit = radius_fit(track)
+        if math.isfinite(fit[0]):
+            self.radius = fit
 
     def result(self) -> dict[str, Any]:
         """The dict of :func:`track_summary`."""
@@ -426,7 +471,8 @@ class SummaryAccumulator:
             "distance_m": self.dist[0] if self.dist_ok[0] else math.nan,
             "distance_lo_m": self.dist[1] if self.dist_ok[1] else math.nan,
             "distance_hi_m": self.dist[2] if self.dist_ok[2] else math.nan,
-            "fitted_radius": self.radius,
+            "fitted_radius": self.radius[0],
+            "fitted_radius_std": self.radius[1],
             "source_shares": ({name: int(k) / int(self.sources.sum()) for name, k in zip(
                 SOURCE_NAMES, self.sources, strict=True)} if self.sources.sum() else {}),
             "note": "",

@@ -168,6 +168,32 @@ def _truth_rows(track: Track, rec: Recording, truth: Recording | None,
     return rows
 
 
+def _radius_rows(track: Track, s: dict[str, Any]) -> list[tuple[str, str]]:
+    """The summary's row of a radius the method fitted on this drive
+    (:func:`vibrospeed.eval.metrics.radius_fit`, the batch's ``fitted_radius`` /
+    ``fitted_radius_std``): for ``fuse`` the radius it learned, or that it learned none and kept
+    its prior (its sidecar's ``learned_radius`` is then that prior, not a measurement to re-use
+    with ``radius_from``); for other methods only where they fit one."""
+    def pm(r: float, std: float, fmt: str) -> str:
+        return f"{r:{fmt}}" + (f" ± {std:.2g}" if math.isfinite(std) else "") + " m"
+
+    r, rs = s["fitted_radius"], s.get("fitted_radius_std", math.nan)
+    par = track.params if isinstance(track.params, dict) else {}
+    if track.method == "fuse" and "learned_radius" in par:
+        if math.isfinite(r):
+            return [("learned wheel radius", pm(r, rs, ".4f"))]
+        prior = par.get("radius_prior")
+        r0, s0 = prior if isinstance(prior, (list, tuple)) and len(prior) == 2 else (
+            par.get("learned_radius"), None)
+        r0, s0 = (float(x) if isinstance(x, (int, float)) else math.nan for x in (r0, s0))
+        kept = f"the prior {pm(r0, s0, '.4f')} kept" if math.isfinite(r0) else "the prior kept"
+        return [("learned wheel radius",
+                 f"not learned (no wheel line while GPS was good): {kept}")]
+    if math.isfinite(r):
+        return [("fitted wheel radius", pm(r, rs, ".4g"))]
+    return []
+
+
 def render_report(
     recording: Recording,
     track: Track,
@@ -215,8 +241,7 @@ def render_report(
          if math.isfinite(s["signal_share"]) else "– (the method has no line detector)"),
         ("wheel radius", _num(track.wheel_radius, ".4g", "m")),
     ]
-    if math.isfinite(s["fitted_radius"]):
-        rows.append(("fitted wheel radius", _num(s["fitted_radius"], ".4g", "m")))
+    rows += _radius_rows(track, s)
     if estimate_path:
         rows.append(("estimate file", os.fspath(estimate_path)))
     rows += _truth_rows(track, rec, truth, truth_channel)
