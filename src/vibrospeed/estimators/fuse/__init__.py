@@ -29,7 +29,13 @@ Measurements of one fusion sample (all scalar, sequential Kalman updates, Joseph
    ``sqrt(P_vv) / (2 sqrt(c (1 - c)))``, c = ``r_gps_sq``, whatever the innovation (from
    ``S >= (1 - c) S0 + c nu^2 >= 2 sqrt(c (1 - c) S0) |nu|`` and ``|P_v3| <= sqrt(P_vv S0)``):
    one standard deviation for c = 1/2, so the speed does not jump out of its band when GPS
-   returns after a tunnel.
+   returns after a tunnel. Weighted down so, a fix would also leave a speed that the
+   accelerometer pulled away from the fixes where it is, so a disagreement (``E^2 > 0``) on
+   the same side of the speed at every valid fix for ``gps_persist`` s (longer than a receiver
+   jump) and at least ``core.PERSIST_FIXES`` fixes (8: 2^-7 by chance with white receiver
+   errors) is taken as the filter's drift: the speed's variance grows by ``E^2`` first, along
+   a speed offset that has passed through the receiver, and the fix is then taken at its own
+   variance (the band widens before the speed moves).
 3. wheel frequency: the harmonic tracker's omega (its mode) with spread ``s`` where it claims a
    line; ``s`` is the tracker's whole posterior's spread (``vib_spread="posterior"``, the
    default) or the spread within its mode (``"mode"``, the grid tracker's ``omega_mode_std``;

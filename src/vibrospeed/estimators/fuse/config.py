@@ -96,6 +96,12 @@ class Config(GpsFields):
         clip in practice, so the jump bound of item 2 holds: with a clip, a fix far from a
         speed that drifted in an outage is weighted as if E were ``e_max`` and moves the speed
         by more than its band.
+    gps_persist : how long (s) the fixes may disagree with the filter's speed beyond the
+        innovation's spread, on the same side at every valid fix (and for at least
+        ``core.PERSIST_FIXES`` of them), before the disagreement is taken as the filter's (its
+        speed drifted on the accelerometer), not the receiver's (module notes, item 2).
+        Longer than a receiver jump (0.4-1.2 s in :func:`vibrospeed.sim.gps.outage_gps`, the
+        paper's section VI-c); inf: never.
     vib_rel : relative floor on the wheel frequency's spread.  vib_corr : correlation time (s)
         of the tracker's errors.  vib_gate, vib_penalty : acceptance gate and octave penalty on
         the normalised innovation squared (item 3).
@@ -194,6 +200,7 @@ class Config(GpsFields):
     r_gps: float = 0.01
     r_gps_sq: float = 0.5
     e_max: float = 1000.0
+    gps_persist: float = 1.5
     vib_rel: float = 0.005
     vib_corr: float = 0.05
     vib_gate: float = 16.0
@@ -253,7 +260,8 @@ class Config(GpsFields):
                      "vib_penalty", "still_speed", "gps_still", "gps_hold", "source_hold",
                      "vib_min_speed", "octave_rel", "vib_relock", "radius_min", "radius_max",
                      "still_relock", "learn_hold", "acq_time", "acq_rel", "acq_change",
-                     "vib_sep", "vib_lag", "vib_amax", "vib_soft_hold", "vib_soft_gate"):
+                     "vib_sep", "vib_lag", "vib_amax", "vib_soft_hold", "vib_soft_gate",
+                     "gps_persist"):
             if not getattr(self, name) >= 0:
                 raise ParameterError(f"fuse: {name} must be >= 0, got {getattr(self, name)}")
         if not 0.0 < self.vib_soft <= 1.0:
@@ -299,5 +307,6 @@ class Config(GpsFields):
             self.vib_lag, self.radius0, self.radius_std0, self.vib_amax,
             float(self.vib_use == "line"), self.vib_soft_hold, self.vib_soft_gate,
             float(self.vib_measure == "posterior"), self.vib_post_width, self.vib_post_min,
+            self.gps_persist,
         ], dtype=np.float64)
         return Ac, qc, p

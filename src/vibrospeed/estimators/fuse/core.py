@@ -22,6 +22,11 @@ from vibrospeed.estimators.gps_riss.core import _lag_row
 from vibrospeed.estimators.kalman import dense_predict, quad_form, row_update
 from vibrospeed.models.gps_riss import transition
 
+#: fixes on the same side of the filter's speed, beyond the innovation's spread, before a
+#: disagreement may be taken as the filter's drift (besides lasting ``gps_persist`` s): by
+#: chance, with white receiver errors, 2^-7 < 1 %
+PERSIST_FIXES = 8
+
 
 @njit(cache=True)
 def _post_product(q, grid, m, s, width):
@@ -60,7 +65,8 @@ def _post_product(q, grid, m, s, width):
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, soft, post,
                grid, out, xp, Pp):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
-    t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run, t_last, om_last, k_last]`` (the
+    t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run, t_last, om_last, k_last, t_dis,
+    s_dis]`` (the
     last wheel-frequency update's time, omega and k; it was at the previous fusion sample if
     ``t_last`` is that sample's time: a sample with ``dt = 0`` uses no line); ``post`` (N,)
     the tracker's grid posterior of the signal part on ``grid`` (N,) (empty: none; read with
@@ -104,6 +110,39 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 nu -= hg[i] * x[i]
             s0 = quad_form(hg, P) + p[1]
             e2 = min(max(nu * nu - s0, 0.0), p[3] * p[3])
+            # a disagreement beyond the innovation's spread, on the same side at every valid
+            # fix for gps_persist s (longer than a receiver jump) and PERSIST_FIXES fixes (sc[17]
+            # counts them, signed by the side), is the filter's: its speed
+            # drifted on the accelerometer. Weighting such fixes down (R grows with E^2) would
+            # leave it there (the pull per fix shrinks as 1 / |nu|), so the speed's variance
+            # grows by E^2 instead, along a speed offset that has passed through the receiver
+            # (v and the receiver states at their steady state), and the fix is taken at its
+            # own variance
+            if e2 > 0.0:
+                sg = 1.0 if nu > 0.0 else -1.0
+                if math.isnan(sc[16]) or sg * sc[17] <= 0.0:
+                    sc[16] = t
+                    sc[17] = sg
+                else:
+                    sc[17] += sg
+                if t - sc[16] >= p[39] and abs(sc[17]) >= PERSIST_FIXES:
+                    u = np.zeros(n)
+                    u[IV] = 1.0
+                    ar = np.ascontiguousarray(Ac[IG:n - 1, IG:n - 1])
+                    br = np.ascontiguousarray(Ac[IG:n - 1, IV])
+                    u[IG:n - 1] = -np.linalg.solve(ar, br)
+                    hu = 0.0
+                    for i in range(n):
+                        hu += hg[i] * u[i]
+                    if hu > 0.1:
+                        f = e2 / (hu * hu)
+                        for i in range(n):
+                            for j in range(n):
+                                P[i, j] += f * u[i] * u[j]
+                        s0 = quad_form(hg, P) + p[1]
+                        e2 = min(max(nu * nu - s0, 0.0), p[3] * p[3])
+            else:
+                sc[16] = math.nan
             # the extra lag is seen only against the accelerometer (GPS alone cannot tell a
             # late fix from another speed history): a sample without one leaves it alone
             # (consider state), else the loose acceleration state lets it drift

@@ -34,6 +34,9 @@ class State(NamedTuple):
     t_last, om_last, k_last : time, omega and k of the last wheel-frequency update, however
     long ago (NaN: none yet; a claimed line continues it if it was at the previous fusion
     sample, ``t_last == t``, an unclaimed one within ``vib_soft_hold``; module notes, 3).
+    t_dis, s_dis : start, and side times length (+-1 per fix), of the current run of fixes that
+    disagree with the filter's speed beyond the innovation's spread (NaN: none; module
+    notes, 2).
     """
 
     x: np.ndarray
@@ -53,6 +56,8 @@ class State(NamedTuple):
     t_last: float = math.nan
     om_last: float = math.nan
     k_last: float = math.nan
+    t_dis: float = math.nan
+    s_dis: float = math.nan
 
 
 class Sample(NamedTuple):
@@ -149,14 +154,16 @@ def _unpack(state: State, n: int):
     P = np.array(state.P, dtype=np.float64)
     sc = np.array([state.t, state.t_gps, state.t_fix, state.v_fix, -1.0, state.octave,
                    state.t_run, state.t_still, state.t_acq, state.z_acq, state.d_run,
-                   state.u_run, state.d0_run, state.t_last, state.om_last, state.k_last])
+                   state.u_run, state.d0_run, state.t_last, state.om_last, state.k_last,
+                   state.t_dis, state.s_dis])
     return x, P, sc
 
 
 def _pack(x, P, sc) -> State:
     return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]),
                  float(sc[6]), float(sc[7]), float(sc[8]), float(sc[9]), float(sc[10]),
-                 float(sc[11]), float(sc[12]), float(sc[13]), float(sc[14]), float(sc[15]))
+                 float(sc[11]), float(sc[12]), float(sc[13]), float(sc[14]), float(sc[15]),
+                 float(sc[16]), float(sc[17]))
 
 
 _SAMPLE = Sample._fields[:-1]  # the scalar fields; ``posterior`` is a row per sample
