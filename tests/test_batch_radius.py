@@ -56,6 +56,9 @@ def test_fuse_radius_reaches_the_summary_and_the_report_and_carries_to_a_drive_w
     page = (out / "a_gps_fuse.html").read_text()
     r, s = a["learned_radius"], a["learned_radius_std"]
     assert f"<th>learned wheel radius</th><td>{r:.4f} ± {s:.2g} m</td>" in page
+    index = (out / "index.html").read_text()
+    assert "<th>wheel radius (m)</th>" in index
+    assert f"<td class=\"num\">{r:.4f} ± {s:.4f}</td>" in index
     tb = io.read_track(out / "b_noline_fuse.csv")
     assert _radius_rows(tb, track_summary(tb)) == [(
         "learned wheel radius",

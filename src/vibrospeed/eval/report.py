@@ -311,15 +311,32 @@ def write_report(path: str | os.PathLike[str], recording: Recording, track: Trac
     return p
 
 
+def _radius_cell(row) -> str:
+    """A summary row's ``fitted_radius`` ± ``fitted_radius_std`` (m, 4 decimals: a learned
+    radius is known to millimetres); the radius alone where it has no std, "–" where none."""
+    def val(key: str) -> float:
+        x = row.get(key)
+        return float(x) if isinstance(x, (int, float)) and math.isfinite(x) else math.nan
+
+    r, s = val("fitted_radius"), val("fitted_radius_std")
+    if not math.isfinite(r):
+        return _num(None)
+    return f"{r:.4f}" + (f" ± {s:.4f}" if math.isfinite(s) else "")
+
+
 def write_index(path: str | os.PathLike[str], summary, *, title: str = "vibrospeed batch") -> Path:
     """A batch's summary page: one row per recording (status, numbers, error, and the note of a
     drive whose speed numbers are empty) linking to its report; links are relative, so the
-    output folder can be moved as a whole."""
+    output folder can be moved as a whole. A "wheel radius (m)" column (``fitted_radius`` ±
+    ``fitted_radius_std``) only where some drive learned or fitted one, as in the CSV."""
     p = Path(path)
     df = summary
     counts = df["status"].value_counts().to_dict()
-    head = ["file", "status", "duration", "distance", "median speed", "with a line", "method",
-            "error", "note", "wall"]
+    # the learned wheel radius, as the CSV has it: a column only where some drive learned one
+    radius = "fitted_radius" in df.columns and any(
+        _radius_cell(r) != _num(None) for _, r in df.iterrows())
+    head = ["file", "status", "duration", "distance", "median speed", "with a line",
+            *(["wheel radius (m)"] if radius else []), "method", "error", "note", "wall"]
     rows = []
     for _, r in df.iterrows():
         name = _esc(r["file"])
@@ -339,6 +356,7 @@ def write_index(path: str | os.PathLike[str], summary, *, title: str = "vibrospe
             f"<td class=\"num\">{_num(r['distance_m'], '.1f', 'm')}</td>",
             f"<td class=\"num\">{_num(r['median_speed'], '.2f', 'm/s')}</td>",
             f"<td class=\"num\">{_num(None if share is None else 100 * share, '.1f', '%')}</td>",
+            *([f"<td class=\"num\">{_radius_cell(r)}</td>"] if radius else []),
             f"<td>{_esc(r['method'])}</td>",
             f"<td class=\"error\">{_esc(error)}</td>",
             f"<td class=\"muted\">{_esc(note)}</td>",
