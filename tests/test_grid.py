@@ -701,3 +701,12 @@ def test_comb_evidence_is_centred_on_white_noise():
     m = grid.frame_evidence(cfg, own, raw=True)[:, :-1].mean(axis=0) / cfg.comb_weight
     np.testing.assert_allclose(comb.noise_offsets(cfg, L), m - m.mean(), rtol=0, atol=1e-12)
     np.testing.assert_allclose(got, raw - comb.noise_offsets(cfg, L), atol=1e-12)
+
+
+@pytest.mark.parametrize("lag", [float("inf"), float("nan"), 0.0, -1.0])
+def test_a_fixed_lag_must_be_finite_and_positive(lag):
+    from vibrospeed.sim import simulate
+
+    rec = simulate("cart", seed=1, duration=5)
+    with pytest.raises(ParameterError, match="lag must be a finite number > 0 s"):
+        grid.estimate(rec, params={"smooth": "lag", "lag": lag})

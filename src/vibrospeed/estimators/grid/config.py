@@ -247,8 +247,9 @@ class Config:
             raise ParameterError(f"claim_level must be in (0, 1), got {self.claim_level}")
         if not self.mode_hold >= 1:
             raise ParameterError(f"mode_hold must be >= 1, got {self.mode_hold}")
-        if not self.lag > 0:
-            raise ParameterError(f"lag must be > 0 s, got {self.lag}")
+        if not (self.lag > 0 and math.isfinite(self.lag)):  # inf: smooth=fb is the whole log
+            raise ParameterError(f"lag must be a finite number > 0 s (smooth=fb smooths over "
+                                 f"the whole log), got {self.lag}")
         bad = [p for p in self.fit_names if p not in ("q_omega", "q_amp", "r")]
         if bad:
             raise ParameterError(f"fit: unknown parameter(s) {', '.join(bad)} "
