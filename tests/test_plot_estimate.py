@@ -4,6 +4,8 @@ and the report's speed panel, on a simulated 20 s car drive whose tracker sees n
 first half: the estimate dimmed exactly where no line is seen, full exactly where one is, jumps
 broken, the band drawn, fuse coloured by source."""
 
+from dataclasses import replace
+
 import matplotlib
 import numpy as np
 import pytest
@@ -185,5 +187,38 @@ def test_an_empty_band_and_an_unknown_quantity():
         assert not ax.collections
         with pytest.raises(ValueError, match="'accel'"):
             plot.plot_estimate(ax, track, "accel")
+    finally:
+        plt.close(fig)
+
+
+def test_fuse_figure_draws_speed_over_r_on_the_spectrogram_where_a_line_is_seen(drive):
+    """The fuse figure's cyan speed / r over the spectrogram follows track_figure's rule: NaN
+    where the tracker sees no line (has_signal 0; not where the source is other than vibration:
+    the line is read against the wheel line, and here GPS carries every moving sample, so that
+    rule would draw nothing), the samples as they are where it sees one, and a hop of 6 rad/s
+    put into the seen stretch not joined by a stroke; with no line seen anywhere, no cyan line."""
+    rec, _, fuse = drive
+    seen = fuse.extras["has_signal"] > 0.5
+    assert 0.2 < seen.mean() < 0.8 and not (fuse.extras["source"] == 2).any()
+    hop = fuse.t >= fuse.t[np.flatnonzero(seen)[seen.sum() // 2]]  # inside the seen stretch
+    omega = fuse.omega + 6.0 * hop
+    track = replace(fuse, omega=omega, extras=dict(fuse.extras))
+    fig = plot.track_figure(rec, track, axis="ay")
+    try:
+        lines = {ln.get_label(): ln for ln in fig.axes[0].get_lines()}
+        drawn = _per_sample(lines["estimate (speed / r)"], track.t)
+        np.testing.assert_array_equal(np.isnan(drawn), ~seen)
+        np.testing.assert_array_equal(drawn[seen], omega[seen])
+        strokes = _strokes(lines["estimate (speed / r)"])
+        np.testing.assert_array_equal(strokes, _joined(track.t, drawn, "omega"))
+        i = np.flatnonzero(np.diff(hop.astype(int)))[0]  # the hop, both ends seen and drawn
+        assert seen[i] and seen[i + 1] and track.t[i] not in strokes
+        assert to_rgba(lines["estimate (speed / r)"].get_color())[:3] == to_rgba("cyan")[:3]
+    finally:
+        plt.close(fig)
+    blind = replace(fuse, extras={**fuse.extras, "has_signal": np.zeros(len(fuse))})
+    fig = plot.track_figure(rec, blind, axis="ay")
+    try:
+        assert "estimate (speed / r)" not in [ln.get_label() for ln in fig.axes[0].get_lines()]
     finally:
         plt.close(fig)

@@ -165,6 +165,16 @@ def _spectrogram_panel(ax, recording: Recording, axis: str, window_s: float,
     ax.set_ylim(0, omega_max)
 
 
+def _omega_over_line(track: Track) -> tuple[np.ndarray, np.ndarray]:
+    """The track's omega as drawn over the spectrogram, to be read against the wheel line:
+    only where the tracker sees a line (``has_signal`` > 0.5, where the track has it; elsewhere
+    there is no line to read it against), jumps broken (:func:`break_jumps`)."""
+    shown = np.asarray(track.omega, dtype=np.float64)
+    if "has_signal" in track.extras:
+        shown = np.where(np.asarray(track.extras["has_signal"], float) > 0.5, shown, np.nan)
+    return break_jumps(track.t, shown, rate=_JUMPS["omega"][0], floor=_JUMPS["omega"][1])
+
+
 def _truth_omega(recording: Recording, truth: Recording | None, track: Track | None):
     tr = truth if truth is not None else recording
     if "omega_true" in tr.channels:
@@ -222,10 +232,7 @@ def track_figure(
                        cmap="Greys", vmin=-6, vmax=0, alpha=0.8, rasterized=True)
     if track is not None:
         shade_stretches(ax1, track, track.omega)
-        shown = track.omega
-        if "has_signal" in track.extras:  # harmonics only where the tracker sees a line
-            shown = np.where(np.asarray(track.extras["has_signal"], float) > 0.5, shown, np.nan)
-        tj, shown = break_jumps(track.t, shown)
+        tj, shown = _omega_over_line(track)
         for m in range(1, drawn + 1):
             ax0.plot(tj, m * shown, color="cyan", lw=0.8, alpha=0.9, zorder=_Z_EST,
                      path_effects=_OUTLINE,
@@ -343,8 +350,9 @@ def plot_estimate(ax, track: Track, quantity: str = "omega", *,
 def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recording | None,
                   window_s: float, title: str | None, spectrum: Spectrum | None = None,
                   gps: Recording | None = None):
-    """Spectrogram of ``axis`` (with omega where the track has it) over a speed panel (m/s):
-    estimate, band, truth, GPS fixes."""
+    """Spectrogram of ``axis`` (with omega where the track has it, drawn as track_figure draws
+    it: where a line is seen, jumps broken) over a speed panel (m/s): estimate, band, truth, GPS
+    fixes."""
     fs = recording.fs
     have_omega = np.isfinite(track.omega).any()
     top = float(np.nanmax(track.omega)) if have_omega else 0.0
@@ -352,10 +360,11 @@ def _speed_figure(recording: Recording, track: Track, *, axis: str, truth: Recor
     fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(12.5, 7), sharex=True,
                                    gridspec_kw={"height_ratios": [2, 3]})
     _spectrogram_panel(ax0, recording, axis, window_s, omega_max, spectrum)
-    if have_omega:  # fuse: its speed / learned radius over the wheel line
-        ax0.plot(track.t, track.omega, color="cyan", lw=0.8, alpha=0.9, zorder=_Z_EST,
-                 path_effects=_OUTLINE,
-                 label="estimate (speed / r)")
+    if have_omega:  # fuse: its speed / learned radius over the wheel line, where one is seen
+        tj, shown = _omega_over_line(track)
+        if np.isfinite(shown).any():
+            ax0.plot(tj, shown, color="cyan", lw=0.8, alpha=0.9, zorder=_Z_EST,
+                     path_effects=_OUTLINE, label="estimate (speed / r)")
         t_truth, om_truth = _truth_omega(recording, truth, None)
         if om_truth is not None:
             ax0.plot(t_truth, om_truth, color="lime", lw=0.8, ls="--", zorder=_Z_TRUTH,
