@@ -179,15 +179,23 @@ def evaluate(
     = 0.0,
     json_out: Annotated[Path | None, typer.Option("--json", help="also write metrics as JSON")]
     = None,
+    baseline: Annotated[Path | None, typer.Option(
+        "--baseline", help="the recording the estimate was made from (for a simulated drive "
+        "often the --truth file): also score the plain 3 s STFT harmonic sum on it (the "
+        "estimate's axis, search range, causality and wheel radius), side by side")] = None,
 ) -> None:
     """Compare an estimate with ground truth: RMSE (thesis eq. 3.18, truth linearly
     interpolated, moving samples only), bias, relative error (median and mean), band coverage,
     harmonic errors; the lateral velocity Vy (RMSE, MAE, bias, correlation) where the estimate
-    has ``vy`` (algebraic) and the truth ``vy_true``.
+    has ``vy`` (algebraic) and the truth ``vy_true``. With --baseline the plain 3 s STFT
+    harmonic sum on the same recording is scored beside it: where it does better, the
+    estimate loses to the plainest method there.
 
     Examples:
 
       vibrospeed evaluate est.csv --truth drive.csv
+
+      vibrospeed evaluate est.csv --truth drive.csv --baseline drive.csv
 
       vibrospeed evaluate phone_est.csv --truth phone_drive --truth-channel gps_speed
 
@@ -215,10 +223,44 @@ def evaluate(
             f"{estimate_csv}: nothing to compare: no sample of the estimate "
             f"({track.t[0]:g}-{track.t[-1]:g} s){after} has a finite value where the truth "
             f"{truth} ({ref.t[0]:g}-{ref.t[-1]:g} s) moves faster than {still}")
+    mb = None
+    if baseline is not None:  # the plain STFT on the same data, scored by the same call
+        base, notes = _baseline_track(estimate_csv, track, baseline, ref)
+        for note in notes:
+            err.print(f"note: {note}", markup=False, soft_wrap=True)
+        mb = ev(base, ref, min_omega=min_omega, warmup=warmup, truth_channel=truth_channel)
+        if mb.unit != m.unit:  # _baseline_track builds it to be scored as the estimate is
+            raise ParameterError(f"{baseline}: the STFT baseline is scored in {mb.unit}, the "
+                                 f"estimate {estimate_csv} in {m.unit}: no side-by-side table")
     tab = Table(title=Text(f"{estimate_csv.name} vs truth {truth.name}"), title_justify="left")
     tab.add_column("metric")
-    tab.add_column("value", justify="right")
+    tab.add_column("value" if mb is None else "estimate", justify="right")
+    if mb is not None:
+        tab.add_column("STFT 3 s", justify="right")
     tab.add_column("unit")
+    rows = _metric_rows(m)
+    base_values = {} if mb is None else {label: value for label, value, _ in _metric_rows(mb)}
+    for label, value, unit in rows:
+        tab.add_row(label, value, *(() if mb is None else (base_values.get(label, "n/a"),)),
+                    unit)
+    out.print(tab)
+    if mb is not None:
+        line = (f"share within max(2 {m.unit}, 10 %): estimate {m.ok_share:.1%} vs plain STFT "
+                f"{mb.ok_share:.1%}")
+        if m.ok_share < mb.ok_share:
+            line += " (the estimate loses to the plain baseline here)"
+        out.print(line, markup=False, soft_wrap=True)
+    if json_out is not None:  # strict JSON, as the sidecars: a metric that is NaN is null
+        doc = m.to_dict()
+        if mb is not None:
+            doc["baseline"] = mb.to_dict()
+        atomic_write_text(json_out, json.dumps(jsonable(doc), indent=2, allow_nan=False) + "\n")
+
+
+def _metric_rows(m) -> list[tuple[str, str, str]]:
+    """The rows ``(metric, value, unit)`` of ``evaluate``'s table for the metrics ``m``; the
+    rows that do not apply to them (harmonic shares of a speed comparison, the claimed share
+    of a method that claims nothing, Vy without one) are left out."""
     rows = [
         ("samples evaluated (moving)", f"{m.n}", ""),
         ("moving share", f"{m.moving_share:.1%}", ""),
@@ -249,12 +291,73 @@ def evaluate(
                  ("  Vy bias", f"{m.vy_bias:+.3f}", "m/s"),
                  ("  Vy correlation", f"{m.vy_corr:.3f}" if m.vy_corr == m.vy_corr
                   else "n/a (constant)", "")]
-    for row in rows:
-        tab.add_row(*row)
-    out.print(tab)
-    if json_out is not None:  # strict JSON, as the sidecars: a metric that is NaN is null
-        atomic_write_text(json_out, json.dumps(jsonable(m.to_dict()), indent=2,
-                                               allow_nan=False) + "\n")
+    return rows
+
+
+def _baseline_track(estimate_csv: Path, track, recording: Path, ref):
+    """The plain 3 s STFT harmonic sum (:func:`vibrospeed.eval.baseline.stft_track`) on
+    ``recording``, set up as the estimate ``track`` (read from ``estimate_csv``) was made: its
+    axis, its search range (params ``omega_min`` / ``omega_max``; a method without one gets
+    the grid's default range, said in a note), causal where the estimate is (``smooth`` =
+    ``none``, ``online`` or ``causal`` true) and its wheel radius, on the estimate's time stamps.
+    A speed-only estimate (no radius) gets a speed-only baseline, through the recording's or
+    the truth ``ref``'s radius, so both are scored in m/s. Returns the track and the notes."""
+    import numpy as np
+
+    from vibrospeed.config import parse_flag
+    from vibrospeed.estimators.grid.config import Config as GridConfig
+    from vibrospeed.eval.baseline import stft_track
+    from vibrospeed.types import Track
+
+    side = _sidecar(estimate_csv)
+    _check_same_input(estimate_csv, side, recording,
+                      hint="leave out --baseline")
+    meta = side.get("meta") if isinstance(side.get("meta"), dict) else {}
+    opts = meta.get("options") if isinstance(meta.get("options"), dict) else {}
+    rec = _load(recording, opts.get("fmt") or "auto", opts.get("columns"), opts.get("mapping"),
+                opts.get("rate"), bool(opts.get("sort", False)))
+    if rec.t.size == 0 or rec.t[0] > track.t[-1] or rec.t[-1] < track.t[0]:
+        span = f"{rec.t[0]:g}-{rec.t[-1]:g} s" if rec.t.size else "no samples"
+        raise ParameterError(f"{recording}: its time span ({span}) does not overlap the "
+                             f"estimate {estimate_csv} ({track.t[0]:g}-{track.t[-1]:g} s): "
+                             "--baseline takes the recording the estimate was made from")
+    par = track.params
+    axis = par.get("axis") if isinstance(par.get("axis"), str) else meta.get("axis")
+    axis = axis if isinstance(axis, str) and axis else "y"
+    lo, hi = par.get("omega_min"), par.get("omega_max")
+    notes = []
+    if not all(isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x)
+               for x in (lo, hi)) or not 0 <= lo < hi:
+        lo, hi = GridConfig.omega_min, GridConfig.omega_max
+        notes.append(f"the estimate ({track.method or 'method unknown'}) has no search range "
+                     f"(omega_min, omega_max): the STFT baseline searches the grid's default "
+                     f"{lo:g}-{hi:g} rad/s")
+    causal = par.get("smooth") == "none" or any(
+        parse_flag(par[k], k) for k in ("online", "causal") if par.get(k) is not None)
+    speed_only = not np.isfinite(track.omega).any() and np.isfinite(track.speed).any()
+    radius = (rec.wheel_radius or ref.wheel_radius) if speed_only else track.wheel_radius
+    if speed_only and not radius:
+        raise ParameterError(f"{estimate_csv}: a speed estimate without a wheel radius, and "
+                             f"neither {recording} nor the truth has one: the STFT baseline's "
+                             "omega has no speed to compare with it")
+    base = stft_track(rec, axis=axis, omega_min=float(lo), omega_max=float(hi), causal=causal,
+                      wheel_radius=radius)
+    omega = base.omega
+    if not np.array_equal(base.t, track.t):  # scored on the estimate's own time stamps
+        omega = np.interp(track.t, base.t, base.omega, left=np.nan, right=np.nan)
+    nan = np.full(track.t.shape, np.nan)
+    if speed_only:  # scored as speeds, as the estimate is
+        base = Track.from_speed(track.t, radius * omega, lo=nan, hi=nan, method="stft",
+                                params=base.params)
+    else:
+        base = Track.from_omega(track.t, omega, lo=nan, hi=nan, wheel_radius=radius,
+                                method="stft", params=base.params)
+    notes.insert(0, f"baseline: the plain {base.params['win_s']:g} s STFT harmonic sum "
+                    f"(M = {base.params['M']}) on {base.params['axis']} high-passed "
+                    f"({base.params['prefilter']}), {lo:g}-{hi:g} rad/s, "
+                    + ("causal (each value from its window's end), as the estimate"
+                       if causal else "offline (centred windows)"))
+    return base, notes
 
 
 @_friendly

@@ -6,11 +6,18 @@ interpolation between FFT bins; harmonics above Nyquist folded to their alias). 
 values refer to the window centres and are interpolated between them; causally
 (``causal=True``, what a device can do) each value holds from its window's end. No pre-filter
 here: give it the signal the compared tracker sees, or the raw axis high-passed.
+:func:`stft_track` is the benchmarks' form on a recording (its axis high-passed with
+``thesis-hp``) as a :class:`~vibrospeed.types.Track`, to score as an estimate is scored.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from vibrospeed.types import Recording, Track
+
+#: the pre-filter of the benchmarks' baseline (benchmarks/robustness): the axis high-passed
+PREFILTER = "thesis-hp"
 
 
 def stft_harmonic_sum(y: np.ndarray, dt: float, omega_min: float, omega_max: float, *,
@@ -46,3 +53,34 @@ def stft_harmonic_sum(y: np.ndarray, dt: float, omega_min: float, omega_max: flo
         j = np.searchsorted(centres, np.arange(n), side="right") - 1
         return np.where(j >= 0, vals[np.maximum(j, 0)], np.nan)
     return np.interp(np.arange(n), centres, vals)
+
+
+def stft_track(recording: Recording, *, axis: str = "y", omega_min: float, omega_max: float,
+               causal: bool = False, wheel_radius: float | None = None, n_grid: int = 300,
+               M: int = 3, win_s: float = 3.0, hop_s: float = 0.25) -> Track:
+    """The plain baseline of the benchmarks on ``recording`` as a Track (method ``"stft"``):
+    the ``axis`` channel (``"y"`` or ``"ay"``, as the estimators take it; a sign is ignored,
+    the spectrum's magnitudes do not see it) with NaN as 0, high-passed with
+    :data:`PREFILTER`, then :func:`stft_harmonic_sum` over ``omega_min..omega_max`` rad/s
+    (``causal``: each value from its window's end). No band (NaN); speed = ``wheel_radius``
+    times omega where the radius is given. A recording whose time stamps are further than
+    :data:`vibrospeed.io.timebase.UNIFORM_ENOUGH` from uniform is resampled first, as the CLI
+    reads one for the estimators. Its purpose: every estimate compared with what a plain
+    3 s spectrogram gives on the same data."""
+    from vibrospeed.estimators.common import signed_axis
+    from vibrospeed.io import timebase
+    from vibrospeed.signal import prefilter as pf
+
+    channel = signed_axis(axis)[0]
+    recording.require(channel)
+    if not recording.is_uniform(rtol=timebase.UNIFORM_ENOUGH):
+        recording = timebase.resample_uniform(recording)
+    y = pf.apply(pf.design(PREFILTER, recording.fs), np.nan_to_num(recording.channel(channel)))
+    omega = stft_harmonic_sum(y, recording.dt, omega_min, omega_max, n_grid=n_grid, M=M,
+                              win_s=win_s, hop_s=hop_s, causal=causal)
+    nan = np.full(omega.shape, np.nan)
+    params = {"axis": channel, "omega_min": float(omega_min), "omega_max": float(omega_max),
+              "causal": bool(causal), "prefilter": PREFILTER, "n_grid": int(n_grid), "M": int(M),
+              "win_s": float(win_s), "hop_s": float(hop_s)}
+    return Track.from_omega(recording.t, omega, lo=nan, hi=nan, wheel_radius=wheel_radius,
+                            method="stft", params=params)
