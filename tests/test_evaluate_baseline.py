@@ -136,3 +136,22 @@ def test_stft_track_is_the_baseline_as_a_track(drive):
     np.testing.assert_allclose(tr.speed, 0.08 * om, rtol=1e-15)
     assert np.isnan(tr.omega_lo).all() and np.isnan(tr.omega_hi).all()
     assert np.isnan(stft_track(rec, omega_min=2.0, omega_max=30.0).speed).all()
+
+
+def test_a_speed_estimate_without_radius_gets_a_speed_baseline_on_y(drive, tmp_path):
+    # gps-riss: speeds only, its axis the longitudinal one; the baseline reads ay, converted
+    # with the recording's radius (0.08 m), and both are scored in m/s
+    path, rec = drive
+    est = tmp_path / "sp.csv"
+    io.write_track(Track.from_speed(rec.t, 1.05 * rec["speed_true"], method="gps-riss",
+                                    params={"axis": "x"}), est, input_path=path)
+    res = _run("evaluate", est, "--truth", path, "--baseline", path, "--json",
+               tmp_path / "m.json")
+    assert res.exit_code == 0, res.output
+    assert "default vibration axis y" in res.stderr and "share within max(2 m/s" in res.stdout
+    y = pf.apply(pf.design("thesis-hp", rec.fs), np.nan_to_num(rec["ay"]))
+    om = stft_harmonic_sum(y, 1.0 / rec.fs, 10.0, 120.0)
+    ref = evaluate(Track.from_speed(rec.t, 0.08 * om), rec)
+    base = json.loads((tmp_path / "m.json").read_text())["baseline"]
+    assert ref.unit == base["unit"] == "m/s"
+    assert base["rmse"] == pytest.approx(ref.rmse, rel=1e-12) and base["n"] == ref.n

@@ -297,7 +297,8 @@ def _metric_rows(m) -> list[tuple[str, str, str]]:
 def _baseline_track(estimate_csv: Path, track, recording: Path, ref):
     """The plain 3 s STFT harmonic sum (:func:`vibrospeed.eval.baseline.stft_track`) on
     ``recording``, set up as the estimate ``track`` (read from ``estimate_csv``) was made: its
-    axis, its search range (params ``omega_min`` / ``omega_max``; a method without one gets
+    axis (``y`` for ``gps-riss`` and ``algebraic``, whose axis is the longitudinal one), its
+    search range (params ``omega_min`` / ``omega_max``; a method without one gets
     the grid's default range, said in a note), causal where the estimate is (``smooth`` =
     ``none``, ``online`` or ``causal`` true) and its wheel radius, on the estimate's time stamps.
     A speed-only estimate (no radius) gets a speed-only baseline, through the recording's or
@@ -326,6 +327,10 @@ def _baseline_track(estimate_csv: Path, track, recording: Path, ref):
     axis = axis if isinstance(axis, str) and axis else "y"
     lo, hi = par.get("omega_min"), par.get("omega_max")
     notes = []
+    if track.method in ("gps-riss", "algebraic"):  # their axis is the longitudinal one
+        notes.append(f"{track.method} reads its axis ({axis}) for the longitudinal "
+                     "acceleration: the STFT baseline reads the default vibration axis y")
+        axis = "y"
     if not all(isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x)
                for x in (lo, hi)) or not 0 <= lo < hi:
         lo, hi = GridConfig.omega_min, GridConfig.omega_max
