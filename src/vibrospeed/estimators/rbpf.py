@@ -36,7 +36,7 @@ from vibrospeed.config import check_state, flat_dict, is_count
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators import resampling
 from vibrospeed.estimators.grid.app import prepare
-from vibrospeed.estimators.grid.config import DEFAULT_R
+from vibrospeed.estimators.grid.config import DEFAULT_R, MAX_FLOATS
 from vibrospeed.estimators.kalman import predict_one, rotation_blocks, update_one
 from vibrospeed.estimators.scaling import DEFAULT_SIGNAL_RMS, DEFAULT_TAU
 from vibrospeed.models.harmonic import HarmonicModel
@@ -79,6 +79,14 @@ class Config:
     def __post_init__(self) -> None:
         if not is_count(self.n_particles):
             raise ParameterError(f"n_particles must be a positive integer, got {self.n_particles}")
+        # each particle holds 2M phasors and their (2M, 2M) covariance: n_particles or M = 1e12
+        # died allocating PiB (MemoryError)
+        K, M = int(self.n_particles), int(self.model.M)
+        if K * (2 * M) * (2 * M + 1) > MAX_FLOATS:
+            raise ParameterError(f"n_particles = {K} and M = {M} are too large: the particles' "
+                                 f"phasors and covariances (n_particles * 2M * (2M + 1)) would "
+                                 f"hold {K * (2 * M) * (2 * M + 1):.3g} floats, at most "
+                                 f"{MAX_FLOATS:.3g} (1 GiB)")
         if not 0 <= self.omega_min <= self.omega_max < math.inf:
             raise ParameterError(
                 f"support needs 0 <= omega_min <= omega_max < inf rad/s, got [{self.omega_min}, "

@@ -32,6 +32,13 @@ from vibrospeed.types import Estimate, Recording, Track
 #: the paper's batch in seconds (200 samples at 100 Hz, paper IV-B)
 BATCH_S = 2.0
 
+#: upper bounds of the counts, far above use (defaults 5 harmonics, 4096, 192), so that a typo
+#: (1e12) is refused rather than running for hours or allocating TiB: harmonics (one pass over
+#: the log axis each), the FFT length (2^24 samples: 128 MiB of spectrum), points per octave
+MAX_HARMONICS = 1000
+MAX_FFT = 1 << 24
+MAX_PER_OCTAVE = 100_000
+
 
 def default_batch(dt: float, params: dict) -> tuple[int, str]:
     """``(batch, note)``: the samples of :data:`BATCH_S` at period ``dt`` s (200 at 100 Hz, the
@@ -98,6 +105,14 @@ class Config:
                 f"omega_max = {self.omega_max:.4g} rad/s is above the Nyquist limit "
                 f"{np.pi / self.dt:.4g} rad/s of fs = {1 / self.dt:.4g} Hz"
             )
+        if self.n_harmonics > MAX_HARMONICS:
+            raise ParameterError(f"n_harmonics must be at most {MAX_HARMONICS}, got "
+                                 f"{self.n_harmonics}")
+        if self.n_fft > MAX_FFT:
+            raise ParameterError(f"n_fft must be at most {MAX_FFT} (2^24), got {self.n_fft}")
+        if self.points_per_octave > MAX_PER_OCTAVE:
+            raise ParameterError(f"points_per_octave must be at most {MAX_PER_OCTAVE}, got "
+                                 f"{self.points_per_octave}")
         period = 2 * np.pi / self.omega_min
         if self.batch * self.dt < period:
             raise ParameterError(

@@ -10,11 +10,44 @@ import math
 from dataclasses import dataclass, field
 
 from vibrospeed.errors import ParameterError
+from vibrospeed.estimators.grid.config import MAX_FLOATS
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
 from vibrospeed.signal.comb import COMB_COUNT, COMB_REL
 
 STANDSTILL_KINDS = {"none": 0, "window": 1, "cusum": 2, "broadband": 3}
+
+#: most samples in a detector window (``ss_n`` / ``ss_window``, ``mode_n`` / ``mode_window``):
+#: 4 Mi samples (11.6 h at 100 Hz); a typo (1e12) died allocating TiB
+MAX_WINDOW = 1 << 22
+
+
+def check_windows(config, dt: float) -> None:
+    """:class:`ParameterError` unless the standstill and mode windows of ``config`` (the aided
+    EKF's or the aided grid tracker's, fields ``ss_n``, ``ss_window``, ``mode_n``,
+    ``mode_window``) hold at most :data:`MAX_WINDOW` samples at period ``dt`` s."""
+    for n_name, s_name in (("ss_n", "ss_window"), ("mode_n", "mode_window")):
+        n, seconds = getattr(config, n_name), getattr(config, s_name)
+        if det.window_samples(n, seconds, dt) > MAX_WINDOW:
+            got = f"{n_name} = {n}" if n is not None else f"{s_name} = {seconds:g} s"
+            raise ParameterError(f"{s_name} / {n_name} must be at most {MAX_WINDOW} samples "
+                                 f"({MAX_WINDOW * dt:.4g} s at {1 / dt:.4g} Hz), got {got}")
+
+
+def check_inputs(lp_cutoff: float | None, wheelbase: float | None,
+                 accel_detrend: float) -> None:
+    """:class:`ParameterError` unless the aided trackers' input parameters (read by their
+    ``estimate``, not Config fields) are in their domains: NaN ``lp_cutoff`` died in the
+    filter design and 0 was the preset's cut-off without a word; a NaN, negative or zero
+    ``wheelbase`` and a NaN or negative ``accel_detrend`` (0: off; inf: the plain running
+    mean) were used as given."""
+    if lp_cutoff is not None and not lp_cutoff > 0:
+        raise ParameterError(f"lp_cutoff must be > 0 (or none: the pre-filter's own cut-off), "
+                             f"got {lp_cutoff}")
+    if wheelbase is not None and not 0 < wheelbase < math.inf:
+        raise ParameterError(f"wheelbase must be finite and > 0 m (or none), got {wheelbase}")
+    if not accel_detrend >= 0:
+        raise ParameterError(f"accel_detrend must be >= 0 s (0: off), got {accel_detrend}")
 
 
 
@@ -117,8 +150,16 @@ class Config:
     comb_rel: float = COMB_REL
 
     def __post_init__(self) -> None:
-        if not (self.wheel_radius and self.wheel_radius > 0):
-            raise ParameterError(f"wheel_radius must be > 0 m, got {self.wheel_radius}")
+        if not 0 < self.wheel_radius < math.inf:  # inf: every speed 0 or NaN
+            raise ParameterError(f"wheel_radius must be finite and > 0 m, got "
+                                 f"{self.wheel_radius}")
+        # the filter's state holds 2M phasors and b, omega, with their covariance: M = 1e12
+        # died allocating TiB
+        M = int(self.model.M)
+        if (2 * M + 2) ** 2 > MAX_FLOATS:
+            raise ParameterError(f"M = {M} is too large: the aided EKF's covariance ((2M + 2)^2) "
+                                 f"would hold {(2 * M + 2) ** 2:.3g} floats, at most "
+                                 f"{MAX_FLOATS:.3g} (1 GiB)")
         if self.standstill not in STANDSTILL_KINDS:
             raise ParameterError(f"standstill must be one of {', '.join(STANDSTILL_KINDS)}, "
                                  f"got '{self.standstill}'")
@@ -159,6 +200,7 @@ class Config:
             if not 0 < getattr(self, name) < math.inf:
                 raise ParameterError(f"{name} must be finite and > 0 s, got "
                                      f"{getattr(self, name)}")
+        check_windows(self, self.model.dt)
 
     @property
     def cusum_threshold(self) -> float:

@@ -14,7 +14,7 @@ import numpy as np
 from vibrospeed.config import config_from_params, parse_flag, parse_number, parse_value
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import ACCEL_OFFSET, TRACKER
-from vibrospeed.estimators.aided.config import Config, _thesis_model
+from vibrospeed.estimators.aided.config import Config, _thesis_model, check_inputs
 from vibrospeed.estimators.aided.filter import run
 from vibrospeed.estimators.aiding import (
     aiding_inputs,
@@ -130,6 +130,7 @@ def estimate(
     reference = str(cfg_kw.pop("reference", "none"))
     wheelbase = parse_number(cfg_kw.pop("wheelbase", None), "wheelbase", optional=True)
     detrend = parse_number(cfg_kw.pop("accel_detrend", 0.0), "accel_detrend")
+    check_inputs(lp, wheelbase, detrend)
     causal = parse_flag(cfg_kw.pop("causal", False), "causal")
     offset_kind = parse_value(str(cfg_kw.pop("accel_offset", "standstill")), ACCEL_OFFSET,
                               "accel_offset")

@@ -17,6 +17,7 @@ import numpy as np
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import grid as gridmod
 from vibrospeed.estimators import rbpmf
+from vibrospeed.estimators.aided.config import check_windows
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.signal import detectors as det
 
@@ -86,8 +87,9 @@ class Config:
 
     def __post_init__(self) -> None:
         tr = self.tracker
-        if not (self.wheel_radius and self.wheel_radius > 0):
-            raise ParameterError(f"wheel_radius must be > 0 m, got {self.wheel_radius}")
+        if not 0 < self.wheel_radius < math.inf:  # inf: every speed 0 or NaN
+            raise ParameterError(f"wheel_radius must be finite and > 0 m, got "
+                                 f"{self.wheel_radius}")
         if tr.spacing != "linear" or tr.n_grid < 2:
             raise ParameterError("aided rbpmf needs a linear grid of >= 2 points "
                                  "(spacing='linear')")
@@ -119,6 +121,7 @@ class Config:
             if not 0 < getattr(self, name) < math.inf:
                 raise ParameterError(f"{name} must be finite and > 0 s, got "
                                      f"{getattr(self, name)}")
+        check_windows(self, self.tracker.model.dt)
         if self.aiding not in AIDING_KINDS:
             raise ParameterError(f"aiding must be one of {', '.join(AIDING_KINDS)}, got "
                                  f"'{self.aiding}'")

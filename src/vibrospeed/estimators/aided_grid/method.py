@@ -16,6 +16,7 @@ from vibrospeed.config import flat_names, parse_number, parse_value, unknown
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators import ACCEL_OFFSET, rbpmf
 from vibrospeed.estimators import grid as gridmod
+from vibrospeed.estimators.aided.config import check_inputs
 from vibrospeed.estimators.aided_grid.config import Config, _cart_tracker
 from vibrospeed.estimators.aided_grid.filter import run
 from vibrospeed.estimators.aiding import (
@@ -171,6 +172,7 @@ def estimate(
         inp["wheelbase"] = parse_number(inp["wheelbase"], "wheelbase", optional=True)
     if "accel_detrend" in inp:
         inp["accel_detrend"] = parse_number(inp["accel_detrend"], "accel_detrend")
+    check_inputs(lp, inp.get("wheelbase"), inp.get("accel_detrend", 0.0))
     if "accel_offset" in inp:
         inp["accel_offset"] = parse_value(str(inp["accel_offset"]), ACCEL_OFFSET,
                                           "accel_offset")

@@ -16,6 +16,10 @@ from vibrospeed.estimators import scaling as _scaling
 from vibrospeed.estimators.grid.kernel import Kernel, build_kernel
 from vibrospeed.models.harmonic import HarmonicModel
 
+#: most floats a config may ask its arrays to hold (1 GiB): a larger grid, harmonic count or
+#: particle count is a typo (1e12), refused before numpy dies allocating it
+MAX_FLOATS = 1 << 27
+
 #: measurement noise variance used with the running-RMS scaling (signal RMS 0.5, variance
 #: 0.25): the harmonics are assumed to carry about 80 % of the pre-filtered signal power.
 DEFAULT_R = 0.05
@@ -179,6 +183,14 @@ class Config:
         n = self.n_grid
         if not (isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n >= 1):
             raise ParameterError(f"n_grid must be a positive integer, got {self.n_grid}")
+        # the kernel holds a (2M, 2M) phasor transition per grid point (and kernel=exact an
+        # (n_grid, n_grid) matrix): n_grid or M = 1e12 died allocating TiB (MemoryError)
+        n, M = int(n), int(self.model.M)  # Python ints: no int64 wrap-around
+        need = max(n * (2 * M) ** 2, n * n if self.kernel == "exact" else 0)
+        if need > MAX_FLOATS:
+            raise ParameterError(f"n_grid = {n} and M = {M} are too large: the grid's transition "
+                                 f"arrays (n_grid * (2M)^2, with kernel=exact n_grid^2) would "
+                                 f"hold {need:.3g} floats, at most {MAX_FLOATS:.3g} (1 GiB)")
         if not 0 <= self.omega_min <= self.omega_max < math.inf:
             raise ParameterError(
                 f"grid needs 0 <= omega_min <= omega_max < inf rad/s, got [{self.omega_min}, "

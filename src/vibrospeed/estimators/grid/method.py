@@ -34,6 +34,10 @@ from vibrospeed.types import Estimate, Recording, Track
 #: (3 axes: 0.4; simulated car, benchmarks/trackers/RESULTS.md)
 AXES_EXPONENT = 0.834
 
+#: most samples in one comb frame (``comb_window``): 4 Mi samples (32 MiB a frame and axis,
+#: 11.6 h at 100 Hz), far above any window the comb's stationary line can hold
+MAX_FRAME = 1 << 22
+
 #: tracker settings of the product on top of the paper's Config (benchmarks/beyond/RESULTS.md,
 #: "grid"):
 #: jumps 0.05/s, "no line" in 0.01/s out 0.5/s, noise from the marginal-likelihood fits
@@ -165,6 +169,20 @@ class Config:
                      "comb_min_window"):
             if not getattr(self, name) > 0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
+        # frame lengths and the background median are sample / bin counts: inf died in int(),
+        # 1e12 allocating TiB or in a median over 1e12 bins
+        dt = self.tracker.model.dt
+        for name in ("comb_window", "comb_min_window"):
+            if not getattr(self, name) < math.inf:
+                raise ParameterError(f"{name} must be a finite number > 0 s, got "
+                                     f"{getattr(self, name)}")
+        if self.comb_window / dt > MAX_FRAME:
+            raise ParameterError(f"comb_window must be at most {MAX_FRAME} samples "
+                                 f"({MAX_FRAME * dt:.4g} s at {1 / dt:.4g} Hz), got "
+                                 f"{self.comb_window} s")
+        if not self.comb_bg * dt <= 0.5 + 1e-9:  # Nyquist, read through dt's rounding
+            raise ParameterError(f"comb_bg must be > 0 Hz and at most the Nyquist frequency "
+                                 f"{0.5 / dt:.4g} Hz (the whole spectrum), got {self.comb_bg}")
         if not self.comb_lead >= 0:
             raise ParameterError(f"comb_lead must be >= 0, got {self.comb_lead}")
         if not self.comb_weight >= 0:
