@@ -10,7 +10,7 @@ import numpy as np
 
 from vibrospeed.config import config_from_params, parse_number
 from vibrospeed.errors import InputError, ParameterError
-from vibrospeed.estimators.algebraic.config import OUTPUTS, Config
+from vibrospeed.estimators.algebraic.config import OUTPUTS, Config, _domain_text
 from vibrospeed.estimators.algebraic.filter import run
 from vibrospeed.estimators.common import check_time
 from vibrospeed.types import WHEEL_CHANNELS, Recording, Track, check_wheel_radius
@@ -85,6 +85,10 @@ def estimate(
     # -p r is the same radius: popped whichever is given (left in params it replaced the
     # argument's in the filter while the Track converted with the argument's)
     r_param = parse_number(params.pop("r", None), "r", optional=True)
+    L1 = parse_number(params.pop("L1", None), "L1", optional=True)
+    for name, v in (("r", r_param), ("L1", L1)):  # 0 was dropped without a word (falsy)
+        if v is not None and not v > 0:
+            raise ParameterError(f"algebraic: {name} must be {_domain_text(name)}, got {v}")
     if r and r_param and r_param != r:
         raise ParameterError(f"{src}: the wheel radius is given twice, --wheel-radius {r:g} m "
                              f"and -p r={r_param:g}: give one")
@@ -92,7 +96,7 @@ def estimate(
     r = r or recording.meta.get("wheel_radius")
     if not r:
         raise ParameterError(f"{src}: the algebraic method needs the wheel radius (--wheel-radius)")
-    L1 = parse_number(params.pop("L1", None), "L1", optional=True) or recording.meta.get("L1")
+    L1 = L1 or recording.meta.get("L1")
     if not L1:
         raise ParameterError(f"{src}: the algebraic method needs L1, the CG to front axle "
                              "distance in m (--param L1=...)")

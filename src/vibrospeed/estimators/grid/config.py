@@ -216,6 +216,8 @@ class Config:
         # a NaN or infinite omega0 made every output NaN
         if self.omega0 is not None and not math.isfinite(self.omega0):
             raise ParameterError(f"omega0 must be finite rad/s (or None), got {self.omega0}")
+        if self.omega0 is not None and self.omega0 < 0:  # a prior below the grid: its bottom
+            raise ParameterError(f"omega0 must be >= 0 rad/s (or None), got {self.omega0}")
         # a NaN signal_rms made every output NaN, a negative one flipped the signal; a bad
         # rms_tau failed only once a recording was scaled
         for name in ("rms_tau", "signal_rms"):
