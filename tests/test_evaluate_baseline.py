@@ -155,3 +155,21 @@ def test_a_speed_estimate_without_radius_gets_a_speed_baseline_on_y(drive, tmp_p
     base = json.loads((tmp_path / "m.json").read_text())["baseline"]
     assert ref.unit == base["unit"] == "m/s"
     assert base["rmse"] == pytest.approx(ref.rmse, rel=1e-12) and base["n"] == ref.n
+
+
+def test_a_recording_shorter_than_the_window_is_one_line(drive, tmp_path):
+    # 2.5 s of a moving drive: no 3 s window fits, every baseline value is NaN (the table's
+    # STFT column was nan throughout, the share "nan%")
+    path, rec = drive
+    k = (rec.t >= 10.0) & (rec.t < 12.5)
+    short = tmp_path / "short.csv"
+    io.write(Recording(rec.t[k], {c: rec[c][k] for c in ("ax", "ay", "az", "omega_true")},
+                       wheel_radius=0.08), short)
+    est = _estimate(io.read(short), short, tmp_path / "est.csv",
+                    {"axis": "y", "omega_min": 2.0, "omega_max": 30.0})
+    assert _run("evaluate", est, "--truth", short).exit_code == 0  # scored without it
+    line = _err(_run("evaluate", est, "--truth", short, "--baseline", short, "--json",
+                     tmp_path / "m.json"))
+    assert line == (f"vibrospeed: error: {short}: 2.49 s is shorter than the STFT baseline's "
+                    "3 s window: no baseline to score (leave out --baseline)")
+    assert not (tmp_path / "m.json").exists()

@@ -347,6 +347,10 @@ def _baseline_track(estimate_csv: Path, track, recording: Path, ref):
                              "omega has no speed to compare with it")
     base = stft_track(rec, axis=axis, omega_min=float(lo), omega_max=float(hi), causal=causal,
                       wheel_radius=radius)
+    if not np.isfinite(base.omega).any():  # every value NaN: a column of nan in the table
+        raise ParameterError(f"{recording}: {rec.duration:g} s is shorter than the STFT "
+                             f"baseline's {base.params['win_s']:g} s window: no baseline to "
+                             "score (leave out --baseline)")
     omega = base.omega
     if not np.array_equal(base.t, track.t):  # scored on the estimate's own time stamps
         omega = np.interp(track.t, base.t, base.omega, left=np.nan, right=np.nan)
