@@ -17,7 +17,7 @@ def test_the_limit_is_pi_fs_and_the_message_names_source_rate_range_and_need():
     msg = str(exc.value)
     # 315 / pi = 100.27 Hz needed; pi * 100 = 314.2 rad/s the most this rate carries
     assert msg == ("a.csv: sample rate 100 Hz is too low for omega up to omega_max = 315 rad/s "
-                   "(the fundamental needs fs > 100.3 Hz); lower omega_max below 314.2 rad/s")
+                   "(the fundamental needs fs > 100.3 Hz; lower omega_max below 314.2 rad/s)")
     with pytest.raises(ParameterError, match=r"^sample rate 10 Hz"):  # no source: no prefix
         check_fundamental(10.0, 10.0 * np.pi)  # equal to the limit: refused
 
@@ -33,7 +33,7 @@ def _slow_log() -> Recording:
 def test_grid_and_the_aided_rbpmf_tracker_refuse_alike():
     rec = _slow_log()
     want = ("slow.csv: sample rate 20 Hz is too low for omega up to omega_max = 70 rad/s "
-            "(the fundamental needs fs > 22.28 Hz); lower omega_max below 62.83 rad/s")
+            "(the fundamental needs fs > 22.28 Hz; lower omega_max below 62.83 rad/s)")
     with pytest.raises(ParameterError) as g:
         grid.estimate(rec, params={"omega_max": 70.0})
     with pytest.raises(ParameterError) as a:

@@ -31,4 +31,5 @@ def test_fuses_note_and_the_grid_trackers_error_say_it_alike():
     assert _too_slow(rec, {"omega_max": "50"}) is None  # asked for: the tracker's own error
     with pytest.raises(ParameterError) as exc:
         grid.estimate(rec, params={"omega_max": 120.0})
-    assert str(exc.value) == f"slow.csv: {sentence}); lower omega_max below 52.36 rad/s"
+    # the hint where the note has its own: inside the parenthesis
+    assert str(exc.value) == f"slow.csv: {sentence}; lower omega_max below 52.36 rad/s)"

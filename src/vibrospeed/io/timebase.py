@@ -419,10 +419,10 @@ def check_fundamental(fs: float, omega_max: float, source: str = "") -> None:
     The harmonic trackers may let the higher harmonics alias (the rotation model describes the
     folded lines), but a fundamental above Nyquist is no wheel line at all; :func:`check_nyquist`
     is the stricter check for all M harmonics."""
-    said = fundamental_shortfall(fs, omega_max)
+    said = fundamental_shortfall(fs, omega_max, f"lower omega_max below {np.pi * fs:.4g} rad/s")
     if said is not None:
         where = f"{source}: " if source else ""
-        raise ParameterError(f"{where}{said}; lower omega_max below {np.pi * fs:.4g} rad/s")
+        raise ParameterError(f"{where}{said}")
 
 
 def check_nyquist(fs: float, M: int, omega_max: float, source: str = "") -> None:
