@@ -34,9 +34,9 @@ class State(NamedTuple):
     t_last, om_last, k_last : time, omega and k of the last wheel-frequency update, however
     long ago (NaN: none yet; a claimed line continues it if it was at the previous fusion
     sample, ``t_last == t``, an unclaimed one within ``vib_soft_hold``; module notes, 3).
-    t_dis, s_dis : start, and side times length (+-1 per fix), of the current run of fixes that
-    disagree with the filter's speed beyond the innovation's spread (NaN: none; module
-    notes, 2).
+    t_dis, s_dis : start time and signed fix count (+1 per fix above the filter's speed, -1
+    below) of the current run of fixes that disagree with it, on one side, beyond the
+    innovation's spread (NaN: none; module notes, 2).
     """
 
     x: np.ndarray
