@@ -481,7 +481,6 @@ class CsvTable:
             raise  # pragma: no cover - every cell parsed alone
         out = np.full(len(text), np.nan)
         out[~na] = stamps.as_unit("ns").asi8 * 1e-9
-        said = "dd/mm/yyyy" if self.dayfirst else "mm/dd/yyyy"
         note = (f"column '{name}': {said} dates read as seconds since 1970-01-01 UTC (taken as "
                 "UTC)")
         if note not in self.notes:
