@@ -245,3 +245,22 @@ def test_the_fixed_lag_grid_decides_stops_with_its_own_delay():
         want, ss.standstill(X, 1.0 / rec.fs, (2.0, 90.0)))  # not the whole-log decision
     assert np.all(track.omega[want] == 0.0)
     assert any("causal, 2 s lag detector" in n for n in track.notes)
+
+
+@pytest.mark.parametrize("lag, causal, said", [
+    (float("nan"), True, "lag must be a finite number >= 0 s, got nan"),
+    (-1.0, True, "lag must be a finite number >= 0 s, got -1.0"),
+    (float("inf"), True, "lag must be a finite number >= 0 s, got inf"),
+    (2.0, False, "lag = 2 s is the causal detector's delay"),
+])
+def test_a_lag_outside_its_domain_is_refused(lag, causal, said):
+    # NaN or a negative lag gave the causal detector's stops without a word, a lag given to
+    # the offline detector was ignored
+    from vibrospeed.errors import ParameterError
+
+    x = np.random.default_rng(0).normal(size=2000)
+    with pytest.raises(ParameterError, match=f"^standstill: {said}"):
+        ss.standstill(x, DT, (10.0, 300.0), causal=causal, lag=lag)
+    ends = np.arange(99, 2000, 25)
+    with pytest.raises(ParameterError, match=f"^standstill: {said}"):
+        ss.decide(ends, np.ones(ends.size), None, 2000, DT, causal=causal, lag=lag)

@@ -45,6 +45,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
+from vibrospeed.errors import ParameterError
 from vibrospeed.signal import prefilter as pf
 
 FRAME_S = 1.0
@@ -294,6 +295,17 @@ def _lag_plan(lag: float, dt: float, frame_s: float, hop_s: float, motion: bool)
     return _LagPlan(shift, extra, (within - shift - extra) // _samples(hop_s, dt, 1))
 
 
+def _check_lag(lag: float, causal: bool) -> None:
+    """Refuse a ``lag`` that is not a finite number >= 0 s, or one given to the offline
+    detector (which reads the whole log): NaN or a negative lag was the causal detector's
+    decision without a word, a lag offline was ignored."""
+    if not (lag >= 0 and np.isfinite(lag)):
+        raise ParameterError(f"standstill: lag must be a finite number >= 0 s, got {lag}")
+    if lag > 0 and not causal:
+        raise ParameterError(f"standstill: lag = {lag:g} s is the causal detector's delay; "
+                             "the offline one (causal=False) reads the whole log")
+
+
 def _lag_dwell(flags: np.ndarray, dwell: int, ahead: int) -> np.ndarray:
     """The causal dwell with ``ahead`` frames of look-ahead: frame ``i`` is declared standing
     where it stands and its run of standing ``flags`` up to frame ``i + ahead`` holds more
@@ -382,6 +394,7 @@ def standstill(x: np.ndarray, dt: float, band: tuple[float, float], *, causal: b
     """
     x = np.asarray(x, dtype=np.float64)
     band = _band(band)
+    _check_lag(lag, causal)
     if x.ndim == 2:
         return np.logical_and.reduce([
             _standstill_axis(x[:, j], dt, band, causal=causal, lag=lag, frame_s=frame_s,
@@ -448,6 +461,7 @@ def decide(ends: np.ndarray, level: np.ndarray, motion: np.ndarray | None, n: in
     a run's standing frames up to the rest of the lag after that frame (:func:`_lag_dwell`),
     so a stop is declared from its first standing frame once the lag holds the dwell. Each
     frame's own decision stays the causal one (its floor from the frames before it)."""
+    _check_lag(lag, causal)
     if ends.size == 0:
         return np.zeros(n, bool)
     L = _samples(frame_s, dt, 8)
