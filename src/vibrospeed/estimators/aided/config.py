@@ -42,8 +42,8 @@ def check_inputs(lp_cutoff: float | None, wheelbase: float | None,
     ``wheelbase`` and a NaN or negative ``accel_detrend`` (0: off; inf: the plain running
     mean) were used as given."""
     if lp_cutoff is not None and not lp_cutoff > 0:
-        raise ParameterError(f"lp_cutoff must be > 0 (or none: the pre-filter's own cut-off), "
-                             f"got {lp_cutoff}")
+        raise ParameterError(f"lp_cutoff must be > 0 rad/s (or none: the pre-filter's own "
+                             f"cut-off), got {lp_cutoff}")
     if wheelbase is not None and not 0 < wheelbase < math.inf:
         raise ParameterError(f"wheelbase must be finite and > 0 m (or none), got {wheelbase}")
     if not accel_detrend >= 0:
