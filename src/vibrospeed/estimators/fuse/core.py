@@ -134,6 +134,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                     hu = 0.0
                     for i in range(n):
                         hu += hg[i] * u[i]
+                    # hu: the fix's response to that offset, the receiver's steady-state gain
+                    # (1 for the paper's lag model); a degenerate receiver model reads ~0
                     if hu > 0.1:
                         f = e2 / (hu * hu)
                         for i in range(n):

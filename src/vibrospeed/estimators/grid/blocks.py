@@ -220,8 +220,8 @@ class Blocks:
                         if c != ax and c in rec and np.isfinite(rec.channel(c)).any()]
         # per axis (standing where every axis says so, as ss.standstill of the (n, A) array),
         # each axis in pieces: the same decision, smaller temporaries
-        causal, lag = tr.smooth != "fb", self.params.get("lag", tr.lag) if tr.smooth == "lag" \
-            else 0.0
+        causal = tr.smooth != "fb"
+        lag = self.params.get("lag", tr.lag) if tr.smooth == "lag" else 0.0  # the user's lag
         still = standstill(rec.channel(chans[0]), tr.model.dt, band, causal=causal, lag=lag)
         for c in chans[1:]:
             still &= standstill(rec.channel(c), tr.model.dt, band, causal=causal, lag=lag)
