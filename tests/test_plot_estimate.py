@@ -222,3 +222,18 @@ def test_fuse_figure_draws_speed_over_r_on_the_spectrogram_where_a_line_is_seen(
         assert "estimate (speed / r)" not in [ln.get_label() for ln in fig.axes[0].get_lines()]
     finally:
         plt.close(fig)
+
+
+def test_no_line_seen_anywhere_gives_only_the_dimmed_entry():
+    t = np.arange(0.0, 2.0, 0.01)
+    track = Track.from_omega(t, np.full(t.size, 30.0), lo=np.full(t.size, 10.0),
+                             hi=np.full(t.size, 120.0), method="m",
+                             extras={"has_signal": np.zeros(t.size)})
+    fig, ax = plt.subplots()
+    try:
+        plot.plot_estimate(ax, track, "omega")
+        assert ax.get_legend_handles_labels()[1] == ["98% band", "estimate, no line seen"]
+        (line,) = ax.get_lines()
+        np.testing.assert_array_equal(_per_sample(line, t), track.omega)
+    finally:
+        plt.close(fig)

@@ -342,7 +342,8 @@ def plot_estimate(ax, track: Track, quantity: str = "omega", *,
         seen = np.asarray(track.extras["has_signal"], dtype=np.float64) > 0.5
         if not seen.all():
             draw(~seen, color="tab:blue", lw=0.6, alpha=0.35, label="estimate, no line seen")
-        draw(seen, color="tab:blue", lw=1.0, label=label)
+        if seen.any():  # no line seen anywhere: no empty legend entry
+            draw(seen, color="tab:blue", lw=1.0, label=label)
     else:
         draw(np.ones(t.size, dtype=bool), color="tab:blue", lw=1.0, label=label)
 
