@@ -47,8 +47,10 @@ FINDINGS = [
     ("aided:ekf", "M", "1e12", r"M = 1000000000000 is too large: the aided EKF's covariance "
                                r"\(\(2M \+ 2\)\^2\) would hold 4e\+24 floats"),
     ("aided:ekf", "lp_cutoff", "nan",
-     r"lp_cutoff must be > 0 rad/s \(or none: the pre-filter's own cut-off\), got nan"),
-    ("aided", "lp_cutoff", "0", r"lp_cutoff must be > 0 .*, got 0\.0"),
+     r"lp_cutoff must be finite and > 0 rad/s \(or none: the pre-filter's own cut-off\), "
+     r"got nan"),
+    ("aided", "lp_cutoff", "0", r"lp_cutoff must be finite and > 0 .*, got 0\.0"),
+    ("aided", "lp_cutoff", "inf", r"lp_cutoff must be finite and > 0 .*, got inf"),
     ("aided", "wheelbase", "-1", r"wheelbase must be finite and > 0 m \(or none\), got -1\.0"),
     ("aided", "accel_detrend", "nan", r"accel_detrend must be >= 0 s \(0: off\), got nan"),
     ("grid", "omega0", "-1", r"omega0 must be >= 0 rad/s \(or None\), got -1\.0"),

@@ -38,12 +38,13 @@ def check_inputs(lp_cutoff: float | None, wheelbase: float | None,
                  accel_detrend: float) -> None:
     """:class:`ParameterError` unless the aided trackers' input parameters (read by their
     ``estimate``, not Config fields) are in their domains: NaN ``lp_cutoff`` died in the
-    filter design and 0 was the preset's cut-off without a word; a NaN, negative or zero
+    filter design, inf there too with the EKF and was ignored with the grid, and 0 was the
+    preset's cut-off without a word; a NaN, negative or zero
     ``wheelbase`` and a NaN or negative ``accel_detrend`` (0: off; inf: the plain running
     mean) were used as given."""
-    if lp_cutoff is not None and not lp_cutoff > 0:
-        raise ParameterError(f"lp_cutoff must be > 0 rad/s (or none: the pre-filter's own "
-                             f"cut-off), got {lp_cutoff}")
+    if lp_cutoff is not None and not 0 < lp_cutoff < math.inf:
+        raise ParameterError(f"lp_cutoff must be finite and > 0 rad/s (or none: the "
+                             f"pre-filter's own cut-off), got {lp_cutoff}")
     if wheelbase is not None and not 0 < wheelbase < math.inf:
         raise ParameterError(f"wheelbase must be finite and > 0 m (or none), got {wheelbase}")
     if not accel_detrend >= 0:
