@@ -21,12 +21,12 @@ demo: venv
 	$(BIN)/vibrospeed simulate --scenario cart --seed 1 --set ticks=on -o $(OUT)/cart.csv
 	$(BIN)/vibrospeed truth $(OUT)/cart.csv --from-recording -o $(OUT)/cart_truth.csv
 	$(BIN)/vibrospeed estimate $(OUT)/cart.csv --method aided -p omega_min=2 -p omega_max=30 -o $(OUT)/cart_aided.csv --plot $(OUT)/cart_aided.png
-	$(BIN)/vibrospeed evaluate $(OUT)/cart_aided.csv --truth $(OUT)/cart_truth.csv
+	$(BIN)/vibrospeed evaluate $(OUT)/cart_aided.csv --truth $(OUT)/cart_truth.csv --baseline $(OUT)/cart.csv
 	$(BIN)/vibrospeed estimate $(OUT)/cart.csv --method ekf --init-omega 10 -o $(OUT)/cart_ekf.csv --plot $(OUT)/cart_ekf.png
 	$(BIN)/vibrospeed evaluate $(OUT)/cart_ekf.csv --truth $(OUT)/cart_truth.csv
 	$(BIN)/vibrospeed simulate --scenario car --seed 1 -o $(OUT)/car.csv
 	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method grid -o $(OUT)/car_grid.csv --plot $(OUT)/car_grid.png
-	$(BIN)/vibrospeed evaluate $(OUT)/car_grid.csv --truth $(OUT)/car.csv
+	$(BIN)/vibrospeed evaluate $(OUT)/car_grid.csv --truth $(OUT)/car.csv --baseline $(OUT)/car.csv
 	$(BIN)/vibrospeed report $(OUT)/car.csv --estimate $(OUT)/car_grid.csv -o $(OUT)/car_report.html
 	$(BIN)/vibrospeed estimate $(OUT)/car.csv --method rbpmf -o $(OUT)/car_rbpmf.csv
 	$(BIN)/vibrospeed evaluate $(OUT)/car_rbpmf.csv --truth $(OUT)/car.csv
