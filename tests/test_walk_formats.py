@@ -267,5 +267,5 @@ def test_a_decimal_comma_through_columns_gets_the_hint(tmp_path):
         read_mapped(p, columns="t=t,ax=ax,ay=ay,az=az")
     assert str(err.value) == (f"{p}, line 2, column 't': '0,00' is neither a number nor an "
                               "ISO-8601 time (e.g. 2024-05-01T12:00:00.250Z) (a decimal comma? "
-                              "read the file through a --mapping TOML file with decimal = \",\", "
+                              "give --decimal , or decimal = \",\" in a --mapping TOML file, "
                               "see docs/formats.md)")

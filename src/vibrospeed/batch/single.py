@@ -23,7 +23,8 @@ class EstimateOptions:
 
     ``params`` are the estimator's ``-p NAME=VALUE`` parameters (strings or values);
     ``init_omega``, ``smooth``, ``lag`` and ``fit_params`` are the CLI's shortcuts for some of
-    them; ``fmt``, ``columns``, ``mapping``, ``rate`` and ``sort`` go to :func:`vibrospeed.io.read`.
+    them; ``fmt``, ``columns``, ``mapping``, ``rate``, ``sort`` and ``decimal`` go to
+    :func:`vibrospeed.io.read`.
     """
 
     method: str = "grid"
@@ -40,6 +41,7 @@ class EstimateOptions:
     rate: float | None = None
     sort: bool = False
     topic: str | None = None
+    decimal: str | None = None
 
     def __post_init__(self) -> None:
         # a radius that is not a finite number > 0 m is refused here, before anything is read
@@ -97,9 +99,12 @@ class EstimateOptions:
         if self.fmt != "auto" and self.fmt not in io.FORMATS:
             raise ParameterError(f"unknown format '{self.fmt}' (choose from: auto, "
                                  f"{', '.join(io.FORMATS)})")
+        from vibrospeed.io._csv import check_decimal
+
+        check_decimal(self.decimal)
         given = self.columns is not None or self.mapping is not None or self.rate is not None
         if self.fmt == "mapped" or (self.fmt == "auto" and given):  # io.read: all mapped
-            mapping_options(self.columns, self.mapping, self.rate)
+            mapping_options(self.columns, self.mapping, self.rate, decimal=self.decimal)
             return
         if self.mapping is not None:  # another format's reader refuses them, each recording
             io.load_mapping(self.mapping)
@@ -111,6 +116,8 @@ class EstimateOptions:
         from vibrospeed.io._common import jsonable
 
         d = asdict(self)
+        if d["decimal"] is None:  # not given: the sidecars written before it was an option
+            del d["decimal"]
         d["params"] = canonical_params(self.method, self.params)
         return jsonable(d)
 
@@ -140,15 +147,17 @@ class Estimated:
 
 def load_recording(path: str | os.PathLike[str], fmt: str = "auto", columns: str | None = None,
                    mapping: str | os.PathLike[str] | None = None, rate: float | None = None,
-                   sort: bool = False, uniform: bool = True, topic: str | None = None):
+                   sort: bool = False, uniform: bool = True, topic: str | None = None,
+                   decimal: str | None = None):
     """Read a recording as the CLI does: :func:`vibrospeed.io.read`, then non-uniform time
     stamps resampled to the median rate (:func:`vibrospeed.io.timebase.as_uniform`, unless
-    ``uniform`` is false); ``topic``: a ROS bag's IMU topic."""
+    ``uniform`` is false); ``topic``: a ROS bag's IMU topic; ``decimal``: a CSV's decimal
+    mark."""
     from vibrospeed import io
     from vibrospeed.io import timebase
 
     rec = io.read(path, fmt, columns=columns, mapping_file=mapping, rate=rate, sort=sort,
-                  topic=topic)
+                  topic=topic, decimal=decimal)
     if fmt in ("auto", "csv") and columns is None and mapping is None and rate is None:
         said = io.unread_sidecar_note(path)
         if said:
@@ -217,7 +226,7 @@ def estimate_recording(
     mod = estimators.get(method)
     rec = recording if recording is not None else load_recording(
         input, options.fmt, options.columns, options.mapping, options.rate, options.sort,
-        topic=options.topic)
+        topic=options.topic, decimal=options.decimal)
     extra_kw: dict[str, Any] = {}
     if keep_posterior:  # every method's estimate() takes it (the estimator protocol)
         extra_kw["return_posterior"] = True

@@ -179,7 +179,8 @@ def _work(job: dict[str, Any]) -> dict[str, Any]:
 
             if rec is None:
                 rec = load_recording(job["input"], opts.fmt, opts.columns, opts.mapping,
-                                     opts.rate, opts.sort, topic=opts.topic)
+                                     opts.rate, opts.sort, topic=opts.topic,
+                                     decimal=opts.decimal)
             write_report(report, rec, track, axis=vibration_channel(rec, axis),
                          posterior=grids.get("posterior"), grid=grids.get("grid"),
                          title=Path(job["file"]).name, input_path=job["file"],

@@ -233,10 +233,10 @@ def _check_output(path: Path | None, flag: str = "-o", *, folder: bool = False,
 
 
 def _load(path: Path, fmt: str, columns: str | None, mapping: Path | None, rate: float | None,
-          sort: bool, uniform: bool = True):
+          sort: bool, uniform: bool = True, decimal: str | None = None):
     from vibrospeed.batch import load_recording
 
-    return load_recording(path, fmt, columns, mapping, rate, sort, uniform)
+    return load_recording(path, fmt, columns, mapping, rate, sort, uniform, decimal=decimal)
 
 
 def _params(method: str, preset: str | None, param: list[str] | None) -> dict[str, str]:

@@ -16,6 +16,7 @@ from vibrospeed.cli.base import _check_output, _friendly, _params, _unknown_hint
 from vibrospeed.cli.options import (
     AxisOpt,
     ColumnsOpt,
+    DecimalOpt,
     FormatOpt,
     InputArg,
     MappingOpt,
@@ -33,7 +34,7 @@ from vibrospeed.estimators.params import range_note
 
 
 def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool, plot: bool,
-                    fmt, columns, mapping, rate, sort, topic):
+                    fmt, columns, mapping, rate, sort, topic, decimal=None):
     """``vibrospeed estimate``'s method without ``--method``: ``fuse`` where the recording has GPS
     speed (:func:`vibrospeed.estimators.fuse.suits`; a note says so), else ``grid``. Grid
     options (``grid_only``, a preset fuse lacks) keep ``grid``, and so does a log the grid
@@ -88,7 +89,8 @@ def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool,
     if rows is not None:
         # fuse.suits from the header: a gps_speed channel with no fix at all is refused by the
         # reader, so a named one has a fix once the file reads
-        chans = stream.channel_names(input, fmt, columns=columns, mapping=mapping, rate=rate)
+        chans = stream.channel_names(input, fmt, columns=columns, mapping=mapping, rate=rate,
+                                     decimal=decimal)
         notes = []
         if "gps_speed" in chans and channel not in chans:
             _no_channel(chans)
@@ -100,7 +102,7 @@ def _default_method(input: Path, *, radius_from, preset, param, grid_only: bool,
                          "grid in blocks (bounded memory; fuse holds the whole log in memory): "
                          "-m fuse to fuse it anyway")
         return "grid", None, (rows, notes)
-    rec = load_recording(input, fmt, columns, mapping, rate, sort, topic=topic)
+    rec = load_recording(input, fmt, columns, mapping, rate, sort, topic=topic, decimal=decimal)
     if not fuse.suits(rec, accel):
         if "gps_speed" in rec and np.isfinite(rec.channel("gps_speed")).any():
             _no_channel(rec)  # GPS speed there: the channel is what is missing
@@ -149,6 +151,7 @@ def estimate(
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
     rate: RateOpt = None,
+    decimal: DecimalOpt = None,
     sort: SortOpt = False,
 ) -> None:
     """Estimate omega / speed over a whole recording.
@@ -193,6 +196,10 @@ def estimate(
 
       (range: v / r for the kart's speeds and radius; M = 2: its line has a weak 2nd only)
 
+      vibrospeed estimate logger.csv --columns 't=Zeit:ms,ay=AccY:g' --decimal , -o est.csv
+
+      (a ';'-separated export writing 1,25; a canonical t;ay file takes --decimal , too)
+
       vibrospeed estimate drive.csv -p smooth=none -o est.csv   (causal grid filter, online)
 
       vibrospeed estimate drive.csv --method rbpmf --smooth -p improved=true -o est.csv
@@ -212,7 +219,7 @@ def estimate(
             input, radius_from=radius_from, preset=preset, param=param,
             grid_only=smooth or lag is not None or fit_params or init_omega is not None,
             plot=plot is not None, fmt=fmt, columns=columns, mapping=mapping, rate=rate,
-            sort=sort, topic=topic)
+            sort=sort, topic=topic, decimal=decimal)
     if radius_from is not None:
         if method != "fuse":
             raise ParameterError("--radius-from is for --method fuse (the radius it learned)")
@@ -221,7 +228,7 @@ def estimate(
     opts = EstimateOptions(method=method, params=_params(method, preset, param), axis=axis,
                            wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
                            lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
-                           mapping=mapping, rate=rate, sort=sort, topic=topic)
+                           mapping=mapping, rate=rate, sort=sort, topic=topic, decimal=decimal)
     from vibrospeed.estimators.grid import stream
 
     try:
@@ -239,7 +246,7 @@ def estimate(
                                       meta={"preset": preset}, progress=sys.stderr.isatty(),
                                       rows=streamed[0], notes=streamed[1], columns=columns,
                                       mapping=mapping, rate=rate, plot=plot is not None,
-                                      on_block=summary.add)
+                                      on_block=summary.add, decimal=decimal)
             _drop_stale(plot)
             said = range_note(method, opts.params, st.params, st.wheel_radius)
             for note in st.recording_notes + st.notes + ([said] if said else []):
@@ -247,7 +254,7 @@ def estimate(
             err.print(f"wrote {output} ({st.rows} rows, method {method}, in blocks)",
                       markup=False, soft_wrap=True)  # a path is text, not markup
             chans = stream.channel_names(input, fmt, columns=columns, mapping=mapping,
-                                         rate=rate)
+                                         rate=rate, decimal=decimal)
             # a gps_speed the header names has a fix (the reader refuses one without any)
             unread = method not in READS_GPS and "gps_speed" in chans
             err.print(summary_line(summary.result(), gps_unread=unread), markup=False,
@@ -379,6 +386,7 @@ def batch(
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
     rate: RateOpt = None,
+    decimal: DecimalOpt = None,
     sort: SortOpt = False,
 ) -> None:
     """Estimate many recordings with the same options; write a summary table.
@@ -411,7 +419,7 @@ def batch(
                               wheel_radius=wheel_radius, init_omega=init_omega, smooth=smooth,
                               lag=lag, fit_params=fit_params, fmt=fmt, columns=columns,
                               mapping=str(mapping) if mapping is not None else None, rate=rate,
-                              sort=sort, topic=topic)
+                              sort=sort, topic=topic, decimal=decimal)
     df = vb.run(inputs, output, options=opts, scheduler=scheduler, jobs=jobs, report=report,
                 force=force, progress=True)
     for _, r in df[df["status"] == "error"].iterrows():  # one line each, never wrapped

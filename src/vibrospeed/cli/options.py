@@ -69,6 +69,21 @@ MappingOpt = Annotated[Path | None, typer.Option("--mapping", help="TOML file wi
                        "mapping, units and scales")]
 RateOpt = Annotated[float | None, typer.Option(help="sample rate in Hz for files without a time "
                     "column", callback=at_least("sample rate", "Hz"))]
+def _decimal_mark(param: typer.CallbackParam, value: str | None) -> str | None:
+    """``--decimal``'s callback: ``.`` or ``,``, else one line naming the flag and exit status
+    2 while the command line is parsed (no other mark reads unambiguously)."""
+    if value is not None and value not in (".", ","):
+        print(f"vibrospeed: error: --decimal: the decimal mark must be '.' or ',', got "
+              f"{value!r}", file=sys.stderr)
+        raise typer.Exit(2)
+    return value
+
+
+DecimalOpt = Annotated[str | None, typer.Option(
+    "--decimal", help="decimal mark of a CSV's numbers: '.' (default) or ',' for a ';' or tab "
+    "separated export that writes 1,5 (canonical CSV or --columns / --mapping); never guessed. "
+    "A --mapping file's decimal = \"...\" that says otherwise is refused",
+    callback=_decimal_mark)]
 SortOpt = Annotated[bool, typer.Option("--sort", help="sort by time and drop duplicate time "
                     "stamps instead of refusing time that goes backwards")]
 

@@ -16,6 +16,7 @@ from rich.text import Text
 from vibrospeed.cli.base import _check_output, _friendly, _load, err, out
 from vibrospeed.cli.options import (
     ColumnsOpt,
+    DecimalOpt,
     FormatOpt,
     InputArg,
     MappingOpt,
@@ -148,6 +149,7 @@ def info(
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
     rate: RateOpt = None,
+    decimal: DecimalOpt = None,
     sort: SortOpt = False,
 ) -> None:
     """Describe a recording: format, time line, channels with units and ranges, what the reader
@@ -161,7 +163,7 @@ def info(
     from vibrospeed.estimators import fuse
     from vibrospeed.io.timebase import describe_timebase
 
-    rec = _load(input, fmt, columns, mapping, rate, sort, uniform=False)
+    rec = _load(input, fmt, columns, mapping, rate, sort, uniform=False, decimal=decimal)
     out.print(f"{rec.source or input}: {len(rec)} samples, {rec.duration:.2f} s, "
               f"median rate {rec.fs:.4g} Hz" + (f", wheel radius {rec.wheel_radius} m"
                                                  if rec.wheel_radius else ""),

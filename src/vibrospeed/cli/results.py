@@ -17,6 +17,7 @@ from vibrospeed.cli.base import _check_output, _friendly, _load, _params, err, o
 from vibrospeed.cli.options import (
     AxisOpt,
     ColumnsOpt,
+    DecimalOpt,
     FormatOpt,
     InputArg,
     MappingOpt,
@@ -26,6 +27,7 @@ from vibrospeed.cli.options import (
     RateOpt,
     SortOpt,
     TruthChannelOpt,
+    _decimal_mark,
     at_least,
 )
 from vibrospeed.errors import ParameterError
@@ -52,6 +54,7 @@ def report(
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
     rate: RateOpt = None,
+    decimal: DecimalOpt = None,
     sort: SortOpt = False,
 ) -> None:
     """One self-contained HTML page for a drive: spectrogram with the estimate, band and truth
@@ -86,7 +89,7 @@ def report(
     if ref is not None and truth_channel is not None:
         ref.require(truth_channel)  # before estimating: a typo is an error in a second
     if estimate_csv is not None:
-        rec = _load(input, fmt, columns, mapping, rate, sort)
+        rec = _load(input, fmt, columns, mapping, rate, sort, decimal=decimal)
         track = io.read_track(estimate_csv)
         side = _sidecar(estimate_csv)
         _check_same_input(estimate_csv, side, input)
@@ -95,11 +98,11 @@ def report(
         grids: dict = {}
     else:
         method, read = _report_method(input, method, preset, param, fmt, columns, mapping, rate,
-                                      sort)
+                                      sort, decimal)
         opts = vb.EstimateOptions(method=method, params=_params(method, preset, param),
                                   axis=axis,
                                   wheel_radius=wheel_radius, fmt=fmt, columns=columns,
-                                  mapping=mapping, rate=rate, sort=sort)
+                                  mapping=mapping, rate=rate, sort=sort, decimal=decimal)
         with tempfile.TemporaryDirectory(prefix="vibrospeed-") as d:
             est = vb.estimate_recording(input, Path(d) / "estimate.csv", opts,
                                         keep_posterior=True, progress=sys.stderr.isatty(),
@@ -113,7 +116,7 @@ def report(
 
 
 def _report_method(input: Path, method: str | None, preset, param, fmt, columns, mapping, rate,
-                   sort):
+                   sort, decimal=None):
     """The method ``report`` estimates with: ``method`` where given, else the one ``vibrospeed
     estimate`` would choose (fuse with GPS speed, it says so; else grid), so the page shows
     the estimate the user gets from ``estimate``. Above the streaming threshold ``estimate``
@@ -125,7 +128,8 @@ def _report_method(input: Path, method: str | None, preset, param, fmt, columns,
 
     chosen, rec, streamed = _default_method(
         input, radius_from=None, preset=preset, param=param, grid_only=False, plot=False,
-        fmt=fmt, columns=columns, mapping=mapping, rate=rate, sort=sort, topic=None)
+        fmt=fmt, columns=columns, mapping=mapping, rate=rate, sort=sort, topic=None,
+        decimal=decimal)
     if streamed and streamed[1]:  # GPS speed on a long log: estimate keeps grid there
         err.print(f"note: method {chosen}, as `vibrospeed estimate` for this log: "
                   + "; ".join(streamed[1]), markup=False, soft_wrap=True)
@@ -183,6 +187,10 @@ def evaluate(
         "--baseline", help="the recording the estimate was made from (for a simulated drive "
         "often the --truth file): also score the plain 3 s STFT harmonic sum on it (the "
         "estimate's axis, search range, causality and wheel radius), side by side")] = None,
+    decimal: Annotated[str | None, typer.Option(
+        "--decimal", help="decimal mark of the --baseline recording's numbers: '.' (default) "
+        "or ',' (a ';'-separated export that writes 1,5), as --decimal of `estimate`; a batch "
+        "estimate's sidecar says it", callback=_decimal_mark)] = None,
 ) -> None:
     """Compare an estimate with ground truth: RMSE (thesis eq. 3.18, truth linearly
     interpolated, moving samples only), bias, relative error (median and mean), band coverage,
@@ -225,7 +233,7 @@ def evaluate(
             f"{truth} ({ref.t[0]:g}-{ref.t[-1]:g} s) moves faster than {still}")
     mb = None
     if baseline is not None:  # the plain STFT on the same data, scored by the same call
-        base, notes = _baseline_track(estimate_csv, track, baseline, ref)
+        base, notes = _baseline_track(estimate_csv, track, baseline, ref, decimal)
         for note in notes:
             err.print(f"note: {note}", markup=False, soft_wrap=True)
         mb = ev(base, ref, min_omega=min_omega, warmup=warmup, truth_channel=truth_channel)
@@ -294,7 +302,7 @@ def _metric_rows(m) -> list[tuple[str, str, str]]:
     return rows
 
 
-def _baseline_track(estimate_csv: Path, track, recording: Path, ref):
+def _baseline_track(estimate_csv: Path, track, recording: Path, ref, decimal: str | None = None):
     """The plain 3 s STFT harmonic sum (:func:`vibrospeed.eval.baseline.stft_track`) on
     ``recording``, set up as the estimate ``track`` (read from ``estimate_csv``) was made: its
     axis (``y`` for ``gps-riss`` and ``algebraic``, whose axis is the longitudinal one), its
@@ -302,7 +310,9 @@ def _baseline_track(estimate_csv: Path, track, recording: Path, ref):
     the grid's default range, said in a note), causal where the estimate is (``smooth`` =
     ``none``, ``online`` or ``causal`` true) and its wheel radius, on the estimate's time stamps.
     A speed-only estimate (no radius) gets a speed-only baseline, through the recording's or
-    the truth ``ref``'s radius, so both are scored in m/s. Returns the track and the notes."""
+    the truth ``ref``'s radius, so both are scored in m/s. ``decimal``: ``evaluate
+    --decimal``, refused where the sidecar's options (a batch's) say another. Returns the track
+    and the notes."""
     import numpy as np
 
     from vibrospeed.config import parse_flag
@@ -315,8 +325,12 @@ def _baseline_track(estimate_csv: Path, track, recording: Path, ref):
                       hint="leave out --baseline")
     meta = side.get("meta") if isinstance(side.get("meta"), dict) else {}
     opts = meta.get("options") if isinstance(meta.get("options"), dict) else {}
+    stored = opts.get("decimal")
+    if decimal is not None and stored is not None and decimal != stored:
+        raise ParameterError(f"--decimal '{decimal}' but {estimate_csv}'s sidecar says the "
+                             f"estimate read {recording} with decimal '{stored}': give one")
     rec = _load(recording, opts.get("fmt") or "auto", opts.get("columns"), opts.get("mapping"),
-                opts.get("rate"), bool(opts.get("sort", False)))
+                opts.get("rate"), bool(opts.get("sort", False)), decimal=decimal or stored)
     if rec.t.size == 0 or rec.t[0] > track.t[-1] or rec.t[-1] < track.t[0]:
         span = f"{rec.t[0]:g}-{rec.t[-1]:g} s" if rec.t.size else "no samples"
         raise ParameterError(f"{recording}: its time span ({span}) does not overlap the "
@@ -389,6 +403,7 @@ def plot(
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
     rate: RateOpt = None,
+    decimal: DecimalOpt = None,
     sort: SortOpt = False,
 ) -> None:
     """Spectrogram of a vibration axis with the estimate, its band, harmonics and truth.
@@ -402,7 +417,7 @@ def plot(
     from vibrospeed.eval.plot import plot_track
 
     _check_output(output, figure=True)
-    rec = _load(input, fmt, columns, mapping, rate, sort)
+    rec = _load(input, fmt, columns, mapping, rate, sort, decimal=decimal)
     track = io.read_track(estimate_csv) if estimate_csv else None
     if estimate_csv is not None:
         side = _sidecar(estimate_csv)

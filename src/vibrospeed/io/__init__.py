@@ -168,8 +168,9 @@ def register_format(
 
 def format_takes(name: str, option: str) -> bool:
     """Whether the reader of format ``name`` takes the :func:`read` option ``option``
-    (``columns``, ``mapping_file``, ``rate``, ``sort``, ``topic``): e.g. only the ROS bags take
-    ``topic``. :class:`ReaderError`-free: an unknown or unavailable format takes nothing."""
+    (``columns``, ``mapping_file``, ``rate``, ``sort``, ``topic``, ``decimal``): e.g. only the
+    ROS bags take ``topic``. :class:`ReaderError`-free: an unknown or unavailable format takes
+    nothing."""
     f = _REGISTRY.get(name)
     if f is None or not _available(f):
         return False
@@ -419,6 +420,7 @@ def read(
     resample: bool | float | None = None,
     require: Sequence[str] = (),
     topic: str | None = None,
+    decimal: str | None = None,
 ) -> Recording:
     """Read a recording in any supported format.
 
@@ -437,6 +439,8 @@ def read(
         interpolation, :func:`resample_uniform`); ``None``/``False`` -> keep the file's times
     require : channel names that must be present and not all NaN
     topic : ROS bags: the IMU topic to read (or a comma list of topics), see :mod:`.rosbag`
+    decimal : a CSV's decimal mark, ``"."`` or ``","`` (``1,5`` in a ``;``-separated export;
+        csv and mapped formats); None: ``.`` or the mapping file's. Never guessed
 
     Returns
     -------
@@ -449,7 +453,7 @@ def read(
         raise ReaderError(p, f"unknown format '{name}' (choose from: auto, {', '.join(FORMATS)})")
     reader = _resolve(_REGISTRY[name].reader)
     opts: dict[str, Any] = {"columns": columns, "mapping_file": mapping_file, "rate": rate,
-                            "sort": sort, "topic": topic}
+                            "sort": sort, "topic": topic, "decimal": decimal}
     kwargs = {}
     for k, v in opts.items():
         if format_takes(name, k):

@@ -23,7 +23,7 @@ from typing import TextIO
 
 import numpy as np
 
-from vibrospeed.errors import ReaderError
+from vibrospeed.errors import ParameterError, ReaderError
 
 #: Cells read as NaN besides the empty cell (case-insensitive; "nan"/"inf" are numbers anyway).
 NA_STRINGS = frozenset({"", "na", "n/a", "nan", "null", "none", "-"})
@@ -229,6 +229,11 @@ class CsvTable:
         if first.endswith("\r\n"):
             self.notes.append("CRLF line endings")
         self.delimiter = delimiter or sep or sniff_delimiter(first)
+        if self.decimal == self.delimiter:  # 1,5 would be two fields
+            raise ReaderError(source, f"decimal mark '{decimal}' is also the field separator: "
+                                      f"a number such as 1{decimal}5 would read as two fields "
+                                      "(a decimal comma needs ';' or tab separated fields)",
+                              row=line_no)
         try:
             header = next(csv.reader([first], delimiter=self.delimiter))
         except csv.Error as exc:
@@ -497,8 +502,22 @@ class CsvTable:
             float(cell.strip().replace(",", "."))
         except ValueError:
             return ""
-        return (" (a decimal comma? read the file through a --mapping TOML file with "
-                "decimal = \",\", see docs/formats.md)")
+        return (" (a decimal comma? give --decimal , or decimal = \",\" in a --mapping TOML "
+                "file, see docs/formats.md)")
+
+
+#: the decimal marks a caller may give (``decimal=``, ``--decimal``): no other is unambiguous
+DECIMAL_MARKS = (".", ",")
+
+
+def check_decimal(decimal: str | None, source: str | None = None) -> str | None:
+    """``decimal`` as given (None: not given, the file's reader keeps ``.``); a
+    :class:`ParameterError` naming ``source`` (where given) for a mark that is neither ``.``
+    nor ``,``. Never guessed from the file: ``1,234`` is a thousand or one and a bit."""
+    if decimal is None or decimal in DECIMAL_MARKS:
+        return decimal
+    where = f"{source}: " if source else ""
+    raise ParameterError(f"{where}decimal mark must be '.' or ',', got {decimal!r}")
 
 
 def _is_number(cell: str, decimal: str) -> bool:

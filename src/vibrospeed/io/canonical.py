@@ -29,7 +29,7 @@ import numpy as np
 
 from vibrospeed.errors import InputError, ReaderError
 from vibrospeed.io._common import finish, jsonable
-from vibrospeed.io._csv import CsvTable, _short, nan_notes, open_text
+from vibrospeed.io._csv import CsvTable, _short, check_decimal, nan_notes, open_text
 from vibrospeed.io.atomic import atomic_path, atomic_write_text
 from vibrospeed.types import CHANNEL_UNITS, Recording
 
@@ -231,13 +231,16 @@ def row_units(tab: CsvTable, p: Path) -> dict[str, str]:
     return out
 
 
-def read_csv(path: str | os.PathLike[str], *, sort: bool = False) -> Recording:
+def read_csv(path: str | os.PathLike[str], *, sort: bool = False,
+             decimal: str | None = None) -> Recording:
     """Read a canonical CSV recording (header ``t,<channels>``), its event sidecars and metadata.
 
     Parameters
     ----------
     path : the ``.csv`` file
     sort : sort rows by time and drop repeated timestamps instead of refusing them
+    decimal : the numbers' decimal mark, ``"."`` (None: the default) or ``","`` for a ``;`` or
+        tab separated export that writes ``1,5`` (never guessed)
 
     Raises
     ------
@@ -247,8 +250,9 @@ def read_csv(path: str | os.PathLike[str], *, sort: bool = False) -> Recording:
     p = Path(path)
     from vibrospeed.io.mapped import unit_name
 
+    decimal = check_decimal(decimal, str(p)) or "."
     with open_text(p) as fh:
-        tab = CsvTable(fh, str(p), unit_name=unit_name)
+        tab = CsvTable(fh, str(p), decimal=decimal, unit_name=unit_name)
         if not is_canonical_header(tab.header):
             raise ReaderError(
                 p,

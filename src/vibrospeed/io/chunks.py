@@ -43,7 +43,14 @@ import numpy as np
 
 from vibrospeed.errors import ParameterError, ReaderError
 from vibrospeed.io._common import exc_text
-from vibrospeed.io._csv import CHUNK_ROWS, CsvTable, count_notes, nonfinite_counts, open_text
+from vibrospeed.io._csv import (
+    CHUNK_ROWS,
+    CsvTable,
+    check_decimal,
+    count_notes,
+    nonfinite_counts,
+    open_text,
+)
 from vibrospeed.io.timebase import check_increasing
 from vibrospeed.types import Recording
 
@@ -68,7 +75,8 @@ class Chunk:
 @dataclass
 class ChunkedRecording:
     """A canonical CSV or Parquet recording, or a CSV through a column mapping (``columns``,
-    ``mapping_file``, ``rate`` as for :func:`vibrospeed.io.read`; format ``mapped``), read
+    ``mapping_file``, ``rate`` as for :func:`vibrospeed.io.read`; format ``mapped``; a CSV's
+    ``decimal`` mark as there), read
     ``chunk_rows`` rows at a time.
 
     Iterating yields :class:`Chunk` s (a new pass reads the file again). ``channels`` (names),
@@ -83,6 +91,8 @@ class ChunkedRecording:
     columns: str | None = None
     mapping_file: str | os.PathLike[str] | None = None
     rate: float | None = None
+    #: the numbers' decimal mark (``"."`` or ``","``) of a CSV, as :func:`vibrospeed.io.read`
+    decimal: str | None = None
     channels: list[str] = field(init=False, default_factory=list)
     units: dict[str, str] = field(init=False, default_factory=dict)
     wheel_radius: float | None = field(init=False, default=None)
@@ -106,6 +116,9 @@ class ChunkedRecording:
             k = next(k for k in ("columns", "mapping_file", "rate")
                      if getattr(self, k) is not None)
             raise ParameterError(f"{p}: format '{fmt}' does not take option '{k}'")
+        if self.decimal is not None and fmt == "parquet":
+            raise ParameterError(f"{p}: format 'parquet' does not take option 'decimal'")
+        check_decimal(self.decimal, str(p))
         self.fmt = fmt
         self._side_notes: list[str] = []
         self._tail_notes: list[str] = []
@@ -122,7 +135,7 @@ class ChunkedRecording:
         from vibrospeed.io.mapped import unit_name
 
         with open_text(p) as fh:
-            tab = CsvTable(fh, str(p), unit_name=unit_name)
+            tab = CsvTable(fh, str(p), decimal=self.decimal or ".", unit_name=unit_name)
         if not is_canonical_header(tab.header):
             raise ReaderError(
                 p, "not a canonical recording: the header must start with 't' followed by "
@@ -172,7 +185,7 @@ class ChunkedRecording:
         from vibrospeed.io.parquet import is_parquet, iter_columns
 
         setup = resolve_mapping(p, columns=self.columns, mapping_file=self.mapping_file,
-                                rate=self.rate)
+                                rate=self.rate, decimal=self.decimal)
         self._parquet = is_parquet(p)
         if self._parquet:  # a Parquet table with its own column names, as read_mapped reads it
             spec, self._unit_notes, self._srcs = setup.columns_for(None)
@@ -211,7 +224,7 @@ class ChunkedRecording:
             from vibrospeed.io.mapped import unit_name
 
             with open_text(p) as fh:
-                tab = CsvTable(fh, str(p), unit_name=unit_name)
+                tab = CsvTable(fh, str(p), decimal=self.decimal or ".", unit_name=unit_name)
                 names = ["t", *self.channels]
                 for cols, lines in tab.iter_chunks(names, chunk_rows=self.chunk_rows):
                     t = cols.pop("t")

@@ -8,6 +8,8 @@ On the command line (:func:`parse_mapping`)::
 
     t=time:ms,ay=acc_y:g,gz=yaw*0.01:deg/s      # NAME=COLUMN[*SCALE][:UNIT], comma-separated
 
+with ``--decimal ,`` (``decimal=","``) for numbers written ``1,234``,
+
 or in a small TOML file (:func:`load_mapping`)::
 
     rate = 198.4          # Hz; only for files without a time column: t = i / rate
@@ -42,7 +44,7 @@ import numpy as np
 
 from vibrospeed.errors import ParameterError, ReaderError
 from vibrospeed.io._common import finish
-from vibrospeed.io._csv import CsvTable, nan_notes, open_text
+from vibrospeed.io._csv import CsvTable, check_decimal, nan_notes, open_text
 from vibrospeed.io.parquet import is_parquet, iter_columns
 from vibrospeed.types import CHANNEL_UNITS, Recording
 
@@ -366,11 +368,14 @@ def mapping_options(
     rate: float | None = None,
     *,
     source: str | None = None,
+    decimal: str | None = None,
 ) -> tuple[dict[str, ColumnSpec], dict[str, Any], float | None]:
     """The rules of a mapping that need no data file: ``(spec, options, rate)`` from the TOML
     ``mapping_file``'s columns and options, ``columns`` items over them, ``rate`` over the
-    file's; a :class:`ParameterError` for no mapping, a time column beside a rate, neither, a
-    rate that is not positive, or a unit of another quantity than its channel's. ``source``
+    file's, ``decimal`` (``--decimal``: ``.`` or ``,``) beside the file's; a
+    :class:`ParameterError` for no mapping, a time column beside a rate, neither, a
+    rate that is not positive, a unit of another quantity than its channel's, a ``decimal``
+    that the file gives otherwise, or a decimal mark that is the delimiter too. ``source``
     (the data file) starts each such message; a batch checks its options with none, before
     any recording is read (:meth:`vibrospeed.batch.EstimateOptions.check_reading`)."""
     spec: dict[str, ColumnSpec] = {}
@@ -379,6 +384,16 @@ def mapping_options(
         spec, opts = load_mapping(mapping_file)
     if columns is not None:
         spec.update(parse_mapping(columns) if isinstance(columns, str) else dict(columns))
+    if check_decimal(decimal, source) is not None:
+        said = opts.get("decimal")
+        if said is not None and said != decimal:  # which one is meant cannot be told
+            raise ParameterError(_at(source, f"--decimal '{decimal}' but {mapping_file} says "
+                                             f"decimal = \"{said}\": give one of them"))
+        opts["decimal"] = decimal
+    if opts.get("decimal") is not None and opts.get("decimal") == opts.get("delimiter"):
+        raise ParameterError(_at(source, f"decimal '{opts['decimal']}' and delimiter "
+                                         f"'{opts['delimiter']}' are the same mark: a number "
+                                         f"1{opts['decimal']}5 would read as two fields"))
     if not spec:
         raise ParameterError(_at(source, "a column mapping is needed (e.g. --columns "
                                          "t=time,ay=acc_y)"))
@@ -407,11 +422,13 @@ def resolve_mapping(
     columns: str | dict[str, ColumnSpec] | None = None,
     mapping_file: str | os.PathLike[str] | None = None,
     rate: float | None = None,
+    decimal: str | None = None,
 ) -> MappedSetup:
     """The mapping for ``path`` (:func:`mapping_options`, its messages naming ``path``),
     checked before the file is opened."""
     p = Path(path)
-    return MappedSetup(p, *mapping_options(columns, mapping_file, rate, source=str(p)))
+    return MappedSetup(p, *mapping_options(columns, mapping_file, rate, source=str(p),
+                                           decimal=decimal))
 
 
 def to_si(spec: dict[str, ColumnSpec], raw: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -439,6 +456,7 @@ def read_mapped(
     mapping_file: str | os.PathLike[str] | None = None,
     rate: float | None = None,
     sort: bool = False,
+    decimal: str | None = None,
 ) -> Recording:
     """Read a delimited text file through a column mapping (see module docstring).
 
@@ -448,8 +466,12 @@ def read_mapped(
     mapping_file : TOML mapping file
     rate : Hz; required when no ``t`` column is mapped, then ``t = i / rate`` (i = 0, 1, ...)
     sort : sort by time and drop repeated timestamps instead of refusing them
+    decimal : the numbers' decimal mark, ``"."`` or ``","`` (a ``;``-separated European
+        export); a ``mapping_file`` that gives another is refused. Never guessed: None reads
+        the mapping file's, else ``"."``
     """
-    setup = resolve_mapping(path, columns=columns, mapping_file=mapping_file, rate=rate)
+    setup = resolve_mapping(path, columns=columns, mapping_file=mapping_file, rate=rate,
+                            decimal=decimal)
     p, rate = setup.source, setup.rate
     if is_parquet(p):  # a Parquet table with its own column names
         spec, notes, srcs = setup.columns_for(None)

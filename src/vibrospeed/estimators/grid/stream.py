@@ -101,13 +101,13 @@ def stream_rows(path, *, method: str, params: dict, fmt: str = "auto",
 
 
 def channel_names(path, fmt: str = "auto", *, columns: str | None = None, mapping=None,
-                  rate: float | None = None) -> list[str]:
+                  rate: float | None = None, decimal: str | None = None) -> list[str]:
     """The recording's channels as its header (or mapping) names them, nothing read past the
     header; a channel with no number at all is refused by the reader before any estimate."""
     from vibrospeed.io.chunks import ChunkedRecording
 
     return list(ChunkedRecording(path, fmt=fmt, columns=columns, mapping_file=mapping,
-                                 rate=rate).channels)
+                                 rate=rate, decimal=decimal).channels)
 
 
 @dataclass
@@ -130,7 +130,8 @@ class Streamed:
 def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
                        chunk_rows: int = CHUNK_ROWS, rows: int | None = None,
                        columns: str | None = None, mapping=None, rate: float | None = None,
-                       overlay: Overlay | None = None, progress=None):
+                       overlay: Overlay | None = None, progress=None,
+                       decimal: str | None = None):
     """The recording's time line and accelerometer channels (and ``axis``'s channel), read in
     chunks (``columns``, ``mapping``, ``rate``: through a column mapping); the notes of the
     CLI's whole-file reading (:func:`vibrospeed.batch.load_recording`: time-base notes and an
@@ -145,7 +146,7 @@ def read_accelerometer(path, fmt: str = "auto", *, axis: str | None = None,
     from vibrospeed.types import Recording
 
     src = ChunkedRecording(path, chunk_rows=chunk_rows, fmt=fmt, columns=columns,
-                           mapping_file=mapping, rate=rate)
+                           mapping_file=mapping, rate=rate, decimal=decimal)
     keep = ["t", *[c for c in src.channels
                    if c in _CHANNELS or (axis is not None and c == axis_channel(axis))]]
     # copied chunk by chunk into arrays of the file's length (grown if the count was short):
@@ -263,11 +264,12 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
                   chunk_rows: int = CHUNK_ROWS, rows: int | None = None,
                   columns: str | None = None, mapping=None, rate: float | None = None,
                   notes: list[str] | None = None, plot: bool = False,
-                  on_block=None) -> Streamed:
+                  on_block=None, decimal: str | None = None) -> Streamed:
     """Estimate ``input_path`` with the grid tracker block by block and write ``output`` (CSV)
     and ``output.json`` as ``vibrospeed estimate`` does (module docstring). ``rows``: the
     file's row count from :func:`stream_rows` (not counted again); ``columns``, ``mapping``,
-    ``rate``: a column mapping; ``notes``: notes put before the estimate's (the sidecar's and
+    ``rate``: a column mapping; ``decimal``: a CSV's decimal mark; ``notes``: notes put before
+    the estimate's (the sidecar's and
     the returned ones); ``plot``: also keep a decimated spectrogram with the estimate
     (:class:`StreamPlot`, returned as ``drawing``, for
     :func:`vibrospeed.eval.plot.plot_streamed`); ``on_block``: called with each block's
@@ -292,6 +294,7 @@ def estimate_file(input_path, output, *, params: dict, axis: str | None = None,
     with _Bar(progress, "reading") as reading:
         rec = read_accelerometer(input_path, fmt, axis=axis, chunk_rows=chunk_rows, rows=rows,
                                  columns=columns, mapping=mapping, rate=rate, overlay=overlay,
+                                 decimal=decimal,
                                  progress=reading.update)
     axis, axis_note = only_axis(rec, axis)
     use_axis = axis or "y"
