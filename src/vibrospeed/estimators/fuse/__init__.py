@@ -202,10 +202,13 @@ The fusion filter is a package, one concern per module, each importing only the 
 ============  =============================================================================
 ``config``    ``source`` codes, octave factors, the tracker's settings under fuse, the state
               indices and :class:`Config` (with its system matrix and parameter vector)
+``band``      :func:`learn_acc_psd`, the accelerometer's density from the drive's own fixes,
+              for the speed band (``Config.band_psd``)
 ``core``      the compiled scalar update, per-sample step and loop, the posterior's product
               with the prediction (numba; items 1-5 above)
 ``filter``    ``State``, ``Sample``, ``Output``, ``Result``, ``init``, ``step``, ``run``
-``smoother``  :func:`smooth`, the RTS smoother over a forward run
+``smoother``  :func:`smooth`, the RTS smoother over a forward run (:func:`smooth_band`: the
+              band's covariance through it)
 ``method``    :func:`radius_from_json`, the fusion samples, :func:`estimate`, :func:`suits`
 ============  =============================================================================
 
@@ -213,6 +216,7 @@ The package's namespace is the fusion method, as the one module it was: the name
 re-exported.
 """
 
+from vibrospeed.estimators.fuse.band import learn_acc_psd, learn_acc_psd_causal
 from vibrospeed.estimators.fuse.config import (
     CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
@@ -258,7 +262,7 @@ from vibrospeed.estimators.fuse.method import (
     radius_from_json,
     suits,
 )
-from vibrospeed.estimators.fuse.smoother import _rts, smooth
+from vibrospeed.estimators.fuse.smoother import _rts, smooth, smooth_band
 
 __all__ = [
     "CAUSAL_VIB_AMAX",
@@ -287,9 +291,12 @@ __all__ = [
     "estimate",
     "fusion_samples",
     "init",
+    "learn_acc_psd",
+    "learn_acc_psd_causal",
     "radius_from_json",
     "run",
     "smooth",
+    "smooth_band",
     "step",
     "suits",
     "_SAMPLE",

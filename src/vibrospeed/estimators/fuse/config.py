@@ -187,6 +187,15 @@ class Config(GpsFields):
         its posterior spread and the gate decide: for trackers whose null state dominates on a
         real line; those omegas are not claims, so no line continues one used before without
         the decisive gate, item 3).
+    band_psd : the accelerometer density ((m/s^2)^2 s) the reported speed band assumes:
+        ``"off"`` (the filter's own covariance, ``acc_psd``), a number, or ``"learned"``
+        (:func:`vibrospeed.estimators.fuse.band.learn_acc_psd` from the drive's own fixes; in
+        :func:`estimate` offline the whole drive's, online and in :func:`run` the fixes so
+        far). The band is a second covariance propagated with the filter's gains (Joseph
+        form, the accelerometer's variance ``max(band_psd, acc_psd) / dt``), so the speed
+        stays the filter's to the bit and only ``speed_std`` widens; offline the smoother's
+        gains carry it back (an approximation: the RTS covariance recursion with the filter's
+        own gains).
     nonneg : project negative speeds onto 0 (item 5).
     fuse_rate : Hz of the fusion samples in :func:`estimate` (plus one per GPS fix).
     """
@@ -239,6 +248,7 @@ class Config(GpsFields):
     vib_measure: str = "mode"
     vib_post_width: float = 4.0
     vib_post_min: float = 0.2
+    band_psd: str | float = "off"
     nonneg: bool = True
     fuse_rate: float = 25.0
 
@@ -277,9 +287,24 @@ class Config(GpsFields):
                                  f"got {self.vib_post_width}, {self.vib_post_min}")
         if self.vib_use not in ("line", "all"):
             raise ParameterError(f"fuse: vib_use must be line or all, got '{self.vib_use}'")
+        self.band_density()  # validates band_psd
         if not 0.0 < self.r_gps_sq < 1.0:
             raise ParameterError(f"fuse: r_gps_sq must be in (0, 1) (it bounds the speed's jump "
                                  f"on a GPS fix), got {self.r_gps_sq}")
+
+    def band_density(self) -> str | float:
+        """``band_psd`` read: ``"off"``, ``"learned"`` or the density as a float (> 0)."""
+        b = self.band_psd
+        if isinstance(b, str) and b.strip().lower() in ("off", "learned"):
+            return b.strip().lower()
+        try:
+            q = float(b)
+        except (TypeError, ValueError):
+            q = math.nan
+        if not (q > 0 and math.isfinite(q)) or isinstance(b, bool):
+            raise ParameterError(f"fuse: band_psd must be off, learned or a density > 0 "
+                                 f"((m/s^2)^2 s), got {b!r}")
+        return q
 
     @property
     def n_states(self) -> int:

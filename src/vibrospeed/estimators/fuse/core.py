@@ -19,7 +19,7 @@ from numba import njit
 
 from vibrospeed.estimators.fuse.config import IA, IB, IG, IR, IV
 from vibrospeed.estimators.gps_riss.core import _lag_row
-from vibrospeed.estimators.kalman import dense_predict, quad_form, row_update
+from vibrospeed.estimators.kalman import dense_predict, matvec, quad_form, row_update
 from vibrospeed.models.gps_riss import transition
 
 #: fixes on the same side of the filter's speed, beyond the innovation's spread, before a
@@ -62,8 +62,60 @@ def _post_product(q, grid, m, s, width):
 
 
 @njit(cache=True)
+def _band_update(P, Pb, J, h, r, rb, keep=-1, keep2=-1):
+    """The band's covariance ``Pb`` through the scalar update that :func:`row_update` is about
+    to make with ``P`` (call it first): the filter's gain ``k = P h' / (h P h' + r)`` (its
+    consider states' entries 0) and the measurement's variance ``rb``, Joseph form
+    ``Pb = (I - k h) Pb (I - k h)' + rb k k'`` (symmetrised): the error covariance of an
+    estimate made with another filter's gains (a suboptimal filter's), here the speed band of
+    an accelerometer noisier than the gains assume (``Config.band_psd``). With ``Pb = P`` and
+    ``rb = r`` it is ``row_update``'s own arithmetic. ``J = (I - k h) J``: the sample's error
+    transition through its updates so far (the smoother's band, :func:`smooth_band`)."""
+    n = h.size
+    Ph = np.empty(n)
+    matvec(P, h, Ph)
+    S = r
+    for i in range(n):
+        S += h[i] * Ph[i]
+    k = Ph / S
+    if keep >= 0:
+        k[keep] = 0.0
+    if keep2 >= 0:
+        k[keep2] = 0.0
+    for j in range(n):
+        hJ = 0.0
+        for i in range(n):
+            hJ += h[i] * J[i, j]
+        for i in range(n):
+            J[i, j] -= k[i] * hJ
+    Pbh = np.empty(n)
+    matvec(Pb, h, Pbh)
+    AP = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            AP[i, j] = Pb[i, j] - k[i] * Pbh[j]
+    APh = np.empty(n)
+    matvec(AP, h, APh)
+    for i in range(n):
+        for j in range(i, n):
+            v = (0.5 * (AP[i, j] - APh[i] * k[j] + AP[j, i] - APh[j] * k[i])
+                 + rb * k[i] * k[j])
+            Pb[i, j] = v
+            Pb[j, i] = v
+
+
+@njit(cache=True)
+def _update(x, P, Pb, J, h, z, r, rb, keep=-1, keep2=-1):
+    """:func:`row_update` of the filter, and the band's covariance with the same gain
+    (:func:`_band_update`, measurement variance ``rb``) where it is kept (``Pb`` not empty)."""
+    if Pb.shape[0] > 0:
+        _band_update(P, Pb, J, h, r, rb, keep, keep2)
+    return row_update(x, P, h, z, r, keep, keep2)
+
+
+@njit(cache=True)
 def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still, soft, post,
-               grid, out, xp, Pp):
+               grid, out, xp, Pp, Pb, band, Pbp, J):
     """One fusion sample in place. ``sc = [t_prev, t_gps, t_fix, v_fix, dt of Fc, octave,
     t_run, t_still, t_acq, z_acq, d_run, u_run, d0_run, t_last, om_last, k_last, t_dis,
     s_dis]`` (the
@@ -72,8 +124,13 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
     the tracker's grid posterior of the signal part on ``grid`` (N,) (empty: none; read with
     ``vib_measure="posterior"``);
     ``out`` (7,) receives speed, std, radius, radius std, offset, source, k; ``xp, Pp`` the
-    prediction (for the smoother). Returns dt."""
+    prediction (for the smoother). ``Pb`` (n, n): the band's covariance (0 x 0: none kept),
+    propagated beside ``P`` with the filter's gains and the accelerometer's density ``band``
+    ((m/s^2)^2 s; ``Config.band_psd``), its prediction into ``Pbp``; the std in ``out`` is then
+    the band's; ``J`` receives the product of the sample's ``I - k h`` (its updates' error
+    transition). The filter's ``x`` and ``P`` never read them. Returns dt."""
     n = x.size
+    kb = Pb.shape[0] > 0
     t_prev = sc[0]
     dt = 0.0 if math.isnan(t_prev) else t - t_prev
     sc[0] = t
@@ -83,16 +140,21 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             sc[4] = dt
         qd = qc * dt
         dense_predict(x, P, Fc, qd)
+        if kb:
+            dense_predict(np.zeros(n), Pb, Fc, qd)
     for i in range(n):
         xp[i] = x[i]
         for j in range(n):
             Pp[i, j] = P[i, j]
+            if kb:
+                Pbp[i, j] = Pb[i, j]
+                J[i, j] = 1.0 if i == j else 0.0
     h = np.zeros(n)
     # 1. accelerometer (mean over the interval): a_m = a + b
     if dt > 0.0 and math.isfinite(am):  # NaN or inf: no sample
         h[IA] = 1.0
         h[IB] = 1.0
-        row_update(x, P, h, am, p[0] / dt)
+        _update(x, P, Pb, J, h, am, p[0] / dt, band / dt)
         h[IA] = 0.0
         h[IB] = 0.0
     # 2. GPS, gated by satellites, weighted by the unexplained innovation
@@ -141,6 +203,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                         for i in range(n):
                             for j in range(n):
                                 P[i, j] += f * u[i] * u[j]
+                                if kb:
+                                    Pb[i, j] += f * u[i] * u[j]
                         s0 = quad_form(hg, P) + p[1]
                         e2 = min(max(nu * nu - s0, 0.0), p[3] * p[3])
             else:
@@ -149,7 +213,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             # late fix from another speed history): a sample without one leaves it alone
             # (consider state), else the loose acceleration state lets it drift
             keep = n - 1 if not math.isfinite(am) else -1
-            row_update(x, P, hg, zg, p[1] + p[2] * e2, keep)
+            rg = p[1] + p[2] * e2
+            _update(x, P, Pb, J, hg, zg, rg, rg, keep)
             sc[1] = t
     # 3. wheel frequency, octave chosen by the speed prior
     kk = math.nan
@@ -316,6 +381,9 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                     dpv = max(d * d - P[IV, IV], 0.0) if soft else d * d
                     P[IV, IV] += dpv
                     Pp[IV, IV] += dpv
+                    if kb:
+                        Pb[IV, IV] += dpv
+                        Pbp[IV, IV] += dpv
                     sc[6] = math.nan
                     if not soft:
                         best = 0.0
@@ -333,8 +401,8 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
             # away from GPS the radius and the offset are consider states: a line there
             # carries the speed but teaches neither (a wrong or lagging line accepted in an
             # outage would corrupt the radius and the offset the inertial stretches rest on)
-            row_update(x, P, h, 0.0, ((r_hat * kk) ** 2 * vu + var_lag) * infl,
-                       -1 if fresh else IR, -1 if fresh else IB)
+            rv = ((r_hat * kk) ** 2 * vu + var_lag) * infl
+            _update(x, P, Pb, J, h, 0.0, rv, rv, -1 if fresh else IR, -1 if fresh else IB)
             h[IV] = 0.0
             h[IR] = 0.0
             # the radius follows the octave most updates use (where GPS confirms them), as
@@ -349,6 +417,9 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                     for i in range(n):
                         P[IR, i] *= c
                         P[i, IR] *= c
+                        if kb:
+                            Pb[IR, i] *= c
+                            Pb[i, IR] *= c
                 sc[5] = 0.0
         else:
             kk = math.nan
@@ -366,14 +437,17 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
                 # re-lock: the integrated speed, not the stop, is wrong
                 Pp[IV, IV] += x[IV] * x[IV]  # process noise of this step, for the smoother
                 P[IV, IV] += x[IV] * x[IV]
+                if kb:
+                    Pbp[IV, IV] += x[IV] * x[IV]
+                    Pb[IV, IV] += x[IV] * x[IV]
                 consistent = True
         if gps_ok and consistent:
             sc[7] = math.nan
             h[IV] = 1.0
-            row_update(x, P, h, 0.0, p[9])
+            _update(x, P, Pb, J, h, 0.0, p[9], p[9])
             h[IV] = 0.0
             h[IA] = 1.0
-            row_update(x, P, h, 0.0, p[10])
+            _update(x, P, Pb, J, h, 0.0, p[10], p[10])
             h[IA] = 0.0
             stopped = True
     # 5. speed >= 0: project onto the constraint surface
@@ -391,7 +465,7 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
     else:
         src = 0
     out[0] = x[IV]
-    out[1] = math.sqrt(max(P[IV, IV], 0.0))
+    out[1] = math.sqrt(max(Pb[IV, IV] if kb else P[IV, IV], 0.0))
     out[2] = x[IR]
     out[3] = math.sqrt(max(P[IR, IR], 0.0))
     out[4] = x[IB]
@@ -402,14 +476,22 @@ def _step_core(Ac, qc, p, x, P, sc, Fc, t, am, g, sats, om, om_std, line, still,
 
 @njit(cache=True)
 def _run_core(Ac, qc, p, x, P, sc, t, am, g, sats, om, om_std, line, still, soft, posts, grid,
-              out, xp, Pp, xf, Pf, dts):
+              out, xp, Pp, xf, Pf, dts, Pb, bands, Pbp, Pbf, Js):
+    """:func:`_step_core` over the samples; ``Pb`` (n, n) and ``bands`` (one density per
+    sample) keep the band's covariance (0 x 0 / empty: none), its predictions and posteriors
+    into ``Pbp``, ``Pbf`` and the samples' update transitions into ``Js``."""
     Fc = np.eye(x.size)
     none = np.empty(0)
     have = posts.shape[0] == t.size
+    kb = Pb.shape[0] > 0
+    scratch = np.empty((x.size, x.size))
     for k in range(t.size):
         dts[k] = _step_core(Ac, qc, p, x, P, sc, Fc, t[k], am[k], g[k], sats[k], om[k],
                             om_std[k], line[k], still[k], soft[k], posts[k] if have else none,
-                            grid, out[k], xp[k], Pp[k])
+                            grid, out[k], xp[k], Pp[k], Pb, bands[k] if kb else 0.0,
+                            Pbp[k] if kb else scratch, Js[k] if kb else scratch)
         xf[k, :] = x
         Pf[k, :, :] = P
+        if kb:
+            Pbf[k, :, :] = Pb
 

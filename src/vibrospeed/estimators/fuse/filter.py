@@ -12,6 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vibrospeed.errors import InputError, ParameterError
+from vibrospeed.estimators.fuse.band import learn_acc_psd_causal
 from vibrospeed.estimators.fuse.config import IA, IB, IG, IR, IV, Config
 from vibrospeed.estimators.fuse.core import _run_core, _step_core
 from vibrospeed.models.gps_riss import receiver_matrices
@@ -37,6 +38,8 @@ class State(NamedTuple):
     t_dis, s_dis : start time and signed fix count (+1 per fix above the filter's speed, -1
     below) of the current run of fixes that disagree with it, on one side, beyond the
     innovation's spread (NaN: none; module notes, 2).
+    Pb : (n, n) the speed band's covariance (``Config.band_psd``; None: not kept yet, it
+    starts as ``P``).
     """
 
     x: np.ndarray
@@ -58,6 +61,7 @@ class State(NamedTuple):
     k_last: float = math.nan
     t_dis: float = math.nan
     s_dis: float = math.nan
+    Pb: np.ndarray | None = None
 
 
 class Sample(NamedTuple):
@@ -88,7 +92,10 @@ EXTRAS = ("radius", "radius_std", "offset", "source", "harmonic")
 
 
 class Output(NamedTuple):
-    """:func:`run` output, (n,) arrays; ``xp, Pp, xf, Pf, dt`` kept for :func:`smooth`."""
+    """:func:`run` output, (n,) arrays; ``xp, Pp, xf, Pf, dt`` kept for :func:`smooth`, and
+    ``Pbp, Pbf`` the band's covariances (``Config.band_psd``; None: off) and ``Jb`` each
+    sample's product of its updates' ``I - k h``; ``speed_std`` is the band's where it is
+    kept."""
 
     speed: np.ndarray
     speed_std: np.ndarray
@@ -102,6 +109,9 @@ class Output(NamedTuple):
     xf: np.ndarray
     Pf: np.ndarray
     dt: np.ndarray
+    Pbp: np.ndarray | None = None
+    Pbf: np.ndarray | None = None
+    Jb: np.ndarray | None = None
 
 
 class Result(NamedTuple):
@@ -159,11 +169,31 @@ def _unpack(state: State, n: int):
     return x, P, sc
 
 
-def _pack(x, P, sc) -> State:
+def _pack(x, P, sc, Pb=None) -> State:
     return State(x, P, float(sc[0]), float(sc[1]), float(sc[2]), float(sc[3]), float(sc[5]),
                  float(sc[6]), float(sc[7]), float(sc[8]), float(sc[9]), float(sc[10]),
                  float(sc[11]), float(sc[12]), float(sc[13]), float(sc[14]), float(sc[15]),
-                 float(sc[16]), float(sc[17]))
+                 float(sc[16]), float(sc[17]), None if Pb is None or Pb.size == 0 else Pb)
+
+
+def _band_start(state: State, P: np.ndarray) -> np.ndarray:
+    """The band's covariance to continue from: the state's, or the filter's own at the start."""
+    if state.Pb is None:
+        return P.copy()
+    Pb = np.array(state.Pb, dtype=np.float64)
+    if Pb.shape != P.shape:
+        raise ParameterError(f"fuse: the state's band covariance is {Pb.shape}, its P {P.shape}")
+    return Pb
+
+
+def _density(config: Config, band_psd) -> float:
+    """The band's accelerometer density for one sample: ``max(given or the config's number,
+    acc_psd)``; NaN (not learned yet) and ``"learned"`` without a value are ``acc_psd``."""
+    if band_psd is None:
+        b = config.band_density()
+        band_psd = b if isinstance(b, float) else math.nan
+    q = float(band_psd)
+    return config.acc_psd if math.isnan(q) else max(q, config.acc_psd)
 
 
 _SAMPLE = Sample._fields[:-1]  # the scalar fields; ``posterior`` is a row per sample
@@ -183,13 +213,16 @@ def _grid_array(grid, posterior) -> np.ndarray:
     return g
 
 
-def step(config: Config, state: State, y, grid=None) -> tuple[State, Estimate]:
+def step(config: Config, state: State, y, grid=None,
+         band_psd: float | None = None) -> tuple[State, Estimate]:
     """One fusion sample ``y``, a :class:`Sample` or the tuple ``(t, accel, gps_speed,
     gps_sats, omega, omega_std, line, still[, soft[, posterior]])``; ``posterior`` (N,) is the
     tracker's grid posterior of the signal part (summing to its line probability) on ``grid``
     (N,), read with ``vib_measure="posterior"``; an input given as None is "none" (NaN /
     False), as in :func:`run`. The Estimate holds ``speed``, ``speed_std`` and the
-    :data:`EXTRAS`."""
+    :data:`EXTRAS`. With ``config.band_psd`` not off, ``speed_std`` is the band's (the state
+    carries its covariance); ``band_psd``: the density learned so far for ``"learned"`` (None:
+    ``acc_psd``), or overriding the config's number."""
     t, am, g, sats, om, om_std, line, still, *rest = y
     # None: none / unknown, as run reads a missing input (TypeError from float() before)
     am, g, sats, om, om_std = (math.nan if v is None else v for v in (am, g, sats, om, om_std))
@@ -205,13 +238,16 @@ def step(config: Config, state: State, y, grid=None) -> tuple[State, Estimate]:
     x, P, sc = _unpack(state, Ac.shape[0])
     out = np.empty(7)
     n = x.size
+    kb = config.band_density() != "off" or band_psd is not None
+    Pb = _band_start(state, P) if kb else np.empty((0, 0))
     _step_core(Ac, qc, p, x, P, sc, np.eye(n), t, float(am), float(g), float(sats), float(om),
                float(om_std), bool(line), bool(still), soft, post, gr, out, np.empty(n),
-               np.empty((n, n)))
+               np.empty((n, n)), Pb, _density(config, band_psd) if kb else 0.0,
+               np.empty((n, n)), np.empty((n, n)))
     est = Estimate(speed=float(out[0]), speed_std=float(out[1]),
                    extras=dict(zip(EXTRAS, (float(out[2]), float(out[3]), float(out[4]),
                                             int(out[5]), float(out[6])), strict=True)))
-    return _pack(x, P, sc), est
+    return _pack(x, P, sc, Pb), est
 
 
 def _as_inputs(arrays) -> list[np.ndarray]:
@@ -236,7 +272,7 @@ def _as_inputs(arrays) -> list[np.ndarray]:
     return out
 
 
-def run(config: Config, y, state: State | None = None, grid=None) -> Result:
+def run(config: Config, y, state: State | None = None, grid=None, band_psd=None) -> Result:
     """Forward filter over fusion samples; the numbers of repeated :func:`step`.
 
     ``y``: a :class:`Sample` of (n,) arrays, or a mapping of its names (``t``, ``accel``,
@@ -244,6 +280,10 @@ def run(config: Config, y, state: State | None = None, grid=None) -> Result:
     ``posterior``) to arrays; a missing one is "none" (NaN / False / no posterior).
     ``posterior`` (n, N): the tracker's grid posterior per sample on ``grid`` (N,) (as
     :func:`step`). ``state`` defaults to :func:`init` at the first valid fix (or 0).
+    ``band_psd``: the band's accelerometer density, a number or (n,) per sample (NaN: not
+    known yet); None: the config's ``band_psd`` (``"learned"``: from the fixes so far,
+    :func:`~vibrospeed.estimators.fuse.band.learn_acc_psd_causal`). Each is raised to at least
+    ``acc_psd``.
     """
     ins = _as_inputs(y)
     post = y.posterior if hasattr(y, "_fields") else y.get("posterior")
@@ -266,7 +306,24 @@ def run(config: Config, y, state: State | None = None, grid=None) -> Result:
     xp, Pp = np.empty((n, m)), np.empty((n, m, m))
     xf, Pf = np.empty((n, m)), np.empty((n, m, m))
     dts = np.empty(n)
-    _run_core(Ac, qc, p, x, P, sc, *ins, post, gr, out, xp, Pp, xf, Pf, dts)
+    mode = config.band_density()
+    kb = mode != "off" or band_psd is not None
+    if kb:
+        if band_psd is None and mode == "learned":
+            band_psd = learn_acc_psd_causal(t, ins[1], np.where(config.valid_fixes(g, s), g,
+                                                                np.nan))
+        q = np.broadcast_to(np.asarray(mode if band_psd is None else band_psd,
+                                       dtype=np.float64), (n,))
+        bands = np.where(np.isnan(q), config.acc_psd, np.maximum(q, config.acc_psd))
+        Pb = _band_start(state, P)
+        Pbp, Pbf, Js = np.empty((n, m, m)), np.empty((n, m, m)), np.empty((n, m, m))
+    else:
+        bands, Pb, Pbp, Pbf, Js = np.empty(0), np.empty((0, 0)), np.empty((0, m, m)), None, None
+    none = np.empty((0, m, m))
+    _run_core(Ac, qc, p, x, P, sc, *ins, post, gr, out, xp, Pp, xf, Pf, dts, Pb,
+              np.ascontiguousarray(bands), Pbp, none if Pbf is None else Pbf,
+              none if Js is None else Js)
     o = Output(*(np.ascontiguousarray(out[:, i]) for i in range(5)),
-               out[:, 5].astype(np.int8), np.ascontiguousarray(out[:, 6]), xp, Pp, xf, Pf, dts)
-    return Result(_pack(x, P, sc), o)
+               out[:, 5].astype(np.int8), np.ascontiguousarray(out[:, 6]), xp, Pp, xf, Pf, dts,
+               Pbp if kb else None, Pbf, Js)
+    return Result(_pack(x, P, sc, Pb), o)

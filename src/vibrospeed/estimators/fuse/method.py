@@ -22,6 +22,7 @@ from vibrospeed.estimators.common import (
     gps_no_fix_as_nan,
     signed_axis,
 )
+from vibrospeed.estimators.fuse.band import learn_acc_psd
 from vibrospeed.estimators.fuse.config import (
     CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
@@ -38,7 +39,7 @@ from vibrospeed.estimators.fuse.config import (
     Config,
 )
 from vibrospeed.estimators.fuse.filter import init, run
-from vibrospeed.estimators.fuse.smoother import smooth
+from vibrospeed.estimators.fuse.smoother import smooth, smooth_band
 from vibrospeed.types import Recording, Track, check_wheel_radius
 
 # -- radius round trip ---------------------------------------------------------------------------
@@ -302,13 +303,25 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     v0 = float(g[fin[0]]) if fin.size else 0.0
     cfg = replace(cfg, radius0=r0, radius_std0=rs0)  # the prior the octave changes respect
     state0 = init(cfg, v0, radius=r0, radius_std=rs0)
-    end, o = run(cfg, arrays, state=state0, grid=grid)
+    # the speed band's accelerometer density (Config.band_psd): offline learned from the whole
+    # drive's fixes, online (run's own) from the fixes so far
+    band = None
+    if cfg.band_density() == "learned" and not online:
+        q = learn_acc_psd(arrays["t"], arrays["accel"],
+                          np.where(cfg.valid_fixes(g, s), g, np.nan)[ends])
+        band = math.nan if q is None else q
+        notes.append("speed band: accelerometer density "
+                     + ("not learned (too few GPS fix pairs): acc_psd" if q is None else
+                        f"{q:.3g} (m/s^2)^2 s learned from the GPS fixes")
+                     + f" (the filter's gains use acc_psd {cfg.acc_psd:g})")
+    end, o = run(cfg, arrays, state=state0, grid=grid, band_psd=band)
     r_fin, rs_fin = float(o.radius[-1]), float(o.radius_std[-1])
     if online:
         v, vs, rr, rrs, off = o.speed, o.speed_std, o.radius, o.radius_std, o.offset
     else:
         xs, Ps = smooth(cfg, o)
-        v, vs = xs[:, IV], np.sqrt(np.maximum(Ps[:, IV, IV], 0.0))
+        Pbs = smooth_band(cfg, o)
+        v, vs = xs[:, IV], np.sqrt(np.maximum((Ps if Pbs is None else Pbs)[:, IV, IV], 0.0))
         rr, rrs = xs[:, IR], np.sqrt(np.maximum(Ps[:, IR, IR], 0.0))
         off = xs[:, IB]
     # 3. back to the recording's time line: linear between fusion samples, source per block
