@@ -180,7 +180,9 @@ def columns(config: Config, res: Result, sm, omap: np.ndarray,
         extras["omega_mean"] = o_mean
     for m in range(config.model.M):
         extras[f"amp{m + 1}"] = res.amplitudes[:, m] * rms / config.signal_rms
-    return (omega, std, lo, hi), extras
+    # a copy: the stops zero the Track's omega in place (apply_standstill), and omega is often
+    # the very array of omega_mode or omega_mean, which stay the tracker's there
+    return (np.array(omega, dtype=np.float64), std, lo, hi), extras
 
 
 def _run_chunked(config: Config, y: np.ndarray, return_posterior, progress: bool,

@@ -552,7 +552,7 @@ def soa_to_state(Z, mean, cov):
 
 @njit(cache=True)
 def _step_from(sc, tab, grid, edges, u, lw_in, z_in, mean_in, cov_in, lw0_in, cur_in, y, ex,
-               lw, Z, out, post):
+               lw, Z, out, post, gll):
     """One iteration from a state that is left as it is: (``lw_in``, the means and covariances,
     ``lw0_in``, ``cur_in``) is copied into the next state's storage ``lw`` (N,) and ``Z``
     (L, N) (the loop's layout, :func:`_layout`) and iterated there (:func:`_iterate`, the
@@ -560,8 +560,8 @@ def _step_from(sc, tab, grid, edges, u, lw_in, z_in, mean_in, cov_in, lw0_in, cu
     kernel from ``tab`` (:func:`step_table`) and the arrays). The means and covariances come
     from ``z_in`` (L, N) in the loop's layout when it is sized (a state this function made,
     copied as it is), else from ``mean_in`` (N, 2M) and ``cov_in`` (N, 2M, 2M) (their upper
-    triangles). Writes ``out`` and ``post`` (N,) and returns the next state's
-    ``(log_w_null, mode_j)``."""
+    triangles). Writes ``out``, ``post`` (N,) and ``gll`` (N + 1,) the per-state log-emissions
+    (if sized: :func:`_iterate`) and returns the next state's ``(log_w_null, mode_j)``."""
     N = grid.size
     L = Z.shape[0]
     B = int(sc[2])
@@ -596,8 +596,7 @@ def _step_from(sc, tab, grid, edges, u, lw_in, z_in, mean_in, cov_in, lw0_in, cu
     cur[0] = cur_in
     _iterate(lw, lw0, Z, y, sc[0], tab[:M], tab[M:n], sc[1], tab[n:], B, _layout(n), grid,
              edges, u, sc[3], sc[4], sc[5], sc[6], sc[7], sc[8], sc[9], sc[10], sc[11], sc[12],
-             sc[13], sc[14] != 0.0, sc[15], cur, ex, w, v, X, ph, rows, lamT, out, post,
-             np.empty(0))
+             sc[13], sc[14] != 0.0, sc[15], cur, ex, w, v, X, ph, rows, lamT, out, post, gll)
     return lw0[0], cur[0]
 
 

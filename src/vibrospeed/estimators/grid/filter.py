@@ -367,11 +367,15 @@ _NO_MEAN = np.empty((0, 0))
 _NO_COV = np.empty((0, 0, 0))
 
 
-def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Estimate]:
+def step(config: Config, state: State, y: float, extra=None,
+         emissions: np.ndarray | None = None) -> tuple[State, Estimate]:
     """Process one sample; returns the prior for the next sample and the posterior now.
 
     ``extra`` : optional (N,) or (N + 1,) log-evidence added to the grid points' (and the "no
     line" state's) log-weights with this sample (e.g. :mod:`vibrospeed.estimators.grid`).
+    ``emissions`` : optional (N + 1,) float64 array that receives the sample's per-state
+    log-emissions (a row of :func:`run`'s ``grid_loglik``, before its float32 rounding): what
+    a streaming smoother keeps (:class:`vibrospeed.estimators.online.LaggedTracker`).
 
     ``state`` is left as it is: one compiled call copies it into the next state's storage and
     iterates there, so a state can be stepped again (or kept) safely. The next state keeps the
@@ -383,15 +387,19 @@ def step(config: Config, state: State, y: float, extra=None) -> tuple[State, Est
     out = np.empty(p.n_out)
     post = np.empty(p.N)
     ex = _NO_EXTRA if extra is None else _extra_vec(config, extra)
+    em = _NO_EXTRA if emissions is None else emissions
+    if em.size and (em.dtype != np.float64 or em.shape != (p.N + 1,)):
+        raise ValueError(f"emissions: a float64 array of {p.N + 1} entries, got {em.dtype} "
+                         f"{em.shape}")
     zi = state._z if type(state) is State else None
     if zi is None:  # plain arrays (a state made by init, run or a caller)
         lw0, cur = _step_from(p.sc, p.tab, p.grid, p.edges, p.u, state.log_w, _NO_Z, state.mean,
                               state.cov, float(state.log_w_null), int(state.mode_j), float(y),
-                              ex, lw, z, out, post)
+                              ex, lw, z, out, post, em)
     else:
         lw0, cur = _step_from(p.sc, p.tab, p.grid, p.edges, p.u, state.log_w, zi, _NO_MEAN,
                               _NO_COV, float(state.log_w_null), int(state.mode_j), float(y),
-                              ex, lw, z, out, post)
+                              ex, lw, z, out, post, em)
     p_null = out[cols.COL_P_NULL]
     est = Estimate(out[p.col_omega], out[cols.COL_STD], out[cols.COL_LO], out[cols.COL_HI],
                    np.nan, np.nan, 1.0 if 1.0 - p_null >= p.claim_level else 0.0, np.nan,

@@ -1,0 +1,308 @@
+"""The fixed-lag smoother on a device: raw samples in, each sample's estimate ``lag`` to
+``2 lag`` s later, the numbers of the batch ``estimate(..., params={"smooth": "lag"})``.
+
+A device that may report late (a forklift's positioning that can wait 2 s, a logger that writes
+with a delay) gets the smoothed tracker's accuracy and its stops without the whole log
+(``docs/grid.md``: on the randomised family, lag 2 s finds 55 % of the stop time against the
+causal tracker's 39 %). :class:`LaggedTracker` chains what the batch path does, one sample at a
+time and in bounded memory:
+
+1. the pre-filter, whitener and running-RMS scaling of :class:`~vibrospeed.estimators.online.
+   OnlineTracker` (the same per-sample code as the batch run);
+2. the comb evidence of each frame placed at the frame's middle sample (as the batch smoother
+   places it, :func:`vibrospeed.estimators.grid.frames.evidence` with ``centre``; growing
+   frames at the start, shrinking ones at the end), so the filter runs ``(L - 1) // 2 + 1``
+   samples behind the input (L = the comb frame; the shrinking frames, known only at the
+   end, land up to that far back);
+3. the grid filter's step (:func:`vibrospeed.estimators.grid.filter.step`) with that evidence,
+   its per-state emissions kept for one smoothing block and the next;
+4. the block smoother of :func:`vibrospeed.estimators.grid.smoother.fixed_lag`: blocks of
+   ``lag - W/2`` s, each smoothed once the next block's emissions are in;
+5. the causal standstill detector with the same delay
+   (:class:`vibrospeed.signal.standstill.LagStream`) on the raw accelerometer axes;
+6. the Track's columns for each sample (:func:`vibrospeed.estimators.grid.app.columns`).
+
+A ``lag`` shorter than half a comb frame plus a sample keeps the evidence at the frame's end
+(no delay) and uses blocks of ``lag``, as the batch path does.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+import vibrospeed.estimators.grid.filter as _filt
+import vibrospeed.estimators.grid.smoother as _sm
+from vibrospeed.errors import ParameterError
+from vibrospeed.estimators.grid import summary as cols
+from vibrospeed.estimators.grid.comb import frame_evidence
+from vibrospeed.estimators.online import OnlineTracker
+from vibrospeed.signal import normalize as nz
+from vibrospeed.signal import prefilter as pf
+from vibrospeed.signal import standstill as ss
+from vibrospeed.signal import whiten as wh
+from vibrospeed.types import Estimate
+
+#: the per-sample extras of the batch Track that a lagged estimate carries (where they apply)
+_SCALARS = (("omega_map", cols.COL_MAP), ("p_null", cols.COL_P_NULL),
+            ("p_half", cols.COL_P_HALF), ("p_double", cols.COL_P_DOUBLE),
+            ("p_third", cols.COL_P_THIRD), ("p_triple", cols.COL_P_TRIPLE),
+            ("omega_mode", cols.COL_MODE), ("p_mode", cols.COL_P_MODE),
+            ("omega_mode_std", cols.COL_MODE_STD))
+
+
+class LaggedTracker(OnlineTracker):
+    """Streaming fixed-lag grid tracker: :meth:`update` takes one raw sample (one per comb axis
+    with several ``comb_axes``) and returns the estimates that became final, as ``(k,
+    Estimate)`` pairs (k: the sample's index from 0, oldest first); :meth:`finish` returns the
+    rest at the end of the recording.
+
+    Parameters
+    ----------
+    config : the grid method's Config with ``smooth="lag"`` and its ``lag`` (s), e.g.
+        ``grid.config_for(rec, params={"smooth": "lag", "lag": 2})``; a parameter fit
+        (``fit=...``) needs the whole log and is refused.
+    level, wheel_radius : as :class:`~vibrospeed.estimators.online.OnlineTracker`.
+    standstill : 0: no stops (``standstill`` NaN); k: the causal standstill detector with the
+        same delay on k raw accelerometer axes (the samples given to :meth:`update` and its
+        ``others``); ``estimate()`` reads every accelerometer axis (give all 3 for its
+        numbers).
+
+    Each Estimate has the batch Track's columns at its sample: ``omega`` (the smoothed mode or
+    mean, per ``point``), its std and band, ``has_signal``, ``standstill``, ``speed`` with a
+    radius, and the extras (``p_null``, ``p_half``, ..., ``omega_map``, ``omega_mode``,
+    ``confidence``, ``ambiguous``, ``multimodal``, ``rms``, ``loglik``, ``amp1``...).
+    :attr:`max_delay` (s) is the longest wait between a sample and its estimate.
+
+    Examples
+    --------
+    >>> from vibrospeed import sim
+    >>> from vibrospeed.estimators import grid
+    >>> rec = sim.simulate("cart", seed=1, duration=8)
+    >>> trk = LaggedTracker(grid.config_for(rec, params={"smooth": "lag", "lag": 2.0}))
+    >>> out = [e for a in rec["ay"] for e in trk.update(float(a))] + trk.finish()
+    >>> len(out) == len(rec) and [k for k, _ in out] == list(range(len(rec)))
+    True
+    """
+
+    def __init__(self, config: Any, *, level=None, standstill: int = 0,
+                 wheel_radius: float | None = None) -> None:
+        from vibrospeed.estimators import grid as _grid
+
+        tr = config.tracker
+        if tr.smooth != "lag":
+            raise ParameterError(f"LaggedTracker: the config's smooth must be 'lag', got "
+                                 f"{tr.smooth!r} (smooth='none': OnlineTracker)")
+        if tr.fit_names:
+            raise ParameterError("LaggedTracker: a parameter fit (fit=...) needs the whole log; "
+                                 "fit offline and pass the fitted values")
+        super().__init__(_grid, config, level=level, wheel_radius=wheel_radius)
+        dt = tr.model.dt
+        L = config.frame_len
+        half = 0.5 * L * dt
+        self.centre = tr.lag >= half + dt  # as grid.estimate: the evidence mid-frame
+        block_lag = tr.lag - half if self.centre else tr.lag
+        self.B = max(1, int(round(block_lag / dt)))  # samples per smoothing block
+        # the filter's delay behind the input: a frame's middle, and one more sample for the
+        # shrinking frames that finish() places at the recording's end
+        self.D = (L - 1) // 2 + 1 if self.centre else 0
+        self.N = tr.n_grid
+        self.grid_cfg = tr
+        self.comb_on = config.comb_weight != 0
+        # the input history (the last L samples per axis) for the comb frames
+        self._ys = np.zeros((L, self.n_axes))
+        self._rms = np.full(L, np.nan)
+        self._rms_last = math.nan
+        self._g = 0  # samples in
+        self._t = 0  # samples filtered
+        self._placed = -1  # the last sample given evidence (centred: near-duplicates dropped)
+        self._last_end = -1  # the last full frame's end
+        self._ev: dict[int, np.ndarray] = {}
+        self._fs = self.state[1].grid  # the grid method's init: the filter's prior
+        N1 = self.N + 1
+        self._gll = np.zeros((2 * self.B, N1), dtype=np.float32)
+        self._rows: list[tuple[np.ndarray, float]] = []  # the filter's row and the rms, per sample
+        self._s0 = 0  # first sample of the block being filled
+        lw, self._fwd, self._common = _sm._chain(tr)
+        self._lw = lw.copy()
+        self._alpha = np.empty((self.B, N1), dtype=np.float32)
+        self._scratch = (np.empty(N1), np.empty(N1))
+        self._no_post = np.zeros((0, self.N), dtype=np.float32)
+        self._no_slot = np.zeros(0, np.int64)
+        self._em = np.empty(N1)
+        self._smoothed: list[np.ndarray] = []  # smoothed rows not yet emitted
+        self._emitted = 0
+        self.n_still = int(standstill)
+        self._stops: list[ss.LagStream] = []
+        self._decided: list[list[bool]] = []
+        if self.n_still:
+            if self.n_still < self.n_axes:
+                raise ValueError(f"standstill needs at least the {self.n_axes} comb axis/axes, "
+                                 f"got {standstill} axes")
+            band = (tr.omega_min, min(tr.model.M * tr.omega_max, math.pi / dt))
+            self._stops = [ss.LagStream(dt, band, tr.lag) for _ in range(self.n_still)]
+            self._decided = [[] for _ in range(self.n_still)]
+        self.max_delay = max(2 * self.B - 1 + self.D,
+                             int(np.floor(tr.lag / dt + 1e-9)) if self.n_still else 0) * dt
+
+    # -- the front: pre-filter, whitener, scaling (the batch run's numbers) and the rms -------
+    def _front_rms(self, st: tuple, sample: float) -> tuple[tuple, float, float]:
+        fs, ns, ws = st
+        fs, y = pf.step(self.sos, fs, sample)
+        if self.whiten:
+            ws, y = wh.step(ws, y, self.fs)
+        rms = self.target
+        if self.tau:
+            ns, yn = nz.step(ns, y, self.dt, self.tau)
+            r = abs(y / yn) if (math.isfinite(yn) and yn != 0) else math.nan
+            rms = r if math.isfinite(r) else self._rms_last
+            y = self.target * yn
+        return (fs, ns, ws), (y if math.isfinite(y) else math.nan), rms
+
+    # -- comb evidence at the frames' middles --------------------------------------------------
+    def _frame(self, first: int, last: int) -> np.ndarray:
+        """Samples ``first..last`` (global, within the last L) as (m, A), oldest first."""
+        L = self._ys.shape[0]
+        idx = np.arange(first, last + 1) % L
+        return self._ys[idx]
+
+    def _place(self, p: int, frame: np.ndarray) -> None:
+        if self.centre and p <= self._placed:
+            return  # a growing frame shares the first full frame's middle: the first is kept
+        self._ev[p] = frame_evidence(self.config, frame.T[:, None, :], self.centre)[0]
+        self._placed = p
+
+    def _evidence_at(self, g: int) -> None:
+        """The evidence of the frame (full or growing) that ends at sample ``g``, if any."""
+        cfg = self.config
+        L, H, L0 = cfg.frame_len, cfg.hop_len, cfg.min_frame_len
+        if not self.comb_on:
+            return
+        if g >= L - 1:
+            if (g - (L - 1)) % H == 0:
+                self._last_end = g
+                self._place(g - (L - 1) // 2 if self.centre else g, self._frame(g - L + 1, g))
+        elif g + 1 >= L0 and (g + 1 - L0) % H == 0:
+            self._place(g - g // 2 if self.centre else g, self._frame(0, g))
+
+    # -- filter, smoother, output ----------------------------------------------------------
+    def _filter(self, upto: int) -> None:
+        """Filter the samples up to ``upto`` (exclusive), smoothing each block once the next
+        one is in."""
+        while self._t < upto:
+            t = self._t
+            y = float(self._ys[t % self._ys.shape[0], 0])
+            ex = self._ev.pop(t, None)
+            self._fs, est = _filt.step(self.grid_cfg, self._fs, y, extra=ex, emissions=self._em)
+            self._gll[t - self._s0] = self._em
+            self._rows.append((est.extras._out, float(self._rms[t % self._rms.size])))
+            self._t = t + 1
+            if self._t - self._s0 == 2 * self.B:
+                self._smooth(2 * self.B)
+
+    def _smooth(self, rows: int) -> None:
+        """Smooth the block at the start of the emission buffer (``rows`` of it filled)."""
+        n = min(self.B, rows)
+        a, pr = self._scratch
+        _sm._forward_range(self._gll, 0, n, self._lw, *self._fwd, self._alpha, a, pr)
+        outs = np.zeros((n, _sm.N_OUT_FIXED))
+        _sm._smooth_range(self._alpha, 0, self._gll, rows - 1, 0, n, np.ones(self.N + 1),
+                          *self._common, outs, self._no_post, self._no_slot)
+        self._smoothed.extend(outs)
+        self._gll[: rows - n] = self._gll[n:rows]
+        self._s0 += n
+
+    def _estimate(self, sm: np.ndarray, row: np.ndarray, rms: float, still: bool | None
+                  ) -> Estimate:
+        """One sample's Estimate from its smoothed row, the filter's row and the rms."""
+        tr = self.grid_cfg
+        omega = sm[cols.COL_MODE] if tr.point == "mode" else sm[cols.COL_MEAN]
+        std, lo, hi = sm[cols.COL_STD], sm[cols.COL_LO], sm[cols.COL_HI]
+        ex: dict[str, float] = {name: float(sm[c]) for name, c in _SCALARS}
+        p_null = ex["p_null"]
+        amb = max(ex["p_half"], ex["p_double"], ex["p_third"], ex["p_triple"])
+        ex.update(loglik=float(row[cols.COL_LOGLIK]), confidence=1.0 - p_null,
+                  ambiguous=float(amb >= 0.05), rms=rms,
+                  multimodal=float(ex["p_mode"] < tr.mode_share))
+        if tr.point == "mode":
+            ex["omega_mean"] = float(sm[cols.COL_MEAN])
+        scale = rms / tr.signal_rms
+        for m in range(tr.model.M):
+            ex[f"amp{m + 1}"] = float(row[cols.N_OUT_FIXED + m]) * scale
+        has = float(tr.claims(p_null)) if tr.has_null else math.nan
+        r = self.wheel_radius or math.nan
+        vals = [float(omega), float(std), float(lo), float(hi), float(r * omega), float(r * std)]
+        if self.wheel_radius:
+            ex["speed_lo"], ex["speed_hi"] = float(r * lo), float(r * hi)
+        stand = math.nan
+        if still is not None:
+            stand = float(still)
+            if still:
+                vals = [0.0 if math.isfinite(v) else v for v in vals]
+                for k in ("speed_lo", "speed_hi"):
+                    if k in ex and math.isfinite(ex[k]):
+                        ex[k] = 0.0
+                has = 0.0 if math.isfinite(has) else has
+        return Estimate(*vals, has, stand, ex)
+
+    def _emit(self) -> list[tuple[int, Estimate]]:
+        """The samples whose smoothed row (and stop decision) are both in."""
+        n = len(self._smoothed)
+        if self.n_still:
+            n = min(n, *(len(d) for d in self._decided))
+        out = []
+        for i in range(n):
+            still = all(d[i] for d in self._decided) if self.n_still else None
+            row, rms = self._rows[i]
+            out.append((self._emitted + i, self._estimate(self._smoothed[i], row, rms, still)))
+        del self._smoothed[:n], self._rows[:n]
+        for d in self._decided:
+            del d[:n]
+        self._emitted += n
+        return out
+
+    def update(self, sample, others=()) -> list[tuple[int, Estimate]]:  # type: ignore[override]
+        """One raw sample (one per comb axis, the tracked axis first; NaN = missing) and, with
+        ``standstill`` k, the further raw accelerometer axes in ``others``; returns the
+        ``(k, Estimate)`` of the samples now final, oldest first (often none)."""
+        xs = np.atleast_1d(np.asarray(sample, dtype=np.float64))
+        if xs.size != self.n_axes:
+            raise ValueError(f"expected {self.n_axes} sample(s) per update, got {xs.size}")
+        front = self.state[0]
+        outs = [self._front_rms(st, float(x)) for st, x in zip(front, xs, strict=True)]
+        self.state = (tuple(o[0] for o in outs),) + self.state[1:]
+        g = self._g
+        L = self._ys.shape[0]
+        self._ys[g % L] = [o[1] for o in outs]
+        self._rms_last = outs[0][2]
+        self._rms[g % L] = self._rms_last
+        self._g = g + 1
+        if self.n_still:
+            raw = [*(float(x) for x in xs), *(float(x) for x in np.atleast_1d(others))]
+            if len(raw) != self.n_still:
+                raise ValueError(f"standstill reads {self.n_still} axes: expected "
+                                 f"{self.n_still - self.n_axes} sample(s) in others, got "
+                                 f"{len(raw) - self.n_axes}")
+            for st, d, x in zip(self._stops, self._decided, raw, strict=True):
+                d.extend(st.push(x))
+        self._evidence_at(g)
+        self._filter(max(self._g - self.D, 0))
+        return self._emit()
+
+    def finish(self) -> list[tuple[int, Estimate]]:
+        """The estimates of the samples left at the end of the recording: the last comb frames
+        shrink to its end (as the batch run's), the last blocks are smoothed up to it."""
+        cfg = self.config
+        n = self._g
+        if self.centre and self.comb_on and self._last_end >= 0:
+            L, H, L0 = cfg.frame_len, cfg.hop_len, cfg.min_frame_len
+            for a in range(self._last_end - L + 1 + H, n - L0 + 1, H):
+                self._place(a + (n - a - 1) // 2, self._frame(a, n - 1))
+        self._filter(n)
+        while self._t > self._s0:
+            self._smooth(self._t - self._s0)
+        for st, d in zip(self._stops, self._decided, strict=True):
+            d.extend(st.finish())
+        return self._emit()
