@@ -29,6 +29,7 @@ A ``lag`` shorter than half a comb frame plus a sample keeps the evidence at the
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -51,6 +52,58 @@ _SCALARS = (("omega_map", cols.COL_MAP), ("p_null", cols.COL_P_NULL),
             ("p_third", cols.COL_P_THIRD), ("p_triple", cols.COL_P_TRIPLE),
             ("omega_mode", cols.COL_MODE), ("p_mode", cols.COL_P_MODE),
             ("omega_mode_std", cols.COL_MODE_STD))
+_COLUMN = dict(_SCALARS)
+
+
+class LaggedExtras(Mapping):
+    """The extras of a :class:`LaggedTracker` Estimate, the batch Track's extras at its sample,
+    read from the sample's smoothed and filtered rows when asked for (a device that reads
+    ``omega`` alone builds no dict of ~25 entries per sample)."""
+
+    __slots__ = ("_keys", "_sm", "_row", "_rms", "_r", "_still", "_tr")
+
+    def __init__(self, keys, sm, row, rms, r, still, tr) -> None:
+        self._keys, self._sm, self._row, self._rms = keys, sm, row, rms
+        self._r, self._still, self._tr = r, still, tr
+
+    def __getitem__(self, key: str) -> float:
+        sm, tr = self._sm, self._tr
+        c = _COLUMN.get(key)
+        if c is not None:
+            return float(sm[c])
+        if key not in self._keys:
+            raise KeyError(key)
+        if key == "loglik":
+            return float(self._row[cols.COL_LOGLIK])
+        if key == "confidence":
+            return 1.0 - float(sm[cols.COL_P_NULL])
+        if key == "ambiguous":
+            amb = max(sm[cols.COL_P_HALF], sm[cols.COL_P_DOUBLE], sm[cols.COL_P_THIRD],
+                      sm[cols.COL_P_TRIPLE])
+            return 1.0 if amb >= 0.05 else 0.0
+        if key == "rms":
+            return self._rms
+        if key == "multimodal":
+            return 1.0 if sm[cols.COL_P_MODE] < tr.mode_share else 0.0
+        if key == "omega_mean":
+            return float(sm[cols.COL_MEAN])
+        if key.startswith("amp"):
+            m = int(key[3:]) - 1
+            return float(self._row[cols.N_OUT_FIXED + m]) * (self._rms / tr.signal_rms)
+        v = self._r * float(sm[cols.COL_LO if key == "speed_lo" else cols.COL_HI])
+        return 0.0 if self._still and math.isfinite(v) else v
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._keys)
+
+    def __len__(self) -> int:
+        return len(self._keys)
+
+    def __contains__(self, key) -> bool:
+        return key in self._keys
+
+    def __repr__(self) -> str:
+        return repr(dict(self))
 
 
 class LaggedTracker(OnlineTracker):
@@ -144,6 +197,12 @@ class LaggedTracker(OnlineTracker):
             band = (tr.omega_min, min(tr.model.M * tr.omega_max, math.pi / dt))
             self._stops = [ss.LagStream(dt, band, tr.lag) for _ in range(self.n_still)]
             self._decided = [[] for _ in range(self.n_still)]
+        self._col_omega = cols.COL_MODE if tr.point == "mode" else cols.COL_MEAN
+        self._keys = (tuple(name for name, _ in _SCALARS)
+                      + ("loglik", "confidence", "ambiguous", "rms", "multimodal")
+                      + (("omega_mean",) if tr.point == "mode" else ())
+                      + tuple(f"amp{m + 1}" for m in range(tr.model.M))
+                      + (("speed_lo", "speed_hi") if self.wheel_radius else ()))
         self.max_delay = max(2 * self.B - 1 + self.D,
                              int(np.floor(tr.lag / dt + 1e-9)) if self.n_still else 0) * dt
 
@@ -218,34 +277,20 @@ class LaggedTracker(OnlineTracker):
                   ) -> Estimate:
         """One sample's Estimate from its smoothed row, the filter's row and the rms."""
         tr = self.grid_cfg
-        omega = sm[cols.COL_MODE] if tr.point == "mode" else sm[cols.COL_MEAN]
-        std, lo, hi = sm[cols.COL_STD], sm[cols.COL_LO], sm[cols.COL_HI]
-        ex: dict[str, float] = {name: float(sm[c]) for name, c in _SCALARS}
-        p_null = ex["p_null"]
-        amb = max(ex["p_half"], ex["p_double"], ex["p_third"], ex["p_triple"])
-        ex.update(loglik=float(row[cols.COL_LOGLIK]), confidence=1.0 - p_null,
-                  ambiguous=float(amb >= 0.05), rms=rms,
-                  multimodal=float(ex["p_mode"] < tr.mode_share))
-        if tr.point == "mode":
-            ex["omega_mean"] = float(sm[cols.COL_MEAN])
-        scale = rms / tr.signal_rms
-        for m in range(tr.model.M):
-            ex[f"amp{m + 1}"] = float(row[cols.N_OUT_FIXED + m]) * scale
-        has = float(tr.claims(p_null)) if tr.has_null else math.nan
         r = self.wheel_radius or math.nan
-        vals = [float(omega), float(std), float(lo), float(hi), float(r * omega), float(r * std)]
-        if self.wheel_radius:
-            ex["speed_lo"], ex["speed_hi"] = float(r * lo), float(r * hi)
+        omega = float(sm[self._col_omega])
+        std, lo, hi = float(sm[cols.COL_STD]), float(sm[cols.COL_LO]), float(sm[cols.COL_HI])
+        vals = [omega, std, lo, hi, r * omega, r * std]
+        has = (1.0 if 1.0 - sm[cols.COL_P_NULL] >= tr.claim_level else 0.0) if tr.has_null \
+            else math.nan
         stand = math.nan
         if still is not None:
-            stand = float(still)
+            stand = 1.0 if still else 0.0
             if still:
                 vals = [0.0 if math.isfinite(v) else v for v in vals]
-                for k in ("speed_lo", "speed_hi"):
-                    if k in ex and math.isfinite(ex[k]):
-                        ex[k] = 0.0
                 has = 0.0 if math.isfinite(has) else has
-        return Estimate(*vals, has, stand, ex)
+        return Estimate(*vals, has, stand, LaggedExtras(self._keys, sm, row, rms, r, bool(still),
+                                                        tr))
 
     def _emit(self) -> list[tuple[int, Estimate]]:
         """The samples whose smoothed row (and stop decision) are both in."""
@@ -267,17 +312,24 @@ class LaggedTracker(OnlineTracker):
         """One raw sample (one per comb axis, the tracked axis first; NaN = missing) and, with
         ``standstill`` k, the further raw accelerometer axes in ``others``; returns the
         ``(k, Estimate)`` of the samples now final, oldest first (often none)."""
-        xs = np.atleast_1d(np.asarray(sample, dtype=np.float64))
-        if xs.size != self.n_axes:
-            raise ValueError(f"expected {self.n_axes} sample(s) per update, got {xs.size}")
-        front = self.state[0]
-        outs = [self._front_rms(st, float(x)) for st, x in zip(front, xs, strict=True)]
-        self.state = (tuple(o[0] for o in outs),) + self.state[1:]
         g = self._g
         L = self._ys.shape[0]
-        self._ys[g % L] = [o[1] for o in outs]
-        self._rms_last = outs[0][2]
-        self._rms[g % L] = self._rms_last
+        if self.n_axes == 1 and isinstance(sample, (float, int)):  # one axis: no arrays
+            xs = (float(sample),)
+            st, y, rms = self._front_rms(self.state[0][0], xs[0])
+            self.state = ((st,),) + self.state[1:]
+            self._ys[g % L, 0] = y
+        else:
+            xs = np.atleast_1d(np.asarray(sample, dtype=np.float64))
+            if xs.size != self.n_axes:
+                raise ValueError(f"expected {self.n_axes} sample(s) per update, got {xs.size}")
+            outs = [self._front_rms(st, float(x)) for st, x in zip(self.state[0], xs,
+                                                                    strict=True)]
+            self.state = (tuple(o[0] for o in outs),) + self.state[1:]
+            self._ys[g % L] = [o[1] for o in outs]
+            rms = outs[0][2]
+        self._rms_last = rms
+        self._rms[g % L] = rms
         self._g = g + 1
         if self.n_still:
             raw = [*(float(x) for x in xs), *(float(x) for x in np.atleast_1d(others))]
