@@ -21,6 +21,7 @@ One concern per module, each importing only the ones above it in this list:
 ``method``         the grid method (tracker + comb evidence + standstill): its ``Config``,
                    ``State``, ``init``, ``step``, ``run``, ``estimate``
 ``blocks``         a long log in blocks of bounded memory (the same numbers as one pass)
+``lagged``         the fixed-lag smoother on a device, one raw sample at a time
 ``stream``         blocks streamed from a file as it is read
 =================  =========================================================================
 
@@ -29,6 +30,7 @@ This package's namespace is the grid method (:mod:`~vibrospeed.estimators.grid.m
 """
 
 from vibrospeed.estimators.grid.comb import running_median
+from vibrospeed.estimators.grid.lagged import LaggedTracker
 from vibrospeed.estimators.grid.method import (
     AXES_EXPONENT,
     CLAIM_LEVEL,
@@ -56,6 +58,7 @@ __all__ = [
     "CLAIM_LEVEL",
     "GRID_DEFAULTS",
     "Config",
+    "LaggedTracker",
     "Result",
     "State",
     "comb_channels",

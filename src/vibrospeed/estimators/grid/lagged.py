@@ -142,7 +142,7 @@ class LaggedTracker(OnlineTracker):
 
     def __init__(self, config: Any, *, level=None, standstill: int = 0,
                  wheel_radius: float | None = None) -> None:
-        from vibrospeed.estimators import grid as _grid
+        import vibrospeed.estimators.grid.method as _grid
 
         tr = config.tracker
         if tr.smooth != "lag":
