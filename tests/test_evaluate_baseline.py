@@ -173,3 +173,51 @@ def test_a_recording_shorter_than_the_window_is_one_line(drive, tmp_path):
     assert line == (f"vibrospeed: error: {short}: 2.49 s is shorter than the STFT baseline's "
                     "3 s window: no baseline to score (leave out --baseline)")
     assert not (tmp_path / "m.json").exists()
+
+
+def test_a_lagged_estimate_is_compared_with_the_baseline_of_the_same_delay(drive, tmp_path):
+    """``smooth=lag``: the STFT values from the windows ended ``lag`` s after each sample (a
+    device that reports that late), neither the causal nor the offline ones."""
+    path, rec = drive
+    est = _estimate(rec, path, tmp_path / "est.csv",
+                    {"axis": "y", "omega_min": 2.0, "omega_max": 30.0, "smooth": "lag",
+                     "lag": 0.8})
+    res = _run("evaluate", est, "--truth", path, "--baseline", path, "--json",
+               tmp_path / "m.json")
+    assert res.exit_code == 0, res.output
+    assert "with the estimate's 0.8 s lag" in res.stderr
+    y = pf.apply(pf.design("thesis-hp", rec.fs), np.nan_to_num(rec["ay"]))
+    om = stft_harmonic_sum(y, 1.0 / rec.fs, 2.0, 30.0, causal=True, lag=0.8)
+    want = evaluate(Track.from_omega(rec.t, om, wheel_radius=0.08), rec)
+    base = json.loads((tmp_path / "m.json").read_text())["baseline"]
+    assert base["rmse"] == pytest.approx(want.rmse, rel=1e-12) and base["n"] == want.n
+    causal_om, _ = _independent(rec, 2.0, 30.0, causal=True)
+    assert np.isnan(om).sum() == np.isnan(causal_om).sum() - 80  # 0.8 s earlier
+
+
+def test_the_lagged_baseline_is_the_latest_window_ended_then_or_the_offline_value():
+    """Brute force per sample: the offline value where the windows it interpolates have ended
+    within the lag, else the value of the latest window ended by then."""
+    rng = np.random.default_rng(3)
+    t = np.arange(0, 12, 0.01)
+    ph = np.cumsum(30 + 2.0 * t) * 0.01
+    y = np.sin(ph) + 0.5 * np.sin(2 * ph) + 0.3 * rng.normal(size=t.size)
+    off = stft_harmonic_sum(y, 0.01, 5.0, 60.0)
+    L, hop = 300, 25
+    starts = np.arange(0, t.size - L + 1, hop)
+    vals = {s: stft_harmonic_sum(y[s:s + L], 0.01, 5.0, 60.0)[0] for s in starts}
+    for lag in (0.0, 0.4, 1.5, 1.74, 1.76, 4.0):
+        got = stft_harmonic_sum(y, 0.01, 5.0, 60.0, causal=True, lag=lag)
+        ahead = int(np.floor(lag / 0.01 + 1e-9))
+        for i in range(0, t.size, 7):
+            ended = [s for s in starts if s + L - 1 <= i + ahead]
+            nxt = [s for s in starts if s + L // 2 > i]
+            need = nxt[0] if nxt else starts[-1]
+            if need + L - 1 <= i + ahead:
+                assert got[i] == off[i]
+            elif ended:
+                assert got[i] == vals[ended[-1]]
+            else:
+                assert np.isnan(got[i])
+    with pytest.raises(ValueError, match="lag must be"):
+        stft_harmonic_sum(y, 0.01, 5.0, 60.0, lag=1.0)  # a lag is a causal device's

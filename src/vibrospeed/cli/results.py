@@ -308,7 +308,9 @@ def _baseline_track(estimate_csv: Path, track, recording: Path, ref, decimal: st
     axis (``y`` for ``gps-riss`` and ``algebraic``, whose axis is the longitudinal one), its
     search range (params ``omega_min`` / ``omega_max``; a method without one gets
     the grid's default range, said in a note), causal where the estimate is (``smooth`` =
-    ``none``, ``online`` or ``causal`` true) and its wheel radius, on the estimate's time stamps.
+    ``none``, ``online`` or ``causal`` true), with its delay where it has one (``smooth`` =
+    ``lag``: the windows ended ``lag`` s after each sample) and its wheel radius, on the
+    estimate's time stamps.
     A speed-only estimate (no radius) gets a speed-only baseline, through the recording's or
     the truth ``ref``'s radius, so both are scored in m/s. ``decimal``: ``evaluate
     --decimal``, refused where the sidecar's options (a batch's) say another. Returns the track
@@ -351,7 +353,10 @@ def _baseline_track(estimate_csv: Path, track, recording: Path, ref, decimal: st
         notes.append(f"the estimate ({track.method or 'method unknown'}) has no search range "
                      f"(omega_min, omega_max): the STFT baseline searches the grid's default "
                      f"{lo:g}-{hi:g} rad/s")
-    causal = par.get("smooth") == "none" or any(
+    lag = par.get("lag") if par.get("smooth") == "lag" else None
+    lag = float(lag) if isinstance(lag, (int, float)) and not isinstance(lag, bool) \
+        and np.isfinite(lag) and lag >= 0 else None
+    causal = par.get("smooth") == "none" or lag is not None or any(
         parse_flag(par[k], k) for k in ("online", "causal") if par.get(k) is not None)
     speed_only = not np.isfinite(track.omega).any() and np.isfinite(track.speed).any()
     radius = (rec.wheel_radius or ref.wheel_radius) if speed_only else track.wheel_radius
@@ -360,7 +365,7 @@ def _baseline_track(estimate_csv: Path, track, recording: Path, ref, decimal: st
                              f"neither {recording} nor the truth has one: the STFT baseline's "
                              "omega has no speed to compare with it")
     base = stft_track(rec, axis=axis, omega_min=float(lo), omega_max=float(hi), causal=causal,
-                      wheel_radius=radius)
+                      wheel_radius=radius, lag=lag or 0.0)
     if not np.isfinite(base.omega).any():  # every value NaN: a column of nan in the table
         raise ParameterError(f"{recording}: {rec.duration:g} s is shorter than the STFT "
                              f"baseline's {base.params['win_s']:g} s window: no baseline to "
@@ -378,7 +383,9 @@ def _baseline_track(estimate_csv: Path, track, recording: Path, ref, decimal: st
     notes.insert(0, f"baseline: the plain {base.params['win_s']:g} s STFT harmonic sum "
                     f"(M = {base.params['M']}) on {base.params['axis']} high-passed "
                     f"({base.params['prefilter']}), {lo:g}-{hi:g} rad/s, "
-                    + ("causal (each value from its window's end), as the estimate"
+                    + (f"with the estimate's {lag:g} s lag (each value from the windows "
+                       "ended by then)" if lag else
+                       "causal (each value from its window's end), as the estimate"
                        if causal else "offline (centred windows)"))
     return base, notes
 

@@ -4,7 +4,10 @@ Per Hann window of ``win_s`` s (every ``hop_s`` s, zero-padded to 4x) the estima
 point omega in ``omega_min..omega_max`` that maximises ``sum_m |X(m omega)|``, m = 1..M (linear
 interpolation between FFT bins; harmonics above Nyquist folded to their alias). Offline the
 values refer to the window centres and are interpolated between them; causally
-(``causal=True``, what a device can do) each value holds from its window's end. No pre-filter
+(``causal=True``, what a device can do) each value holds from its window's end, and with a
+``lag`` of S s (a device that reports S s late, as the grid's fixed-lag smoother) each sample
+takes the offline value where the windows it interpolates end within S s of it, else the
+latest window ending by then. No pre-filter
 here: give it the signal the compared tracker sees, or the raw axis high-passed.
 :func:`stft_track` is the benchmarks' form on a recording (its axis high-passed with
 ``thesis-hp``) as a :class:`~vibrospeed.types.Track`, to score as an estimate is scored.
@@ -22,11 +25,13 @@ PREFILTER = "thesis-hp"
 
 def stft_harmonic_sum(y: np.ndarray, dt: float, omega_min: float, omega_max: float, *,
                       n_grid: int = 300, M: int = 3, win_s: float = 3.0, hop_s: float = 0.25,
-                      causal: bool = False) -> np.ndarray:
+                      causal: bool = False, lag: float = 0.0) -> np.ndarray:
     """omega (rad/s) per sample of ``y`` (module docstring); NaN samples count 0, samples
-    before the first causal window are NaN."""
+    before the first causal window (ending within ``lag`` s of them) are NaN."""
     y = np.asarray(y, dtype=np.float64)
     n = y.size
+    if not (np.isfinite(lag) and lag >= 0.0) or (lag > 0 and not causal):
+        raise ValueError(f"lag must be a finite number >= 0 s, with causal=True; got {lag}")
     L = int(round(win_s / dt))
     hop = max(1, int(round(hop_s / dt)))
     if n < L:
@@ -48,21 +53,30 @@ def stft_harmonic_sum(y: np.ndarray, dt: float, omega_min: float, omega_max: flo
         i1 = np.minimum(i0 + 1, f.size - 1)
         score += mag[:, i0] * (1 - fr) + mag[:, i1] * fr
     vals = grid[np.argmax(score, axis=1)]
-    centres = starts + (L - 1 if causal else L // 2)
-    if causal:
-        j = np.searchsorted(centres, np.arange(n), side="right") - 1
-        return np.where(j >= 0, vals[np.maximum(j, 0)], np.nan)
-    return np.interp(np.arange(n), centres, vals)
+    i = np.arange(n)
+    centres = starts + L // 2
+    if not causal:
+        return np.interp(i, centres, vals)
+    ends = starts + L - 1
+    ahead = int(np.floor(lag / dt + 1e-9))  # samples of look-ahead
+    j = np.searchsorted(ends, i + ahead, side="right") - 1  # the latest window ended by then
+    out = np.where(j >= 0, vals[np.maximum(j, 0)], np.nan)
+    if ahead > 0:  # the offline value where its windows (up to the next centre) have ended
+        k1 = np.minimum(np.searchsorted(centres, i, side="right"), centres.size - 1)
+        ok = ends[k1] <= i + ahead
+        out[ok] = np.interp(i[ok], centres, vals)
+    return out
 
 
 def stft_track(recording: Recording, *, axis: str = "y", omega_min: float, omega_max: float,
                causal: bool = False, wheel_radius: float | None = None, n_grid: int = 300,
-               M: int = 3, win_s: float = 3.0, hop_s: float = 0.25) -> Track:
+               M: int = 3, win_s: float = 3.0, hop_s: float = 0.25, lag: float = 0.0) -> Track:
     """The plain baseline of the benchmarks on ``recording`` as a Track (method ``"stft"``):
     the ``axis`` channel (``"y"`` or ``"ay"``, as the estimators take it; a sign is ignored,
     the spectrum's magnitudes do not see it) with NaN as 0, high-passed with
     :data:`PREFILTER`, then :func:`stft_harmonic_sum` over ``omega_min..omega_max`` rad/s
-    (``causal``: each value from its window's end). No band (NaN); speed = ``wheel_radius``
+    (``causal``: each value from its window's end; ``lag``: from the windows ended ``lag`` s
+    after it, as a device that reports that late). No band (NaN); speed = ``wheel_radius``
     times omega where the radius is given. A recording whose time stamps are further than
     :data:`vibrospeed.io.timebase.UNIFORM_ENOUGH` from uniform is resampled first, as the CLI
     reads one for the estimators. Its purpose: every estimate compared with what a plain
@@ -77,10 +91,10 @@ def stft_track(recording: Recording, *, axis: str = "y", omega_min: float, omega
         recording = timebase.resample_uniform(recording)
     y = pf.apply(pf.design(PREFILTER, recording.fs), np.nan_to_num(recording.channel(channel)))
     omega = stft_harmonic_sum(y, recording.dt, omega_min, omega_max, n_grid=n_grid, M=M,
-                              win_s=win_s, hop_s=hop_s, causal=causal)
+                              win_s=win_s, hop_s=hop_s, causal=causal, lag=lag)
     nan = np.full(omega.shape, np.nan)
     params = {"axis": channel, "omega_min": float(omega_min), "omega_max": float(omega_max),
-              "causal": bool(causal), "prefilter": PREFILTER, "n_grid": int(n_grid), "M": int(M),
-              "win_s": float(win_s), "hop_s": float(hop_s)}
+              "causal": bool(causal), "lag": float(lag), "prefilter": PREFILTER,
+              "n_grid": int(n_grid), "M": int(M), "win_s": float(win_s), "hop_s": float(hop_s)}
     return Track.from_omega(recording.t, omega, lo=nan, hi=nan, wheel_radius=wheel_radius,
                             method="stft", params=params)
