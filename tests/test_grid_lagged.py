@@ -2,6 +2,8 @@
 and the lagged standstill stream (:class:`vibrospeed.signal.standstill.LagStream`): sample by
 sample, the numbers of the batch ``estimate(..., smooth="lag")``."""
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -139,3 +141,102 @@ def test_lag_stream_is_the_batch_lagged_detector(lag):
     got += st.finish()
     assert 0.03 < want.mean() < 0.5
     np.testing.assert_array_equal(got, want)
+
+
+def test_a_tracker_pickled_mid_stream_continues_with_the_batch_numbers():
+    """A device that saves the tracker (pickle) and loads it after a restart gets the batch
+    numbers for the rest of the recording: three comb axes, the stop detector, a radius, the
+    mean."""
+    rec = simulate("stop_and_go", seed=3, duration=3.5)
+    params = {"smooth": "lag", "lag": 1.8, "n_grid": 20, "comb_axes": "all", "point": "mean"}
+    track = grid.estimate(rec, params=params, wheel_radius=0.2)
+    cfg = grid.config_for(rec, params=params)
+    dt = cfg.tracker.model.dt
+    trk = LaggedTracker(cfg, level=[start_level(rec[c], dt) for c in cfg.comb_axes],
+                        standstill=3, wheel_radius=0.2)
+    rows = np.column_stack([rec[c] for c in cfg.comb_axes])
+    half = len(rows) // 2
+    out = [e for row in rows[:half] for e in trk.update(row)]
+    trk = pickle.loads(pickle.dumps(trk))
+    out += [e for row in rows[half:] for e in trk.update(row)] + trk.finish()
+    assert (track.extras["standstill"] == 0).all() and np.isfinite(track.speed).all()
+    assert_same(track, out)
+    k, est = pickle.loads(pickle.dumps(out[half]))  # an Estimate with its extras, too
+    assert k == half and est.p_null == track.extras["p_null"][half]
+
+
+def test_numbers_ints_numpy_scalars_and_one_item_lists_are_the_same_sample():
+    """Integer counts (a raw int16 accelerometer) and numpy scalars give the numbers of the
+    same values as floats."""
+    rec = simulate("cart", seed=5, duration=4)
+    counts = np.round(rec["ay"] * 1000).astype(np.int16)
+    cfg = grid.config_for(rec, params={"smooth": "lag", "lag": 1.0, "n_grid": 30})
+
+    def run(samples):
+        trk = LaggedTracker(cfg, level=0)
+        out = [e for x in samples for e in trk.update(x)] + trk.finish()
+        return np.array([(e.omega, e.omega_std, e.extras["p_null"]) for _, e in out])
+
+    want = run([float(c) for c in counts])
+    assert np.isfinite(want).all()
+    for kind in ([int(c) for c in counts], list(counts), [np.float64(c) for c in counts],
+                 [[c] for c in counts], [np.array(c) for c in counts]):
+        np.testing.assert_array_equal(run(kind), want)
+
+
+def test_refused_input_names_the_fault_and_leaves_no_trace():
+    """Bad updates and bad trackers get one line each; the refused updates change nothing (the
+    stream then gives the batch numbers); an update after finish() is refused, a second
+    finish() returns nothing."""
+    from vibrospeed.estimators import ekf
+
+    rec = simulate("cart", seed=6, duration=4)
+    params = {"smooth": "lag", "lag": 1.6, "n_grid": 30}
+    track = grid.estimate(rec, params=params)
+    cfg = grid.config_for(rec, params=params)
+    dt = cfg.tracker.model.dt
+    with pytest.raises(ParameterError, match="grid method's Config.*ekf.Config"):
+        LaggedTracker(ekf.Config())
+    cfg3 = grid.config_for(rec, params={**params, "comb_axes": "all"})
+    with pytest.raises(ParameterError, match="level has 2 values.*3 comb axes"):
+        LaggedTracker(cfg3, level=[0.0, 0.0])
+    with pytest.raises(ValueError, match="expected 3 sample.*shape \\(\\)"):
+        LaggedTracker(cfg3).update(0.1)
+    trk = LaggedTracker(cfg, level=start_level(rec["ay"], dt), standstill=3,
+                        wheel_radius=rec.wheel_radius)
+    out = []
+    for g, (a, x, z) in enumerate(zip(rec["ay"], rec["ax"], rec["az"], strict=True)):
+        if g % 97 == 5:
+            with pytest.raises(ValueError, match="expected 2 sample\\(s\\) in others, got 1"):
+                trk.update(a, (x,))
+            with pytest.raises(ValueError, match="expected 1 sample.*shape \\(2,\\)"):
+                trk.update([a, x], (z,))
+            with pytest.raises(ValueError, match="shape \\(1, 1\\)"):
+                trk.update([[a]], (x, z))
+        out += trk.update(a, (x, z))
+    out += trk.finish()
+    assert_same(track, out)
+    assert trk.finish() == []
+    with pytest.raises(RuntimeError, match="update\\(\\) after finish\\(\\)"):
+        trk.update(0.0, (0.0, 0.0))
+    with pytest.raises(ValueError, match="others given but standstill=0"):
+        LaggedTracker(cfg).update(0.1, (0.2, 0.3))
+
+
+def test_buffers_stay_bounded_on_a_long_stream():
+    """What the tracker holds depends on the lag and the comb frame, not on how long it runs:
+    two smoothing blocks of filter rows, a frame's evidence, stop decisions up to the delay."""
+    rec = simulate("stop_and_go", seed=2, duration=20)
+    cfg = grid.config_for(rec, params={"smooth": "lag", "lag": 1.6, "n_grid": 30})
+    trk = LaggedTracker(cfg, standstill=3)
+    wait = round(trk.max_delay / trk.dt)
+    L, H = cfg.frame_len, cfg.hop_len
+    most = np.zeros(4, int)
+    for a, x, z in zip(rec["ay"], rec["ax"], rec["az"], strict=True):
+        trk.update(a, (x, z))
+        sizes = (len(trk._rows), len(trk._smoothed), len(trk._ev),
+                 max(len(d) for d in trk._decided))
+        most = np.maximum(most, sizes)
+    assert trk._g == len(rec) and wait < 200  # many times the longest wait
+    assert most[0] <= 2 * trk.B and most[1] <= 2 * trk.B
+    assert most[2] <= L // H + 1 and most[3] <= wait + 1

@@ -127,7 +127,8 @@ class LaggedTracker(OnlineTracker):
     mean, per ``point``), its std and band, ``has_signal``, ``standstill``, ``speed`` with a
     radius, and the extras (``p_null``, ``p_half``, ..., ``omega_map``, ``omega_mode``,
     ``confidence``, ``ambiguous``, ``multimodal``, ``rms``, ``loglik``, ``amp1``...).
-    :attr:`max_delay` (s) is the longest wait between a sample and its estimate.
+    :attr:`max_delay` (s) is the longest wait between a sample and its estimate. The
+    tracker pickles: one saved mid-stream and loaded continues with the same numbers.
 
     Examples
     --------
@@ -144,13 +145,21 @@ class LaggedTracker(OnlineTracker):
                  wheel_radius: float | None = None) -> None:
         import vibrospeed.estimators.grid.method as _grid
 
-        tr = config.tracker
+        tr = getattr(config, "tracker", None)
+        if tr is None or not hasattr(config, "comb_weight"):
+            raise ParameterError(f"LaggedTracker: needs the grid method's Config "
+                                 f"(grid.config_for(rec, params={{'smooth': 'lag'}})), got "
+                                 f"{type(config).__module__}.{type(config).__name__}")
         if tr.smooth != "lag":
             raise ParameterError(f"LaggedTracker: the config's smooth must be 'lag', got "
                                  f"{tr.smooth!r} (smooth='none': OnlineTracker)")
         if tr.fit_names:
             raise ParameterError("LaggedTracker: a parameter fit (fit=...) needs the whole log; "
                                  "fit offline and pass the fitted values")
+        n_axes = int(getattr(config, "n_axes", 1))
+        if level is not None and np.size(level) not in (1, n_axes):
+            raise ParameterError(f"LaggedTracker: level has {np.size(level)} values, the config "
+                                 f"{n_axes} comb axes {tuple(config.comb_axes)}: one per axis")
         super().__init__(_grid, config, level=level, wheel_radius=wheel_radius)
         dt = tr.model.dt
         L = config.frame_len
@@ -187,6 +196,7 @@ class LaggedTracker(OnlineTracker):
         self._em = np.empty(N1)
         self._smoothed: list[np.ndarray] = []  # smoothed rows not yet emitted
         self._emitted = 0
+        self._done = False  # finish() was called: the recording has ended
         self.n_still = int(standstill)
         self._stops: list[ss.LagStream] = []
         self._decided: list[list[bool]] = []
@@ -205,6 +215,16 @@ class LaggedTracker(OnlineTracker):
                       + (("speed_lo", "speed_hi") if self.wheel_radius else ()))
         self.max_delay = max(2 * self.B - 1 + self.D,
                              int(np.floor(tr.lag / dt + 1e-9)) if self.n_still else 0) * dt
+
+    def __getstate__(self) -> dict:
+        """Everything but the grid method's module (a module cannot be pickled): a tracker
+        saved mid-stream and loaded continues with the same numbers."""
+        return {**self.__dict__, "estimator": None}
+
+    def __setstate__(self, state: dict) -> None:
+        import vibrospeed.estimators.grid.method as _grid
+
+        self.__dict__.update(state, estimator=_grid)
 
     # -- the front: pre-filter, whitener, scaling (the batch run's numbers) and the rms -------
     def _front_rms(self, st: tuple, sample: float) -> tuple[tuple, float, float]:
@@ -311,18 +331,37 @@ class LaggedTracker(OnlineTracker):
     def update(self, sample, others=()) -> list[tuple[int, Estimate]]:  # type: ignore[override]
         """One raw sample (one per comb axis, the tracked axis first; NaN = missing) and, with
         ``standstill`` k, the further raw accelerometer axes in ``others``; returns the
-        ``(k, Estimate)`` of the samples now final, oldest first (often none)."""
+        ``(k, Estimate)`` of the samples now final, oldest first (often none). A sample of
+        the wrong shape or ``others`` of the wrong count is refused before anything changes;
+        an update after :meth:`finish` raises (the comb frames shrank to the old end)."""
+        if self._done:
+            raise RuntimeError("LaggedTracker: update() after finish(): the recording has "
+                               "ended; start a new tracker for the next one")
         g = self._g
         L = self._ys.shape[0]
-        if self.n_axes == 1 and isinstance(sample, (float, int)):  # one axis: no arrays
+        one = self.n_axes == 1 and isinstance(sample, (float, int))  # one axis: no arrays
+        if one:
             xs = (float(sample),)
+        else:
+            xs = np.asarray(sample, dtype=np.float64)
+            if xs.ndim > 1 or xs.size != self.n_axes:
+                raise ValueError(f"LaggedTracker: expected {self.n_axes} sample(s) per update "
+                                 f"(one per comb axis), got shape {xs.shape}")
+            xs = np.atleast_1d(xs)
+        if self.n_still:  # checked before anything changes: a refused update leaves no trace
+            raw = [*(float(x) for x in xs), *(float(x) for x in np.atleast_1d(others))]
+            if len(raw) != self.n_still:
+                raise ValueError(f"LaggedTracker: standstill reads {self.n_still} axes: expected "
+                                 f"{self.n_still - self.n_axes} sample(s) in others, got "
+                                 f"{len(raw) - self.n_axes}")
+        elif len(others) if isinstance(others, (tuple, list)) else np.size(others):
+            raise ValueError("LaggedTracker: others given but standstill=0 (no detector reads "
+                             "them): make the tracker with standstill=k for k axes")
+        if one:
             st, y, rms = self._front_rms(self.state[0][0], xs[0])
             self.state = ((st,),) + self.state[1:]
             self._ys[g % L, 0] = y
         else:
-            xs = np.atleast_1d(np.asarray(sample, dtype=np.float64))
-            if xs.size != self.n_axes:
-                raise ValueError(f"expected {self.n_axes} sample(s) per update, got {xs.size}")
             outs = [self._front_rms(st, float(x)) for st, x in zip(self.state[0], xs,
                                                                     strict=True)]
             self.state = (tuple(o[0] for o in outs),) + self.state[1:]
@@ -332,11 +371,6 @@ class LaggedTracker(OnlineTracker):
         self._rms[g % L] = rms
         self._g = g + 1
         if self.n_still:
-            raw = [*(float(x) for x in xs), *(float(x) for x in np.atleast_1d(others))]
-            if len(raw) != self.n_still:
-                raise ValueError(f"standstill reads {self.n_still} axes: expected "
-                                 f"{self.n_still - self.n_axes} sample(s) in others, got "
-                                 f"{len(raw) - self.n_axes}")
             for st, d, x in zip(self._stops, self._decided, raw, strict=True):
                 d.extend(st.push(x))
         self._evidence_at(g)
@@ -345,7 +379,11 @@ class LaggedTracker(OnlineTracker):
 
     def finish(self) -> list[tuple[int, Estimate]]:
         """The estimates of the samples left at the end of the recording: the last comb frames
-        shrink to its end (as the batch run's), the last blocks are smoothed up to it."""
+        shrink to its end (as the batch run's), the last blocks are smoothed up to it. A
+        second call returns [] (nothing is left)."""
+        if self._done:
+            return []  # all given out by the first finish()
+        self._done = True
         cfg = self.config
         n = self._g
         if self.centre and self.comb_on and self._last_end >= 0:
