@@ -29,10 +29,9 @@ def car():
 def test_speed_bitwise_unchanged_band_wider(car, online):
     rec, off, on = car
     vib = on if online else off
-    base = fuse.estimate(rec, vibration=vib, params={"online": online})
+    base = fuse.estimate(rec, vibration=vib, params={"online": online, "band_psd": "off"})
     wide = fuse.estimate(rec, vibration=vib, params={"online": online, "band_psd": 2.0})
-    learned = fuse.estimate(rec, vibration=vib, params={"online": online,
-                                                         "band_psd": "learned"})
+    learned = fuse.estimate(rec, vibration=vib, params={"online": online})  # the default
     same = fuse.estimate(rec, vibration=vib, params={"online": online,
                                                       "band_psd": fuse.Config().acc_psd})
     for tr in (wide, learned, same):
@@ -50,7 +49,7 @@ def _linear_case(band):
     """A linear run: accelerometer at 10 Hz, GPS fixes every 0.5 s, none from 1.2 s to 2.4 s;
     the GPS error not clipped into the variance (``e_max=0``) and no extra lag (its variance
     0), so the gains do not depend on the data."""
-    cfg = fuse.Config(e_max=0.0, gps_lag_std=0.0, q_gps_lag=0.0)
+    cfg = fuse.Config(e_max=0.0, gps_lag_std=0.0, q_gps_lag=0.0, band_psd="off")
     t = np.round(np.arange(0.0, 3.0, 0.1), 10)
     fix = (np.abs(t / 0.5 - np.round(t / 0.5)) < 1e-9) & ~((t > 1.1) & (t < 2.5))
     fix[0] = False
@@ -122,6 +121,7 @@ def test_band_covariance_is_the_error_covariance_of_the_filters_gains():
     np.testing.assert_allclose(np.sqrt(Pbs[1:, iv, iv]), np.sqrt(ref_s[1:, iv, iv]), rtol=1e-5)
     np.testing.assert_allclose(Pbs[1:, :5, :5], ref_s[1:, :5, :5], rtol=1e-4, atol=1e-9)
     assert fuse.smooth_band(cfg, fuse.run(cfg, {"t": t}, state=st)[1]) is None
+    assert fuse.Config().band_psd == "learned"
 
 
 def test_step_carries_the_band_as_run():

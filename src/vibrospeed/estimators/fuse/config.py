@@ -248,7 +248,7 @@ class Config(GpsFields):
     vib_measure: str = "mode"
     vib_post_width: float = 4.0
     vib_post_min: float = 0.2
-    band_psd: str | float = "off"
+    band_psd: str | float = "learned"
     nonneg: bool = True
     fuse_rate: float = 25.0
 

@@ -22,7 +22,7 @@ from vibrospeed.estimators.common import (
     gps_no_fix_as_nan,
     signed_axis,
 )
-from vibrospeed.estimators.fuse.band import learn_acc_psd
+from vibrospeed.estimators.fuse.band import learn_acc_psd, learn_acc_psd_causal
 from vibrospeed.estimators.fuse.config import (
     CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
@@ -305,15 +305,20 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     state0 = init(cfg, v0, radius=r0, radius_std=rs0)
     # the speed band's accelerometer density (Config.band_psd): offline learned from the whole
     # drive's fixes, online (run's own) from the fixes so far
-    band = None
-    if cfg.band_density() == "learned" and not online:
-        q = learn_acc_psd(arrays["t"], arrays["accel"],
-                          np.where(cfg.valid_fixes(g, s), g, np.nan)[ends])
-        band = math.nan if q is None else q
+    band = q = None
+    if cfg.band_density() == "learned":
+        gv = np.where(cfg.valid_fixes(g, s), g, np.nan)[ends]
+        if online:
+            band = learn_acc_psd_causal(arrays["t"], arrays["accel"], gv)
+            q = float(band[-1]) if band.size and np.isfinite(band[-1]) else None
+        else:
+            q = learn_acc_psd(arrays["t"], arrays["accel"], gv)
+            band = math.nan if q is None else q
         notes.append("speed band: accelerometer density "
                      + ("not learned (too few GPS fix pairs): acc_psd" if q is None else
-                        f"{q:.3g} (m/s^2)^2 s learned from the GPS fixes")
-                     + f" (the filter's gains use acc_psd {cfg.acc_psd:g})")
+                        f"{q:.3g} (m/s^2)^2 s learned from the GPS fixes"
+                        + (" (at the end; the fixes so far before)" if online else ""))
+                     + f"; the filter's gains use acc_psd {cfg.acc_psd:g} (-p band_psd)")
     end, o = run(cfg, arrays, state=state0, grid=grid, band_psd=band)
     r_fin, rs_fin = float(o.radius[-1]), float(o.radius_std[-1])
     if online:
@@ -357,6 +362,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
                   "learned_radius": r_fin, "learned_radius_std": rs_fin,
                   "learned_gps_lag": cfg.lag.lag + float(end.x[-1]),
                   "learned_gps_lag_std": math.sqrt(max(float(end.P[-1, -1]), 0.0)),
+                  "learned_band_psd": q,
                   "radius_prior": [r0, rs0], "tracker": vib.method, **{
                       f"tracker_{k}": v for k, v in rest.items()}})
     extras = {
