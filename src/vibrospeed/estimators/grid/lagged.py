@@ -128,7 +128,9 @@ class LaggedTracker(OnlineTracker):
     radius, and the extras (``p_null``, ``p_half``, ..., ``omega_map``, ``omega_mode``,
     ``confidence``, ``ambiguous``, ``multimodal``, ``rms``, ``loglik``, ``amp1``...).
     :attr:`max_delay` (s) is the longest wait between a sample and its estimate. The
-    tracker pickles: one saved mid-stream and loaded continues with the same numbers.
+    tracker pickles: one saved mid-stream and loaded continues with the same numbers (save
+    the object: unlike :class:`~vibrospeed.estimators.online.OnlineTracker`'s, its ``state`` is
+    current for the pre-filters only; the filter, smoother and stops are in its buffers).
 
     Examples
     --------
