@@ -375,7 +375,7 @@ def step(config: Config, state: State, y: float, extra=None,
     line" state's) log-weights with this sample (e.g. :mod:`vibrospeed.estimators.grid`).
     ``emissions`` : optional (N + 1,) float64 array that receives the sample's per-state
     log-emissions (a row of :func:`run`'s ``grid_loglik``, before its float32 rounding): what
-    a streaming smoother keeps (:class:`vibrospeed.estimators.online.LaggedTracker`).
+    a streaming smoother keeps (:class:`vibrospeed.estimators.grid.lagged.LaggedTracker`).
 
     ``state`` is left as it is: one compiled call copies it into the next state's storage and
     iterates there, so a state can be stepped again (or kept) safely. The next state keeps the
