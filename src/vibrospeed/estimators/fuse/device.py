@@ -16,8 +16,8 @@ An estimate becomes final (is returned) once what the batch run decides it from 
 * with ``band_psd=learned`` a fusion sample's band density is the one estimated at the last
   5 s checkpoint, from the fix pairs ending by then; whether a pair ends there can hang on the
   next fix (the pair's partner is the fix nearest ``T`` s later, within 20 %), so a fusion
-  sample may wait for it, at most ``0.4 T`` (3.2 s) past the checkpoint, or the next fix after
-  a gap; and the log's last fusion sample takes the density of all pairs (batch: a
+  sample may wait until no fix to come could be nearer, at most ``0.4 T`` (3.2 s) past the
+  checkpoint; and the log's last fusion sample takes the density of all pairs (batch: a
   checkpoint at the last sample), so the newest fusion sample waits for the next IMU sample.
 
 Left out (the batch run decides them from the whole log; notes, not numbers): the accelerometer
@@ -315,7 +315,8 @@ class FuseTracker:
         i = self.n
         if self.finished:
             raise InputError(f"FuseTracker: sample {i}: update after finish()")
-        vals = {"t": t, "accel": accel, "gps_speed": g, "gps_sats": sats}
+        vals = {"t": t, "accel": accel, "gps_speed": g, "gps_sats": sats,
+                "vib": np.ravel(vib)[0] if np.size(vib) == 1 else 0.0}
         try:
             vals = {k: float(v) for k, v in vals.items()}
         except (TypeError, ValueError):
