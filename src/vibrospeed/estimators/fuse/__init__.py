@@ -238,6 +238,7 @@ from vibrospeed.estimators.fuse.config import (
     Config,
 )
 from vibrospeed.estimators.fuse.core import _run_core, _step_core
+from vibrospeed.estimators.fuse.device import FuseTracker as FuseTracker  # fuse on a device
 from vibrospeed.estimators.fuse.filter import (
     _SAMPLE,
     EXTRAS,
