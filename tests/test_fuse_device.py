@@ -37,8 +37,9 @@ def _drive(duration=20.0, gps=True):
 
 
 def _feed(rec, dev, sign=1.0, n=None):
-    """Every sample (the first ``n``: no finish) through ``dev`` (``ax`` times ``sign`` as the
-    longitudinal one)."""
+    """Every sample through ``dev`` (``ax`` times ``sign`` as the longitudinal one): the
+    Estimates in sample order and the first sample whose update returned any; with ``n``, the
+    first ``n`` samples and no finish: the ``(k, Estimate)`` pairs returned by then."""
     nan = np.full(len(rec), np.nan)
     g, s = (rec.channels.get(c, nan) for c in ("gps_speed", "gps_sats"))
     ax, ay, az = rec["ax"], rec["ay"], rec["az"]
@@ -51,8 +52,8 @@ def _feed(rec, dev, sign=1.0, n=None):
             first = i
         out += got
     out += dev.finish()
-    assert [e.extras["index"] for e in out] == list(range(len(rec)))
-    return out, first
+    assert [k for k, _ in out] == list(range(len(rec)))
+    return [e for _, e in out], first
 
 
 def _assert_batch(out, track):
@@ -100,8 +101,8 @@ def test_a_backwards_accelerometer_read_with_its_sign(drive):
     np.testing.assert_array_equal([e.speed for e in out], track.speed)
     wrong = FuseTracker(cfg, tc, level=start_level(rec["ay"], tc.tracker.model.dt))
     got, _ = _feed(rec, wrong, sign=-1.0, n=800)  # the tunnel starts at 8 s
-    i = [e.extras["index"] for e in got]
-    assert np.max(np.abs(np.array([e.speed for e in got]) - track.speed[i])) > 0.1
+    i = [k for k, _ in got]
+    assert np.max(np.abs(np.array([e.speed for _, e in got]) - track.speed[i])) > 0.1
 
 
 def test_without_gps_given_a_radius():

@@ -336,15 +336,17 @@ class FuseTracker:
         return vals
 
     def update(self, t: float, accel: float, vib=math.nan, gps_speed: float = math.nan,
-               gps_sats: float = math.nan, others=()) -> list[Estimate]:
+               gps_sats: float = math.nan, others=()) -> list[tuple[int, Estimate]]:
         """One IMU sample at ``t`` s: ``accel`` the raw longitudinal accelerometer (m/s^2),
         ``vib`` the tracked axis (one per comb axis), ``gps_speed`` / ``gps_sats`` where a fix
         arrived with this sample (NaN else; a negative speed is no fix), ``others`` the further
-        axes of the stop detector. Returns the estimates that became final, in sample order:
-        ``speed``, ``speed_std``, ``omega`` / ``omega_std`` (speed over the radius so far
-        where it is known), ``has_signal`` (the tracker claims a line), ``standstill`` (fuse's
-        stop, source 3), extras ``index``, ``t``, ``source``, ``radius``, ``radius_std``,
-        ``offset``, ``harmonic``, ``omega_vib``, ``standstill_vib``."""
+        axes of the stop detector. Returns the estimates that became final as ``(k, Estimate)``
+        pairs (k: the sample's index from 0, oldest first; as
+        :class:`vibrospeed.estimators.grid.LaggedTracker`): ``speed``, ``speed_std``,
+        ``omega`` / ``omega_std`` (speed over the radius so far where it is known),
+        ``has_signal`` (the tracker claims a line), ``standstill`` (fuse's stop, source 3),
+        extras ``t``, ``source``, ``radius``, ``radius_std``, ``offset``, ``harmonic``,
+        ``omega_vib``, ``standstill_vib``."""
         v = self._check(t, accel, vib, gps_speed, gps_sats, others)
         t, a, g, s = v["t"], v["accel"], v["gps_speed"], v["gps_sats"]
         g = math.nan if g < 0 else g
@@ -403,7 +405,7 @@ class FuseTracker:
             self.state = self._init(fix)
         self.cs0, self.cn0, self.still_all = self.cs, self.cn, True
 
-    def finish(self) -> list[Estimate]:
+    def finish(self) -> list[tuple[int, Estimate]]:
         """The log ended: the last block closes at the last sample, the rest becomes final."""
         if self.finished:
             return []
@@ -418,8 +420,8 @@ class FuseTracker:
             self.state = self._init(0.0)
         return self._drain()
 
-    def _drain(self) -> list[Estimate]:
-        out: list[Estimate] = []
+    def _drain(self) -> list[tuple[int, Estimate]]:
+        out: list[tuple[int, Estimate]] = []
         while self.blocks and self.state is not None:
             b = self.blocks[0]
             band = None
@@ -436,7 +438,7 @@ class FuseTracker:
             out.extend(self._emit(b, est))
         return out
 
-    def _emit(self, b: _Block, est: Estimate) -> list[Estimate]:
+    def _emit(self, b: _Block, est: Estimate) -> list[tuple[int, Estimate]]:
         """The samples of block ``b``: linear between the previous fusion sample and this
         one (``np.interp`` on the two, the batch's numbers), the block's source; the first
         block's samples take its values (``np.interp`` left of its first point)."""
@@ -460,10 +462,10 @@ class FuseTracker:
         for k, (i, t, om, claim, svib) in enumerate(rows):
             sp, ss, r, rs, off = (float(c[k]) for c in cols)
             known = rs < rel * r
-            res.append(Estimate(
+            res.append((i, Estimate(
                 omega=sp / r if known else math.nan, omega_std=ss / r if known else math.nan,
                 speed=sp, speed_std=ss, has_signal=claim, standstill=stop,
-                extras={"index": i, "t": t, "source": src, "radius": r, "radius_std": rs,
+                extras={"t": t, "source": src, "radius": r, "radius_std": rs,
                         "offset": off, "harmonic": x["harmonic"], "omega_vib": om,
-                        "standstill_vib": svib}))
+                        "standstill_vib": svib})))
         return res
