@@ -181,3 +181,25 @@ def test_bad_input_one_line_errors(drive):
         FuseTracker(cfg, None, dt=0.01, v0=math.inf)
     with pytest.raises(ParameterError, match="online=true"):
         config_for(rec, params={**P, "online": False})
+
+
+def test_a_tracker_pickled_mid_stream_continues_with_the_batch_numbers():
+    """A device that saves the tracker (pickle, the grid tracker inside it too) and loads it
+    after a restart gets the batch numbers for the rest of the drive."""
+    import pickle
+
+    rec = _drive(duration=6.0)
+    track = fuse.estimate(rec, params={"online": True, **P}, wheel_radius=R)
+    cfg, tc = config_for(rec, params=P, wheel_radius=R)
+    dev = FuseTracker(cfg, tc, level=start_level(rec["ay"], tc.tracker.model.dt))
+    half = 320  # after the first fix: the filter has started, blocks are waiting
+    out, _ = _feed(rec, dev, n=half)
+    assert out and dev.blocks
+    dev = pickle.loads(pickle.dumps(dev))
+    g, s = rec["gps_speed"], rec["gps_sats"]
+    ax, ay, az = rec["ax"], rec["ay"], rec["az"]
+    for i in range(half, len(rec)):
+        out += dev.update(rec.t[i], ax[i], ay[i], g[i], s[i], (ax[i], az[i]))
+    out += dev.finish()
+    assert [k for k, _ in out] == list(range(len(rec)))
+    _assert_batch([e for _, e in out], track)

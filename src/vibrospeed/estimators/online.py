@@ -122,15 +122,30 @@ class OnlineTracker:
             self.still_plan = ss.stream_plan(self.dt, band)
             self.state += (tuple(ss.stream_init(self.still_plan) for _ in range(self.n_still)),)
 
-    def _front(self, st: tuple, sample: float) -> tuple[tuple, float]:
+    def __getstate__(self) -> dict:
+        """The estimator module by its name (a module does not pickle): a tracker saved
+        mid-stream and loaded continues with the same numbers."""
+        return {**self.__dict__, "estimator": self.estimator.__name__}
+
+    def __setstate__(self, state: dict) -> None:
+        import importlib
+
+        self.__dict__.update(state, estimator=importlib.import_module(state["estimator"]))
+
+    def _front(self, st: tuple, sample: float) -> tuple[tuple, float, float]:
+        """One axis' pre-filter, whitener and scaling: (state, scaled sample, rms) with the
+        rms the running RMS the sample was divided by (NaN where the sample is missing; the
+        target RMS without scaling), the batch Track's ``rms`` column."""
         fs, ns, ws = st
         fs, y = pf.step(self.sos, fs, sample)
         if self.whiten:
             ws, y = wh.step(ws, y, self.fs)
+        rms = self.target
         if self.tau:
-            ns, y = nz.step(ns, y, self.dt, self.tau)
-            y = self.target * y
-        return (fs, ns, ws), (y if math.isfinite(y) else math.nan)
+            ns, yn = nz.step(ns, y, self.dt, self.tau)
+            rms = abs(y / yn) if (math.isfinite(yn) and yn != 0) else math.nan
+            y = self.target * yn
+        return (fs, ns, ws), (y if math.isfinite(y) else math.nan), rms
 
     def update(self, sample, others=()) -> Any:
         """Process one raw sample (NaN = missing), or with a grid config of several
@@ -139,7 +154,7 @@ class OnlineTracker:
         (comb axes) further accelerometer axes the standstill detector reads."""
         front, es = self.state[:2]
         if self.n_axes == 1 and isinstance(sample, (float, int)):
-            st, y = self._front(front[0], float(sample))  # one axis: no arrays
+            st, y, _ = self._front(front[0], float(sample))  # one axis: no arrays
             es, est = self.estimator.step(self.config, es, y)
             self.state = ((st,), es) + self.state[2:]
             est = self._stops(est, (sample,), others) if self.n_still else est
@@ -148,9 +163,9 @@ class OnlineTracker:
         if xs.size != self.n_axes:
             raise ValueError(f"expected {self.n_axes} sample(s) per update, got {xs.size}")
         out = [self._front(st, float(x)) for st, x in zip(front, xs, strict=True)]
-        ys = [y for _, y in out]
+        ys = [y for _, y, _ in out]
         es, est = self.estimator.step(self.config, es, ys[0] if self.n_axes == 1 else ys)
-        self.state = (tuple(st for st, _ in out), es) + self.state[2:]
+        self.state = (tuple(st for st, _, _ in out), es) + self.state[2:]
         est = self._stops(est, xs, others) if self.n_still else est
         return self._speed(est) if self.wheel_radius else est
 

@@ -40,10 +40,7 @@ from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.grid import summary as cols
 from vibrospeed.estimators.grid.comb import frame_evidence
 from vibrospeed.estimators.online import OnlineTracker
-from vibrospeed.signal import normalize as nz
-from vibrospeed.signal import prefilter as pf
 from vibrospeed.signal import standstill as ss
-from vibrospeed.signal import whiten as wh
 from vibrospeed.types import Estimate
 
 #: the per-sample extras of the batch Track that a lagged estimate carries (where they apply)
@@ -218,30 +215,6 @@ class LaggedTracker(OnlineTracker):
         self.max_delay = max(2 * self.B - 1 + self.D,
                              int(np.floor(tr.lag / dt + 1e-9)) if self.n_still else 0) * dt
 
-    def __getstate__(self) -> dict:
-        """Everything but the grid method's module (a module cannot be pickled): a tracker
-        saved mid-stream and loaded continues with the same numbers."""
-        return {**self.__dict__, "estimator": None}
-
-    def __setstate__(self, state: dict) -> None:
-        import vibrospeed.estimators.grid.method as _grid
-
-        self.__dict__.update(state, estimator=_grid)
-
-    # -- the front: pre-filter, whitener, scaling (the batch run's numbers) and the rms -------
-    def _front_rms(self, st: tuple, sample: float) -> tuple[tuple, float, float]:
-        fs, ns, ws = st
-        fs, y = pf.step(self.sos, fs, sample)
-        if self.whiten:
-            ws, y = wh.step(ws, y, self.fs)
-        rms = self.target
-        if self.tau:
-            ns, yn = nz.step(ns, y, self.dt, self.tau)
-            r = abs(y / yn) if (math.isfinite(yn) and yn != 0) else math.nan
-            rms = r if math.isfinite(r) else self._rms_last
-            y = self.target * yn
-        return (fs, ns, ws), (y if math.isfinite(y) else math.nan), rms
-
     # -- comb evidence at the frames' middles --------------------------------------------------
     def _frame(self, first: int, last: int) -> np.ndarray:
         """Samples ``first..last`` (global, within the last L) as (m, A), oldest first."""
@@ -360,15 +333,16 @@ class LaggedTracker(OnlineTracker):
             raise ValueError("LaggedTracker: others given but standstill=0 (no detector reads "
                              "them): make the tracker with standstill=k for k axes")
         if one:
-            st, y, rms = self._front_rms(self.state[0][0], xs[0])
+            st, y, rms = self._front(self.state[0][0], xs[0])
             self.state = ((st,),) + self.state[1:]
             self._ys[g % L, 0] = y
         else:
-            outs = [self._front_rms(st, float(x)) for st, x in zip(self.state[0], xs,
-                                                                    strict=True)]
+            outs = [self._front(st, float(x)) for st, x in zip(self.state[0], xs, strict=True)]
             self.state = (tuple(o[0] for o in outs),) + self.state[1:]
             self._ys[g % L] = [o[1] for o in outs]
             rms = outs[0][2]
+        if not math.isfinite(rms):
+            rms = self._rms_last  # a missing sample keeps the last rms (the batch column's)
         self._rms_last = rms
         self._rms[g % L] = rms
         self._g = g + 1
