@@ -231,8 +231,13 @@ class _Band:
         return self.q
 
     def _learn(self, c: float) -> None:
-        q = _slope([(np.asarray(r)[np.asarray(e) <= c], np.asarray(d)[np.asarray(e) <= c],
-                     np.asarray(e)[np.asarray(e) <= c]) for r, d, e in self.pairs], INTERVALS)
+        """The density from the pairs ending by ``c`` (kept where too few pairs)."""
+        sel = []
+        for r, d, e in self.pairs:
+            e = np.asarray(e)
+            by = e <= c
+            sel.append((np.asarray(r)[by], np.asarray(d)[by], e[by]))
+        q = _slope(sel, INTERVALS)
         if q is not None:
             self.q = q
 
@@ -304,7 +309,8 @@ class FuseTracker:
         self.still_all = True
         self.blocks: deque[_Block] = deque()
         self.samples: deque[tuple] = deque()  # (index, t, omega_vib, has_signal, still_vib)
-        self.prev = None  # the last fusion sample's (t, Estimate)
+        self.prev = None  # the last fusion sample's (t, its speed, std, radius, std, offset)
+        self._last = None  # what closes the open block (update's last sample)
         self.finished = False
 
     def _init(self, v0: float):
