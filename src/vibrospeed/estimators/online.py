@@ -125,12 +125,16 @@ class OnlineTracker:
     def __getstate__(self) -> dict:
         """The estimator module by its name (a module does not pickle): a tracker saved
         mid-stream and loaded continues with the same numbers."""
-        return {**self.__dict__, "estimator": self.estimator.__name__}
+        est = self.estimator
+        return {**self.__dict__,
+                "estimator": est.__name__ if isinstance(est, ModuleType) else est}
 
     def __setstate__(self, state: dict) -> None:
         import importlib
 
-        self.__dict__.update(state, estimator=importlib.import_module(state["estimator"]))
+        est = state["estimator"]
+        self.__dict__.update(state, estimator=importlib.import_module(est)
+                             if isinstance(est, str) else est)
 
     def _front(self, st: tuple, sample: float) -> tuple[tuple, float, float]:
         """One axis' pre-filter, whitener and scaling: (state, scaled sample, rms) with the

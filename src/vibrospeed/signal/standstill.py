@@ -673,7 +673,7 @@ class LagStream:
             last = min(j + self.lag.ahead, n - 1)
             if not end and j + self.lag.ahead > n - 1:
                 # not all its look-ahead frames are in: final only if its run has ended
-                if not any(not self._flags[m - self._f0] for m in range(j + 1, n)):
+                if all(self._flags[m - self._f0] for m in range(j + 1, n)):
                     break
             seen_to = j
             while seen_to < last and self._flags[seen_to + 1 - self._f0]:
