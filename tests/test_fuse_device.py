@@ -173,6 +173,8 @@ def test_bad_input_one_line_errors(drive):
         dev.update(0.02, 0.1, 9.8, others=(0.1, 0.2))
     with pytest.raises(InputError, match="fewer than 2 samples"):
         FuseTracker(cfg, None, dt=0.01).finish()
+    with pytest.raises(InputError, match="sample 0: others given but no tracker"):
+        FuseTracker(cfg, None, dt=0.01).update(0.0, 0.1, others=(0.1,))
     with pytest.raises(ParameterError, match="fuse Config"):
         FuseTracker(tc, tc)
     with pytest.raises(ParameterError, match="sample period"):

@@ -336,6 +336,9 @@ class FuseTracker:
         if self.trk is not None and nv != self.n_vib:
             raise InputError(f"FuseTracker: sample {i}: {nv} vibration sample(s), the tracker "
                              f"reads {self.n_vib} (comb axes)")
+        if self.trk is None and np.size(others):
+            raise InputError(f"FuseTracker: sample {i}: others given but no tracker (no stop "
+                             "detector reads them)")
         if self.trk is not None and np.size(others) != self.n_others:
             raise InputError(f"FuseTracker: sample {i}: {np.size(others)} sample(s) in others, "
                              f"the stop detector reads {self.n_others} more axes")
