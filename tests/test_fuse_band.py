@@ -163,10 +163,20 @@ def test_learned_density_recovers_white_noise(q, seed):
         causal = fuse.learn_acc_psd_causal(t, acc, g)
         assert np.isnan(causal[t < 5.0]).all()  # nothing learned before the first estimate
         assert causal[-1] == est  # the last estimate has seen every pair
-        # from 750 s on: the fixes up to 750 s (the pairs at the edge aside)
-        upto = t <= 750.0
-        assert causal[np.searchsorted(t, 750.0)] == pytest.approx(
-            fuse.learn_acc_psd(t[upto], acc[upto], g[upto]), rel=0.01)
+        # from the checkpoint before 750 s on: the fixes up to it (the pairs at the edge
+        # aside); checkpoints every 5 s, then every 2 % of the elapsed time
+        from vibrospeed.estimators.fuse.band import next_checkpoint
+
+        cs = [t[0] + 5.0]
+        while cs[-1] < 750.0:
+            cs.append(next_checkpoint(cs[-1], t[0]))
+        c = cs[-2]
+        assert 735.0 < c <= 750.0 and cs[-1] - c == pytest.approx(0.02 * (c - t[0]))
+        upto = t <= c
+        k = np.searchsorted(t, c)
+        assert causal[k] == pytest.approx(fuse.learn_acc_psd(t[upto], acc[upto], g[upto]),
+                                          rel=0.01)
+        assert causal[k] == causal[np.searchsorted(t, cs[-1]) - 1]  # held until the next
 
 
 def test_learned_density_needs_fix_pairs():

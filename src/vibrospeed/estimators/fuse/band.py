@@ -22,8 +22,12 @@ INTERVALS = (1.0, 2.0, 4.0, 8.0)
 MIN_PAIRS = 20
 #: a pair's interval may differ from the nominal one by this share of it
 PAIR_TOL = 0.2
-#: s between the causal estimates (:func:`learn_acc_psd_causal`)
+#: s between the causal estimates (:func:`learn_acc_psd_causal`), and their share of the
+#: elapsed time once that is longer: re-estimated every ``max(CAUSAL_EVERY, CAUSAL_REL *
+#: elapsed)`` s, so a day-long drive takes a few hundred estimates, not 17 000 (each reads
+#: every pair so far)
 CAUSAL_EVERY = 5.0
+CAUSAL_REL = 0.02
 #: MAD^2 / this is the variance of a normal sample (0.6745^2)
 MAD2_VAR = 0.455
 
@@ -96,18 +100,37 @@ def learn_acc_psd(t, accel, gps, intervals=INTERVALS) -> float | None:
     return _slope(_pairs(t, accel, gps, intervals), intervals)
 
 
+def next_checkpoint(c: float, t0: float, every: float = CAUSAL_EVERY,
+                    rel: float = CAUSAL_REL) -> float:
+    """The causal estimate after the one at ``c`` s (the drive starting at ``t0``; the first
+    is at ``t0 + every``): ``every`` s later, or ``rel`` of the elapsed time once that is
+    longer."""
+    return c + max(every, rel * (c - t0))
+
+
 def learn_acc_psd_causal(t, accel, gps, intervals=INTERVALS,
                          every: float = CAUSAL_EVERY) -> np.ndarray:
-    """:func:`learn_acc_psd` from the fixes so far, per sample (n,): re-estimated every
-    ``every`` s of the drive (and at its last sample) from the pairs that ended by then (NaN
-    until enough pairs), for the forward filter, which may not see fixes to come."""
+    """:func:`learn_acc_psd` from the fixes so far, per sample (n,): re-estimated at the
+    checkpoints of :func:`next_checkpoint` (and at the last sample) from the pairs that ended
+    by then (NaN until enough pairs), for the forward filter, which may not see fixes to
+    come. Each estimate holds from its checkpoint to the next one that gives one."""
     t = np.asarray(t, dtype=np.float64)
-    pairs = _pairs(t, accel, gps, intervals)
+    pairs = _pairs(t, accel, gps, intervals)  # each interval's pairs in order of their end
     out = np.full(t.size, np.nan)
     if t.size == 0:
         return out
-    for c in np.append(np.arange(t[0] + every, t[-1], every), t[-1]):
-        q = _slope([(r[e <= c], d[e <= c], e[e <= c]) for r, d, e in pairs], intervals)
+    cs = []
+    c = t[0] + every
+    while c < t[-1]:
+        cs.append(c)
+        c = next_checkpoint(c, t[0], every)
+    cs.append(t[-1])
+    held = []  # (first sample, density) of each estimate made
+    for c, k in zip(cs, np.searchsorted(t, cs), strict=True):
+        q = _slope([(r[:m], d[:m], e[:m]) for r, d, e in pairs
+                    for m in (int(np.searchsorted(e, c, side="right")),)], intervals)
         if q is not None:
-            out[t >= c] = q  # from this estimate on, until the next one overwrites it
+            held.append((int(k), q))
+    for i, (k, q) in enumerate(held):
+        out[k:held[i + 1][0] if i + 1 < len(held) else t.size] = q  # until the next one
     return out

@@ -14,11 +14,13 @@ An estimate becomes final (is returned) once what the batch run decides it from 
   fusion samples wait (``v0=`` starts at once; without GPS give ``v0=0.0``, the batch's start);
 * a sample between two fusion samples is interpolated between them (linear, ``np.interp``);
 * with ``band_psd=learned`` a fusion sample's band density is the one estimated at the last
-  5 s checkpoint, from the fix pairs ending by then; whether a pair ends there can hang on the
-  next fix (the pair's partner is the fix nearest ``T`` s later, within 20 %), so a fusion
-  sample may wait until no fix to come could be nearer, at most ``0.4 T`` (3.2 s) past the
-  checkpoint; and the log's last fusion sample takes the density of all pairs (batch: a
-  checkpoint at the last sample), so the newest fusion sample waits for the next IMU sample.
+  checkpoint (every 5 s, later every 2 % of the elapsed time:
+  :func:`~vibrospeed.estimators.fuse.band.next_checkpoint`), from the fix pairs ending by
+  then; whether a pair ends there can hang on the next fix (the pair's partner is the fix
+  nearest ``T`` s later, within 20 %), so a fusion sample may wait until no fix to come could
+  be nearer, at most ``0.4 T`` (3.2 s) past the checkpoint; and the log's last fusion sample
+  takes the density of all pairs (batch: a checkpoint at the last sample), so the newest
+  fusion sample waits for the next IMU sample.
 
 Left out (the batch run decides them from the whole log; notes, not numbers): the accelerometer
 sign and axis checks against the GPS speed, the radius-prior mismatch note, the note of the
@@ -29,6 +31,7 @@ column divides by the radius at the log's end.
 from __future__ import annotations
 
 import math
+from array import array
 from collections import deque
 from dataclasses import replace
 from typing import NamedTuple
@@ -38,7 +41,13 @@ import numpy as np
 from vibrospeed.config import config_from_params, parse_flag
 from vibrospeed.errors import InputError, ParameterError
 from vibrospeed.estimators.common import gps_no_fix_as_nan, signed_axis
-from vibrospeed.estimators.fuse.band import CAUSAL_EVERY, INTERVALS, PAIR_TOL, _slope
+from vibrospeed.estimators.fuse.band import (
+    CAUSAL_EVERY,
+    INTERVALS,
+    PAIR_TOL,
+    _slope,
+    next_checkpoint,
+)
 from vibrospeed.estimators.fuse.config import (
     CAUSAL_VIB_AMAX,
     CAUSAL_VIB_LAG,
@@ -123,28 +132,20 @@ class _Band:
         self.cum = 0.0  # sum of accel dt over the fusion samples (batch: a cumsum)
         self.nbad = 0  # fusion samples without an acceleration, the first not counted
         self.t_prev = math.nan
-        self.tf: list[float] = []  # per valid fix: time, speed, cum, nbad at it
-        self.gf: list[float] = []
-        self.cf: list[float] = []
-        self.bf: list[int] = []
+        # per valid fix: time, speed, cum, nbad at it; per interval the pairs' r, dt and end.
+        # Flat float64 arrays (8 bytes a value, not a Python float's 32): the batch's density
+        # is a median over every pair so far, so they are all kept (~30 MB a day at 10 Hz)
+        self.tf, self.gf, self.cf, self.bf = array("d"), array("d"), array("d"), array("q")
         self.pending = [deque() for _ in INTERVALS]  # fixes whose partner is not decided
-        self.pairs = [([], [], []) for _ in INTERVALS]  # r, dt, end per interval
-        self.c0 = math.nan  # first checkpoint; the i-th is c0 + i * delta (np.arange's)
-        self.delta = math.nan
-        self.ci = 1  # next checkpoint (1-based: c_1 = c0)
+        self.pairs = [(array("d"), array("d"), array("d")) for _ in INTERVALS]
+        self.t0 = math.nan  # the first fusion sample's time
+        self.c = math.nan  # the next checkpoint (band.next_checkpoint's sequence)
         self.q = math.nan  # the last density learned (NaN: none yet)
-
-    def checkpoint(self, i: int) -> float:
-        """The i-th checkpoint (1-based) as ``np.arange(t0 + every, ..., every)`` fills it."""
-        if i <= 2:
-            return self.c0 if i == 1 else self.c0 + self.every
-        return self.c0 + (i - 1) * self.delta
 
     def add(self, t: float, accel: float, fix: float) -> None:
         """One fusion sample: its time, mean acceleration, valid GPS fix (NaN: none)."""
         if math.isnan(self.t_prev):
-            self.c0 = t + self.every
-            self.delta = (self.c0 + self.every) - self.c0
+            self.t0, self.c = t, t + self.every
             ok = True
             dt = 0.0
         else:
@@ -219,13 +220,13 @@ class _Band:
         yet); ``t_now``: the time up to which every fix has arrived; ``last``: the log's last
         fusion sample (after :meth:`finish`)."""
         while True:
-            c = self.checkpoint(self.ci)
+            c = self.c
             if not c <= t or (last and c >= t):
                 break
             if self._settle(c, t_now):
                 return None
             self._learn(c)
-            self.ci += 1
+            self.c = next_checkpoint(c, self.t0, self.every)
         if last:
             self._learn(t)
         return self.q
@@ -233,10 +234,11 @@ class _Band:
     def _learn(self, c: float) -> None:
         """The density from the pairs ending by ``c`` (kept where too few pairs)."""
         sel = []
-        for r, d, e in self.pairs:
-            e = np.asarray(e)
-            by = e <= c
-            sel.append((np.asarray(r)[by], np.asarray(d)[by], e[by]))
+        for r, d, e in self.pairs:  # each in order of the pairs' ends: the prefix ending by c
+            e = np.frombuffer(e, dtype=np.float64)
+            m = int(np.searchsorted(e, c, side="right"))
+            sel.append((np.frombuffer(r, dtype=np.float64)[:m],
+                        np.frombuffer(d, dtype=np.float64)[:m], e[:m]))
         q = _slope(sel, INTERVALS)
         if q is not None:
             self.q = q
