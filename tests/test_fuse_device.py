@@ -162,6 +162,7 @@ def test_bad_input_one_line_errors(drive):
         ((0.01, 0.1, 9.8), {"others": (0.1,)}, "sample 1: 1 sample.s. in others"),
         ((0.01, 0.1, (9.8, 1.0)), {"others": (0.1, 0.2)}, "2 vibration sample"),
         ((math.nan, 0.1, 9.8), {"others": (0.1, 0.2)}, "sample 1: time nan"),
+        ((0.01, 0.1, 9.8), {"others": (0.1, "z")}, "sample 1: others must be numbers"),
     ]:
         with pytest.raises(InputError, match=msg) as exc:
             dev.update(*args, **kw)

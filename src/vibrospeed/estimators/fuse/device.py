@@ -338,6 +338,12 @@ class FuseTracker:
         if self.trk is not None and nv != self.n_vib:
             raise InputError(f"FuseTracker: sample {i}: {nv} vibration sample(s), the tracker "
                              f"reads {self.n_vib} (comb axes)")
+        for name, xs in (("vib", vib), ("others", others)):
+            try:
+                np.asarray(xs, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise InputError(f"FuseTracker: sample {i}: {name} must be numbers, got "
+                                 f"{xs!r}") from None
         if self.trk is None and np.size(others):
             raise InputError(f"FuseTracker: sample {i}: others given but no tracker (no stop "
                              "detector reads them)")
