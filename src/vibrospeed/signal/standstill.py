@@ -717,9 +717,18 @@ class LagStream:
                                 p.sel)
             self._pending.append((i, float(_log_level(lev)[0])))
         self.count = i + 1
+        flagged = False
         while self._pending and self._pending[0][0] + self.lag.extra <= i:
             self._flag(self._pending.pop(0)[1], i)
-        self._declare(False)
+            flagged = True
+        if flagged:  # only a new frame's flag makes a declaration final
+            self._declare(False)
+        elif self._next < i:
+            return []  # the samples before this one still wait for their frame
+        else:
+            j = self._frame_of(i)
+            if j >= 0 and j not in self._final:
+                return []  # this one waits for its frame too
         return self._decisions()
 
     def finish(self) -> list[bool]:
