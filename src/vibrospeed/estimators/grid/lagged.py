@@ -36,8 +36,8 @@ import numpy as np
 
 import vibrospeed.estimators.grid.filter as _filt
 import vibrospeed.estimators.grid.smoother as _sm
+import vibrospeed.estimators.grid.summary as cols
 from vibrospeed.errors import ParameterError
-from vibrospeed.estimators.grid import summary as cols
 from vibrospeed.estimators.grid.comb import frame_evidence
 from vibrospeed.estimators.online import OnlineTracker
 from vibrospeed.signal import standstill as ss
