@@ -314,15 +314,6 @@ class Config(GpsFields):
         """Length of the state vector: the receiver chain, then the receiver's extra lag."""
         return IG + self.lag.n_states + 1
 
-    def _arrays(self):
-        """The filter's constant arrays (:meth:`_build_arrays`), built once per Config and kept
-        with it (a device's ``step`` per fusion sample rebuilt them every time: ~100-165 us
-        of each step). Callers read them and never write."""
-        got = self.__dict__.get("_arrays_cache")
-        if got is None:
-            got = self.__dict__["_arrays_cache"] = self._build_arrays()
-        return got
-
     def _build_arrays(self):
         """``(Ac, qc, p)``: continuous system matrix, process noise intensities, scalars."""
         Ar, Br = receiver_matrices(self.lag)

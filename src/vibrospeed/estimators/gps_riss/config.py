@@ -84,6 +84,16 @@ class GpsFields:
             if not (v >= 0 and math.isfinite(v)):
                 raise ParameterError(f"{prefix}{name} must be finite and >= 0, got {v}")
 
+    def _arrays(self):
+        """The filter's constant arrays (the subclass's ``_build_arrays``: ``gps-riss``'s and
+        ``fuse``'s), built once per Config and kept with it (a device's ``step`` per fusion
+        sample rebuilt them every time: ~100-165 us of each step). Callers read them and
+        never write."""
+        got = self.__dict__.get("_arrays_cache")
+        if got is None:
+            got = self.__dict__["_arrays_cache"] = self._build_arrays()
+        return got
+
 
 @dataclass(frozen=True)
 class Config(GpsFields):
@@ -190,15 +200,6 @@ class Config(GpsFields):
         """This config with the receiver model replaced by ``lag``."""
         return replace(self, gps_a=tuple(lag.a), gps_b=tuple(lag.b), gps_delay=lag.delay,
                        gps_pade=lag.pade)
-
-    def _arrays(self):
-        """The filter's constant arrays (:meth:`_build_arrays`), built once per Config and kept
-        with it (a device's ``step`` per fusion sample rebuilt them every time: ~100-165 us
-        of each step). Callers read them and never write."""
-        got = self.__dict__.get("_arrays_cache")
-        if got is None:
-            got = self.__dict__["_arrays_cache"] = self._build_arrays()
-        return got
 
     def _build_arrays(self):
         lag = self.lag
