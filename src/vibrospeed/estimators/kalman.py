@@ -322,17 +322,26 @@ def row_update(x, P, h, z, r, keep=-1, keep2=-1, keep3=-1):
         k[keep3] = 0.0
     for i in range(n):
         x[i] += k[i] * nu
-    # A = I - k h; A P = P - k (h P) with h P = Ph' (P symmetric); then (A P) A' + r k k'
-    AP = np.empty((n, n))
+    joseph(P, Ph, k, h, r)
+    return nu
+
+
+@njit(cache=True)
+def joseph(C, Ch, k, h, r):
+    """``C = (I - k h) C (I - k h)' + r k k'`` in place (symmetrised), ``Ch = C h'`` given: the
+    covariance of an estimate updated with the gain ``k`` whatever ``k`` is (the filter's own
+    in :func:`row_update`; another filter's for a suboptimal estimate's error)."""
+    n = h.size
+    # A = I - k h; A C = C - k (h C) with h C = Ch' (C symmetric); then (A C) A' + r k k'
+    AC = np.empty((n, n))
     for i in range(n):
         for j in range(n):
-            AP[i, j] = P[i, j] - k[i] * Ph[j]
-    APh = np.empty(n)
-    matvec(AP, h, APh)
+            AC[i, j] = C[i, j] - k[i] * Ch[j]
+    ACh = np.empty(n)
+    matvec(AC, h, ACh)
     for i in range(n):
         for j in range(i, n):
-            v = (0.5 * (AP[i, j] - APh[i] * k[j] + AP[j, i] - APh[j] * k[i])
+            v = (0.5 * (AC[i, j] - ACh[i] * k[j] + AC[j, i] - ACh[j] * k[i])
                  + r * k[i] * k[j])
-            P[i, j] = v
-            P[j, i] = v
-    return nu
+            C[i, j] = v
+            C[j, i] = v

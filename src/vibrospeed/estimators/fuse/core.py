@@ -19,7 +19,7 @@ from numba import njit
 
 from vibrospeed.estimators.fuse.config import IA, IB, IG, IR, IV
 from vibrospeed.estimators.gps_riss.core import _lag_row
-from vibrospeed.estimators.kalman import dense_predict, matvec, quad_form, row_update
+from vibrospeed.estimators.kalman import dense_predict, joseph, matvec, quad_form, row_update
 from vibrospeed.models.gps_riss import transition
 
 #: fixes on the same side of the filter's speed, beyond the innovation's spread, before a
@@ -90,18 +90,7 @@ def _band_update(P, Pb, J, h, r, rb, keep=-1, keep2=-1):
             J[i, j] -= k[i] * hJ
     Pbh = np.empty(n)
     matvec(Pb, h, Pbh)
-    AP = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            AP[i, j] = Pb[i, j] - k[i] * Pbh[j]
-    APh = np.empty(n)
-    matvec(AP, h, APh)
-    for i in range(n):
-        for j in range(i, n):
-            v = (0.5 * (AP[i, j] - APh[i] * k[j] + AP[j, i] - APh[j] * k[i])
-                 + rb * k[i] * k[j])
-            Pb[i, j] = v
-            Pb[j, i] = v
+    joseph(Pb, Pbh, k, h, rb)
 
 
 @njit(cache=True)
