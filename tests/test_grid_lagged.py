@@ -1,5 +1,5 @@
 """The fixed-lag smoother on a device (:class:`vibrospeed.estimators.grid.lagged.LaggedTracker`)
-and the lagged standstill stream (:class:`vibrospeed.signal.standstill.LagStream`): sample by
+and the lagged standstill stream (:class:`vibrospeed.signal.standstill_stream.LagStream`): sample by
 sample, the numbers of the batch ``estimate(..., smooth="lag")``."""
 
 import pickle
@@ -12,6 +12,7 @@ from vibrospeed.estimators import grid
 from vibrospeed.estimators.common import start_level
 from vibrospeed.estimators.grid.lagged import LaggedTracker
 from vibrospeed.signal import standstill as ss
+from vibrospeed.signal import standstill_stream as sst
 from vibrospeed.sim import simulate
 from vibrospeed.types import Recording
 
@@ -130,7 +131,7 @@ def test_lag_stream_is_the_batch_lagged_detector(lag):
     x[2600:2900] = np.nan
     dt, band = 0.01, (15.0, 300.0)  # a car's band: the body-motion level in use
     want = ss.standstill(x, dt, band, causal=True, lag=lag)
-    st = ss.LagStream(dt, band, lag)
+    st = sst.LagStream(dt, band, lag)
     got = []
     for i, v in enumerate(x):
         new = st.push(float(v))

@@ -1,6 +1,6 @@
 """A device's walk through the online API: the causal standstill detector one sample at a time
-(:func:`vibrospeed.signal.standstill.stream_step`) and the online tracker with it, against the
-causal batch run."""
+(:func:`vibrospeed.signal.standstill_stream.stream_step`) and the online tracker with it, against
+the causal batch run."""
 
 import pickle
 
@@ -12,6 +12,7 @@ from vibrospeed.estimators import ekf, grid
 from vibrospeed.estimators.common import start_level
 from vibrospeed.estimators.online import OnlineTracker
 from vibrospeed.signal import standstill as ss
+from vibrospeed.signal import standstill_stream as sst
 
 P = {"smooth": "none", "omega_min": 2, "omega_max": 30}
 
@@ -26,15 +27,15 @@ def test_stream_step_gives_the_causal_detectors_decisions():
     band = (2.0, 90.0)
     ref = ss.standstill(X, 0.01, band, causal=True)
     assert 0.03 < ref.mean() < 0.5  # the drive has stops the detector finds
-    plan = ss.stream_plan(0.01, band)
-    sts = [ss.stream_init(plan) for _ in range(3)]
+    plan = sst.stream_plan(0.01, band)
+    sts = [sst.stream_init(plan) for _ in range(3)]
     got = np.zeros(len(X), bool)
     for i, row in enumerate(X):
         flags = []
         for j in range(3):
             if i == 3000:  # saved and restored mid-drive
                 sts[j] = pickle.loads(pickle.dumps(sts[j]))
-            sts[j], f = ss.stream_step(plan, sts[j], row[j])
+            sts[j], f = sst.stream_step(plan, sts[j], row[j])
             flags.append(f)
         got[i] = all(flags)
     np.testing.assert_array_equal(got, ref)

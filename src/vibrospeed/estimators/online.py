@@ -7,8 +7,8 @@ recording sample by sample gives the numbers of the batch path (tested for the E
 the causal grid tracker), so a tracker tuned offline behaves the same on a device. The object is
 the only mutable thing here; its ``state`` is a tuple of the stages' immutable states and can be
 saved and restored. With ``standstill`` it also runs the causal standstill detector
-(:func:`vibrospeed.signal.standstill.stream_step`) that ``estimate()`` applies after the causal
-grid tracker, so the stops are those of the batch run too (omega and its band 0 there). With
+(:func:`vibrospeed.signal.standstill_stream.stream_step`) that ``estimate()`` applies after the
+causal grid tracker, so the stops are those of the batch run too (omega and its band 0 there). With
 ``wheel_radius`` it converts omega to speed as the batch Track does (``speed = r * omega``).
 """
 
@@ -22,7 +22,7 @@ import numpy as np
 
 from vibrospeed.signal import normalize as nz
 from vibrospeed.signal import prefilter as pf
-from vibrospeed.signal import standstill as ss
+from vibrospeed.signal import standstill_stream as sst
 from vibrospeed.signal import whiten as wh
 
 
@@ -119,8 +119,8 @@ class OnlineTracker:
                     "standstill needs a tracker with a search range (grid, rbpmf) and at least "
                     f"its {self.n_axes} comb axis/axes, got {standstill} axes")
             band = (omega_range[0], min(model.M * omega_range[1], math.pi * self.fs))
-            self.still_plan = ss.stream_plan(self.dt, band)
-            self.state += (tuple(ss.stream_init(self.still_plan) for _ in range(self.n_still)),)
+            self.still_plan = sst.stream_plan(self.dt, band)
+            self.state += (tuple(sst.stream_init(self.still_plan) for _ in range(self.n_still)),)
 
     def __getstate__(self) -> dict:
         """The estimator module by its name (a module does not pickle): a tracker saved
@@ -192,7 +192,7 @@ class OnlineTracker:
             raise ValueError(f"standstill reads {self.n_still} axes: expected "
                              f"{self.n_still - self.n_axes} sample(s) in others, got "
                              f"{len(raw) - self.n_axes}")
-        out = [ss.stream_step(self.still_plan, st, x)
+        out = [sst.stream_step(self.still_plan, st, x)
                for st, x in zip(self.state[2], raw, strict=True)]
         self.state = self.state[:2] + (tuple(st for st, _ in out),)
         if not all(f for _, f in out):

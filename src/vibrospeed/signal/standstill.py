@@ -25,9 +25,9 @@ the whole log; gaps under 1 s inside a stop are closed and standing runs shorter
 histogram of log-levels, after ``CAUSAL_WARMUP_S`` s) and a stop is declared after
 ``CAUSAL_DWELL_S`` s of standing frames, so a decision never uses later data, and a stop before
 the first motion, with nothing to compare it with, is not recognised. The batch causal run and the
-streaming detector (:func:`stream_step`) share the per-frame code: a frame's broadband level
-(``_frame_levels``) and its decision with the dwell (the compiled ``_frame_step``), so a change of
-the rule is made once.
+streaming detectors (:mod:`vibrospeed.signal.standstill_stream`: ``stream_step``, the lagged
+``LagStream``) share the per-frame code: a frame's broadband level (``_frame_levels``) and its
+decision with the dwell (the compiled ``_frame_step``), so a change of the rule is made once.
 
 The constants are chosen on the randomised family (``simulate("random")``, with an idling
 engine's broadband shaking) and checked on the real phone drives of ``hungary_car_phyphox``, whose
@@ -40,7 +40,7 @@ Frames with fewer than half their samples finite have no level and repeat the la
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -117,7 +117,8 @@ def _band_bins(L: int, dt: float, band: tuple[float, float]) -> np.ndarray:
 
 def _frame_levels(frames: np.ndarray, win: np.ndarray, sel: np.ndarray) -> np.ndarray:
     """Broadband level of each frame (row of ``frames``, NaN = missing): the per-frame rule
-    that :func:`broadband_level` and :func:`stream_step` share. NaN samples count as 0; a
+    that :func:`broadband_level` and
+    :func:`~vibrospeed.signal.standstill_stream.stream_step` share. NaN samples count as 0; a
     frame with fewer than half its samples finite gets NaN."""
     L = frames.shape[1]
     fin = np.isfinite(frames)
@@ -229,7 +230,8 @@ def _level_step(hist, total, last, k, lg, lc, ln, rule, centres):
 @njit(cache=True)
 def _frame_step(hist, total, last, run, lgb, lgm, rule, centres):
     """One frame of the causal detector, the one implementation of its rule (the batch
-    :func:`_causal` and the streaming :func:`stream_step` both run it): both levels' decisions
+    :func:`_causal` and the streaming
+    :func:`~vibrospeed.signal.standstill_stream.stream_step` both run it): both levels' decisions
     (``hist`` (2, bins), ``total`` (2,), ``last`` (2,) updated in place), then the dwell.
     Returns ``(run, still)``: the run of standing frames and whether a stop is declared."""
     still = _level_step(hist, total, last, 0, lgb, rule.lcb, rule.lnb, rule, centres)
@@ -503,240 +505,3 @@ def decide(ends: np.ndarray, level: np.ndarray, motion: np.ndarray | None, n: in
             nearer = np.abs(centres[jm] - i) < np.abs(centres[j] - i)
             out[i] = still[np.where(nearer, jm, j)]
     return out
-
-
-# ------------------------------------------------------------------------------------------
-# streaming: one sample at a time, the decisions of ``standstill(..., causal=True)``
-# ------------------------------------------------------------------------------------------
-class StreamState(NamedTuple):
-    """Causal detector state for one axis (:func:`stream_init`, :func:`stream_step`):
-    the high-pass and low-pass filter states, the last frame's ``hp`` samples and the last
-    body-motion window's ``lp`` samples (oldest first), samples seen, each level's histogram
-    (``hist``: (2, bins)), frame counts ``total`` (2,) and last decisions ``last`` (2,), the
-    run of standing frames and the current decision. ``hp`` and ``lp`` are ring buffers: sample
-    ``i`` at ``i % size``."""
-
-    hp_state: Any
-    lp_state: Any
-    hp: np.ndarray
-    lp: np.ndarray
-    count: int
-    hist: np.ndarray
-    total: np.ndarray
-    last: np.ndarray
-    run: int
-    still: bool
-
-
-class StreamPlan(NamedTuple):
-    """What :func:`stream_step` needs besides the state: sample period, search band (rad/s),
-    frame and hop lengths in samples, the filters, the frame's window and bins, the rule."""
-
-    dt: float
-    band: tuple[float, float]
-    L: int
-    hop: int
-    Lm: int
-    hp_sos: np.ndarray
-    lp_sos: np.ndarray | None
-    win: np.ndarray
-    sel: np.ndarray
-    rule: _Rule
-
-
-def stream_plan(dt: float, band: tuple[float, float]) -> StreamPlan:
-    """The constants of :func:`standstill` (``causal=True``) at sample period ``dt`` for
-    ``band`` (rad/s)."""
-    band = _band(band)
-    hp, upper = _filters(dt, band)
-    lp = pf.butter_sos("lowpass", upper, 1.0 / dt, 2) if upper else None
-    L = _samples(FRAME_S, dt, 8)
-    return StreamPlan(float(dt), (float(band[0]), float(band[1])), L, _samples(HOP_S, dt, 1),
-                      _samples(MOTION_FRAME_S, dt, 3),
-                      hp, lp, np.hanning(L), _band_bins(L, dt, band),
-                      _rule(motion=upper > 0, dwell=int(round(CAUSAL_DWELL_S / HOP_S))))
-
-
-def stream_init(plan: StreamPlan) -> StreamState:
-    """Nothing seen: not standing."""
-    return StreamState(pf.init(plan.hp_sos), None if plan.lp_sos is None
-                       else pf.init(plan.lp_sos), np.full(plan.L, np.nan),
-                       np.full(plan.Lm, np.nan), 0, np.zeros((2, _BINS)), np.zeros(2),
-                       np.zeros(2, np.bool_), 0, False)
-
-
-def _window_motion(w: np.ndarray, Lm: int) -> float:
-    """:func:`motion_level` of the one window ``w`` (the low-passed samples so far, at most
-    ``Lm``): its sums made directly (a device has no whole log's running sums)."""
-    ok = np.isfinite(w)
-    y = w[ok]
-    y = y - y.sum() / y.size if y.size else y  # the mean, without np.mean's cost
-    t = np.arange(w.size, dtype=np.float64)[ok]
-    sums = _line_terms(np.ones(y.size), y, t).sum(axis=1)[:, None]
-    return float(line_residual(sums, np.zeros_like(sums), Lm)[0])
-
-
-def stream_step(plan: StreamPlan, state: StreamState, x: float) -> tuple[StreamState, bool]:
-    """One raw sample of one axis (NaN = missing): the causal decision at this sample, as
-    :func:`standstill` (``causal=True``) gives it for the samples so far. Why: a device has
-    no whole log; the detector keeps one frame of samples, one body-motion window and two
-    level histograms (bounded memory). ``state`` is left as it is."""
-    i = state.count
-    hs, h = pf.step(plan.hp_sos, state.hp_state, x)
-    hp = state.hp.copy()
-    hp[i % plan.L] = h
-    ls, lp = state.lp_state, state.lp
-    if plan.lp_sos is not None:
-        ls, v = pf.step(plan.lp_sos, ls, x)
-        lp = lp.copy()
-        lp[i % plan.Lm] = v
-    run, still = state.run, state.still
-    hist, total, last = state.hist, state.total, state.last
-    if i >= plan.L - 1 and (i - plan.L + 1) % plan.hop == 0:  # a frame ends here
-        hist, total, last = hist.copy(), total.copy(), last.copy()
-        p = (i + 1) % plan.L
-        lev = [_frame_levels(np.concatenate((hp[p:], hp[:p]))[None], plan.win, plan.sel)[0],
-               np.nan]
-        if plan.lp_sos is not None:
-            p = (i + 1) % plan.Lm
-            lev[1] = _window_motion(np.concatenate((lp[p:], lp[:p]))[max(0, plan.Lm - 1 - i):],
-                                    plan.Lm)  # up to Lm samples so far
-        lgb, lgm = _log_level(lev)
-        run, still = _frame_step(hist, total, last, run, lgb, lgm, plan.rule, _CENTRES)
-        still = bool(still)
-    return StreamState(hs, ls, hp, lp, i + 1, hist, total, last, run, still), still
-
-
-class LagStream:
-    """The causal detector with a delay of ``lag`` s on one axis, one raw sample at a time: the
-    decisions of :func:`standstill` (``causal=True, lag=lag``) for a device that reports each
-    sample ``lag`` s late (the fixed-lag smoother's stops,
-    :class:`vibrospeed.estimators.grid.lagged.LaggedTracker`).
-
-    :meth:`push` takes a sample (NaN = missing) and returns the decisions (bool) that the lag
-    now allows, oldest first; :meth:`finish` those left at the recording's end. The per-frame
-    rule is the batch one (``_frame_levels``, the compiled ``_frame_step``, :func:`_lag_plan`);
-    as in :func:`stream_step` the body-motion window's line is fitted to its own samples (the
-    batch run centres the whole log first: the same residual up to rounding). Memory: one
-    frame, one body-motion window and the frames of one lag. ``lag = 0``: the causal detector.
-    """
-
-    def __init__(self, dt: float, band: tuple[float, float], lag: float = 0.0) -> None:
-        _check_lag(lag, True)
-        self.plan = plan = stream_plan(dt, band)
-        self.lag = _lag_plan(lag, dt, FRAME_S, HOP_S, plan.lp_sos is not None)
-        self.rule = plan.rule._replace(dwell=0)  # each frame's own decision; the dwell below
-        self.dwell = plan.rule.dwell
-        self._hs = pf.init(plan.hp_sos)
-        self._ls = None if plan.lp_sos is None else pf.init(plan.lp_sos)
-        self._hp = np.full(plan.L, np.nan)
-        self._lp = np.full(plan.Lm, np.nan)
-        self._hist, self._total = np.zeros((2, _BINS)), np.zeros(2)
-        self._last = np.zeros(2, np.bool_)
-        self._run = 0
-        self.count = 0  # samples pushed
-        self._pending: list[tuple[int, float]] = []  # (frame end, log10 level): motion due
-        self._flags: list[bool] = []  # frame k's flag at [k - self._f0]
-        self._starts: list[int] = []  # the first frame of frame k's standing run
-        self._f0 = 0
-        self._final: dict[int, bool] = {}  # frame -> declared standing (the dwell applied)
-        self._next_final = 0  # first frame whose declaration is not yet final
-        self._next = 0  # first sample not yet decided
-
-    def _frame_of(self, i: int, n_frames: int | None = None) -> int:
-        """The frame that decides sample ``i`` (-1: none; at the end, the last one)."""
-        p = self.plan
-        k = i + self.lag.shift - (p.L - 1)
-        j = -1 if k < 0 else k // p.hop
-        return j if n_frames is None else min(j, n_frames - 1)
-
-    def _flag(self, lgb: float, i: int) -> None:
-        """Frame's flag, its body-motion window ending at sample ``i``."""
-        lgm = np.nan
-        if self.plan.lp_sos is not None:
-            Lm = self.plan.Lm
-            q = (i + 1) % Lm
-            w = np.concatenate((self._lp[q:], self._lp[:q]))[max(0, Lm - 1 - i):]
-            lgm = float(_log_level(np.array([_window_motion(w, Lm)]))[0])
-        self._run, f = _frame_step(self._hist, self._total, self._last, self._run, lgb, lgm,
-                                   self.rule, _CENTRES)
-        k = self._f0 + len(self._flags)
-        prev = self._flags[-1] if self._flags else False
-        self._starts.append(self._starts[-1] if (prev and f) else k)
-        self._flags.append(bool(f))
-
-    def _declare(self, end: bool) -> None:
-        """Final declarations of the frames whose look-ahead is complete (``end``: all)."""
-        n = self._f0 + len(self._flags)
-        while self._next_final < n:
-            j = self._next_final
-            last = min(j + self.lag.ahead, n - 1)
-            if not end and j + self.lag.ahead > n - 1:
-                # not all its look-ahead frames are in: final only if its run has ended
-                if all(self._flags[m - self._f0] for m in range(j + 1, n)):
-                    break
-            seen_to = j
-            while seen_to < last and self._flags[seen_to + 1 - self._f0]:
-                seen_to += 1
-            f = self._flags[j - self._f0]
-            self._final[j] = f and seen_to - self._starts[j - self._f0] + 1 > self.dwell
-            self._next_final += 1
-
-    def _decisions(self, n_frames: int | None = None) -> list[bool]:
-        out = []
-        while self._next < self.count:
-            j = self._frame_of(self._next, n_frames)
-            if j < 0:
-                out.append(False)
-            elif j in self._final:
-                out.append(self._final[j])
-            else:
-                break
-            self._next += 1
-        # no later sample reads a frame before this one (at the end they read the last one)
-        need = min(self._frame_of(self._next), self._next_final - 1)
-        for j in [j for j in self._final if j < need]:
-            del self._final[j]
-        drop = min(min(self._next_final, need) - self._f0, len(self._flags) - 1)
-        if drop > 0:  # the last frame's flag and run start stay: the next frame's run reads it
-            del self._flags[:drop], self._starts[:drop]
-            self._f0 += drop
-        return out
-
-    def push(self, x: float) -> list[bool]:
-        """One raw sample; the decisions of the samples now decided, oldest first."""
-        p, i = self.plan, self.count
-        self._hs, h = pf.step(p.hp_sos, self._hs, x)
-        self._hp[i % p.L] = h
-        if p.lp_sos is not None:
-            self._ls, v = pf.step(p.lp_sos, self._ls, x)
-            self._lp[i % p.Lm] = v
-        if i >= p.L - 1 and (i - p.L + 1) % p.hop == 0:  # a frame ends here
-            q = (i + 1) % p.L
-            lev = _frame_levels(np.concatenate((self._hp[q:], self._hp[:q]))[None], p.win,
-                                p.sel)
-            self._pending.append((i, float(_log_level(lev)[0])))
-        self.count = i + 1
-        flagged = False
-        while self._pending and self._pending[0][0] + self.lag.extra <= i:
-            self._flag(self._pending.pop(0)[1], i)
-            flagged = True
-        if flagged:  # only a new frame's flag makes a declaration final
-            self._declare(False)
-        elif self._next < i:
-            return []  # the samples before this one still wait for their frame
-        else:
-            j = self._frame_of(i)
-            if j >= 0 and j not in self._final:
-                return []  # this one waits for its frame too
-        return self._decisions()
-
-    def finish(self) -> list[bool]:
-        """The decisions of the samples left: the last frames' body-motion windows end at the
-        last sample (as the batch run's do at the log's end)."""
-        i = self.count - 1
-        while self._pending:
-            self._flag(self._pending.pop(0)[1], i)
-        self._declare(True)
-        n_frames = self._f0 + len(self._flags)
-        return self._decisions(n_frames)

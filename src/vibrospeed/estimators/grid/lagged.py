@@ -19,7 +19,7 @@ time and in bounded memory:
 4. the block smoother of :func:`vibrospeed.estimators.grid.smoother.fixed_lag`: blocks of
    ``lag - W/2`` s, each smoothed once the next block's emissions are in;
 5. the causal standstill detector with the same delay
-   (:class:`vibrospeed.signal.standstill.LagStream`) on the raw accelerometer axes;
+   (:class:`vibrospeed.signal.standstill_stream.LagStream`) on the raw accelerometer axes;
 6. the Track's columns for each sample (:func:`vibrospeed.estimators.grid.app.columns`).
 
 A ``lag`` shorter than half a comb frame plus a sample keeps the evidence at the frame's end
@@ -40,7 +40,7 @@ import vibrospeed.estimators.grid.summary as cols
 from vibrospeed.errors import ParameterError
 from vibrospeed.estimators.grid.comb import frame_evidence
 from vibrospeed.estimators.online import OnlineTracker
-from vibrospeed.signal import standstill as ss
+from vibrospeed.signal import standstill_stream as sst
 from vibrospeed.types import Estimate
 
 #: the per-sample extras of the batch Track that a lagged estimate carries (where they apply)
@@ -197,14 +197,14 @@ class LaggedTracker(OnlineTracker):
         self._emitted = 0
         self._done = False  # finish() was called: the recording has ended
         self.n_still = int(standstill)
-        self._stops: list[ss.LagStream] = []
+        self._stops: list[sst.LagStream] = []
         self._decided: list[list[bool]] = []
         if self.n_still:
             if self.n_still < self.n_axes:
                 raise ValueError(f"standstill needs at least the {self.n_axes} comb axis/axes, "
                                  f"got {standstill} axes")
             band = (tr.omega_min, min(tr.model.M * tr.omega_max, math.pi / dt))
-            self._stops = [ss.LagStream(dt, band, tr.lag) for _ in range(self.n_still)]
+            self._stops = [sst.LagStream(dt, band, tr.lag) for _ in range(self.n_still)]
             self._decided = [[] for _ in range(self.n_still)]
         self._col_omega = cols.COL_MODE if tr.point == "mode" else cols.COL_MEAN
         self._keys = (tuple(name for name, _ in _SCALARS)
