@@ -14,6 +14,7 @@ from typing import Any
 from vibrospeed.batch.inputs import expand_inputs, output_names
 from vibrospeed.batch.pool import _dask_client, _run_all
 from vibrospeed.batch.single import EstimateOptions
+from vibrospeed.batch.task import dropped_decimal
 
 #: Summary columns in order; ``fitted_radius``, ``fitted_radius_std`` and ``report`` appear only
 #: when some row has a value.
@@ -100,6 +101,9 @@ def run(
     df["output"] = [None if st == "error" else os.path.relpath(p, out.absolute())
                     for p, st in zip(df["output"], df["status"], strict=True)]
     write_summary(df, out)
+    said = dropped_decimal(opts.decimal, df["format"])
+    if said:  # once for the batch, not in each row's note
+        print(f"note: {said}", file=sys.stderr)
     if report:
         from vibrospeed.eval.report import write_index
 

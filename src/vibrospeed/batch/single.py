@@ -90,7 +90,8 @@ class EstimateOptions:
         and, where every recording is read through the mapping, the mapped reader's own rules
         (:func:`vibrospeed.io.mapped.mapping_options`: a unit of another quantity, a time column
         beside a sample rate, neither, ...) in its words, without the file name that
-        ``vibrospeed estimate`` puts first (the options are at fault, not one recording). A
+        ``vibrospeed estimate`` puts first (the options are at fault, not one recording), and a
+        decimal mark with a ``fmt`` whose reader takes none (Parquet). A
         batch calls it first, so such a mistake is one error instead of one error row per
         recording."""
         from vibrospeed import io
@@ -102,6 +103,10 @@ class EstimateOptions:
         from vibrospeed.io._csv import check_decimal
 
         check_decimal(self.decimal)
+        if self.decimal is not None and self.fmt != "auto" \
+                and not io.format_takes(self.fmt, "decimal"):  # every recording would drop it
+            raise ParameterError(f"format '{self.fmt}' does not take option 'decimal' (a "
+                                 "decimal mark is for the CSV formats)")
         given = self.columns is not None or self.mapping is not None or self.rate is not None
         if self.fmt == "mapped" or (self.fmt == "auto" and given):  # io.read: all mapped
             mapping_options(self.columns, self.mapping, self.rate, decimal=self.decimal)

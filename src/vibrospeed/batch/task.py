@@ -59,11 +59,14 @@ def _naming_file(job: dict[str, Any], text: str) -> str:
 
 
 def _for_recording(opts: EstimateOptions, path: str) -> EstimateOptions:
-    """``opts`` for the recording at ``path``: ``topic`` (a ROS bag's IMU topic) only where
-    its format's reader takes one, so one ``--topic`` serves the bags of a fleet that also
-    holds CSV files (each of which :func:`vibrospeed.io.read` would refuse with it). Where the
-    format cannot be told the options stay as given: reading then says why."""
-    if opts.topic is None:
+    """``opts`` for the recording at ``path``: ``topic`` (a ROS bag's IMU topic) and
+    ``decimal`` (a CSV's decimal mark) only where its format's reader takes them, so one
+    ``--topic`` serves the bags and one ``--decimal ,`` the CSV files of a fleet that also
+    holds files of other formats (each of which :func:`vibrospeed.io.read` would refuse with
+    it; :func:`dropped_decimal` says so once for the batch). Where the format cannot be told
+    the options stay as given: reading then says why."""
+    given = [k for k in DROPPABLE if getattr(opts, k) is not None]
+    if not given:
         return opts
     import dataclasses
 
@@ -74,11 +77,38 @@ def _for_recording(opts: EstimateOptions, path: str) -> EstimateOptions:
         if fmt == "auto":
             fmt = io.detect_format(path, mapping=opts.columns is not None
                                    or opts.mapping is not None or opts.rate is not None)
-        if fmt not in io.available_formats() or io.format_takes(fmt, "topic"):
-            return opts  # reading says why, or the reader takes the topic
+        if fmt not in io.available_formats():
+            return opts  # reading says why
     except (VibrospeedError, ImportError, OSError):
         return opts
-    return dataclasses.replace(opts, topic=None)
+    drop = {k: None for k in given if not io.format_takes(fmt, k)}
+    return dataclasses.replace(opts, **drop) if drop else opts
+
+
+#: the reading options a batch leaves out for a recording whose format's reader has no use for
+#: them (:func:`_for_recording`)
+DROPPABLE = ("topic", "decimal")
+
+
+def dropped_decimal(decimal: str | None, formats) -> str | None:
+    """The batch's one note where ``--decimal`` was given and some recordings (their
+    ``formats``, the summary's column, None for a failed one) are of a format whose reader
+    takes no decimal mark (Parquet, a ROS bag, a phone app's export): read without it, so a
+    user sees the mark was not applied there. None where it applied to all."""
+    from collections import Counter
+
+    from vibrospeed import io
+
+    if decimal is None:
+        return None
+    other = Counter(f for f in formats if isinstance(f, str) and f in io.available_formats()
+                    and not io.format_takes(f, "decimal"))
+    if not other:
+        return None
+    n = sum(other.values())
+    kinds = ", ".join(f"{k} {c}" for k, c in sorted(other.items()))
+    return (f"--decimal '{decimal}' applies to the CSV recordings only: {n} recording"
+            f"{'s' if n != 1 else ''} of another format ({kinds}) read without it")
 
 
 def _up_to_date(job: dict[str, Any]) -> dict[str, Any] | None:

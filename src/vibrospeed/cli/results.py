@@ -30,7 +30,7 @@ from vibrospeed.cli.options import (
     _decimal_mark,
     at_least,
 )
-from vibrospeed.errors import ParameterError
+from vibrospeed.errors import ParameterError, VibrospeedError
 
 
 @_friendly
@@ -188,9 +188,10 @@ def evaluate(
         "often the --truth file): also score the plain 3 s STFT harmonic sum on it (the "
         "estimate's axis, search range, causality and wheel radius), side by side")] = None,
     decimal: Annotated[str | None, typer.Option(
-        "--decimal", help="decimal mark of the --baseline recording's numbers: '.' (default) "
-        "or ',' (a ';'-separated export that writes 1,5), as --decimal of `estimate`; a batch "
-        "estimate's sidecar says it", callback=_decimal_mark)] = None,
+        "--decimal", help="decimal mark of the numbers of the CSV inputs (the --truth file "
+        "and the --baseline recording): '.' (default) or ',' (a ';'-separated export that "
+        "writes 1,5), as --decimal of `estimate`; a batch estimate's sidecar says the "
+        "baseline's", callback=_decimal_mark)] = None,
 ) -> None:
     """Compare an estimate with ground truth: RMSE (thesis eq. 3.18, truth linearly
     interpolated, moving samples only), bias, relative error (median and mean), band coverage,
@@ -217,7 +218,8 @@ def evaluate(
 
     _check_output(json_out, "--json")
     track = io.read_track(estimate_csv)
-    ref = io.read(truth, truth_format, columns=truth_columns)
+    ref = io.read(truth, truth_format, columns=truth_columns,
+                  decimal=_truth_decimal(truth, truth_format, truth_columns, decimal, baseline))
     if truth_channel is None and not ({"omega_true", "speed_true"} & set(ref.channels)) \
             and "gps_speed" in ref.channels:  # a phone drive: its GPS is the truth it has
         raise ParameterError(f"{truth}: no omega_true or speed_true to compare against; it has "
@@ -263,6 +265,24 @@ def evaluate(
         if mb is not None:
             doc["baseline"] = mb.to_dict()
         atomic_write_text(json_out, json.dumps(jsonable(doc), indent=2, allow_nan=False) + "\n")
+
+
+def _truth_decimal(truth: Path, fmt: str, columns: str | None, decimal: str | None,
+                   baseline: Path | None) -> str | None:
+    """``evaluate --decimal`` for reading the truth file: the mark where its format is a CSV
+    one (its reader takes a decimal mark); left out for another format (Parquet, a phone
+    export) where the flag is there for the --baseline recording, so one flag serves a CSV
+    baseline beside a binary truth. Without a baseline it stays: the truth's reader then
+    refuses it in one line (a decimal mark for a format without one means nothing)."""
+    from vibrospeed import io
+
+    if decimal is None or baseline is None:
+        return decimal
+    try:
+        name = io.detect_format(truth, mapping=columns is not None) if fmt == "auto" else fmt
+    except (OSError, VibrospeedError):
+        return decimal  # reading the truth says why
+    return decimal if io.format_takes(name, "decimal") else None
 
 
 def _metric_rows(m) -> list[tuple[str, str, str]]:
