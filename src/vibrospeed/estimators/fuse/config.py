@@ -85,6 +85,10 @@ class Config(GpsFields):
         (:class:`vibrospeed.estimators.gps_riss.GpsFields`).
     q_speed, q_accel, q_offset, q_gps, q_radius : process noise intensities per second of v
         ((m/s)^2/s), a (jerk, (m/s^2)^2/s), b ((m/s^2)^2/s), the receiver states and r (m^2/s).
+        The offset's walk (0.05 m/s^2 per sqrt s) is half gps-riss's: slower, the offset
+        learned under GPS holds longer through an outage (on the simulated family the
+        tunnel RMSE online 5.06 -> 4.08 m/s, offline 1.23 -> 1.16; at 1e-3 a hard braking
+        left the online speed an octave off for 100 s; benchmarks/fuse/RESULTS.md).
     acc_psd : accelerometer white-noise density ((m/s^2)^2 s = (m/s^2)^2/Hz); a fusion sample
         averaging ``dt`` s has variance ``acc_psd / dt``. The default (0.32 m/s^2/sqrt(Hz)) is
         far above a MEMS sensor's own noise: it stands for the body motion, the wheel vibration
@@ -205,7 +209,7 @@ class Config(GpsFields):
 
     q_speed: float = 1e-4
     q_accel: float = 10.0
-    q_offset: float = 5e-3
+    q_offset: float = 2.5e-3
     q_gps: float = 1e-6
     q_radius: float = 1e-9
     acc_psd: float = 0.1
