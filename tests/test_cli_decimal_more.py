@@ -1,11 +1,13 @@
 """``--decimal ,`` beyond one recording: ``evaluate --truth`` reads a truth CSV written with a
-decimal comma to the same metrics its decimal-point twin gives (and refuses it in one line
-without the flag); a batch over a folder of a decimal-comma CSV and a Parquet recording applies
+decimal comma to the same metrics its decimal-point twin gives, ``report`` and ``plot --truth``
+to the same numbers (beside a CSV or a Parquet recording; each refuses it in one line without
+the flag); a batch over a folder of a decimal-comma CSV and a Parquet recording applies
 the mark to the CSV alone, each estimate the one ``vibrospeed estimate`` writes for it, and says
 so once."""
 
 import json
 
+import numpy as np
 import pytest
 
 from cli_runner import one_line_error, run
@@ -109,3 +111,75 @@ def test_a_mixed_batch_applies_the_mark_to_its_csv_files(drive):
     assert line == ("vibrospeed: error: format 'parquet' does not take option 'decimal' (a "
                     "decimal mark is for the CSV formats)")
     assert not (d / "never").exists()
+
+
+@pytest.fixture
+def drawn(monkeypatch):
+    """The page and plot writers of ``report`` and ``plot`` replaced by a recorder of what they
+    are given (the recording and the truth), so a test compares those numbers without drawing
+    (a drawing takes a second and is the same function of them)."""
+    import vibrospeed.eval.plot as plot_mod
+    import vibrospeed.eval.report as report_mod
+
+    seen = []
+
+    def record(path, rec, track, **kw):
+        seen.append((rec, kw.get("truth")))
+
+    monkeypatch.setattr(report_mod, "write_report", record)
+    monkeypatch.setattr(plot_mod, "plot_track", record)
+    return seen
+
+
+@pytest.mark.parametrize("command", ["report", "plot"])
+def test_report_and_plot_read_a_decimal_comma_truth_as_its_twin(drive, drawn, command):
+    d = drive["dir"]
+    ref = io.read(drive["pq"])  # the simulated drive through the Parquet reader, not a CSV one
+    cases = [  # recording, its estimate, truth, extra flags
+        ("dot", "dot", ()),
+        ("eu", "eu", ("--decimal", ",")),
+        ("pq", "eu", ("--decimal", ",")),  # the mark for the CSV truth alone
+        ("eu", "pq", ("--decimal", ",")),  # the mark for the CSV recording alone
+    ]
+    for rec_kind, truth_kind, extra in cases:
+        res = run(command, drive[rec_kind], "--estimate", drive[f"est_{rec_kind}"],
+                  "--truth", drive[truth_kind], "-o", d / f"never.{command}.png", *extra)
+        assert res.exit_code == 0, (rec_kind, truth_kind, res.output)
+    assert len(drawn) == len(cases)
+    for (rec, truth), (rec_kind, truth_kind, _) in zip(drawn, cases, strict=True):
+        assert np.array_equal(truth.t, ref.t), (rec_kind, truth_kind)
+        assert np.array_equal(truth["omega_true"], ref["omega_true"]), (rec_kind, truth_kind)
+        assert np.array_equal(rec["ay"], ref["ay"]), (rec_kind, truth_kind)
+
+
+@pytest.mark.parametrize("command", ["report", "plot"])
+def test_report_and_plot_refuse_a_decimal_comma_truth_in_one_line(drive, drawn, command):
+    d = drive["dir"]
+    line = one_line_error(run(command, drive["dot"], "--estimate", drive["est_dot"],
+                              "--truth", drive["eu"], "-o", d / "never.png"))
+    assert line.startswith(f"vibrospeed: error: {drive['eu']}")
+    assert "give --decimal ," in line
+    # a mark where neither the recording nor the truth is a CSV means nothing: refused
+    line = one_line_error(run(command, drive["pq"], "--estimate", drive["est_pq"],
+                              "--truth", drive["pq"], "-o", d / "never.png", "--decimal", ","))
+    assert line == (f"vibrospeed: error: {drive['pq']}: format 'parquet' does not take "
+                    "option 'decimal'")
+    assert drawn == []
+
+
+def test_the_help_says_what_the_mark_applies_to():
+    from typer.testing import CliRunner
+
+    from vibrospeed.cli.app import app
+
+    def text(command):
+        res = CliRunner().invoke(app, [command, "--help"], env={"COLUMNS": "300"})
+        assert res.exit_code == 0, res.output
+        return " ".join(res.stdout.split())  # the help, its line breaks undone
+
+    for command in ("report", "plot"):
+        assert ("decimal mark of the numbers of the CSV inputs (the recording and the --truth "
+                "file, whichever is a CSV)") in text(command)
+    assert ("With --decimal , the mark applies to the CSV recordings only: those of other "
+            "formats (Parquet, ROS bags, phone exports) are read without it, said in one note "
+            "at the end.") in text("batch")

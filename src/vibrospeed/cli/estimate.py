@@ -400,7 +400,9 @@ def batch(
     printed once at the end with its count) and the wall time. Run it again and every
     recording whose output has the same input checksum, method, options and vibrospeed version
     is skipped; a bad file is an error row, never the end of the batch (exit status 2 when any
-    recording failed).
+    recording failed). With --decimal , the mark applies to the CSV recordings only: those of
+    other formats (Parquet, ROS bags, phone exports) are read without it, said in one note at
+    the end.
 
     Examples:
 

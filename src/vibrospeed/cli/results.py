@@ -17,7 +17,6 @@ from vibrospeed.cli.base import _check_output, _friendly, _load, _params, err, o
 from vibrospeed.cli.options import (
     AxisOpt,
     ColumnsOpt,
-    DecimalOpt,
     FormatOpt,
     InputArg,
     MappingOpt,
@@ -32,6 +31,14 @@ from vibrospeed.cli.options import (
 )
 from vibrospeed.errors import ParameterError, VibrospeedError
 
+#: ``--decimal`` of ``report`` and ``plot``: as ``estimate``'s, and for a CSV ``--truth`` too
+TruthDecimalOpt = Annotated[str | None, typer.Option(
+    "--decimal", help="decimal mark of the numbers of the CSV inputs (the recording and the "
+    "--truth file, whichever is a CSV): '.' (default) or ',' for a ';' or tab separated "
+    "export that writes 1,5 (canonical CSV or --columns / --mapping); never guessed. A "
+    "--mapping file's decimal = \"...\" that says otherwise is refused",
+    callback=_decimal_mark)]
+
 
 @_friendly
 def report(
@@ -41,7 +48,7 @@ def report(
                             "(from `estimate`); without it the recording is estimated first "
                             "with --method and -p")] = None,
     truth: Annotated[Path | None, typer.Option(help="truth recording (default: the input's "
-                     "omega_true / speed_true if any)")] = None,
+                     "omega_true / speed_true if any); a CSV one read with --decimal")] = None,
     truth_channel: TruthChannelOpt = None,
     method: Annotated[str | None, typer.Option("--method", "-m", help="estimator without "
                       "--estimate (see `vibrospeed methods`); default as `estimate`: fuse "
@@ -54,7 +61,7 @@ def report(
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
     rate: RateOpt = None,
-    decimal: DecimalOpt = None,
+    decimal: TruthDecimalOpt = None,
     sort: SortOpt = False,
 ) -> None:
     """One self-contained HTML page for a drive: spectrogram with the estimate, band and truth
@@ -85,7 +92,9 @@ def report(
             raise ParameterError(f"{', '.join(given)} with --estimate: they set how the "
                                  "recording is estimated, and --estimate gives the estimate; "
                                  "leave out one or the other")
-    ref = io.read(truth) if truth else None
+    decimal, decimal_truth = _recording_marks(input, fmt, columns, mapping, rate, truth,
+                                              decimal)
+    ref = io.read(truth, decimal=decimal_truth) if truth else None
     if ref is not None and truth_channel is not None:
         ref.require(truth_channel)  # before estimating: a typo is an error in a second
     if estimate_csv is not None:
@@ -218,8 +227,10 @@ def evaluate(
 
     _check_output(json_out, "--json")
     track = io.read_track(estimate_csv)
+    # the truth's mark: none for a Parquet one beside a baseline (read with the mark)
+    takes = _takes_decimal(truth, truth_format, truth_columns is not None) if decimal else None
     ref = io.read(truth, truth_format, columns=truth_columns,
-                  decimal=_truth_decimal(truth, truth_format, truth_columns, decimal, baseline))
+                  decimal=_marks(decimal, takes, baseline is not None)[0])
     if truth_channel is None and not ({"omega_true", "speed_true"} & set(ref.channels)) \
             and "gps_speed" in ref.channels:  # a phone drive: its GPS is the truth it has
         raise ParameterError(f"{truth}: no omega_true or speed_true to compare against; it has "
@@ -267,22 +278,43 @@ def evaluate(
         atomic_write_text(json_out, json.dumps(jsonable(doc), indent=2, allow_nan=False) + "\n")
 
 
-def _truth_decimal(truth: Path, fmt: str, columns: str | None, decimal: str | None,
-                   baseline: Path | None) -> str | None:
-    """``evaluate --decimal`` for reading the truth file: the mark where its format is a CSV
-    one (its reader takes a decimal mark); left out for another format (Parquet, a phone
-    export) where the flag is there for the --baseline recording, so one flag serves a CSV
-    baseline beside a binary truth. Without a baseline it stays: the truth's reader then
-    refuses it in one line (a decimal mark for a format without one means nothing)."""
+def _marks(decimal: str | None, *takes: bool | None) -> list[str | None]:
+    """``--decimal`` for each input of a command (``evaluate``'s truth and baseline, the
+    recording and truth of ``report`` and ``plot``), ``takes`` saying whether its reader takes
+    a decimal mark (a CSV), None where its format cannot be told: the mark for each, left out
+    for one that takes none where another does, so one flag serves a CSV beside a Parquet
+    file or a phone export. Where none takes it, each keeps it: the first reader then refuses
+    it in one line (a decimal mark for formats without one means nothing)."""
+    if decimal is None or True not in takes:
+        return [decimal] * len(takes)
+    return [None if t is False else decimal for t in takes]
+
+
+def _takes_decimal(path: Path, fmt: str, mapped: bool) -> bool | None:
+    """Whether the reader of ``path`` (format ``fmt``, ``auto`` detected; ``mapped``: read
+    through a column mapping) takes a decimal mark, i.e. it is a CSV; None where its format
+    cannot be told (reading it then says why)."""
     from vibrospeed import io
 
-    if decimal is None or baseline is None:
-        return decimal
     try:
-        name = io.detect_format(truth, mapping=columns is not None) if fmt == "auto" else fmt
+        name = io.detect_format(path, mapping=mapped) if fmt == "auto" else fmt
     except (OSError, VibrospeedError):
-        return decimal  # reading the truth says why
-    return decimal if io.format_takes(name, "decimal") else None
+        return None
+    return io.format_takes(name, "decimal")
+
+
+def _recording_marks(input: Path, fmt: str, columns: str | None, mapping: Path | None,
+                     rate: float | None, truth: Path | None,
+                     decimal: str | None) -> tuple[str | None, str | None]:
+    """``--decimal`` of ``report`` and ``plot`` for their recording and their ``--truth``
+    file (:func:`_marks`); the recording is a mapped CSV with --columns, --mapping or --rate,
+    as a batch tells it (:func:`vibrospeed.batch.task._for_recording`)."""
+    if decimal is None or truth is None:
+        return decimal, None
+    mapped = columns is not None or mapping is not None or rate is not None
+    rec_mark, truth_mark = _marks(decimal, _takes_decimal(input, fmt, mapped),
+                                  _takes_decimal(truth, "auto", False))
+    return rec_mark, truth_mark
 
 
 def _metric_rows(m) -> list[tuple[str, str, str]]:
@@ -417,7 +449,7 @@ def plot(
     estimate_csv: Annotated[Path | None, typer.Option("--estimate", help="estimate CSV to "
                             "draw over the spectrogram")] = None,
     truth: Annotated[Path | None, typer.Option(help="truth recording (default: the input's "
-                     "omega_true if any)")] = None,
+                     "omega_true if any); a CSV one read with --decimal")] = None,
     axis: Annotated[str | None, typer.Option(help="channel or axis for the spectrogram "
                     "(default: the axis the estimate used, from its .json sidecar, else y)")]
     = None,
@@ -430,7 +462,7 @@ def plot(
     columns: ColumnsOpt = None,
     mapping: MappingOpt = None,
     rate: RateOpt = None,
-    decimal: DecimalOpt = None,
+    decimal: TruthDecimalOpt = None,
     sort: SortOpt = False,
 ) -> None:
     """Spectrogram of a vibration axis with the estimate, its band, harmonics and truth.
@@ -444,6 +476,8 @@ def plot(
     from vibrospeed.eval.plot import plot_track
 
     _check_output(output, figure=True)
+    decimal, decimal_truth = _recording_marks(input, fmt, columns, mapping, rate, truth,
+                                              decimal)
     rec = _load(input, fmt, columns, mapping, rate, sort, decimal=decimal)
     track = io.read_track(estimate_csv) if estimate_csv else None
     if estimate_csv is not None:
@@ -454,7 +488,7 @@ def plot(
 
             used = (side.get("meta") or {}).get("axis")
             axis = vibration_channel(rec, used if isinstance(used, str) else None)
-    ref = io.read(truth) if truth else None
+    ref = io.read(truth, decimal=decimal_truth) if truth else None
     plot_track(output, rec, track, axis=axis_channel(axis or "y"), truth=ref,
                harmonics=harmonics, window_s=window)
     err.print(f"wrote {output}", markup=False, soft_wrap=True)  # a path is text, not markup
