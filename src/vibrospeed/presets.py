@@ -212,6 +212,9 @@ PARAMETERS: dict[str, dict[str, Parameter]] = {
     },
     "fuse": {
         "online": Parameter("true", "causal: the causal grid tracker and the forward filter"),
+        "lag": Parameter("2", "s, a device that can wait that long: the grid tracker's "
+                         "fixed-lag smoother read by the forward filter (lines that do not "
+                         "trail the speed)"),
         "radius_from": Parameter("drive1_fuse.csv.json", "wheel radius learned on an earlier "
                                  "drive (its sidecar) as the radius prior"),
         "accel_axis": Parameter("ax", "longitudinal acceleration channel (forward +); a "

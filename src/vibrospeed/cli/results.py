@@ -405,7 +405,8 @@ def _baseline_track(estimate_csv: Path, track, recording: Path, ref, decimal: st
         notes.append(f"the estimate ({track.method or 'method unknown'}) has no search range "
                      f"(omega_min, omega_max): the STFT baseline searches the grid's default "
                      f"{lo:g}-{hi:g} rad/s")
-    lag = par.get("lag") if par.get("smooth") == "lag" else None
+    # a fixed-lag estimate: the grid's smooth=lag, fuse's lag (its tracker's fixed lag)
+    lag = par.get("lag") if par.get("smooth") == "lag" or track.method == "fuse" else None
     lag = float(lag) if isinstance(lag, (int, float)) and not isinstance(lag, bool) \
         and np.isfinite(lag) and lag >= 0 else None
     causal = par.get("smooth") == "none" or lag is not None or any(

@@ -126,7 +126,7 @@ _READ_AS: dict[str, Any] = {
     "normalize_tau": float, "comb_clarity": float, "accel_detrend": float,
     "lp_cutoff": float | None, "omega_min": float | None, "wheelbase": float | None,
     "tracker": TRACKER, "prefilter": str, "reference": str, "accel_offset": ACCEL_OFFSET,
-    "accel_axis": str, "preset": str, "radius_from": str, "vib_method": str,
+    "accel_axis": str, "preset": str, "radius_from": str, "vib_method": str, "lag": float,
 }
 
 

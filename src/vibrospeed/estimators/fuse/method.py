@@ -117,7 +117,7 @@ def _block_all(x: np.ndarray, ends: np.ndarray) -> np.ndarray:
     return (cn[ends + 1] - cn[starts]) == 0
 
 
-_TRACKER_OWN = {"online", "radius_from", "accel_axis", "vib_method"}
+_TRACKER_OWN = {"online", "lag", "radius_from", "accel_axis", "vib_method"}
 
 
 def _split(params: dict) -> tuple[dict, dict, dict]:
@@ -126,6 +126,20 @@ def _split(params: dict) -> tuple[dict, dict, dict]:
     own = {k: v for k, v in params.items() if k in _TRACKER_OWN}
     rest = {k: v for k, v in params.items() if k not in names and k not in _TRACKER_OWN}
     return fuse_kw, own, rest
+
+
+def _lag_of(value) -> float | None:
+    """``params["lag"]`` read: None (not given) or the fixed lag in s (> 0, finite)."""
+    if value is None:
+        return None
+    try:
+        lag = float(value)
+    except (TypeError, ValueError):
+        lag = math.nan
+    if not (lag > 0 and math.isfinite(lag)) or isinstance(value, bool):
+        raise ParameterError(f"fuse: lag must be a delay in s > 0 (the fixed-lag tracker's), "
+                             f"got {value!r}")
+    return lag
 
 
 def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | None = None,
@@ -141,7 +155,10 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     default false: the smoothed grid tracker and the RTS smoother; online also ``vib_lag`` =
     :data:`CAUSAL_VIB_LAG`, ``vib_spread="mode"``, ``vib_amax``, ``vib_soft`` and
     ``vib_measure`` = :data:`CAUSAL_VIB_MEASURE` with ``vib_sep`` = :data:`CAUSAL_VIB_SEP`
-    unless given); ``radius_from`` (a JSON
+    unless given); ``lag`` (s, > 0: a device that can wait ``lag`` s: the grid tracker's
+    fixed-lag smoother, ``smooth="lag"`` with that lag, whose lines do not trail the speed,
+    read with the offline settings by the forward filter; the batch numbers of
+    :class:`~vibrospeed.estimators.fuse.device.FuseTracker` with a lag); ``radius_from`` (a JSON
     file, :func:`radius_from_json`, seeding the radius prior; also a keyword); every other
     name goes to the grid tracker (e.g. ``omega_min``, ``omega_max``). A given ``wheel_radius``
     seeds the prior with 1 % spread. ``gps_speed`` / ``gps_sats`` are used where present;
@@ -169,19 +186,22 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
     fuse_kw, own, rest = _split(params)
     cfg = config_from_params(Config, fuse_kw)
     online = parse_flag(own.get("online", False), "online")
-    if online and "vib_lag" not in fuse_kw:
+    lag = _lag_of(own.get("lag"))
+    causal = online and lag is None  # the causal tracker's lines trail the speed
+    online = online or lag is not None  # the forward filter only
+    if causal and "vib_lag" not in fuse_kw:
         cfg = replace(cfg, vib_lag=CAUSAL_VIB_LAG)
-    if online and "vib_spread" not in fuse_kw:
+    if causal and "vib_spread" not in fuse_kw:
         cfg = replace(cfg, vib_spread="mode")
-    if online and "vib_amax" not in fuse_kw:
+    if causal and "vib_amax" not in fuse_kw:
         cfg = replace(cfg, vib_amax=CAUSAL_VIB_AMAX)
-    if online and "vib_soft" not in fuse_kw:
+    if causal and "vib_soft" not in fuse_kw:
         cfg = replace(cfg, vib_soft=CAUSAL_VIB_SOFT)
-    if online and "vib_measure" not in fuse_kw and cfg.vib_use == "line":
+    if causal and "vib_measure" not in fuse_kw and cfg.vib_use == "line":
         # a given track without its posterior is read by its mode
         if vibration is None or "posterior" in vibration.extras:
             cfg = replace(cfg, vib_measure=CAUSAL_VIB_MEASURE)
-    if online and cfg.vib_measure == "posterior" and "vib_sep" not in fuse_kw:
+    if causal and cfg.vib_measure == "posterior" and "vib_sep" not in fuse_kw:
         cfg = replace(cfg, vib_sep=CAUSAL_VIB_SEP)
     rf = radius_from if radius_from is not None else own.get("radius_from")
     acc_ch, acc_sign = signed_axis(str(own.get("accel_axis", "x")))
@@ -232,7 +252,9 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         vibration = Track.from_omega(recording.t, nan, nan, method="none",
                                      extras={"has_signal": np.zeros(len(recording))})
     tparams = {**TRACKER_DEFAULTS, **rest}
-    if online:
+    if lag is not None:
+        tparams.update(smooth="lag", lag=lag)
+    elif online:
         tparams["smooth"] = "none"
     want_post = cfg.vib_measure == "posterior"
     t = recording.t
@@ -358,7 +380,7 @@ def estimate(recording: Recording, *, axis: str = "y", wheel_radius: float | Non
         notes.append("the wheel radius is not known (no wheel line while GPS was good): omega "
                      "is left empty; the vibration tracker's own omega is omega_vib")
     pdict = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(cfg).items()}
-    pdict.update({"online": online, "accel_axis": acc_spec, "axis": axis,
+    pdict.update({"online": online, "lag": lag, "accel_axis": acc_spec, "axis": axis,
                   "learned_radius": r_fin, "learned_radius_std": rs_fin,
                   "learned_gps_lag": cfg.lag.lag + float(end.x[-1]),
                   "learned_gps_lag_std": math.sqrt(max(float(end.P[-1, -1]), 0.0)),
