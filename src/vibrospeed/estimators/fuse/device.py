@@ -22,6 +22,13 @@ An estimate becomes final (is returned) once what the batch run decides it from 
   takes the density of all pairs (batch: a checkpoint at the last sample), so the newest
   fusion sample waits for the next IMU sample.
 
+With a fixed lag (:func:`config_for` with ``params={"lag": S}``, a device that can wait
+``S`` s) the tracker inside is :class:`vibrospeed.estimators.grid.LaggedTracker` (the grid
+tracker's fixed-lag smoother and its stops) and the lines are read with the offline settings,
+the numbers of ``fuse.estimate(rec, params={"lag": S})``: each sample is processed once the
+tracker gives its estimate (``S`` to ``2 S`` s later), so every estimate comes that much
+later than with the causal tracker.
+
 Left out (the batch run decides them from the whole log; notes, not numbers): the accelerometer
 sign and axis checks against the GPS speed, the radius-prior mismatch note, the note of the
 learned radius. ``omega`` is the speed over the radius learned so far (where known); the batch
@@ -59,7 +66,7 @@ from vibrospeed.estimators.fuse.config import (
     Config,
 )
 from vibrospeed.estimators.fuse.filter import Sample, init, step
-from vibrospeed.estimators.fuse.method import _read_radius, _split, _too_slow
+from vibrospeed.estimators.fuse.method import _lag_of, _read_radius, _split, _too_slow
 from vibrospeed.types import Estimate, Recording, check_wheel_radius
 
 __all__ = ["DeviceConfig", "FuseTracker", "config_for"]
@@ -67,8 +74,10 @@ __all__ = ["DeviceConfig", "FuseTracker", "config_for"]
 
 class DeviceConfig(NamedTuple):
     """What :class:`FuseTracker` is built from: the fusion ``fuse`` Config (the online
-    defaults applied, ``radius0`` / ``radius_std0`` the radius prior) and the causal grid
-    tracker's Config (None: the log is too slow to carry a wheel line, the vibration is off)."""
+    defaults applied, or with a lag the offline reading of lines; ``radius0`` /
+    ``radius_std0`` the radius prior) and the grid tracker's Config, causal
+    (``smooth="none"``) or fixed-lag (``smooth="lag"``) (None: the log is too slow to carry
+    a wheel line, the vibration is off)."""
 
     fuse: Config
     tracker: object | None
@@ -79,20 +88,27 @@ def config_for(recording: Recording, *, axis: str = "y", params: dict | None = N
                radius_from: str | None = None) -> DeviceConfig:
     """The configs ``fuse.estimate(recording, axis=axis, params={"online": True, **params},
     wheel_radius=, radius_from=)`` runs on (as ``grid.config_for`` for the grid): the
-    recording only fixes the tracker's sample rate, the radius prior and whether it has GPS."""
+    recording only fixes the tracker's sample rate, the radius prior and whether it has GPS.
+    With ``params["lag"]`` (s): those of ``fuse.estimate(recording, params={"lag": S, ...})``,
+    the fixed-lag tracker (``smooth="lag"``) and the lines read as offline (none of the
+    ``CAUSAL_*`` settings); ``vib_measure="posterior"`` is refused there (the fixed-lag
+    tracker's estimates carry no posterior)."""
     from vibrospeed.estimators import grid
 
     fuse_kw, own, rest = _split(dict(params or {}))
-    if not parse_flag(own.get("online", True), "online"):
+    lag = _lag_of(own.get("lag"))
+    # with a lag the batch runs the forward filter whatever online says
+    if lag is None and not parse_flag(own.get("online", True), "online"):
         raise ParameterError("fuse device: a device runs the forward filter (online=true)")
     cfg = config_from_params(Config, fuse_kw)
-    online = {"vib_lag": CAUSAL_VIB_LAG, "vib_spread": "mode", "vib_amax": CAUSAL_VIB_AMAX,
-              "vib_soft": CAUSAL_VIB_SOFT}
-    cfg = replace(cfg, **{k: v for k, v in online.items() if k not in fuse_kw})
-    if "vib_measure" not in fuse_kw and cfg.vib_use == "line":
-        cfg = replace(cfg, vib_measure=CAUSAL_VIB_MEASURE)
-    if cfg.vib_measure == "posterior" and "vib_sep" not in fuse_kw:
-        cfg = replace(cfg, vib_sep=CAUSAL_VIB_SEP)
+    if lag is None:  # the causal tracker's lines trail the speed: the online settings
+        online = {"vib_lag": CAUSAL_VIB_LAG, "vib_spread": "mode",
+                  "vib_amax": CAUSAL_VIB_AMAX, "vib_soft": CAUSAL_VIB_SOFT}
+        cfg = replace(cfg, **{k: v for k, v in online.items() if k not in fuse_kw})
+        if "vib_measure" not in fuse_kw and cfg.vib_use == "line":
+            cfg = replace(cfg, vib_measure=CAUSAL_VIB_MEASURE)
+        if cfg.vib_measure == "posterior" and "vib_sep" not in fuse_kw:
+            cfg = replace(cfg, vib_sep=CAUSAL_VIB_SEP)
     name = recording.source or "recording"
     rec, _ = gps_no_fix_as_nan(recording)
     has_gps = "gps_speed" in rec and np.isfinite(rec.channel("gps_speed")).any()
@@ -116,8 +132,22 @@ def config_for(recording: Recording, *, axis: str = "y", params: dict | None = N
     cfg = replace(cfg, radius0=r0, radius_std0=rs0)
     if _too_slow(rec, rest) is not None:
         return DeviceConfig(replace(cfg, vib_measure="mode"), None)
-    tparams = {**TRACKER_DEFAULTS, **rest, "smooth": "none"}
+    if lag is None:
+        tparams = {**TRACKER_DEFAULTS, **rest, "smooth": "none"}
+    else:
+        _lag_posterior(cfg)
+        tparams = {**TRACKER_DEFAULTS, **rest, "smooth": "lag", "lag": lag}
     return DeviceConfig(cfg, grid.config_for(rec, axis=axis, params=tparams))
+
+
+def _lag_posterior(cfg: Config) -> None:
+    """Refuse ``vib_measure="posterior"`` with the fixed-lag tracker: its estimates (the
+    batch Track's columns, :class:`~vibrospeed.estimators.grid.lagged.LaggedExtras`) carry
+    no posterior row for the filter to read."""
+    if cfg.vib_measure == "posterior":
+        raise ParameterError("fuse device: vib_measure=posterior needs the causal tracker's "
+                             "posterior; the fixed-lag tracker (lag=) gives none: use "
+                             "vib_measure=mode")
 
 
 class _Band:
@@ -259,7 +289,9 @@ class FuseTracker:
     ----------
     config, tracker : :func:`config_for`'s ``fuse`` and ``tracker`` (``DeviceConfig``
         unpacks as both); tracker None: no vibration part (a log too slow for a wheel line),
-        then ``dt`` (s) gives the sample period.
+        then ``dt`` (s) gives the sample period. A tracker config with ``smooth="lag"`` runs
+        :class:`vibrospeed.estimators.grid.LaggedTracker` inside (each sample processed
+        once its lagged estimate comes), ``smooth="none"`` the causal ``OnlineTracker``.
     level : the tracked axis' resting level (:func:`vibrospeed.estimators.common.start_level`
         of its first second, as the batch pre-filter starts), one per comb axis.
     standstill : the accelerometer axes the stop detector reads (the tracked one first, the
@@ -282,14 +314,22 @@ class FuseTracker:
         self.config = config
         self.sign = signed_axis(accel_axis)[1]
         self.trk = None
+        self.lagged = False
         self.n_vib = 1
         if tracker is not None:
             if not isinstance(tracker, grid.Config):
                 raise ParameterError(f"FuseTracker: tracker must be a grid Config "
                                      f"(config_for), got {type(tracker).__name__}")
-            if tracker.tracker.smooth != "none":
-                raise ParameterError("FuseTracker: the tracker must be causal (smooth=none)")
-            self.trk = OnlineTracker(grid, tracker, level=level, standstill=standstill)
+            smooth = tracker.tracker.smooth
+            if smooth not in ("none", "lag"):
+                raise ParameterError(f"FuseTracker: the tracker must be causal (smooth=none) "
+                                     f"or fixed-lag (smooth=lag), got smooth={smooth}")
+            self.lagged = smooth == "lag"
+            if self.lagged:
+                _lag_posterior(config)
+                self.trk = grid.LaggedTracker(tracker, level=level, standstill=standstill)
+            else:
+                self.trk = OnlineTracker(grid, tracker, level=level, standstill=standstill)
             self.n_vib = self.trk.n_axes
             dt = tracker.tracker.model.dt
             self.grid = np.asarray(tracker.tracker.grid, dtype=np.float64)
@@ -303,8 +343,13 @@ class FuseTracker:
             raise ParameterError(f"FuseTracker: v0 must be a finite speed, got {v0}")
         self.v0 = None if v0 is None else float(v0)
         self.state = None if v0 is None else self._init(self.v0)
-        self.n = 0  # samples seen
-        self.t = math.nan
+        self.n = 0  # samples given to update()
+        self.t = math.nan  # the last one's time
+        # per sample given but not yet processed (its tracker estimate not yet in; with the
+        # causal tracker none stays): t, accel, gps_speed, gps_sats, vib sample finite
+        self.raw: deque[tuple] = deque()
+        self.m = 0  # samples processed (their tracker estimate in), in index order
+        self.tm = math.nan  # the last processed one's time
         self.cs = 0.0  # running sums of the finite accel samples (batch: a cumsum)
         self.cn = 0
         self.cs0, self.cn0 = 0.0, 0  # at the start of the open block
@@ -368,11 +413,30 @@ class FuseTracker:
         t, a, g, s = v["t"], v["accel"], v["gps_speed"], v["gps_sats"]
         g = math.nan if g < 0 else g
         i = self.n
-        ends = (i + 1) % self.block == 0 or math.isfinite(g)
-        c = self.config
-        if self.trk is not None:
-            est = self.trk.update(vib if self.n_vib > 1 else float(np.ravel(vib)[0]), others)
+        if self.trk is None:
+            pairs = [(i, None)]
+            seen = False
+        else:
+            x = vib if self.n_vib > 1 else float(np.ravel(vib)[0])
             seen = math.isfinite(float(np.ravel(vib)[0]))
+            pairs = self.trk.update(x, others) if self.lagged else \
+                [(i, self.trk.update(x, others))]
+        self.raw.append((t, a, g, s, seen))
+        self.n, self.t = i + 1, t
+        for k, est in pairs:
+            self._process(k, est)
+        return self._drain()
+
+    def _process(self, k: int, est: Estimate | None) -> None:
+        """Sample ``k`` (the oldest not processed) with its tracker estimate (None: no
+        tracker): its line and stop evidence, its block's sums; its block closes here at a
+        fusion sample's end."""
+        t, a, g, s, seen = self.raw.popleft()
+        if k != self.m:  # the trackers emit each sample once, in order
+            raise RuntimeError(f"FuseTracker: the tracker gave sample {k}, expected {self.m}")
+        ends = (k + 1) % self.block == 0 or math.isfinite(g)
+        c = self.config
+        if est is not None:
             om = est.omega
             claim = est.has_signal > 0.5
             still = est.standstill > 0.5 and not claim
@@ -397,13 +461,12 @@ class FuseTracker:
             self.cs += a
             self.cn += 1
         self.still_all = self.still_all and still
-        self.samples.append((i, t, om, float(claim), svib))
-        self.n, self.t = i + 1, t
+        self.samples.append((k, t, om, float(claim), svib))
+        self.m, self.tm = k + 1, t
         # what closes a block here, or at finish() if this is the log's last sample
         self._last = (s, om, spread, line, soft, est if self.post else None)
         if ends:
             self._close(t, g, *self._last)
-        return self._drain()
 
     def _close(self, t, g, s, om, spread, line, soft, est) -> None:
         """The open block ends at the last sample: its fusion sample joins the queue (the
@@ -415,7 +478,7 @@ class FuseTracker:
         am = self.sign * ((self.cs - self.cs0) / max(cnt, 1) if cnt > 0 else math.nan)
         smp = Sample(t, am, g, s, om, spread, line, self.still_all, soft, post)
         fix = g if math.isfinite(g) and not s < self.config.min_sats else math.nan
-        self.blocks.append(_Block(self.n - 1, smp, fix))
+        self.blocks.append(_Block(self.m - 1, smp, fix))
         if self.band is not None:
             self.band.add(t, am, fix)
         if self.state is None and math.isfinite(fix):
@@ -428,8 +491,11 @@ class FuseTracker:
             return []
         if self.n < 2:
             raise InputError(f"FuseTracker: fewer than 2 samples ({self.n})")
-        if self.samples and (not self.blocks or self.blocks[-1].end != self.n - 1):
-            self._close(self.t, math.nan, *self._last)  # the open block ends here
+        if self.lagged:  # the tracker's last estimates
+            for k, est in self.trk.finish():
+                self._process(k, est)
+        if self.samples and (not self.blocks or self.blocks[-1].end != self.m - 1):
+            self._close(self.tm, math.nan, *self._last)  # the open block ends here
         self.finished = True
         if self.band is not None:
             self.band.finish()
@@ -444,9 +510,9 @@ class FuseTracker:
             band = None
             if self.band is not None:
                 last = self.finished and len(self.blocks) == 1
-                if not last and not self.finished and b.end == self.n - 1:
+                if not last and not self.finished and b.end == self.m - 1:
                     break  # it may be the log's last (its band: all pairs)
-                band = self.band.density(b.sample.t, self.t, last)
+                band = self.band.density(b.sample.t, self.tm, last)
                 if band is None:
                     break
             self.state, est = step(self.config, self.state, b.sample,
