@@ -413,11 +413,11 @@ def test_a_preset_of_another_method_without_m_names_the_methods_that_have_it(dri
     assert "grid" not in owners and "fuse" not in owners and "rbpmf" in owners
     line = _err(_run("estimate", drive, "--preset", "paper", "-o", "x.csv"))
     assert line == ("vibrospeed: error: --preset paper is not a preset of the method chosen "
-                    "without -m (fuse, with GPS speed: default, online; grid: default, "
-                    f"online, lock); it is a preset of {', '.join(owners)}: give the method "
+                    "without -m (fuse, with GPS speed: default, online, lag; grid: default, "
+                    f"online, lag, lock); it is a preset of {', '.join(owners)}: give the method "
                     "with -m")
     # a name no method has: grid's list, as before
-    assert "unknown preset 'nope' for method 'grid' (choose from: default, online, lock)" \
+    assert "unknown preset 'nope' for method 'grid' (choose from: default, online, lag, lock)" \
         in _err(_run("estimate", drive, "--preset", "nope", "-o", "x.csv"))
 
 

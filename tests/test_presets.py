@@ -87,7 +87,7 @@ def test_precedence_and_unknown_preset():
     assert presets.apply("grid", "lock", {})["q_omega"] == "4"
     assert presets.apply("grid", None, {"M": "2"}) == {"M": "2"}
     with pytest.raises(ParameterError, match=r"unknown preset 'lok' for method 'grid' "
-                       r"\(did you mean 'lock'\?\) \(choose from: default, online, lock\)"):
+                       r"\(did you mean 'lock'\?\) \(choose from: default, online, lag, lock\)"):
         presets.apply("grid", "lok", {})
 
 
@@ -172,3 +172,13 @@ def test_algebraic_slip_tol_is_documented_as_its_config_reads_it():
     assert par.about.endswith(f"default {algebraic.Config().slip_tol:g}")
     assert "relative" not in par.about
     assert algebraic.Config(slip_tol=float(par.example)).slip_tol == 0.5
+
+
+def test_lag_presets_are_the_fixed_lag_runs():
+    """``--preset lag``: grid's fixed-lag smoother and fuse's lag mode, 2 s; both names are
+    parameters the methods take (a batch accepts them)."""
+    assert presets.apply("grid", "lag", {}) == {"smooth": "lag", "lag": "2"}
+    assert presets.apply("grid", "lag", {"lag": "1"}) == {"smooth": "lag", "lag": "1"}
+    assert presets.apply("fuse", "lag", {}) == {"lag": "2"}
+    assert float in estimators.parameters("fuse")["lag"]
+    assert {"smooth", "lag"} <= set(estimators.parameters("grid"))

@@ -56,6 +56,9 @@ PRESETS: dict[str, dict[str, Preset]] = {
         "default": Preset({}, "smoothed over the whole log (offline; the most accurate)"),
         "online": Preset({"smooth": "none"}, "causal filter: each estimate from past samples "
                          "only (live use, a device)"),
+        "lag": Preset({"smooth": "lag", "lag": "2"}, "fixed-lag smoother: each estimate from "
+                      "the samples up to 2-2.5 s after it (a device that can wait; -p lag= "
+                      "for another delay)"),
         "lock": Preset({"smooth": "none", "comb_axes": "all", "q_omega": "4", **STRICT_COMB,
                         "amb_rel": "0.02", "amb_abs": "1", "mode_hold": "4"},
                        "causal filter switched on while the vehicle moves: comb evidence from "
@@ -125,6 +128,8 @@ PRESETS: dict[str, dict[str, Preset]] = {
                           "(offline)"),
         "online": Preset({"online": "true"}, "causal grid tracker and the forward filter "
                          "only"),
+        "lag": Preset({"lag": "2"}, "the grid tracker's fixed-lag smoother (2 s) and the "
+                      "forward filter: each speed 2-2.5 s late, nearer the offline accuracy"),
     },
     "algebraic": {
         "default": Preset({}, "Algorithms 1 and 2 of the algebraic velocity paper, slip found "
