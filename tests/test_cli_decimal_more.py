@@ -67,6 +67,15 @@ def test_a_decimal_comma_truth_scores_as_its_decimal_point_twin(drive):
               "--decimal", ",")
     assert res.exit_code == 0, res.output
     assert "STFT 3 s" in res.stdout
+    # and beside a Parquet baseline, the flag is the CSV truth's: the same scores as with the
+    # decimal-point truth
+    both = {}
+    for kind, extra in (("dot", ()), ("eu", ("--decimal", ","))):
+        res = run("evaluate", drive["est_pq"], "--truth", drive[kind], "--baseline",
+                  drive["pq"], "--json", d / f"b_{kind}.json", *extra)
+        assert res.exit_code == 0, res.output
+        both[kind] = json.loads((d / f"b_{kind}.json").read_text())
+    assert both["eu"] == both["dot"]
 
 
 def test_a_decimal_comma_truth_without_the_flag_is_one_line(drive):

@@ -229,8 +229,8 @@ def evaluate(
     track = io.read_track(estimate_csv)
     # the truth's mark: none for a Parquet one beside a baseline (read with the mark)
     takes = _takes_decimal(truth, truth_format, truth_columns is not None) if decimal else None
-    ref = io.read(truth, truth_format, columns=truth_columns,
-                  decimal=_marks(decimal, takes, baseline is not None)[0])
+    truth_mark = _marks(decimal, takes, baseline is not None)[0]
+    ref = io.read(truth, truth_format, columns=truth_columns, decimal=truth_mark)
     if truth_channel is None and not ({"omega_true", "speed_true"} & set(ref.channels)) \
             and "gps_speed" in ref.channels:  # a phone drive: its GPS is the truth it has
         raise ParameterError(f"{truth}: no omega_true or speed_true to compare against; it has "
@@ -246,7 +246,8 @@ def evaluate(
             f"{truth} ({ref.t[0]:g}-{ref.t[-1]:g} s) moves faster than {still}")
     mb = None
     if baseline is not None:  # the plain STFT on the same data, scored by the same call
-        base, notes = _baseline_track(estimate_csv, track, baseline, ref, decimal)
+        base, notes = _baseline_track(estimate_csv, track, baseline, ref, decimal,
+                                      truth_took=truth_mark is not None and takes is True)
         for note in notes:
             err.print(f"note: {note}", markup=False, soft_wrap=True)
         mb = ev(base, ref, min_omega=min_omega, warmup=warmup, truth_channel=truth_channel)
@@ -354,7 +355,8 @@ def _metric_rows(m) -> list[tuple[str, str, str]]:
     return rows
 
 
-def _baseline_track(estimate_csv: Path, track, recording: Path, ref, decimal: str | None = None):
+def _baseline_track(estimate_csv: Path, track, recording: Path, ref, decimal: str | None = None,
+                    truth_took: bool = False):
     """The plain 3 s STFT harmonic sum (:func:`vibrospeed.eval.baseline.stft_track`) on
     ``recording``, set up as the estimate ``track`` (read from ``estimate_csv``) was made: its
     axis (``y`` for ``gps-riss`` and ``algebraic``, whose axis is the longitudinal one), its
@@ -365,8 +367,9 @@ def _baseline_track(estimate_csv: Path, track, recording: Path, ref, decimal: st
     estimate's time stamps.
     A speed-only estimate (no radius) gets a speed-only baseline, through the recording's or
     the truth ``ref``'s radius, so both are scored in m/s. ``decimal``: ``evaluate
-    --decimal``, refused where the sidecar's options (a batch's) say another. Returns the track
-    and the notes."""
+    --decimal``, refused where the sidecar's options (a batch's) say another; not given to a
+    recording of a format without one where the CSV truth took it (``truth_took``). Returns
+    the track and the notes."""
     import numpy as np
 
     from vibrospeed.config import parse_flag
@@ -380,6 +383,10 @@ def _baseline_track(estimate_csv: Path, track, recording: Path, ref, decimal: st
     meta = side.get("meta") if isinstance(side.get("meta"), dict) else {}
     opts = meta.get("options") if isinstance(meta.get("options"), dict) else {}
     stored = opts.get("decimal")
+    if decimal is not None and truth_took and _takes_decimal(
+            recording, opts.get("fmt") or "auto",
+            bool(opts.get("columns") or opts.get("mapping"))) is False:
+        decimal = None  # the mark was the truth's: a Parquet recording has none
     if decimal is not None and stored is not None and decimal != stored:
         raise ParameterError(f"--decimal '{decimal}' but {estimate_csv}'s sidecar says the "
                              f"estimate read {recording} with decimal '{stored}': give one")
