@@ -138,3 +138,23 @@ def test_posterior_with_a_lag_refused(drive):
         FuseTracker(replace(cfg, vib_measure="posterior"), tc)
     with pytest.raises(ParameterError, match="smooth=fb"):
         FuseTracker(cfg, grid.config_for(rec, params={**P, "smooth": "fb"}))
+
+
+def test_a_log_too_slow_for_a_wheel_line_runs_without_a_tracker_with_a_lag_too():
+    """At 20 Hz no wheel line fits the default range: with or without a lag the device has no
+    tracker and gives the batch run's numbers (GPS and the accelerometer alone)."""
+    rec = sim.simulate("car", seed=2, duration=20)
+    idx = np.arange(0, len(rec), 5)
+    slow = Recording(rec.t[idx], {k: v[idx] for k, v in rec.channels.items()}, source="slow")
+    for prm in ({"lag": 2}, {"online": True}):
+        want = fuse.estimate(slow, params=prm)
+        cfg, tc = config_for(slow, params=prm)
+        assert tc is None
+        dev = FuseTracker(cfg, tc, dt=float(np.median(np.diff(slow.t))))
+        out = []
+        for i in range(len(slow)):
+            out += dev.update(slow.t[i], slow["ax"][i], math.nan, slow["gps_speed"][i],
+                              slow["gps_sats"][i])
+        out += dev.finish()
+        assert [k for k, _ in out] == list(range(len(slow)))
+        np.testing.assert_array_equal([e.speed for _, e in out], want.speed)
