@@ -127,17 +127,48 @@ def test_bad_lag_one_line(drive, bad):
     assert "\n" not in str(exc.value)
 
 
-def test_posterior_with_a_lag_refused(drive):
-    rec, _, cfg, tc = drive
-    with pytest.raises(ParameterError, match="vib_measure=posterior") as exc:
-        config_for(rec, params={"lag": LAG, "vib_measure": "posterior", **P}, wheel_radius=R)
-    assert "\n" not in str(exc.value)
-    from dataclasses import replace
-
-    with pytest.raises(ParameterError, match="vib_measure=posterior"):
-        FuseTracker(replace(cfg, vib_measure="posterior"), tc)
+def test_a_smoothed_tracker_refused(drive):
+    rec, _, cfg, _ = drive
     with pytest.raises(ParameterError, match="smooth=fb"):
         FuseTracker(cfg, grid.config_for(rec, params={**P, "smooth": "fb"}))
+
+
+@pytest.fixture(scope="module")
+def drive_post():
+    """The drive with ``vib_measure="posterior"``: the batch run and the device's configs."""
+    rec = _cart()
+    prm = {"lag": LAG, "vib_measure": "posterior", **P}
+    track = fuse.estimate(rec, params=prm, wheel_radius=R)
+    cfg, tc = config_for(rec, params=prm, wheel_radius=R)
+    return rec, track, cfg, tc
+
+
+def test_lag_device_reads_the_smoothed_posterior_as_the_batch(drive, drive_post):
+    """With a lag and ``vib_measure="posterior"`` the device's tracker keeps its smoothed
+    posterior rows and the filter reads them at the fusion samples: the batch numbers, not
+    those of the mode."""
+    rec, track, cfg, tc = drive_post
+    assert cfg.vib_measure == "posterior" and track.params["vib_measure"] == "posterior"
+    assert cfg.vib_sep == fuse.Config().vib_sep  # the offline reading, as the batch
+    dev = _device(rec, tc, cfg)
+    assert dev.trk.posterior and dev.post
+    out, _, _ = _run(rec, dev)
+    _assert_batch(out, track)
+    assert np.abs(track.speed - drive[1].speed).max() > 0.1  # the posterior was read
+    _, _, cfg_mode, tc_mode = drive
+    assert not _device(rec, tc_mode, cfg_mode).trk.posterior  # vib_measure=mode keeps none
+
+
+def test_lag_device_with_the_posterior_pickled_mid_stream_continues(drive_post):
+    rec, track, cfg, tc = drive_post
+    dev = _device(rec, tc, cfg)
+    half = 1130
+    out, _, _ = _run(rec, dev, stop=half)
+    # blocks wait for the filter, the open block's closing estimate holds its posterior row
+    assert out and dev.blocks and dev._last[-1].extras["posterior"].dtype == np.float32
+    dev = pickle.loads(pickle.dumps(dev))
+    rest, _, _ = _run(rec, dev, start=half)
+    _assert_batch(out + rest, track)
 
 
 def test_a_log_too_slow_for_a_wheel_line_runs_without_a_tracker_with_a_lag_too():

@@ -20,16 +20,19 @@ from vibrospeed.types import Recording
 FIELDS = ("omega", "omega_std", "omega_lo", "omega_hi", "speed", "speed_std")
 
 
-def stream(rec, params, axis="y", standstill=True, radius=None):
-    """``(batch Track, [(k, Estimate)], tracker)`` for ``rec`` fed one sample at a time."""
-    track = grid.estimate(rec, axis=axis, params=params, wheel_radius=radius)
+def stream(rec, params, axis="y", standstill=True, radius=None, posterior=False):
+    """``(batch Track, [(k, Estimate)], tracker)`` for ``rec`` fed one sample at a time
+    (``posterior``: the batch's ``return_posterior=True``, the tracker's ``posterior=True``)."""
+    track = grid.estimate(rec, axis=axis, params=params, wheel_radius=radius,
+                          return_posterior=posterior)
     cfg = grid.config_for(rec, axis=axis, params=params)
     comb = list(cfg.comb_axes) or ["a" + axis]
     chans = comb + [c for c in ("ax", "ay", "az") if c not in comb and c in rec]
     A = len(comb)
     trk = LaggedTracker(cfg, level=[start_level(rec[c], cfg.tracker.model.dt) for c in comb],
                         standstill=len(chans) if standstill else 0,
-                        wheel_radius=radius or rec.wheel_radius)  # as the batch Track's
+                        wheel_radius=radius or rec.wheel_radius,  # as the batch Track's
+                        posterior=posterior)
     out = []
     for row in np.column_stack([rec[c] for c in chans]):
         out += trk.update(row[:A] if A > 1 else float(row[0]), row[A:] if standstill else ())
@@ -60,6 +63,32 @@ def test_the_lagged_tracker_is_the_batch_fixed_lag_estimate_with_its_stops():
     still = track.extras["standstill"] == 1
     assert np.any(track.extras["omega_mode"][still] > 0)
     assert trk.max_delay == pytest.approx(2 * trk.B * trk.dt - trk.dt + trk.D * trk.dt)
+
+
+@pytest.mark.parametrize("lag", [2.0, 0.4])  # evidence mid-frame; end-referred (blocks of lag)
+def test_the_posterior_rows_are_the_batch_smoothers(lag):
+    """``posterior=True``: each Estimate carries its sample's smoothed posterior row, the row of
+    ``grid.estimate(..., smooth="lag", return_posterior=True)`` (float32, bit for bit), with
+    the stops and a gap; without it the estimates carry none."""
+    rec = simulate("stop_and_go", seed=1, duration=20)  # a stop 16.3-19.5 s
+    ay = rec["ay"].copy()
+    ay[300:340] = np.nan
+    rec = Recording(rec.t, {"ax": rec["ax"], "ay": ay, "az": rec["az"]})
+    params = {"omega_min": 2, "omega_max": 30, "smooth": "lag", "lag": lag, "n_grid": 30}
+    track, out, trk = stream(rec, params, radius=0.2, posterior=True)
+    assert_same(track, out)  # every extra, "posterior" with them
+    post = np.array([e.extras["posterior"] for _, e in out])
+    assert post.dtype == np.float32 and post.shape == (len(rec), trk.N)
+    np.testing.assert_array_equal(post, track.extras["posterior"])
+    assert track.extras["standstill"].any()
+    # the signal part: its mass is the line's probability
+    np.testing.assert_allclose(post.sum(axis=1), 1.0 - track.extras["p_null"], atol=1e-5)
+    cfg = grid.config_for(rec, params=params)
+    plain = LaggedTracker(cfg)
+    got = [e for a in ay[:400] for e in plain.update(float(a))]
+    assert got and "posterior" not in got[0][1].extras
+    with pytest.raises(KeyError):
+        got[0][1].extras["posterior"]
 
 
 def test_each_estimate_comes_within_the_lag_bounds():

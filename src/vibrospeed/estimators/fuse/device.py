@@ -27,7 +27,9 @@ With a fixed lag (:func:`config_for` with ``params={"lag": S}``, a device that c
 tracker's fixed-lag smoother and its stops) and the lines are read with the offline settings,
 the numbers of ``fuse.estimate(rec, params={"lag": S})``: each sample is processed once the
 tracker gives its estimate (``S`` to ``2 S`` s later), so every estimate comes that much
-later than with the causal tracker.
+later than with the causal tracker. With ``vib_measure="posterior"`` the tracker's estimates
+carry their smoothed posterior rows (``LaggedTracker(..., posterior=True)``, the rows of the
+batch smoother's ``return_posterior``), read at the fusion samples as the batch reads them.
 
 Left out (the batch run decides them from the whole log; notes, not numbers): the accelerometer
 sign and axis checks against the GPS speed, the radius-prior mismatch note, the note of the
@@ -91,8 +93,8 @@ def config_for(recording: Recording, *, axis: str = "y", params: dict | None = N
     recording only fixes the tracker's sample rate, the radius prior and whether it has GPS.
     With ``params["lag"]`` (s): those of ``fuse.estimate(recording, params={"lag": S, ...})``,
     the fixed-lag tracker (``smooth="lag"``) and the lines read as offline (none of the
-    ``CAUSAL_*`` settings); ``vib_measure="posterior"`` is refused there (the fixed-lag
-    tracker's estimates carry no posterior)."""
+    ``CAUSAL_*`` settings; ``vib_measure="posterior"`` reads the fixed-lag smoother's
+    posterior)."""
     from vibrospeed.estimators import grid
 
     fuse_kw, own, rest = _split(dict(params or {}))
@@ -135,19 +137,8 @@ def config_for(recording: Recording, *, axis: str = "y", params: dict | None = N
     if lag is None:
         tparams = {**TRACKER_DEFAULTS, **rest, "smooth": "none"}
     else:
-        _lag_posterior(cfg)
         tparams = {**TRACKER_DEFAULTS, **rest, "smooth": "lag", "lag": lag}
     return DeviceConfig(cfg, grid.config_for(rec, axis=axis, params=tparams))
-
-
-def _lag_posterior(cfg: Config) -> None:
-    """Refuse ``vib_measure="posterior"`` with the fixed-lag tracker: its estimates (the
-    batch Track's columns, :class:`~vibrospeed.estimators.grid.lagged.LaggedExtras`) carry
-    no posterior row for the filter to read."""
-    if cfg.vib_measure == "posterior":
-        raise ParameterError("fuse device: vib_measure=posterior needs the causal tracker's "
-                             "posterior; the fixed-lag tracker (lag=) gives none: use "
-                             "vib_measure=mode")
 
 
 class _Band:
@@ -291,7 +282,8 @@ class FuseTracker:
         unpacks as both); tracker None: no vibration part (a log too slow for a wheel line),
         then ``dt`` (s) gives the sample period. A tracker config with ``smooth="lag"`` runs
         :class:`vibrospeed.estimators.grid.LaggedTracker` inside (each sample processed
-        once its lagged estimate comes), ``smooth="none"`` the causal ``OnlineTracker``.
+        once its lagged estimate comes; with ``vib_measure="posterior"`` it keeps its
+        smoothed posterior rows), ``smooth="none"`` the causal ``OnlineTracker``.
     level : the tracked axis' resting level (:func:`vibrospeed.estimators.common.start_level`
         of its first second, as the batch pre-filter starts), one per comb axis.
     standstill : the accelerometer axes the stop detector reads (the tracked one first, the
@@ -326,8 +318,8 @@ class FuseTracker:
                                      f"or fixed-lag (smooth=lag), got smooth={smooth}")
             self.lagged = smooth == "lag"
             if self.lagged:
-                _lag_posterior(config)
-                self.trk = grid.LaggedTracker(tracker, level=level, standstill=standstill)
+                self.trk = grid.LaggedTracker(tracker, level=level, standstill=standstill,
+                                              posterior=config.vib_measure == "posterior")
             else:
                 self.trk = OnlineTracker(grid, tracker, level=level, standstill=standstill)
             self.n_vib = self.trk.n_axes

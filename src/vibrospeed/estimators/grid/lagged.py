@@ -55,13 +55,14 @@ _COLUMN = dict(_SCALARS)
 class LaggedExtras(Mapping):
     """The extras of a :class:`LaggedTracker` Estimate, the batch Track's extras at its sample,
     read from the sample's smoothed and filtered rows when asked for (a device that reads
-    ``omega`` alone builds no dict of ~25 entries per sample)."""
+    ``omega`` alone builds no dict of ~25 entries per sample); ``posterior`` the sample's
+    smoothed posterior row (N,) float32 where the tracker keeps them."""
 
-    __slots__ = ("_keys", "_sm", "_row", "_rms", "_r", "_still", "_tr")
+    __slots__ = ("_keys", "_sm", "_row", "_rms", "_r", "_still", "_tr", "_post")
 
-    def __init__(self, keys, sm, row, rms, r, still, tr) -> None:
+    def __init__(self, keys, sm, row, rms, r, still, tr, post=None) -> None:
         self._keys, self._sm, self._row, self._rms = keys, sm, row, rms
-        self._r, self._still, self._tr = r, still, tr
+        self._r, self._still, self._tr, self._post = r, still, tr, post
 
     def __getitem__(self, key: str) -> float:
         sm, tr = self._sm, self._tr
@@ -80,6 +81,8 @@ class LaggedExtras(Mapping):
             return 1.0 if amb >= 0.05 else 0.0
         if key == "rms":
             return self._rms
+        if key == "posterior":
+            return self._post
         if key == "multimodal":
             return 1.0 if sm[cols.COL_P_MODE] < tr.mode_share else 0.0
         if key == "omega_mean":
@@ -119,6 +122,10 @@ class LaggedTracker(OnlineTracker):
         same delay on k raw accelerometer axes (the samples given to :meth:`update` and its
         ``others``); ``estimate()`` reads every accelerometer axis (give all 3 for its
         numbers).
+    posterior : True: each Estimate's ``extras["posterior"]`` holds its sample's smoothed
+        posterior of omega on the grid (N,) float32, the signal part, the row of
+        ``estimate(..., return_posterior=True)`` (``p(omega_t = j | y_1..end of block b+1)``,
+        the "no line" mass left out), e.g. for ``fuse``'s ``vib_measure="posterior"``.
 
     Each Estimate has the batch Track's columns at its sample: ``omega`` (the smoothed mode or
     mean, per ``point``), its std and band, ``has_signal``, ``standstill``, ``speed`` with a
@@ -140,8 +147,12 @@ class LaggedTracker(OnlineTracker):
     True
     """
 
+    #: whether the estimates carry their posterior row (a class default: a tracker pickled
+    #: before the option existed loads without it)
+    posterior = False
+
     def __init__(self, config: Any, *, level=None, standstill: int = 0,
-                 wheel_radius: float | None = None) -> None:
+                 wheel_radius: float | None = None, posterior: bool = False) -> None:
         import vibrospeed.estimators.grid.method as _grid
 
         tr = getattr(config, "tracker", None)
@@ -192,6 +203,10 @@ class LaggedTracker(OnlineTracker):
         self._scratch = (np.empty(N1), np.empty(N1))
         self._no_post = np.zeros((0, self.N), dtype=np.float32)
         self._no_slot = np.zeros(0, np.int64)
+        self.posterior = bool(posterior)
+        if self.posterior:  # a block's rows: slot t -> row t of the block's posterior array
+            self._slots = np.arange(self.B, dtype=np.int64)
+            self._posts: list[np.ndarray] = []  # posterior rows not yet emitted
         self._em = np.empty(N1)
         self._smoothed: list[np.ndarray] = []  # smoothed rows not yet emitted
         self._emitted = 0
@@ -211,7 +226,8 @@ class LaggedTracker(OnlineTracker):
                       + ("loglik", "confidence", "ambiguous", "rms", "multimodal")
                       + (("omega_mean",) if tr.point == "mode" else ())
                       + tuple(f"amp{m + 1}" for m in range(tr.model.M))
-                      + (("speed_lo", "speed_hi") if self.wheel_radius else ()))
+                      + (("speed_lo", "speed_hi") if self.wheel_radius else ())
+                      + (("posterior",) if self.posterior else ()))
         self.max_delay = max(2 * self.B - 1 + self.D,
                              int(np.floor(tr.lag / dt + 1e-9)) if self.n_still else 0) * dt
 
@@ -262,15 +278,21 @@ class LaggedTracker(OnlineTracker):
         a, pr = self._scratch
         _sm._forward_range(self._gll, 0, n, self._lw, *self._fwd, self._alpha, a, pr)
         outs = np.zeros((n, _sm.N_OUT_FIXED))
+        if self.posterior:  # as the batch fixed_lag's return_posterior rows
+            posts, slot = np.zeros((n, self.N), dtype=np.float32), self._slots
+            self._posts.extend(posts)
+        else:
+            posts, slot = self._no_post, self._no_slot
         _sm._smooth_range(self._alpha, 0, self._gll, rows - 1, 0, n, np.ones(self.N + 1),
-                          *self._common, outs, self._no_post, self._no_slot)
+                          *self._common, outs, posts, slot)
         self._smoothed.extend(outs)
         self._gll[: rows - n] = self._gll[n:rows]
         self._s0 += n
 
-    def _estimate(self, sm: np.ndarray, row: np.ndarray, rms: float, still: bool | None
-                  ) -> Estimate:
-        """One sample's Estimate from its smoothed row, the filter's row and the rms."""
+    def _estimate(self, sm: np.ndarray, row: np.ndarray, rms: float, still: bool | None,
+                  post: np.ndarray | None = None) -> Estimate:
+        """One sample's Estimate from its smoothed row, the filter's row, the rms and its
+        posterior row (None: not kept)."""
         tr = self.grid_cfg
         r = self.wheel_radius or math.nan
         omega = float(sm[self._col_omega])
@@ -285,7 +307,7 @@ class LaggedTracker(OnlineTracker):
                 vals = [0.0 if math.isfinite(v) else v for v in vals]
                 has = 0.0 if math.isfinite(has) else has
         return Estimate(*vals, has, stand, LaggedExtras(self._keys, sm, row, rms, r, bool(still),
-                                                        tr))
+                                                        tr, post))
 
     def _emit(self) -> list[tuple[int, Estimate]]:
         """The samples whose smoothed row (and stop decision) are both in."""
@@ -293,11 +315,15 @@ class LaggedTracker(OnlineTracker):
         if self.n_still:
             n = min(n, *(len(d) for d in self._decided))
         out = []
+        posts = self._posts if self.posterior else None
         for i in range(n):
             still = all(d[i] for d in self._decided) if self.n_still else None
             row, rms = self._rows[i]
-            out.append((self._emitted + i, self._estimate(self._smoothed[i], row, rms, still)))
+            out.append((self._emitted + i, self._estimate(self._smoothed[i], row, rms, still,
+                                                          posts[i] if posts else None)))
         del self._smoothed[:n], self._rows[:n]
+        if posts:
+            del posts[:n]
         for d in self._decided:
             del d[:n]
         self._emitted += n
