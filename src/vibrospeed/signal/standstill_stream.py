@@ -2,16 +2,26 @@
 a device: :func:`stream_step` gives the causal detector's decisions (``standstill(...,
 causal=True)``) and :class:`LagStream` those with a delay (``lag``, the fixed-lag smoother's),
 in bounded memory (one frame, one body-motion window, the level histograms and the frames of
-one lag). The per-frame rule is the batch one (``_frame_levels``, the compiled
-``_frame_step``, ``_lag_plan``), so a change of the rule is made once.
+one lag). The per-frame rule is the batch one (the compiled ``_frame_step``, ``_lag_plan``),
+so a change of the rule is made once.
+
+Cost: a sample is one compiled call (both filters, the ring buffers) on a copy of one small
+array; a frame (every ``HOP_S`` s) adds the FFT of the frame (numpy's pocketfft, as the batch
+run) and compiled code for the rest. The compiled parts make numpy's arithmetic in its order
+(its pairwise sums: :func:`_pairwise_sum`) and leave to numpy what numba computes differently
+(``abs`` of a complex number, ``log10``), so each frame's levels are those of the batch
+functions (``_frame_levels``; ``line_residual`` of one window) bit for bit.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit
 
+from vibrospeed.signal import dsp
 from vibrospeed.signal import prefilter as pf
 from vibrospeed.signal.standstill import (
     _BINS,
@@ -24,41 +34,104 @@ from vibrospeed.signal.standstill import (
     _band_bins,
     _check_lag,
     _filters,
-    _frame_levels,
     _frame_step,
     _lag_plan,
-    _line_terms,
-    _log_level,
     _Rule,
     _rule,
     _samples,
-    line_residual,
 )
+
+
+def _rfft_gufuncs() -> tuple[Any, Any]:
+    """numpy's rfft gufuncs (even and odd lengths) behind ``np.fft.rfft``, called directly for
+    a third of its per-call cost; None where this numpy has none that gives its numbers."""
+    try:
+        from numpy.fft import _pocketfft_umath as pfu
+
+        even, odd = pfu.rfft_n_even, pfu.rfft_n_odd
+        for n, f in ((8, even), (9, odd)):
+            a = np.linspace(-1.0, 2.0, n) ** 2
+            if not np.array_equal(f(a, 1, out=np.empty(n // 2 + 1, np.complex128)),
+                                  np.fft.rfft(a)):
+                return None, None
+        return even, odd
+    except Exception:  # another numpy: its public rfft
+        return None, None
+
+
+_RFFT_EVEN, _RFFT_ODD = _rfft_gufuncs()
+
+#: a NamedTuple's fields as one tuple, without its generated ``__new__``'s cost per sample
+_new = tuple.__new__
+
+#: the state array's head: samples seen, whether each filter has started (0/1), the filters'
+#: sections, the rings' lengths and the hop (so that the compiled step and a state's
+#: properties read its parts from it)
+_COUNT, _HP_ON, _LP_ON, _NH, _NL, _NHP, _NLP, _HOP, _HEAD = range(9)
 
 
 class StreamState(NamedTuple):
     """Causal detector state for one axis (:func:`stream_init`, :func:`stream_step`):
+    ``buf`` the per-sample part in one array (samples seen, whether each filter has started,
     the high-pass and low-pass filter states, the last frame's ``hp`` samples and the last
-    body-motion window's ``lp`` samples (oldest first), samples seen, each level's histogram
-    (``hist``: (2, bins)), frame counts ``total`` (2,) and last decisions ``last`` (2,), the
-    run of standing frames and the current decision. ``hp`` and ``lp`` are ring buffers: sample
-    ``i`` at ``i % size``."""
+    body-motion window's ``lp`` samples, both ring buffers: sample ``i`` at ``i % size``; the
+    properties below read them), each level's histogram (``hist``: (2, bins)), frame counts
+    ``total`` (2,) and last decisions ``last`` (2,), the run of standing frames and the
+    current decision."""
 
-    hp_state: Any
-    lp_state: Any
-    hp: np.ndarray
-    lp: np.ndarray
-    count: int
+    buf: np.ndarray
     hist: np.ndarray
     total: np.ndarray
     last: np.ndarray
     run: int
     still: bool
 
+    def _part(self, k: int) -> tuple[int, int]:
+        """Start and length in ``buf`` of part ``k``: 0 high-pass state, 1 low-pass state,
+        2 ``hp`` ring, 3 ``lp`` ring."""
+        b = self.buf
+        n = [2 * int(b[_NH]), 2 * int(b[_NL]), int(b[_NHP]), int(b[_NLP])]
+        return _HEAD + sum(n[:k]), n[k]
+
+    @property
+    def count(self) -> int:
+        """Samples seen."""
+        return int(self.buf[_COUNT])
+
+    @property
+    def hp(self) -> np.ndarray:
+        """The last frame's high-passed samples (ring buffer, a copy)."""
+        o, n = self._part(2)
+        return self.buf[o : o + n].copy()
+
+    @property
+    def lp(self) -> np.ndarray:
+        """The last body-motion window's low-passed samples (ring buffer, a copy)."""
+        o, n = self._part(3)
+        return self.buf[o : o + n].copy()
+
+    @property
+    def hp_state(self) -> pf.PrefilterState:
+        """The high-pass filter's state (a copy)."""
+        o, n = self._part(0)
+        return pf.PrefilterState(self.buf[o : o + n].reshape(-1, 2).copy(),
+                                 bool(self.buf[_HP_ON]))
+
+    @property
+    def lp_state(self) -> pf.PrefilterState | None:
+        """The low-pass filter's state (a copy; None: no body-motion test)."""
+        o, n = self._part(1)
+        return (pf.PrefilterState(self.buf[o : o + n].reshape(-1, 2).copy(),
+                                  bool(self.buf[_LP_ON])) if n else None)
+
 
 class StreamPlan(NamedTuple):
     """What :func:`stream_step` needs besides the state: sample period, search band (rad/s),
-    frame and hop lengths in samples, the filters, the frame's window and bins, the rule."""
+    frame and hop lengths in samples, the filters, the frame's window and bins, the rule (and
+    as a plain tuple, ``rule_t``); and for the compiled step both filters' sections, each
+    beside its rest state on a unit input (``k``: (sections, 8), the high-pass's first), the
+    window's sum, the bins as a range (``b0 .. b1 - 1``) and where the rings start in the
+    state array (``o_hp``, ``o_lp``)."""
 
     dt: float
     band: tuple[float, float]
@@ -70,6 +143,22 @@ class StreamPlan(NamedTuple):
     win: np.ndarray
     sel: np.ndarray
     rule: _Rule
+    rule_t: tuple
+    k: np.ndarray
+    wsum: float
+    b0: int
+    b1: int
+    o_hp: int
+    o_lp: int
+
+
+def _sections(sos: np.ndarray | None) -> np.ndarray:
+    """(sections, 8): each section's coefficients, then its state at rest on a unit input
+    (:func:`~vibrospeed.signal.dsp.sosfilt_zi`); (0, 8) for no filter."""
+    if sos is None:
+        return np.zeros((0, 8))
+    sos = np.asarray(sos, dtype=np.float64)
+    return np.hstack([sos, dsp.sosfilt_zi(sos)])
 
 
 def stream_plan(dt: float, band: tuple[float, float]) -> StreamPlan:
@@ -79,30 +168,259 @@ def stream_plan(dt: float, band: tuple[float, float]) -> StreamPlan:
     hp, upper = _filters(dt, band)
     lp = pf.butter_sos("lowpass", upper, 1.0 / dt, 2) if upper else None
     L = _samples(FRAME_S, dt, 8)
+    Lm = _samples(MOTION_FRAME_S, dt, 3)
+    win, sel = np.hanning(L), _band_bins(L, dt, band)
+    bins = np.flatnonzero(sel)
+    if bins.size == 0 or np.any(np.diff(bins) != 1):  # _band_bins makes one range
+        raise ValueError(f"standstill: the band's frame bins are not one range: {bins}")
+    k = np.ascontiguousarray(np.vstack([_sections(hp), _sections(lp)]))
+    o_hp = _HEAD + 2 * k.shape[0]
+    rule = _rule(motion=upper > 0, dwell=int(round(CAUSAL_DWELL_S / HOP_S)))
     return StreamPlan(float(dt), (float(band[0]), float(band[1])), L, _samples(HOP_S, dt, 1),
-                      _samples(MOTION_FRAME_S, dt, 3),
-                      hp, lp, np.hanning(L), _band_bins(L, dt, band),
-                      _rule(motion=upper > 0, dwell=int(round(CAUSAL_DWELL_S / HOP_S))))
+                      Lm, hp, lp, win, sel, rule, tuple(rule), k, float(win.sum()),
+                      int(bins[0]), int(bins[-1]) + 1, o_hp, o_hp + L)
+
+
+def _init_buf(plan: StreamPlan) -> np.ndarray:
+    """The per-sample state array from nothing seen: filters not started, rings NaN."""
+    buf = np.full(plan.o_lp + plan.Lm, np.nan)
+    buf[:plan.o_hp] = 0.0
+    buf[_NH] = plan.hp_sos.shape[0]
+    buf[_NL] = 0 if plan.lp_sos is None else plan.lp_sos.shape[0]
+    buf[_NHP], buf[_NLP], buf[_HOP] = plan.L, plan.Lm, plan.hop
+    return buf
 
 
 def stream_init(plan: StreamPlan) -> StreamState:
     """Nothing seen: not standing."""
-    return StreamState(pf.init(plan.hp_sos), None if plan.lp_sos is None
-                       else pf.init(plan.lp_sos), np.full(plan.L, np.nan),
-                       np.full(plan.Lm, np.nan), 0, np.zeros((2, _BINS)), np.zeros(2),
+    return StreamState(_init_buf(plan), np.zeros((2, _BINS)), np.zeros(2),
                        np.zeros(2, np.bool_), 0, False)
 
 
-def _window_motion(w: np.ndarray, Lm: int) -> float:
-    """:func:`~vibrospeed.signal.standstill.motion_level` of the one window ``w`` (the
-    low-passed samples so far, at most ``Lm``): its sums made directly (a device has no whole
-    log's running sums)."""
-    ok = np.isfinite(w)
-    y = w[ok]
-    y = y - y.sum() / y.size if y.size else y  # the mean, without np.mean's cost
-    t = np.arange(w.size, dtype=np.float64)[ok]
-    sums = _line_terms(np.ones(y.size), y, t).sum(axis=1)[:, None]
-    return float(line_residual(sums, np.zeros_like(sums), Lm)[0])
+@njit(cache=True)
+def _filter(k, buf, on, o, x):
+    """One sample ``x`` through the filter of sections ``k`` (:func:`_sections`) whose state
+    is ``buf[o : o + 2 n]``, started where ``buf[on]`` is 1 (else at rest on ``x``), in place:
+    :func:`vibrospeed.signal.prefilter.step`'s numbers (its compiled section step). NaN (or
+    inf) gives NaN and leaves the state."""
+    if not np.isfinite(x):
+        return np.nan
+    n = k.shape[0]
+    zi = buf[o : o + 2 * n].reshape((n, 2))
+    if buf[on] == 0.0:
+        for s in range(n):
+            zi[s, 0] = k[s, 6] * x
+            zi[s, 1] = k[s, 7] * x
+        buf[on] = 1.0
+    return pf._sos_step(k[:, :6], zi, x, zi)  # zf over zi: each value is read before it goes
+
+
+@njit(cache=True)
+def _advance(k, buf, x):
+    """One raw sample into the state array ``buf`` (in place; its head gives the layout):
+    both filters (sections ``k``, the high-pass's first), their outputs into the rings. True
+    where a frame ends at this sample."""
+    i = int(buf[_COUNT])
+    nh, nl = int(buf[_NH]), int(buf[_NL])
+    L, hop = int(buf[_NHP]), int(buf[_HOP])
+    o_hp = _HEAD + 2 * (nh + nl)
+    buf[o_hp + i % L] = _filter(k[:nh], buf, _HP_ON, _HEAD, x)
+    if nl:
+        Lm = int(buf[_NLP])
+        buf[o_hp + L + i % Lm] = _filter(k[nh:], buf, _LP_ON, _HEAD + 2 * nh, x)
+    buf[_COUNT] = i + 1
+    return i >= L - 1 and (i - L + 1) % hop == 0
+
+
+@njit(cache=True)
+def _pairwise_block(a, lo, n):
+    """``a[lo : lo + n]``'s sum for ``n <= 128`` as numpy makes it: in order below 8 values,
+    else in 8 interleaved partial sums combined pairwise, then the rest in order."""
+    if n < 8:
+        r = 0.0
+        for j in range(lo, lo + n):
+            r += a[j]
+        return r
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    j, m = lo + 8, lo + n - n % 8
+    while j < m:
+        r0 += a[j]
+        r1 += a[j + 1]
+        r2 += a[j + 2]
+        r3 += a[j + 3]
+        r4 += a[j + 4]
+        r5 += a[j + 5]
+        r6 += a[j + 6]
+        r7 += a[j + 7]
+        j += 8
+    r = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while j < lo + n:
+        r += a[j]
+        j += 1
+    return r
+
+
+@njit(cache=True)
+def _pairwise_sum(a, lo, n):
+    """``a[lo : lo + n]``'s sum as numpy's ``sum`` makes it (pairwise: blocks of up to 128
+    values, :func:`_pairwise_block`, the halves above that, each half a multiple of 8 long):
+    the batch run's sums bit for bit. The halving runs on an explicit stack (a cached
+    recursive numba function crashes on load)."""
+    if n <= 128:
+        return _pairwise_block(a, lo, n)
+    los = np.empty(64, np.int64)  # the nodes from the root down to the one in work
+    ns = np.empty(64, np.int64)
+    stage = np.empty(64, np.int64)  # 0: left half due, 1: right half due, 2: both done
+    left = np.empty(64)
+    top = 0
+    los[0], ns[0], stage[0] = lo, n, 0
+    v = 0.0  # the sum of the node last finished
+    while top >= 0:
+        if ns[top] <= 128:
+            v = _pairwise_block(a, los[top], ns[top])
+            top -= 1
+            continue
+        h = ns[top] // 2
+        h -= h % 8
+        if stage[top] == 0:
+            stage[top] = 1
+            los[top + 1], ns[top + 1] = los[top], h
+        elif stage[top] == 1:
+            left[top], stage[top] = v, 2
+            los[top + 1], ns[top + 1] = los[top] + h, ns[top] - h
+        else:
+            v = left[top] + v
+            top -= 1
+            continue
+        top += 1
+        stage[top] = 0
+    return v
+
+
+@njit(cache=True)
+def _np_sum(a, n):
+    """``np.sum(a[:n])``: numpy's initial 0.0 plus the pairwise sum."""
+    return 0.0 + _pairwise_sum(a, 0, n)
+
+
+@njit(cache=True)
+def _hp_frame(buf, o_hp, L, i, win):
+    """The frame ending at sample ``i`` from the ``hp`` ring, as
+    :func:`~vibrospeed.signal.standstill._frame_levels` transforms it: NaN as 0, less its mean,
+    times the window; and whether at least half its samples are finite."""
+    fr = np.empty(L)
+    p = (i + 1) % L
+    good = 0
+    for j in range(L):
+        v = buf[o_hp + (p + j) % L]
+        if np.isfinite(v):
+            good += 1
+        else:
+            v = 0.0
+        fr[j] = v
+    m = _np_sum(fr, L) / L
+    for j in range(L):
+        fr[j] = (fr[j] - m) * win[j]
+    return fr, 2 * good >= L
+
+
+@njit(cache=True)
+def _median_level(a, wsum):
+    """Broadband level from the bins' magnitudes ``a`` (``|X|``, numpy's): ``2 sqrt(median
+    |X|^2) / sum(w)``, the middle power or the mean of the two middle ones (NaN if any power
+    is NaN). The powers are sorted by insertion (tens of bins; numba's ``np.sort`` takes
+    seconds to compile)."""
+    n = a.size
+    P = np.empty(n)
+    for j in range(n):
+        v = a[j] * a[j]
+        if np.isnan(v):
+            return np.nan
+        m = j
+        while m > 0 and P[m - 1] > v:
+            P[m] = P[m - 1]
+            m -= 1
+        P[m] = v
+    h = n // 2
+    med = P[h] if n % 2 else (P[h - 1] + P[h]) / 2
+    return 2.0 * np.sqrt(med) / wsum
+
+
+@njit(cache=True, error_model="numpy")
+def _motion(buf, o_lp, Lm, i):
+    """Body-motion level of the window ending at sample ``i`` (its last ``min(i + 1, Lm)``
+    samples in the ``lp`` ring): the RMS residual from a least-squares line through its
+    finite samples, NaN where fewer than ``Lm // 2`` are (``motion_level`` /
+    ``line_residual`` of :mod:`vibrospeed.signal.standstill` for one window, with the window's
+    own mean taken out first, in the same sums)."""
+    nw = min(i + 1, Lm)
+    y = np.empty(nw)
+    t = np.empty(nw)
+    m = 0
+    first = i - nw + 1
+    for j in range(nw):
+        v = buf[o_lp + (first + j) % Lm]
+        if np.isfinite(v):
+            y[m] = v
+            t[m] = j
+            m += 1
+    if m:
+        mean = _np_sum(y, m) / m
+        for j in range(m):
+            y[j] = y[j] - mean
+    w = np.empty(m)
+    k = float(m)  # the sum of m ones, exact
+    sy = _np_sum(y, m)
+    for j in range(m):
+        w[j] = y[j] * y[j]
+    syy = _np_sum(w, m)
+    st = _np_sum(t, m)
+    for j in range(m):
+        w[j] = t[j] * t[j]
+    stt = _np_sum(w, m)
+    for j in range(m):
+        w[j] = t[j] * y[j]
+    sty = _np_sum(w, m)
+    my, mt = sy / k, st / k
+    vy = syy / k - my * my
+    vt = stt / k - mt * mt
+    cv = sty / k - mt * my
+    res = vy - cv * cv / vt
+    if res < 0.0:  # np.maximum(res, 0.0): NaN stays
+        res = 0.0
+    return np.nan if k < Lm // 2 else np.sqrt(res)
+
+
+def _log10(v: float) -> float:
+    """``_log_level`` of one level: numpy's log10 (its vectorised one, which the batch run
+    uses, is not libm's), NaN where the level is NaN or not above 0."""
+    return float(np.log10(v)) if v > 0 else math.nan
+
+
+def _rfft(fr: np.ndarray) -> np.ndarray:
+    """``np.fft.rfft(fr)`` (``fr`` 1-D float64), through its gufunc where this numpy has it."""
+    if _RFFT_EVEN is None:
+        return np.fft.rfft(fr)
+    n = fr.size
+    return (_RFFT_ODD if n % 2 else _RFFT_EVEN)(fr, 1, out=np.empty(n // 2 + 1, np.complex128))
+
+
+def _broadband(plan: StreamPlan, buf: np.ndarray, i: int) -> float:
+    """log10 of the broadband level of the frame ending at sample ``i`` (NaN: none), as
+    :func:`~vibrospeed.signal.standstill._frame_levels` gives it."""
+    fr, good = _hp_frame(buf, plan.o_hp, plan.L, i, plan.win)
+    if not good:
+        return math.nan
+    return _log10(_median_level(np.abs(_rfft(fr)[plan.b0 : plan.b1]), plan.wsum))
+
+
+@njit(cache=True)
+def _frame(hist, total, last, run, lgb, lgm, rule, centres):
+    """:func:`~vibrospeed.signal.standstill._frame_step` with the rule as a plain tuple (a
+    NamedTuple argument costs a microsecond per call to type): ``(run, still)``, the level
+    state updated in place."""
+    return _frame_step(hist, total, last, run, lgb, lgm, _Rule(*rule), centres)
 
 
 def stream_step(plan: StreamPlan, state: StreamState, x: float) -> tuple[StreamState, bool]:
@@ -111,30 +429,16 @@ def stream_step(plan: StreamPlan, state: StreamState, x: float) -> tuple[StreamS
     samples so far. Why: a device has no whole log; the detector keeps one frame of samples,
     one body-motion window and two level histograms (bounded memory). ``state`` is left as it
     is."""
-    i = state.count
-    hs, h = pf.step(plan.hp_sos, state.hp_state, x)
-    hp = state.hp.copy()
-    hp[i % plan.L] = h
-    ls, lp = state.lp_state, state.lp
-    if plan.lp_sos is not None:
-        ls, v = pf.step(plan.lp_sos, ls, x)
-        lp = lp.copy()
-        lp[i % plan.Lm] = v
-    run, still = state.run, state.still
-    hist, total, last = state.hist, state.total, state.last
-    if i >= plan.L - 1 and (i - plan.L + 1) % plan.hop == 0:  # a frame ends here
-        hist, total, last = hist.copy(), total.copy(), last.copy()
-        p = (i + 1) % plan.L
-        lev = [_frame_levels(np.concatenate((hp[p:], hp[:p]))[None], plan.win, plan.sel)[0],
-               np.nan]
-        if plan.lp_sos is not None:
-            p = (i + 1) % plan.Lm
-            lev[1] = _window_motion(np.concatenate((lp[p:], lp[:p]))[max(0, plan.Lm - 1 - i):],
-                                    plan.Lm)  # up to Lm samples so far
-        lgb, lgm = _log_level(lev)
-        run, still = _frame_step(hist, total, last, run, lgb, lgm, plan.rule, _CENTRES)
-        still = bool(still)
-    return StreamState(hs, ls, hp, lp, i + 1, hist, total, last, run, still), still
+    buf = state.buf.copy()
+    if not _advance(plan.k, buf, float(x)):
+        return _new(StreamState, (buf,) + state[1:]), state.still  # no frame ends here
+    i = int(buf[_COUNT]) - 1  # a frame ends here
+    lgb = _broadband(plan, buf, i)
+    lgm = _log10(_motion(buf, plan.o_lp, plan.Lm, i)) if plan.lp_sos is not None else math.nan
+    hist, total, last = state.hist.copy(), state.total.copy(), state.last.copy()
+    run, still = _frame(hist, total, last, state.run, lgb, lgm, plan.rule_t, _CENTRES)
+    still = bool(still)
+    return StreamState(buf, hist, total, last, run, still), still
 
 
 class LagStream:
@@ -145,7 +449,7 @@ class LagStream:
 
     :meth:`push` takes a sample (NaN = missing) and returns the decisions (bool) that the lag
     now allows, oldest first; :meth:`finish` those left at the recording's end. The per-frame
-    rule is the batch one (``_frame_levels``, the compiled ``_frame_step``, :func:`_lag_plan`);
+    rule is the batch one (the compiled ``_frame_step``, :func:`_lag_plan`);
     as in :func:`stream_step` the body-motion window's line is fitted to its own samples (the
     batch run centres the whole log first: the same residual up to rounding). Memory: one
     frame, one body-motion window and the frames of one lag. ``lag = 0``: the causal detector.
@@ -156,11 +460,9 @@ class LagStream:
         self.plan = plan = stream_plan(dt, band)
         self.lag = _lag_plan(lag, dt, FRAME_S, HOP_S, plan.lp_sos is not None)
         self.rule = plan.rule._replace(dwell=0)  # each frame's own decision; the dwell below
+        self._rule_t = tuple(self.rule)
         self.dwell = plan.rule.dwell
-        self._hs = pf.init(plan.hp_sos)
-        self._ls = None if plan.lp_sos is None else pf.init(plan.lp_sos)
-        self._hp = np.full(plan.L, np.nan)
-        self._lp = np.full(plan.Lm, np.nan)
+        self._buf = _init_buf(plan)  # filters and rings (stream_step's, stepped in place)
         self._hist, self._total = np.zeros((2, _BINS)), np.zeros(2)
         self._last = np.zeros(2, np.bool_)
         self._run = 0
@@ -182,14 +484,10 @@ class LagStream:
 
     def _flag(self, lgb: float, i: int) -> None:
         """Frame's flag, its body-motion window ending at sample ``i``."""
-        lgm = np.nan
-        if self.plan.lp_sos is not None:
-            Lm = self.plan.Lm
-            q = (i + 1) % Lm
-            w = np.concatenate((self._lp[q:], self._lp[:q]))[max(0, Lm - 1 - i):]
-            lgm = float(_log_level(np.array([_window_motion(w, Lm)]))[0])
-        self._run, f = _frame_step(self._hist, self._total, self._last, self._run, lgb, lgm,
-                                   self.rule, _CENTRES)
+        p = self.plan
+        lgm = _log10(_motion(self._buf, p.o_lp, p.Lm, i)) if p.lp_sos is not None else math.nan
+        self._run, f = _frame(self._hist, self._total, self._last, self._run, lgb, lgm,
+                              self._rule_t, _CENTRES)
         k = self._f0 + len(self._flags)
         prev = self._flags[-1] if self._flags else False
         self._starts.append(self._starts[-1] if (prev and f) else k)
@@ -236,16 +534,8 @@ class LagStream:
     def push(self, x: float) -> list[bool]:
         """One raw sample; the decisions of the samples now decided, oldest first."""
         p, i = self.plan, self.count
-        self._hs, h = pf.step(p.hp_sos, self._hs, x)
-        self._hp[i % p.L] = h
-        if p.lp_sos is not None:
-            self._ls, v = pf.step(p.lp_sos, self._ls, x)
-            self._lp[i % p.Lm] = v
-        if i >= p.L - 1 and (i - p.L + 1) % p.hop == 0:  # a frame ends here
-            q = (i + 1) % p.L
-            lev = _frame_levels(np.concatenate((self._hp[q:], self._hp[:q]))[None], p.win,
-                                p.sel)
-            self._pending.append((i, float(_log_level(lev)[0])))
+        if _advance(p.k, self._buf, float(x)):
+            self._pending.append((i, _broadband(p, self._buf, i)))  # a frame ends here
         self.count = i + 1
         flagged = False
         while self._pending and self._pending[0][0] + self.lag.extra <= i:
