@@ -522,7 +522,8 @@ def apply_standstill(track: Track, still: np.ndarray) -> None:
                      "speed_lo", "speed_hi"):
             arr = getattr(track, name)
             arr[still & np.isfinite(arr)] = 0.0
-        track.extras["has_signal"][still] = 0.0
+        if "has_signal" in track.extras:  # none without a "no line" state (off_rate=0)
+            track.extras["has_signal"][still] = 0.0
 
 
 def detector_name(causal: bool, lag: float) -> str:
