@@ -26,8 +26,9 @@ histogram of log-levels, after ``CAUSAL_WARMUP_S`` s) and a stop is declared aft
 ``CAUSAL_DWELL_S`` s of standing frames, so a decision never uses later data, and a stop before
 the first motion, with nothing to compare it with, is not recognised. The batch causal run and the
 streaming detectors (:mod:`vibrospeed.signal.standstill_stream`: ``stream_step``, the lagged
-``LagStream``) share the per-frame code: a frame's broadband level (``_frame_levels``) and its
-decision with the dwell (the compiled ``_frame_step``), so a change of the rule is made once.
+``LagStream``) share the decision with the dwell (the compiled ``_frame_step``), so a change of
+the rule is made once; the streams compute a frame's levels (``_frame_levels``, the body-motion
+fit) in compiled code with numpy's arithmetic, to the bit (tests/test_standstill_stream_fast.py).
 
 The constants are chosen on the randomised family (``simulate("random")``, with an idling
 engine's broadband shaking) and checked on the real phone drives of ``hungary_car_phyphox``, whose
@@ -117,9 +118,9 @@ def _band_bins(L: int, dt: float, band: tuple[float, float]) -> np.ndarray:
 
 def _frame_levels(frames: np.ndarray, win: np.ndarray, sel: np.ndarray) -> np.ndarray:
     """Broadband level of each frame (row of ``frames``, NaN = missing): the per-frame rule
-    that :func:`broadband_level` and
-    :func:`~vibrospeed.signal.standstill_stream.stream_step` share. NaN samples count as 0; a
-    frame with fewer than half its samples finite gets NaN."""
+    of :func:`broadband_level` (:mod:`~vibrospeed.signal.standstill_stream` computes the same
+    numbers compiled). NaN samples count as 0; a frame with fewer than half its samples finite
+    gets NaN."""
     L = frames.shape[1]
     fin = np.isfinite(frames)
     good = 2 * np.count_nonzero(fin, axis=1) >= L
@@ -127,8 +128,7 @@ def _frame_levels(frames: np.ndarray, win: np.ndarray, sel: np.ndarray) -> np.nd
     frames = frames - frames.sum(axis=1, keepdims=True) / L  # the mean, without np.mean's cost
     X = np.fft.rfft(frames * win, axis=1)
     # the median power over the bins: np.median's value (the middle one, or the mean of the two
-    # middle ones; NaN if any is) at a fraction of its per-call cost, which the streaming
-    # step pays per frame
+    # middle ones; NaN if any is) at a fraction of its per-call cost
     P = np.sort(np.abs(X[:, sel]) ** 2, axis=1)
     h = P.shape[1] // 2
     med = P[:, h] if P.shape[1] % 2 else (P[:, h - 1] + P[:, h]) / 2
