@@ -125,9 +125,11 @@ class _FrameTables(NamedTuple):
     window, the FFT length, the background's window ``widths``, evaluation ``steps`` and order
     statistics ``ranks`` (R,) and ``scale`` (:func:`_background_stat`), the comparators
     ``net`` (C, 2) of each rate's selection network (rate b's: rows ``net_at[b]`` to
-    ``net_at[b + 1]``, :func:`selection_network`), and per harmonic k the interpolation
+    ``net_at[b + 1]``, :func:`selection_network`), per harmonic k the interpolation
     positions ``h_i0``, ``h_fr`` (R, M, N) of the grid points' (folded) ``k omega`` among the
-    rate's spectrum bins."""
+    rate's spectrum bins, and the background's interpolation between its windows ``ij``
+    (int32) and ``ifr`` (R, nfft / 2 + 1) (:func:`_interp_tables`; ``1 - ifr`` is made per
+    call)."""
 
     logp: np.ndarray
     w_i0: np.ndarray
@@ -142,6 +144,8 @@ class _FrameTables(NamedTuple):
     net_at: np.ndarray
     h_i0: np.ndarray
     h_fr: np.ndarray
+    ij: np.ndarray
+    ifr: np.ndarray
 
 
 def _frame_tables(config, L: int, centre: bool) -> _FrameTables:
@@ -195,8 +199,16 @@ def _build_frame_tables(config, L: int, centre: bool) -> _FrameTables:
     steps = np.maximum(1, widths // 8)
     nets = [_network(int(w), int(k)) for w, k in zip(widths, ranks, strict=True)]
     net_at = np.cumsum([0] + [len(c) for c in nets]).astype(np.int64)
+    nb = nfft // 2 + 1
+    ij = np.empty((R, nb), np.int64)
+    ifr = np.empty((R, nb))
+    ifr1 = np.empty(nb)
+    for b in range(R):
+        st = int(steps[b])
+        _interp_tables(nb, st, (nb + st - 2) // st + 1, ij[b], ifr[b], ifr1)
     return _FrameTables(np.log(config.rate_prior(rates)), w_i0, w_fr, np.hanning(L), nfft,
-                        widths, steps, ranks, scale, np.concatenate(nets), net_at, h_i0, h_fr)
+                        widths, steps, ranks, scale, np.concatenate(nets), net_at, h_i0, h_fr,
+                        ij.astype(np.int32), ifr)
 
 
 @njit(cache=True)
@@ -267,12 +279,11 @@ def _frame_background(row: np.ndarray, width: int, step: int, rank: int, scale: 
         pr = ph[p]
         for m in range(m_n):
             pr[m] = row[min(max(p + step * m - h, 0), n - 1)]
-    for i in range(width):
-        src = ph[i % step]
+    for i in range(width):  # indexed in two dimensions: compiled as a vector copy
+        p = i % step
         o = i // step
-        mi = mat[i]
         for c in range(nc):
-            mi[c] = src[o + c]
+            mat[i, c] = ph[p, o + c]
     cl = min((nc - 1) * step, n - 1)
     if cl != (nc - 1) * step:  # the last window's centre is clipped to the last bin
         for i in range(width):
@@ -292,7 +303,8 @@ def _frame_background(row: np.ndarray, width: int, step: int, rank: int, scale: 
 def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np.ndarray,
                    widths: np.ndarray, steps: np.ndarray, ranks: np.ndarray, scale: float,
                    net: np.ndarray, net_at: np.ndarray, h_i0: np.ndarray, h_fr: np.ndarray,
-                   c_s: float, c_0: float, cap: float, logp: np.ndarray, use_lead: bool,
+                   ij_t: np.ndarray, ifr_t: np.ndarray, c_s: float,
+                   c_0: float, cap: float, logp: np.ndarray, use_lead: bool,
                    E: np.ndarray) -> None:
     """``E[b, f, j]`` = the comb log-evidence of grid point j in frame f at rate b (module
     docstring) before the mixture over the rates, from the (R, A, F, nb) power spectra ``P``:
@@ -300,11 +312,12 @@ def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np
     (:func:`_background`, computed as :func:`_frame_background` does, rate b's selection
     network: ``net[net_at[b]:net_at[b + 1]]``); per harmonic k the term
     ``S(k omega) c_s - c_0`` (``c_s = a / (1 + a)``, ``c_0 = log(1 + a)``; S interpolated at
-    ``h_i0``, ``h_fr``), summed over the ``good`` (A, F) axes and capped at ``A_f cap``; their
-    sum over k, the best term's lead over the second best limited to ``lead`` (F,)
-    (``use_lead``), times ``weight`` (F,) with several axes, plus the rate's log prior
-    ``logp`` (R,). The operations and their order are those of the array form (numpy), so the
-    numbers are the same to the last bit."""
+    ``h_i0``, ``h_fr``; the background's interpolation ``ij_t``, ``ifr_t`` (R, nb),
+    :func:`_interp_tables`, and ``1 - ifr_t`` as it computes it), summed over the ``good``
+    (A, F) axes and capped at ``A_f cap``; their sum over k, the best term's lead over the
+    second best limited to ``lead`` (F,) (``use_lead``), times ``weight`` (F,) with several
+    axes, plus the rate's log prior ``logp`` (R,). The operations and their order are those
+    of the array form (numpy), so the numbers are the same to the last bit."""
     R, A, F, n = P.shape
     M = h_i0.shape[1]
     N = h_i0.shape[2]
@@ -319,8 +332,6 @@ def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np
     bg = np.empty(n)
     S = np.empty(n)
     acc = np.empty((M, N))
-    ij = np.empty(n, np.int64)
-    ifr = np.empty(n)
     ifr1 = np.empty(n)
     ph = np.empty((wmax, n // max(1, steps.min()) + wmax + 2))
     for b in range(R):
@@ -328,7 +339,10 @@ def _rate_evidence(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np
         nc = (n + steps[b] - 2) // steps[b] + 1
         mat = flat[: w * nc].reshape((w, nc))
         net_b = net[net_at[b] : net_at[b + 1]]
-        _interp_tables(n, steps[b], nc, ij, ifr, ifr1)
+        ij = ij_t[b]
+        ifr = ifr_t[b]
+        for i in range(n):
+            ifr1[i] = 1.0 - ifr[i]
         for f in range(F):
             ng = 0
             for a in range(A):
@@ -397,12 +411,16 @@ def frame_evidence(config, frames: np.ndarray, centre: bool = False, *,
     frame. Each grid point's evidence is centred on what white noise gives it
     (:func:`noise_offsets`; ``raw``: not centred). One FFT call for every rate, axis and frame,
     the rest compiled (:func:`_windowed`, :func:`_rate_evidence`) with the constants of the
-    frame length built once (:func:`_frame_tables`)."""
+    frame length built once (:func:`_frame_tables`); one frame of one axis goes through
+    :func:`ring_evidence` (the same numbers)."""
     tr = config.tracker
     frames = np.asarray(frames, dtype=np.float64)
     if frames.ndim == 2:
         frames = frames[None]
     A, F, L = frames.shape
+    if A == 1 and F == 1:  # one frame of one axis: the same numbers without the batch's arrays
+        row = np.ascontiguousarray(frames[0, 0])
+        return ring_evidence(config, row, 0, L - 1, float(row[L - 1]), centre, raw)[None]
     N = tr.n_grid
     out = np.zeros((F, N + 1))
     if F == 0:
@@ -424,8 +442,8 @@ def frame_evidence(config, frames: np.ndarray, centre: bool = False, *,
               else np.ones(F))
     E = np.empty((tb.logp.size, F, N))
     _rate_evidence(P, good, lead, weight, tb.widths, tb.steps, tb.ranks, tb.scale, tb.net,
-                   tb.net_at, tb.h_i0, tb.h_fr, a / (1 + a), float(np.log1p(a)),
-                   float(config.comb_cap), tb.logp, use_lead, E)
+                   tb.net_at, tb.h_i0, tb.h_fr, tb.ij, tb.ifr, a / (1 + a),
+                   float(np.log1p(a)), float(config.comb_cap), tb.logp, use_lead, E)
     mx = E.max(axis=0)  # (one rate: log p = 0 and this is E[0] exactly)
     out[:, :N] = mx + np.log(np.exp(E - mx).sum(axis=0))
     if not raw:  # centred for the axes each frame uses (a dead axis drops out)
@@ -433,6 +451,206 @@ def frame_evidence(config, frames: np.ndarray, centre: bool = False, *,
             out[n_good == g, :N] -= noise_offsets(config, L, centre, int(g))
     out[:, :N] *= config.comb_weight
     out[n_good == 0] = 0.0
+    return out
+
+
+@njit(cache=True, inline="always")
+def _block_sum(a: np.ndarray, s: int, n: int) -> float:
+    """numpy's sum of a block of at most 128 values ``a[s : s + n]`` (eight running sums)."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[s + i]
+        return res
+    r0, r1, r2, r3 = a[s], a[s + 1], a[s + 2], a[s + 3]
+    r4, r5, r6, r7 = a[s + 4], a[s + 5], a[s + 6], a[s + 7]
+    i = 8
+    end = n - n % 8
+    while i < end:
+        r0 += a[s + i]
+        r1 += a[s + i + 1]
+        r2 += a[s + i + 2]
+        r3 += a[s + i + 3]
+        r4 += a[s + i + 4]
+        r5 += a[s + i + 5]
+        r6 += a[s + i + 6]
+        r7 += a[s + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[s + i]
+        i += 1
+    return res
+
+
+@njit(cache=True)
+def _pairwise_sum(a: np.ndarray, s: int, n: int) -> float:
+    """The sum of ``a[s : s + n]`` as numpy's ``add.reduce`` takes it: blocks of up to 128
+    values in eight running sums (:func:`_block_sum`), longer runs split in two (the first
+    half rounded down to a multiple of 8) and the halves' sums added; so that a mean is the
+    same to the last bit as ``np.mean``'s (a contiguous or one-axis reduction). The halving is
+    walked with explicit stacks (numba's cache does not keep recursive functions)."""
+    if n <= 128:
+        return _block_sum(a, s, n)
+    cap = 2 * 64 + 2
+    ss = np.empty(cap, np.int64)  # pending runs: start, length, visited
+    ns = np.empty(cap, np.int64)
+    seen = np.zeros(cap, np.bool_)
+    vals = np.empty(cap)  # sums of the finished runs, left before right
+    top = 1
+    nv = 0
+    ss[0] = s
+    ns[0] = n
+    while top > 0:
+        t = top - 1
+        st = ss[t]
+        ln = ns[t]
+        if ln <= 128:
+            vals[nv] = _block_sum(a, st, ln)
+            nv += 1
+            top -= 1
+        elif seen[t]:
+            vals[nv - 2] = vals[nv - 2] + vals[nv - 1]
+            nv -= 1
+            top -= 1
+        else:
+            seen[t] = True
+            n2 = ln // 2
+            n2 -= n2 % 8
+            ss[top], ns[top], seen[top] = st + n2, ln - n2, False  # the right half, second
+            ss[top + 1], ns[top + 1], seen[top + 1] = st, n2, False  # the left half, first
+            top += 2
+    return vals[0]
+
+
+@njit(cache=True)
+def _ring_windowed(src: np.ndarray, start: int, m: int, y: float, w_i0: np.ndarray,
+                   w_fr: np.ndarray, hann: np.ndarray, win: np.ndarray) -> int:
+    """The frame of the ``m`` values of the ring ``src`` from ``start`` on (wrapping) and then
+    ``y``, its missing (non-finite) samples 0 and its mean removed, resampled and windowed per
+    rate into ``win`` (R, 1, 1, m + 1) (:func:`_windowed`); returns the number of missing
+    samples. The steps of :func:`frame_evidence` for one frame, in its order."""
+    Ls = src.size
+    n = m + 1
+    x = np.empty(n)
+    bad = 0
+    for i in range(n):
+        v = src[(start + i) % Ls] if i < m else y
+        if not np.isfinite(v):
+            v = 0.0
+            bad += 1
+        x[i] = v
+    mu = (0.0 + _pairwise_sum(x, 0, n)) / n
+    for i in range(n):
+        x[i] = x[i] - mu
+    _windowed(x.reshape((1, 1, n)), w_i0, w_fr, hann, win)
+    return bad
+
+
+@njit(cache=True)
+def _one_frame_rates(P: np.ndarray, good: np.ndarray, lead: np.ndarray, weight: np.ndarray,
+                     widths: np.ndarray, steps: np.ndarray, ranks: np.ndarray, scale: float,
+                     net: np.ndarray, net_at: np.ndarray, h_i0: np.ndarray, h_fr: np.ndarray,
+                     ij: np.ndarray, ifr: np.ndarray, c_s: float,
+                     c_0: float, cap: float, logp: np.ndarray, use_lead: bool, E: np.ndarray,
+                     mx: np.ndarray) -> None:
+    """One frame's per-rate evidence ``E`` (R, 1, N) from its magnitude spectra ``P``
+    (R, 1, 1, nb), squared here (``np.abs(...) ** 2``), through :func:`_rate_evidence`; then
+    ``mx`` (N,) the largest over the rates (``np.max``: NaN if any is) and ``E - mx`` in
+    ``E``: the log-sum-exp's steps before its exponential."""
+    R = P.shape[0]
+    nb = P.shape[3]
+    for b in range(R):
+        row = P[b, 0, 0]
+        for i in range(nb):
+            row[i] = row[i] * row[i]
+    _rate_evidence(P, good, lead, weight, widths, steps, ranks, scale, net, net_at, h_i0, h_fr,
+                   ij, ifr, c_s, c_0, cap, logp, use_lead, E)
+    N = E.shape[2]
+    for j in range(N):
+        v = E[0, 0, j]
+        for b in range(1, R):
+            e = E[b, 0, j]
+            if not (v >= e or v != v):  # np.maximum: NaN if either is
+                v = e
+        mx[j] = v
+    for b in range(R):
+        for j in range(N):
+            E[b, 0, j] = E[b, 0, j] - mx[j]
+
+
+@njit(cache=True)
+def _sum_rates(E: np.ndarray, s: np.ndarray) -> None:
+    """``s`` = the sum of ``E`` (R, 1, N) over the rates, in their order (numpy's sum over the
+    outer axis)."""
+    R, _, N = E.shape
+    for j in range(N):
+        s[j] = 0.0 + E[0, 0, j]
+    for b in range(1, R):
+        for j in range(N):
+            s[j] = s[j] + E[b, 0, j]
+
+
+@njit(cache=True)
+def _finish(mx: np.ndarray, ls: np.ndarray, off: np.ndarray, w: float, out: np.ndarray) -> None:
+    """``out[:N] = (mx + ls - off) w`` (``off`` empty: not centred), each step rounded as the
+    array form's."""
+    N = mx.size
+    for j in range(N):
+        e = mx[j] + ls[j]
+        if off.size:
+            e = e - off[j]
+        out[j] = e * w
+
+
+_GOOD = np.ones((1, 1), dtype=np.bool_)
+_ONE = np.ones(1)
+_NO_OFFSET = np.empty(0)
+
+
+def _one_frame_consts(config) -> tuple:
+    """``(c_s, c_0, cap, use_lead, lead (1,), comb_weight)`` of one single-axis frame's
+    evidence (:func:`ring_evidence`), kept with the Config."""
+    c = config.__dict__.get("_one_frame_consts")
+    if c is None:
+        a = config.comb_snr
+        use_lead = config.tracker.model.M >= 2 and bool(np.isfinite(config.comb_lead))
+        lead = (np.array([1]) * config.comb_lead).astype(np.float64) if use_lead else np.zeros(1)
+        c = config.__dict__["_one_frame_consts"] = (
+            a / (1 + a), float(np.log1p(a)), float(config.comb_cap), use_lead, lead,
+            config.comb_weight)
+    return c
+
+
+def ring_evidence(config, src: np.ndarray, start: int, m: int, y: float,
+                  centre: bool = False, raw: bool = False) -> np.ndarray:
+    """(N + 1,) comb evidence of one single-axis frame: the ``m`` values of the ring ``src``
+    (1-D) from index ``start`` on (wrapping at its end) followed by ``y``. The numbers of
+    :func:`frame_evidence` of that (1, 1, m + 1) frame, bitwise: the same operations in the
+    same order, without its handling of several axes and frames and its array temporaries
+    (three compiled passes; numpy's FFT, ``abs``, ``exp`` and ``log``, whose numpy forms the
+    compiled code does not reproduce to the last bit)."""
+    N = config.tracker.n_grid
+    n = m + 1
+    tb = _frame_tables(config, n, centre)
+    R = tb.logp.size
+    win = np.empty((R, 1, 1, n))
+    bad = _ring_windowed(src, start, m, y, tb.w_i0, tb.w_fr, tb.hann, win)
+    out = np.zeros(N + 1)
+    if not bad / n <= 0.5:  # the frame is more than half missing: no evidence
+        return out
+    c_s, c_0, cap, use_lead, lead, w = _one_frame_consts(config)
+    P = np.abs(np.fft.rfft(win, tb.nfft, axis=-1))
+    E = np.empty((R, 1, N))
+    mx = np.empty(N)
+    _one_frame_rates(P, _GOOD, lead, _ONE, tb.widths, tb.steps, tb.ranks, tb.scale, tb.net,
+                     tb.net_at, tb.h_i0, tb.h_fr, tb.ij, tb.ifr, c_s, c_0, cap,
+                     tb.logp, use_lead, E, mx)
+    np.exp(E, out=E)
+    s = np.empty(N)
+    _sum_rates(E, s)
+    np.log(s, out=s)
+    _finish(mx, s, _NO_OFFSET if raw else noise_offsets(config, n, centre, 1), w, out)
     return out
 
 

@@ -156,8 +156,16 @@ def _update(Z, pidx, M, y, r, temper, ph, rows):
     """Step 1 for every grid point: the Kalman measurement update of (m_j, P_j) with
     ``h = [1, 0, 1, 0, ...]`` (``P h' = sum of the even columns``) in place on Z; the tempered
     predictive log-likelihood ``temper log N(y; h m_j, S_j)`` into ``rows[0]``."""
+    _update_from(Z, Z, pidx, M, y, r, temper, ph, rows)
+
+
+@njit(cache=True)
+def _update_from(Zi, Z, pidx, M, y, r, temper, ph, rows):
+    """:func:`_update` of the state ``Zi`` written to ``Z`` (every row of Z is written once,
+    from the same row of Zi and terms read before any write; ``Zi`` may be ``Z``): a step
+    from a state left as it is needs no copy of it first."""
     n = 2 * M
-    N = Z.shape[1]
+    N = Zi.shape[1]
     yh = rows[1]
     S = rows[2]
     g = rows[3]
@@ -167,7 +175,7 @@ def _update(Z, pidx, M, y, r, temper, ph, rows):
     for j in range(N):
         yh[j] = 0.0
     for a in range(M):
-        zr = Z[2 * a]
+        zr = Zi[2 * a]
         for j in range(N):
             yh[j] += zr[j]
     for i in range(n):
@@ -175,7 +183,7 @@ def _update(Z, pidx, M, y, r, temper, ph, rows):
         for j in range(N):
             pr[j] = 0.0
         for a in range(M):
-            zr = Z[pidx[i, 2 * a]]
+            zr = Zi[pidx[i, 2 * a]]
             for j in range(N):
                 pr[j] += zr[j]
     for j in range(N):
@@ -189,19 +197,21 @@ def _update(Z, pidx, M, y, r, temper, ph, rows):
         yh[j] = y - yh[j]  # the innovation nu
         g[j] = yh[j] * iv[j]
     for i in range(n):
+        zi = Zi[i]
         zr = Z[i]
         pr = ph[i]
         for j in range(N):
-            zr[j] += pr[j] * g[j]
+            zr[j] = zi[j] + pr[j] * g[j]
     for i in range(n):
         pr = ph[i]
         for j in range(N):
             t[j] = pr[j] * iv[j]
         for k in range(i, n):
+            zi = Zi[pidx[i, k]]
             zr = Z[pidx[i, k]]
             pk = ph[k]
             for j in range(N):
-                zr[j] = zr[j] - t[j] * pk[j]
+                zr[j] = zi[j] - t[j] * pk[j]
     for j in range(N):
         nu = yh[j]
         ll[j] = -0.5 * (LOG_2PI + np.log(S[j]) + nu * nu * iv[j]) * temper
@@ -401,10 +411,12 @@ def _work(N, n, B):
 
 
 @njit(cache=True)
-def _iterate(lw, lw0, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_floor, q_lo,
+def _iterate(lw, lw0, Zi, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_floor, q_lo,
              q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, hold,
              cur, ex, w, v, X, ph, rows, lamT, out, post, gll):
     """One iteration in place on (lw, lw0[0], Z (the means and covariances, :func:`_layout`));
+    with a finite ``y`` the means and covariances are read from ``Zi`` (:func:`_update_from`;
+    ``Zi`` may be ``Z``), else Z holds them;
     the constants are the fields of :class:`Tables` (passed one by one: the loop of
     :func:`_run` calls this per sample, and numba passes scalars and array structs here
     without packing a record per call), the rotations as ``ct``, ``st`` (M, N) and the band
@@ -433,7 +445,7 @@ def _iterate(lw, lw0, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_flo
     ma = -np.inf
     # ---- 1. measurement update per grid point: log w_j += log N(y; h m_j, S_j) ----------
     if finite:
-        _update(Z, pidx, M, y, r, temper, ph, rows)
+        _update_from(Zi, Z, pidx, M, y, r, temper, ph, rows)
         lls = rows[0]
         for j in range(N):
             ll = lls[j]
@@ -536,10 +548,38 @@ def _iterate(lw, lw0, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_flo
 
 def step_table(cs: np.ndarray, kb: np.ndarray) -> np.ndarray:
     """The rotations and the band kernel in the loop's layout, stacked as one (2M + 2B + 1, N)
-    array for :func:`_step_from`: rows 0..M-1 ``cos(m omega_j T)``, M..2M-1 the sines, then
-    ``kbT`` (:func:`_tables_soa`); built once per config, so that a step transposes nothing."""
+    array: rows 0..M-1 ``cos(m omega_j T)``, M..2M-1 the sines, then ``kbT``
+    (:func:`_tables_soa`); built once per config, so that a step transposes nothing."""
     ct, st, kbT = _tables_soa(cs, kb)
     return np.ascontiguousarray(np.concatenate([ct, st, kbT]))
+
+
+#: entries of :func:`step_constants`' array before the scalars: N, M
+_CST_HEAD = 2
+
+
+def step_constants(tb: Tables) -> np.ndarray:
+    """Everything :func:`_step_from` reads of the config, packed once as one float64 array
+    (one argument to unbox per call instead of five): ``N``, ``M``, the scalars
+    (:func:`pack_scalars`), ``grid`` (N,), ``edges`` (N + 1,), ``u`` (N,) and the rotations
+    and band kernel in the loop's layout (:func:`step_table`, flattened). Sizes and flags are
+    small integers, exact in float64."""
+    N = tb.grid.size
+    M = tb.cs.shape[1]
+    return np.concatenate([[float(N), float(M)], pack_scalars(tb), tb.grid, tb.edges, tb.u,
+                           step_table(tb.cs, tb.kb).ravel()]).astype(np.float64)
+
+
+def step_work(tb: Tables) -> np.ndarray:
+    """The work space of :func:`_step_from` for ``tb``'s sizes as one float64 array, zeros
+    (the moments' padding columns must stay 0; nothing writes them): kept with the config and
+    reused by every step, which needs no state from it. :func:`_step_from` runs holding the
+    GIL (no ``nogil``), so two threads never use it at once."""
+    N = tb.grid.size
+    n = 2 * tb.cs.shape[1]
+    B = int(tb.B)
+    L = n + n * (n + 1) // 2
+    return np.zeros(2 * N + L * (N + 2 * B) + n * N + 6 * N + (2 * B + 1) * N)
 
 
 @njit(cache=True)
@@ -551,36 +591,50 @@ def soa_to_state(Z, mean, cov):
 
 
 @njit(cache=True)
-def _step_from(sc, tab, grid, edges, u, lw_in, z_in, mean_in, cov_in, lw0_in, cur_in, y, ex,
-               lw, Z, out, post, gll):
+def _step_from(cst, ws, lw_in, z_in, mean_in, cov_in, lw0_in, cur_in, y, ex, lw, Z, out, post,
+               gll):
     """One iteration from a state that is left as it is: (``lw_in``, the means and covariances,
-    ``lw0_in``, ``cur_in``) is copied into the next state's storage ``lw`` (N,) and ``Z``
-    (L, N) (the loop's layout, :func:`_layout`) and iterated there (:func:`_iterate`, the
-    constants of :class:`Tables` from ``sc`` (:func:`pack_scalars`), the rotations and the band
-    kernel from ``tab`` (:func:`step_table`) and the arrays). The means and covariances come
-    from ``z_in`` (L, N) in the loop's layout when it is sized (a state this function made,
-    copied as it is), else from ``mean_in`` (N, 2M) and ``cov_in`` (N, 2M, 2M) (their upper
-    triangles). Writes ``out``, ``post`` (N,) and ``gll`` (N + 1,) the per-state log-emissions
-    (if sized: :func:`_iterate`) and returns the next state's ``(log_w_null, mode_j)``."""
-    N = grid.size
-    L = Z.shape[0]
+    ``lw0_in``, ``cur_in``) is iterated into the next state's storage ``lw`` (N,) and ``Z``
+    (L, N) (the loop's layout, :func:`_layout`; a finite sample's measurement update reads
+    ``z_in`` and writes Z, else it is copied first) (:func:`_iterate`, the
+    constants of :class:`Tables` from ``cst`` (:func:`step_constants`), its work space in
+    ``ws`` (:func:`step_work`)). The means and covariances come from ``z_in`` (L, N) in the
+    loop's layout when it is sized (a state this function made, copied as it is), else from
+    ``mean_in`` (N, 2M) and ``cov_in`` (N, 2M, 2M) (their upper triangles). Writes ``out``,
+    ``post`` (N,) and ``gll`` (N + 1,) the per-state log-emissions (if sized: :func:`_iterate`)
+    and returns the next state's ``(log_w_null, mode_j)``."""
+    h = _CST_HEAD
+    N = int(cst[0])
+    M = int(cst[1])
+    n = 2 * M
+    nsc = len(_SC_FIELDS)
+    sc = cst[h : h + nsc]
     B = int(sc[2])
     E = 2 * B + 1
-    M = (tab.shape[0] - E) // 2
-    n = 2 * M
-    if (lw_in.shape[0] != N or lw.shape[0] != N or Z.shape[1] != N or tab.shape[1] != N
+    o = h + nsc
+    grid = cst[o : o + N]
+    edges = cst[o + N : o + 2 * N + 1]
+    u = cst[o + 2 * N + 1 : o + 3 * N + 1]
+    o += 3 * N + 1
+    tab = cst[o : o + (n + E) * N].reshape((n + E, N))
+    L = Z.shape[0]
+    if (lw_in.shape[0] != N or lw.shape[0] != N or Z.shape[1] != N
             or L != n + n * (n + 1) // 2 or cur_in < -1 or cur_in >= N):
         raise ValueError("grid state: log_w, mean, cov, mode_j do not match the config's "
                          "grid and model (N, 2M)")
+    Zi = Z
     if z_in.shape[0] > 0:
         if z_in.shape[0] != L or z_in.shape[1] != N:
             raise ValueError("grid state: log_w, mean, cov do not match the config's grid "
                              "and model (N, 2M)")
-        for c in range(L):
-            zi = z_in[c]
-            zo = Z[c]
-            for j in range(N):
-                zo[j] = zi[j]
+        if np.isfinite(y):  # the measurement update reads z_in and writes Z
+            Zi = z_in
+        else:
+            for c in range(L):
+                zi = z_in[c]
+                zo = Z[c]
+                for j in range(N):
+                    zo[j] = zi[j]
     else:
         if (mean_in.shape[0] != N or mean_in.shape[1] != n or cov_in.shape[0] != N
                 or cov_in.shape[1] != n or cov_in.shape[2] != n):
@@ -589,12 +643,22 @@ def _step_from(sc, tab, grid, edges, u, lw_in, z_in, mean_in, cov_in, lw0_in, cu
         _to_soa(mean_in, cov_in, Z)
     for j in range(N):
         lw[j] = lw_in[j]
-    w, v, X, ph, rows, lamT = _work(N, n, B)
+    # the work space of _work, in its order
+    w = ws[:N]
+    v = ws[N : 2 * N]
+    o = 2 * N
+    X = ws[o : o + L * (N + 2 * B)].reshape((L, N + 2 * B))
+    o += L * (N + 2 * B)
+    ph = ws[o : o + n * N].reshape((n, N))
+    o += n * N
+    rows = ws[o : o + 6 * N].reshape((6, N))
+    o += 6 * N
+    lamT = ws[o : o + E * N].reshape((E, N))
     lw0 = np.empty(1)
     lw0[0] = lw0_in
     cur = np.empty(1, dtype=np.int64)
     cur[0] = cur_in
-    _iterate(lw, lw0, Z, y, sc[0], tab[:M], tab[M:n], sc[1], tab[n:], B, _layout(n), grid,
+    _iterate(lw, lw0, Zi, Z, y, sc[0], tab[:M], tab[M:n], sc[1], tab[n:], B, _layout(n), grid,
              edges, u, sc[3], sc[4], sc[5], sc[6], sc[7], sc[8], sc[9], sc[10], sc[11], sc[12],
              sc[13], sc[14] != 0.0, sc[15], cur, ex, w, v, X, ph, rows, lamT, out, post, gll)
     return lw0[0], cur[0]
@@ -638,7 +702,7 @@ def _run(tb, lw, lw0, mean, cov, cur, ys, ex_idx, ex_val, post_slot, want_gll):
         while f < n_ex and ex_idx[f] < k:
             f += 1
         ex = ex_val[f] if (f < n_ex and ex_idx[f] == k) else no_ex
-        _iterate(lw, lw0, Z, ys[k], r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_floor,
+        _iterate(lw, lw0, Z, Z, ys[k], r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_floor,
                  q_lo, q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper,
                  null_mix, hold, cur, ex, w, v, X, ph, rows, lamT, outs[k], post, gll)
         if want_post and post_slot[k] >= 0:

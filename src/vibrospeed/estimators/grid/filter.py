@@ -43,15 +43,16 @@ from vibrospeed.estimators.grid.core import (
     Tables,
     _run,
     _step_from,
-    pack_scalars,
     soa_to_state,
-    step_table,
+    step_constants,
+    step_work,
 )
 from vibrospeed.estimators.grid.summary import N_OUT_FIXED
 from vibrospeed.models.harmonic import HarmonicModel
 from vibrospeed.types import Estimate
 
 _tuple_item = tuple.__getitem__
+_tuple_new = tuple.__new__
 
 
 class State(tuple):
@@ -284,16 +285,13 @@ def _extra_vec(config: Config, ex) -> np.ndarray:
 
 class _StepPlan(NamedTuple):
     """What :func:`step` needs of a Config per sample, built once (:func:`_plan`): the compiled
-    core's constants (scalars packed, :func:`~vibrospeed.estimators.grid.core.pack_scalars`;
-    the rotations and band kernel in the loop's layout,
-    :func:`~vibrospeed.estimators.grid.core.step_table`), the sizes (L: rows of a state in the
+    core's constants packed as one array
+    (:func:`~vibrospeed.estimators.grid.core.step_constants`), its work space
+    (:func:`~vibrospeed.estimators.grid.core.step_work`), the sizes (L: rows of a state in the
     loop's layout), the summary column of the reported omega and the claim level."""
 
-    sc: np.ndarray
-    tab: np.ndarray
-    grid: np.ndarray
-    edges: np.ndarray
-    u: np.ndarray
+    cst: np.ndarray
+    ws: np.ndarray
     N: int
     n: int
     L: int
@@ -308,9 +306,9 @@ def _plan(config: Config) -> _StepPlan:
         tb = tables(config)
         N, n = config.n_grid, config.model.n_lin
         plan = config.__dict__["_step_plan"] = _StepPlan(
-            pack_scalars(tb), step_table(tb.cs, tb.kb), tb.grid, tb.edges, tb.u, N, n,
-            n + n * (n + 1) // 2, N_OUT_FIXED + n // 2,
-            cols.COL_MODE if config.point == "mode" else cols.COL_MEAN, float(config.claim_level))
+            step_constants(tb), step_work(tb), N, n, n + n * (n + 1) // 2,
+            N_OUT_FIXED + n // 2, cols.COL_MODE if config.point == "mode" else cols.COL_MEAN,
+            float(config.claim_level))
     return plan
 
 
@@ -381,7 +379,7 @@ def step(config: Config, state: State, y: float, extra=None,
     iterates there, so a state can be stepped again (or kept) safely. The next state keeps the
     means and covariances in the compiled loop's layout (:class:`State`), so a stream of steps
     converts nothing between samples."""
-    p = _plan(config)
+    p = config.__dict__.get("_step_plan") or _plan(config)
     lw = np.empty(p.N)
     z = np.empty((p.L, p.N))
     out = np.empty(p.n_out)
@@ -393,18 +391,21 @@ def step(config: Config, state: State, y: float, extra=None,
                          f"{em.shape}")
     zi = state._z if type(state) is State else None
     if zi is None:  # plain arrays (a state made by init, run or a caller)
-        lw0, cur = _step_from(p.sc, p.tab, p.grid, p.edges, p.u, state.log_w, _NO_Z, state.mean,
-                              state.cov, float(state.log_w_null), int(state.mode_j), float(y),
-                              ex, lw, z, out, post, em)
-    else:
-        lw0, cur = _step_from(p.sc, p.tab, p.grid, p.edges, p.u, state.log_w, zi, _NO_MEAN,
-                              _NO_COV, float(state.log_w_null), int(state.mode_j), float(y),
-                              ex, lw, z, out, post, em)
+        lw0, cur = _step_from(p.cst, p.ws, state.log_w, _NO_Z, state.mean, state.cov,
+                              float(state.log_w_null), int(state.mode_j), float(y), ex, lw, z,
+                              out, post, em)
+    else:  # a state this function made: its fields read from the tuple's slots
+        lw0, cur = _step_from(p.cst, p.ws, _tuple_item(state, 0), zi, _NO_MEAN, _NO_COV,
+                              float(_tuple_item(state, 3)), int(_tuple_item(state, 4)),
+                              float(y), ex, lw, z, out, post, em)
     p_null = out[cols.COL_P_NULL]
-    est = Estimate(out[p.col_omega], out[cols.COL_STD], out[cols.COL_LO], out[cols.COL_HI],
-                   np.nan, np.nan, 1.0 if 1.0 - p_null >= p.claim_level else 0.0, np.nan,
-                   StepExtras(out, post))
-    return State._in_loop_layout(lw, z, lw0, cur), est
+    est = _tuple_new(Estimate, (out[p.col_omega], out[cols.COL_STD], out[cols.COL_LO],
+                                out[cols.COL_HI], np.nan, np.nan,
+                                1.0 if 1.0 - p_null >= p.claim_level else 0.0, np.nan,
+                                StepExtras(out, post)))
+    nxt = _tuple_new(State, (lw, None, None, lw0, cur))  # State._in_loop_layout, inlined
+    nxt._z = z
+    return nxt, est
 
 
 def posterior_slots(n: int, return_posterior) -> np.ndarray:

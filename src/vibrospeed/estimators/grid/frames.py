@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vibrospeed.estimators.grid.comb import frame_evidence
+from vibrospeed.estimators.grid.comb import frame_evidence, ring_evidence
 
 
 def _frame_plan(config) -> tuple[int, int, int, bool]:
@@ -42,14 +42,17 @@ def step_evidence(config, buf: np.ndarray, count: int, y: np.ndarray) -> np.ndar
     ``count`` samples whose last ``L`` are in the ring buffer ``buf`` ((L,) or (L, A), oldest
     at ``count % L``), or None where no frame ends there: what :func:`evidence` gives for this
     one sample (the same frame, its samples laid out in memory as there, so that the frame's
-    mean is summed in the same order), without its batch machinery."""
+    mean is summed in the same order), without its batch machinery; one axis is read from the
+    ring in place (:func:`~vibrospeed.estimators.grid.comb.ring_evidence`)."""
     if not frame_ends_at(config, count):
         return None
     L = buf.shape[0]
     m = min(count, L - 1)  # samples before y in the frame (full: L - 1; growing: all seen)
-    hist = buf if buf.ndim == 2 else buf[:, None]
-    full = np.empty((m + 1, hist.shape[1]))
     p = (count - m) % L  # the oldest of them
+    if buf.ndim == 1:  # one axis: read in place from the ring
+        return ring_evidence(config, buf, p, m, float(y[0]))
+    hist = buf
+    full = np.empty((m + 1, hist.shape[1]))
     k = min(m, L - p)
     full[:k] = hist[p : p + k]
     full[k:m] = hist[: m - k]

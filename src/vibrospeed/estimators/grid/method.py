@@ -344,7 +344,7 @@ def step(config: Config, state: State, y) -> tuple[State, Estimate]:
         g, est = _filt.step(config.tracker, state.grid, y, extra=ex)
         nxt = buf.copy()
         nxt[count % nxt.shape[0]] = y
-        return State(g, nxt, count + 1), est
+        return tuple.__new__(State, (g, nxt, count + 1)), est  # State(...) without its __new__
     yy = np.asarray(y, dtype=np.float64).reshape(-1)
     A = 1 if buf.ndim == 1 else buf.shape[1]
     if yy.size != A:
