@@ -156,14 +156,64 @@ def _update(Z, pidx, M, y, r, temper, ph, rows):
     """Step 1 for every grid point: the Kalman measurement update of (m_j, P_j) with
     ``h = [1, 0, 1, 0, ...]`` (``P h' = sum of the even columns``) in place on Z; the tempered
     predictive log-likelihood ``temper log N(y; h m_j, S_j)`` into ``rows[0]``."""
-    _update_from(Z, Z, pidx, M, y, r, temper, ph, rows)
+    n = 2 * M
+    N = Z.shape[1]
+    yh = rows[1]
+    S = rows[2]
+    g = rows[3]
+    iv = rows[4]
+    t = rows[5]
+    ll = rows[0]
+    for j in range(N):
+        yh[j] = 0.0
+    for a in range(M):
+        zr = Z[2 * a]
+        for j in range(N):
+            yh[j] += zr[j]
+    for i in range(n):
+        pr = ph[i]
+        for j in range(N):
+            pr[j] = 0.0
+        for a in range(M):
+            zr = Z[pidx[i, 2 * a]]
+            for j in range(N):
+                pr[j] += zr[j]
+    for j in range(N):
+        S[j] = r
+    for a in range(M):
+        pr = ph[2 * a]
+        for j in range(N):
+            S[j] += pr[j]
+    for j in range(N):
+        iv[j] = 1.0 / S[j]
+        yh[j] = y - yh[j]  # the innovation nu
+        g[j] = yh[j] * iv[j]
+    for i in range(n):
+        zr = Z[i]
+        pr = ph[i]
+        for j in range(N):
+            zr[j] += pr[j] * g[j]
+    for i in range(n):
+        pr = ph[i]
+        for j in range(N):
+            t[j] = pr[j] * iv[j]
+        for k in range(i, n):
+            zr = Z[pidx[i, k]]
+            pk = ph[k]
+            for j in range(N):
+                zr[j] = zr[j] - t[j] * pk[j]
+    for j in range(N):
+        nu = yh[j]
+        ll[j] = -0.5 * (LOG_2PI + np.log(S[j]) + nu * nu * iv[j]) * temper
 
 
 @njit(cache=True)
 def _update_from(Zi, Z, pidx, M, y, r, temper, ph, rows):
     """:func:`_update` of the state ``Zi`` written to ``Z`` (every row of Z is written once,
-    from the same row of Zi and terms read before any write; ``Zi`` may be ``Z``): a step
-    from a state left as it is needs no copy of it first."""
+    from the same row of Zi and terms read before any write; the same operations, so the same
+    numbers): a step from a state left as it is needs no copy of it first. ``Zi`` must not
+    be ``Z`` (in place, :func:`_update`: the compiled loops' overlap check would then take
+    their scalar form)."""
     n = 2 * M
     N = Zi.shape[1]
     yh = rows[1]
@@ -415,8 +465,8 @@ def _iterate(lw, lw0, Zi, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log
              q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper, null_mix, hold,
              cur, ex, w, v, X, ph, rows, lamT, out, post, gll):
     """One iteration in place on (lw, lw0[0], Z (the means and covariances, :func:`_layout`));
-    with a finite ``y`` the means and covariances are read from ``Zi`` (:func:`_update_from`;
-    ``Zi`` may be ``Z``), else Z holds them;
+    with a finite ``y`` and ``Zi`` sized, the means and covariances are read from ``Zi``
+    (:func:`_update_from`), else Z holds them;
     the constants are the fields of :class:`Tables` (passed one by one: the loop of
     :func:`_run` calls this per sample, and numba passes scalars and array structs here
     without packing a record per call), the rotations as ``ct``, ``st`` (M, N) and the band
@@ -445,7 +495,10 @@ def _iterate(lw, lw0, Zi, Z, y, r, ct, st, qd, kbT, B, pidx, grid, edges, u, log
     ma = -np.inf
     # ---- 1. measurement update per grid point: log w_j += log N(y; h m_j, S_j) ----------
     if finite:
-        _update_from(Zi, Z, pidx, M, y, r, temper, ph, rows)
+        if Zi.shape[0] > 0:
+            _update_from(Zi, Z, pidx, M, y, r, temper, ph, rows)
+        else:
+            _update(Z, pidx, M, y, r, temper, ph, rows)
         lls = rows[0]
         for j in range(N):
             ll = lls[j]
@@ -622,7 +675,7 @@ def _step_from(cst, ws, lw_in, z_in, mean_in, cov_in, lw0_in, cur_in, y, ex, lw,
             or L != n + n * (n + 1) // 2 or cur_in < -1 or cur_in >= N):
         raise ValueError("grid state: log_w, mean, cov, mode_j do not match the config's "
                          "grid and model (N, 2M)")
-    Zi = Z
+    Zi = np.empty((0, N))  # empty: in place on Z
     if z_in.shape[0] > 0:
         if z_in.shape[0] != L or z_in.shape[1] != N:
             raise ValueError("grid state: log_w, mean, cov do not match the config's grid "
@@ -696,13 +749,14 @@ def _run(tb, lw, lw0, mean, cov, cur, ys, ex_idx, ex_val, post_slot, want_gll):
     pidx = _layout(n)
     w, v, X, ph, rows, lamT = _work(N, n, B)
     no_ex = np.empty(0)
+    no_z = np.empty((0, N))  # Z is updated in place
     f = 0
     n_ex = ex_idx.size
     for k in range(n_s):
         while f < n_ex and ex_idx[f] < k:
             f += 1
         ex = ex_val[f] if (f < n_ex and ex_idx[f] == k) else no_ex
-        _iterate(lw, lw0, Z, Z, ys[k], r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_floor,
+        _iterate(lw, lw0, no_z, Z, ys[k], r, ct, st, qd, kbT, B, pidx, grid, edges, u, log_floor,
                  q_lo, q_hi, eps, p_off, p_on, null_var, p0, amb_rel, amb_abs, temper,
                  null_mix, hold, cur, ex, w, v, X, ph, rows, lamT, outs[k], post, gll)
         if want_post and post_slot[k] >= 0:
