@@ -56,7 +56,7 @@ class Tables(NamedTuple):
 
 
 
-#: positions in :func:`pack_scalars`'s array (``_step_from``'s ``sc``)
+#: positions in :func:`pack_scalars`'s array (in :func:`step_constants`, after its head)
 _SC_FIELDS = ("r", "qd", "B", "log_floor", "q_lo", "q_hi", "eps", "p_off", "p_on", "null_var",
               "p0", "amb_rel", "amb_abs", "temper", "null_mix", "hold")
 

@@ -375,8 +375,9 @@ def step(config: Config, state: State, y: float, extra=None,
     log-emissions (a row of :func:`run`'s ``grid_loglik``, before its float32 rounding): what
     a streaming smoother keeps (:class:`vibrospeed.estimators.grid.lagged.LaggedTracker`).
 
-    ``state`` is left as it is: one compiled call copies it into the next state's storage and
-    iterates there, so a state can be stepped again (or kept) safely. The next state keeps the
+    ``state`` is left as it is: one compiled call updates it into the next state's storage
+    (the measurement update reads it, and a NaN sample copies it) and iterates there, so a
+    state can be stepped again (or kept) safely. The next state keeps the
     means and covariances in the compiled loop's layout (:class:`State`), so a stream of steps
     converts nothing between samples."""
     p = config.__dict__.get("_step_plan") or _plan(config)
