@@ -47,6 +47,7 @@ bench: venv
 	$(BIN)/python benchmarks/ekf_throughput.py
 
 lint: venv
+	$(BIN)/python -m ruff --version >/dev/null 2>&1 || $(BIN)/python -m pip install --quiet ruff
 	$(BIN)/python -m ruff check .
 
 clean:
