@@ -8,7 +8,8 @@ so a change of the rule is made once.
 Cost: a sample is one compiled call (both filters, the ring buffers) on a copy of one small
 array; a frame (every ``HOP_S`` s) adds the FFT of the frame (numpy's pocketfft, as the batch
 run) and compiled code for the rest. The compiled parts make numpy's arithmetic in its order
-(its pairwise sums: :func:`_pairwise_sum`) and leave to numpy what numba computes differently
+(its pairwise sums: the whitener's :func:`~vibrospeed.signal._whiten_kernels._pairwise`) and
+leave to numpy what numba computes differently
 (``abs`` of a complex number, ``log10``), so each frame's levels are those of the batch
 functions (``_frame_levels``; ``line_residual`` of one window) bit for bit.
 """
@@ -23,6 +24,7 @@ from numba import njit
 
 from vibrospeed.signal import dsp
 from vibrospeed.signal import prefilter as pf
+from vibrospeed.signal._whiten_kernels import _pairwise as _pairwise_sum  # numpy's sum
 from vibrospeed.signal.standstill import (
     _BINS,
     _CENTRES,
@@ -232,70 +234,6 @@ def _advance(k, buf, x):
     return i >= L - 1 and (i - L + 1) % hop == 0
 
 
-@njit(cache=True)
-def _pairwise_block(a, lo, n):
-    """``a[lo : lo + n]``'s sum for ``n <= 128`` as numpy makes it: in order below 8 values,
-    else in 8 interleaved partial sums combined pairwise, then the rest in order."""
-    if n < 8:
-        r = 0.0
-        for j in range(lo, lo + n):
-            r += a[j]
-        return r
-    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-    j, m = lo + 8, lo + n - n % 8
-    while j < m:
-        r0 += a[j]
-        r1 += a[j + 1]
-        r2 += a[j + 2]
-        r3 += a[j + 3]
-        r4 += a[j + 4]
-        r5 += a[j + 5]
-        r6 += a[j + 6]
-        r7 += a[j + 7]
-        j += 8
-    r = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while j < lo + n:
-        r += a[j]
-        j += 1
-    return r
-
-
-@njit(cache=True)
-def _pairwise_sum(a, lo, n):
-    """``a[lo : lo + n]``'s sum as numpy's ``sum`` makes it (pairwise: blocks of up to 128
-    values, :func:`_pairwise_block`, the halves above that, each half a multiple of 8 long):
-    the batch run's sums bit for bit. The halving runs on an explicit stack (a cached
-    recursive numba function crashes on load)."""
-    if n <= 128:
-        return _pairwise_block(a, lo, n)
-    los = np.empty(64, np.int64)  # the nodes from the root down to the one in work
-    ns = np.empty(64, np.int64)
-    stage = np.empty(64, np.int64)  # 0: left half due, 1: right half due, 2: both done
-    left = np.empty(64)
-    top = 0
-    los[0], ns[0], stage[0] = lo, n, 0
-    v = 0.0  # the sum of the node last finished
-    while top >= 0:
-        if ns[top] <= 128:
-            v = _pairwise_block(a, los[top], ns[top])
-            top -= 1
-            continue
-        h = ns[top] // 2
-        h -= h % 8
-        if stage[top] == 0:
-            stage[top] = 1
-            los[top + 1], ns[top + 1] = los[top], h
-        elif stage[top] == 1:
-            left[top], stage[top] = v, 2
-            los[top + 1], ns[top + 1] = los[top] + h, ns[top] - h
-        else:
-            v = left[top] + v
-            top -= 1
-            continue
-        top += 1
-        stage[top] = 0
-    return v
 
 
 @njit(cache=True)

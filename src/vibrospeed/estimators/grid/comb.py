@@ -91,6 +91,7 @@ from vibrospeed.estimators.grid.background import (  # noqa: F401 (re-exported)
     running_median,
     selection_network,
 )
+from vibrospeed.signal._whiten_kernels import _pairwise as _pairwise_sum  # numpy's sum
 
 
 def _folded(x: np.ndarray, fs: float) -> np.ndarray:
@@ -454,73 +455,6 @@ def frame_evidence(config, frames: np.ndarray, centre: bool = False, *,
     return out
 
 
-@njit(cache=True, inline="always")
-def _block_sum(a: np.ndarray, s: int, n: int) -> float:
-    """numpy's sum of a block of at most 128 values ``a[s : s + n]`` (eight running sums)."""
-    if n < 8:
-        res = 0.0
-        for i in range(n):
-            res += a[s + i]
-        return res
-    r0, r1, r2, r3 = a[s], a[s + 1], a[s + 2], a[s + 3]
-    r4, r5, r6, r7 = a[s + 4], a[s + 5], a[s + 6], a[s + 7]
-    i = 8
-    end = n - n % 8
-    while i < end:
-        r0 += a[s + i]
-        r1 += a[s + i + 1]
-        r2 += a[s + i + 2]
-        r3 += a[s + i + 3]
-        r4 += a[s + i + 4]
-        r5 += a[s + i + 5]
-        r6 += a[s + i + 6]
-        r7 += a[s + i + 7]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        res += a[s + i]
-        i += 1
-    return res
-
-
-@njit(cache=True)
-def _pairwise_sum(a: np.ndarray, s: int, n: int) -> float:
-    """The sum of ``a[s : s + n]`` as numpy's ``add.reduce`` takes it: blocks of up to 128
-    values in eight running sums (:func:`_block_sum`), longer runs split in two (the first
-    half rounded down to a multiple of 8) and the halves' sums added; so that a mean is the
-    same to the last bit as ``np.mean``'s (a contiguous or one-axis reduction). The halving is
-    walked with explicit stacks (numba's cache does not keep recursive functions)."""
-    if n <= 128:
-        return _block_sum(a, s, n)
-    cap = 2 * 64 + 2
-    ss = np.empty(cap, np.int64)  # pending runs: start, length, visited
-    ns = np.empty(cap, np.int64)
-    seen = np.zeros(cap, np.bool_)
-    vals = np.empty(cap)  # sums of the finished runs, left before right
-    top = 1
-    nv = 0
-    ss[0] = s
-    ns[0] = n
-    while top > 0:
-        t = top - 1
-        st = ss[t]
-        ln = ns[t]
-        if ln <= 128:
-            vals[nv] = _block_sum(a, st, ln)
-            nv += 1
-            top -= 1
-        elif seen[t]:
-            vals[nv - 2] = vals[nv - 2] + vals[nv - 1]
-            nv -= 1
-            top -= 1
-        else:
-            seen[t] = True
-            n2 = ln // 2
-            n2 -= n2 % 8
-            ss[top], ns[top], seen[top] = st + n2, ln - n2, False  # the right half, second
-            ss[top + 1], ns[top + 1], seen[top + 1] = st, n2, False  # the left half, first
-            top += 2
-    return vals[0]
 
 
 @njit(cache=True)
