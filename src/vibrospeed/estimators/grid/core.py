@@ -151,19 +151,18 @@ def _tables_soa(cs, kb):
     return ct, st, kbT
 
 
-@njit(cache=True)
-def _update(Z, pidx, M, y, r, temper, ph, rows):
-    """Step 1 for every grid point: the Kalman measurement update of (m_j, P_j) with
-    ``h = [1, 0, 1, 0, ...]`` (``P h' = sum of the even columns``) in place on Z; the tempered
-    predictive log-likelihood ``temper log N(y; h m_j, S_j)`` into ``rows[0]``."""
+@njit(cache=True, inline="always")
+def _innovation(Z, pidx, M, y, r, ph, rows):
+    """The measurement update's terms for every grid point of the state ``Z``: ``P h'`` into
+    ``ph``, the predicted ``h m`` then the innovation ``nu`` into ``rows[1]``, ``S = h P h' +
+    r`` into ``rows[2]``, the gain factor ``nu / S`` into ``rows[3]`` and ``1 / S`` into
+    ``rows[4]`` (inlined into :func:`_update` and :func:`_update_from`)."""
     n = 2 * M
     N = Z.shape[1]
     yh = rows[1]
     S = rows[2]
     g = rows[3]
     iv = rows[4]
-    t = rows[5]
-    ll = rows[0]
     for j in range(N):
         yh[j] = 0.0
     for a in range(M):
@@ -188,6 +187,22 @@ def _update(Z, pidx, M, y, r, temper, ph, rows):
         iv[j] = 1.0 / S[j]
         yh[j] = y - yh[j]  # the innovation nu
         g[j] = yh[j] * iv[j]
+
+
+@njit(cache=True)
+def _update(Z, pidx, M, y, r, temper, ph, rows):
+    """Step 1 for every grid point: the Kalman measurement update of (m_j, P_j) with
+    ``h = [1, 0, 1, 0, ...]`` (``P h' = sum of the even columns``) in place on Z; the tempered
+    predictive log-likelihood ``temper log N(y; h m_j, S_j)`` into ``rows[0]``."""
+    n = 2 * M
+    N = Z.shape[1]
+    yh = rows[1]
+    S = rows[2]
+    g = rows[3]
+    iv = rows[4]
+    t = rows[5]
+    ll = rows[0]
+    _innovation(Z, pidx, M, y, r, ph, rows)
     for i in range(n):
         zr = Z[i]
         pr = ph[i]
@@ -222,30 +237,7 @@ def _update_from(Zi, Z, pidx, M, y, r, temper, ph, rows):
     iv = rows[4]
     t = rows[5]
     ll = rows[0]
-    for j in range(N):
-        yh[j] = 0.0
-    for a in range(M):
-        zr = Zi[2 * a]
-        for j in range(N):
-            yh[j] += zr[j]
-    for i in range(n):
-        pr = ph[i]
-        for j in range(N):
-            pr[j] = 0.0
-        for a in range(M):
-            zr = Zi[pidx[i, 2 * a]]
-            for j in range(N):
-                pr[j] += zr[j]
-    for j in range(N):
-        S[j] = r
-    for a in range(M):
-        pr = ph[2 * a]
-        for j in range(N):
-            S[j] += pr[j]
-    for j in range(N):
-        iv[j] = 1.0 / S[j]
-        yh[j] = y - yh[j]  # the innovation nu
-        g[j] = yh[j] * iv[j]
+    _innovation(Zi, pidx, M, y, r, ph, rows)
     for i in range(n):
         zi = Zi[i]
         zr = Z[i]
